@@ -1,0 +1,51 @@
+// vmsim command line. CLI11 stays in this one translation unit (STACK.md P11: 9 s to compile).
+#include "app/commands.hpp"
+#include "core/error.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <iostream>
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "vmsim - virtual machining: predicts the surface a CNC milling machine really cuts, from the program\n"
+      "through the NC interpolator, the servo drives and the kinematics to material removal and metrology."};
+  app.set_version_flag("--version", std::string("vmsim ") + VMSIM_VERSION);
+  app.require_subcommand(1);
+  app.fallthrough(false);
+
+  std::filesystem::path program;
+  std::optional<std::filesystem::path> tool_table;
+  auto* canon = app.add_subcommand(
+      "canon", "Print LinuxCNC's canonical machining calls for a G-code program (compare with `rs274 -g`)");
+  canon->add_option("PROGRAM", program, "G-code program (.ngc)")->required()->check(CLI::ExistingFile);
+  canon->add_option("--tool-table,-t", tool_table, "LinuxCNC tool table (T1 P1 Z0 D10 lines)")
+      ->check(CLI::ExistingFile);
+
+  vmsim::app::InterpArgs interp_args;
+  auto* interp = app.add_subcommand(
+      "interp", "Interpolate a job's program into axis setpoints every Te (jerk-limited, within tolerance)");
+  interp->add_option("JOB", interp_args.job, "job file (job.toml)")->required()->check(CLI::ExistingFile);
+  interp->add_option("--out,-o", interp_args.out_dir, "output directory for setpoints.csv (created if absent)");
+  interp->add_option("--feed-scale", interp_args.feed_scale, "multiply every programmed feed (e.g. 0.5)")
+      ->check(CLI::PositiveNumber);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+
+  try {
+    if (*canon) return vmsim::app::run_canon(program, tool_table);
+    if (*interp) return vmsim::app::run_interp(interp_args);
+  } catch (const vmsim::core::Error& e) {
+    std::fprintf(stderr, "vmsim: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vmsim: internal error: %s\n", e.what());
+    return 3;
+  }
+  return 0;
+}

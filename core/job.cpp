@@ -1,0 +1,88 @@
+#include "core/job.hpp"
+
+#include "core/error.hpp"
+#include "core/toml_reader.hpp"
+
+#include <fmt/format.h>
+
+namespace vmsim::core {
+
+namespace {
+
+ToolSpec read_tool(const TomlTable& t) {
+  ToolSpec tool;
+  const std::string type = t.choice("type", {"ball", "flat", "bullnose"});
+  tool.diameter_mm = t.positive("diameter_mm");
+  if (type == "ball") {
+    tool.shape = ToolShape::Ball;
+    tool.corner_radius_mm = tool.diameter_mm / 2;
+  } else if (type == "flat") {
+    tool.shape = ToolShape::Flat;
+    tool.corner_radius_mm = 0.0;
+  } else {
+    tool.shape = ToolShape::BullNose;
+    tool.corner_radius_mm = t.positive("corner_radius_mm");
+    if (tool.corner_radius_mm >= tool.diameter_mm / 2)
+      t.fail("corner_radius_mm", fmt::format("expected less than the radius {} mm (use type = \"ball\")",
+                                             tool.diameter_mm / 2));
+  }
+  tool.flute_length_mm = t.opt_positive("flute_length_mm").value_or(2 * tool.diameter_mm);
+  tool.length_mm = t.opt_positive("length_mm").value_or(std::max(50.0, tool.flute_length_mm));
+  if (tool.length_mm < tool.flute_length_mm) t.fail("length_mm", "expected at least flute_length_mm");
+  t.finish();
+  return tool;
+}
+
+StockSpec read_stock(const TomlTable& t) {
+  StockSpec s;
+  const std::string type = t.choice("type", {"box", "stl"});
+  if (type == "box") {
+    s.kind = StockSpec::Kind::Box;
+    auto lo = t.numbers("min_mm", 3), hi = t.numbers("max_mm", 3);
+    s.min_mm = Eigen::Vector3d(lo[0], lo[1], lo[2]);
+    s.max_mm = Eigen::Vector3d(hi[0], hi[1], hi[2]);
+    if (!(s.min_mm.array() < s.max_mm.array()).all()) t.fail("max_mm", "expected max_mm > min_mm on every axis");
+  } else {
+    s.kind = StockSpec::Kind::Mesh;
+    s.mesh_file = t.existing_path("file");
+  }
+  t.finish();
+  return s;
+}
+
+InterpSpec read_interp(const TomlTable& t) {
+  InterpSpec spec;
+  if (auto te = t.opt_positive("period_ms")) {
+    if (*te > 100) t.fail("period_ms", fmt::format("{} ms is not an NC interpolation period (expected <= 100)", *te));
+    spec.period_s = *te * 1e-3;
+  }
+  if (auto tol = t.opt_positive("tolerance_mm")) spec.tolerance_mm = *tol;
+  t.finish();
+  return spec;
+}
+
+}  // namespace
+
+Job load_job(const std::filesystem::path& path) {
+  const toml::table root = parse_toml_file(path);
+  TomlTable top(root, path.string(), "");
+  Job job;
+  job.file = path;
+  {
+    TomlTable jt = top.table("job");
+    job.name = jt.opt_string("name").value_or(path.stem().string());
+    (void)jt.opt_string("description");
+    job.machine_file = jt.existing_path("machine");
+    job.program_file = jt.existing_path("program");
+    job.tool_table_file = jt.opt_existing_path("tool_table");
+    jt.finish();
+  }
+  job.machine = load_machine(job.machine_file);
+  if (auto t = top.opt_table("tool")) job.tool = read_tool(*t);
+  if (auto t = top.opt_table("stock")) job.stock = read_stock(*t);
+  if (auto t = top.opt_table("interpolation")) job.interp = read_interp(*t);
+  top.finish();
+  return job;
+}
+
+}  // namespace vmsim::core

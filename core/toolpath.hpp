@@ -1,0 +1,63 @@
+#pragma once
+// ToolPath: what a program asks for, in the workpiece frame, before any interpolation.
+// Produced by the program readers (G-code, APT CL), consumed by the interpolator.
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vmsim::core {
+
+// Program axes in a fixed order: X Y Z (mm), A B C (rad).
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+enum ProgramAxis : int { kX = 0, kY = 1, kZ = 2, kA = 3, kB = 4, kC = 5 };
+
+enum class MotionKind : std::uint8_t { Line, Arc };
+// Arc planes with LinuxCNC's axis order: XY = (x, y) about z (G17), ZX = (z, x) about y (G18),
+// YZ = (y, z) about x (G19).
+enum class ArcPlane : std::uint8_t { XY, ZX, YZ };
+enum class FeedMode : std::uint8_t { UnitsPerMinute, InverseTime };
+
+struct Move {
+  MotionKind kind = MotionKind::Line;
+  bool rapid = false;
+  // Controlled point (the tool tip when the tool length offset matches the tool) with every work offset
+  // applied, X Y Z in mm, and the rotary axes A B C in rad.
+  Vec6 start = Vec6::Zero();
+  Vec6 end = Vec6::Zero();
+
+  // Arcs and helices (kind == Arc): centre in the plane's two coordinates, (first, second) as in ArcPlane;
+  // the plane's normal coordinate and the rotary axes move linearly with the swept angle.
+  ArcPlane plane = ArcPlane::XY;
+  Eigen::Vector2d centre_mm = Eigen::Vector2d::Zero();
+  // LinuxCNC's ARC_FEED rotation: > 0 counter-clockwise seen from the plane normal's positive side, < 0 clockwise;
+  // |rotation| - 1 extra full turns (1 = up to one full turn; start == end is a full circle).
+  int rotation = 0;
+
+  // Feed: under UnitsPerMinute, feed_mm_per_min is the programmed point's speed (deg/min for moves of the rotary
+  // axes only, as LinuxCNC does); under InverseTime the move must take 1 / inverse_time_per_min minutes.
+  FeedMode feed_mode = FeedMode::UnitsPerMinute;
+  double feed_mm_per_min = 0.0;
+  double inverse_time_per_min = 0.0;
+
+  // Tool axis (unit vector, workpiece frame) at the start and end of the move, when the program gives it
+  // (APT CL GOTO/x,y,z,i,j,k). Empty for programs that move the machine's axes directly.
+  std::optional<Eigen::Vector3d> tool_axis_start, tool_axis_end;
+
+  int tool_number = 0;               // active tool (T... M6), 0 = none
+  double tool_length_offset_mm = 0;  // active tool length offset along the tool axis (G43), 0 under G49
+  int source_line = 0;               // 1-based line of the program that made this move
+};
+
+struct ToolPath {
+  std::string source_path;   // the program file as the user named it
+  std::vector<Move> moves;   // in program order; each move starts where the previous one ended
+  Vec6 initial_position = Vec6::Zero();
+  // Tool diameter from the program or tool table when known (APT CUTTER/, LinuxCNC tool table D); 0 = unknown.
+  double tool_diameter_mm = 0.0;
+  double tool_corner_radius_mm = 0.0;
+};
+
+}  // namespace vmsim::core

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Install exactly the Debian 12 packages vmsim's build needs (../shared/STACK.md recipe),
+# with sudo when not root. Does nothing when every package is already installed.
+#   scripts/install-deps.sh          install what is missing
+#   scripts/install-deps.sh --check  exit 1 (and list them) when packages are missing, install nothing
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev libopenvdb-dev libnanovdb-dev libboost-iostreams-dev libvtk9-dev libembree-dev libtbb-dev
+  libgtest-dev libgmock-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
+  libzip-dev zipcmp zipmerge ziptool libpugixml-dev coinor-libclp-dev libglpk-dev
+  libopenmpi-dev openmpi-bin libegl-dev fonts-dejavu-core libbenchmark-dev libfmt-dev python3-imath
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+if [ "${1:-}" = "--check" ]; then
+  echo "missing packages: ${missing[*]}" >&2
+  exit 1
+fi
+
+echo "vmsim: installing ${#missing[@]} Debian package(s): ${missing[*]}" >&2
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "vmsim: not root and sudo is not available; install as root: apt-get install ${missing[*]}" >&2; exit 1; }
+  sudo="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -q
+$sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
