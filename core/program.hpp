@@ -4,11 +4,13 @@
 
 #include <filesystem>
 #include <optional>
+#include <vector>
 
 namespace vmsim::core {
 
 struct ProgramOptions {
   std::optional<std::filesystem::path> tool_table;  // LinuxCNC tool table for G43 H / T words
+  std::vector<int> no_motion_mcodes;                 // G-code: remapped M codes without motion (see gcode.hpp)
 };
 
 // Chooses the reader by extension: .ngc .nc .gcode .tap .txt -> G-code; .apt .cl .cls .aptsource -> APT CL.

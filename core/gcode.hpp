@@ -1,0 +1,38 @@
+#pragma once
+// RS274/NGC G-code as LinuxCNC's interpreter reads it.
+#include "core/toolpath.hpp"
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vmsim::core {
+
+struct GcodeOptions {
+  std::optional<std::filesystem::path> tool_table;  // LinuxCNC tool table (T1 P1 Z0 D10 ;comment)
+  // M codes that a machine remaps to actions without motion (boat-xyzac.ngc's M428/M429 kinematics switch).
+  // Any other M code LinuxCNC does not define is an error naming the line.
+  std::vector<int> no_motion_mcodes;
+};
+
+// One canonical machining call as `rs274 -g` prints it (without its running number), and its source line.
+struct CanonCall {
+  int source_line = 0;
+  std::string n_word;   // "N....." when the block had no N word, else the N word padded as rs274 does
+  std::string text;     // e.g. STRAIGHT_FEED(1.0000, 2.0000, 3.0000, 0.0000, 0.0000, 0.0000)
+};
+
+struct GcodeResult {
+  ToolPath path;                 // mm, rad, offsets applied (see toolpath.hpp)
+  std::vector<CanonCall> canon;  // program units, offsets as separate calls, as LinuxCNC's canon layer sees them
+};
+
+// Interprets the whole program. Errors (core::Error) name the file, the line and the offending word.
+GcodeResult interpret_gcode(const std::filesystem::path& program, const GcodeOptions& options = {});
+
+inline ToolPath read_gcode(const std::filesystem::path& program, const GcodeOptions& options = {}) {
+  return interpret_gcode(program, options).path;
+}
+
+}  // namespace vmsim::core
