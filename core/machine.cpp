@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 namespace vmsim::core {
 
 int Machine::axis_index(int program_axis) const {
@@ -25,6 +27,13 @@ int program_axis_of(const std::string& name) {
 }
 
 MachineAxis read_axis(const TomlTable& t) {
+  // A limit that is finite in the file can overflow in the unit conversion (1e308 m/min); an infinite limit
+  // would silently switch off the check it stands for.
+  const auto limit = [&t](const char* key, double factor) {
+    const double v = t.positive(key) * factor;
+    if (!std::isfinite(v)) t.fail(key, "expected a finite limit (the value overflows when converted to mm or rad)");
+    return v;
+  };
   MachineAxis ax;
   ax.name = t.choice("name", {"X", "Y", "Z", "A", "B", "C"});
   ax.program_axis = program_axis_of(ax.name);
@@ -36,9 +45,9 @@ MachineAxis read_axis(const TomlTable& t) {
     auto travel = t.numbers("travel_mm", 2);
     ax.travel_min = travel[0];
     ax.travel_max = travel[1];
-    ax.max_velocity = t.positive("max_velocity_m_per_min") * units::kMPerMinToMmPerS;
-    ax.max_acceleration = t.positive("max_acceleration_m_per_s2") * units::kMPerS2ToMmPerS2;
-    ax.max_jerk = t.positive("max_jerk_m_per_s3") * units::kMPerS3ToMmPerS3;
+    ax.max_velocity = limit("max_velocity_m_per_min", units::kMPerMinToMmPerS);
+    ax.max_acceleration = limit("max_acceleration_m_per_s2", units::kMPerS2ToMmPerS2);
+    ax.max_jerk = limit("max_jerk_m_per_s3", units::kMPerS3ToMmPerS3);
   } else {
     if (auto travel = t.opt_numbers("travel_deg", 2)) {
       ax.travel_min = (*travel)[0] * units::kDegToRad;
@@ -48,9 +57,9 @@ MachineAxis read_axis(const TomlTable& t) {
       ax.travel_min = -1e300;
       ax.travel_max = 1e300;
     }
-    ax.max_velocity = t.positive("max_velocity_deg_per_s") * units::kDegToRad;
-    ax.max_acceleration = t.positive("max_acceleration_deg_per_s2") * units::kDegToRad;
-    ax.max_jerk = t.positive("max_jerk_deg_per_s3") * units::kDegToRad;
+    ax.max_velocity = limit("max_velocity_deg_per_s", units::kDegToRad);
+    ax.max_acceleration = limit("max_acceleration_deg_per_s2", units::kDegToRad);
+    ax.max_jerk = limit("max_jerk_deg_per_s3", units::kDegToRad);
   }
   if (!ax.continuous && !(ax.travel_min < ax.travel_max))
     t.fail(ax.kind == AxisKind::Linear ? "travel_mm" : "travel_deg", "expected [min, max] with min < max");

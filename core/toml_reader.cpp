@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -137,8 +138,9 @@ std::optional<std::vector<double>> TomlTable::opt_numbers(const std::string& key
   std::vector<double> out;
   for (const auto& el : *arr) {
     auto v = el.value<double>();
-    if (!v || !(el.is_floating_point() || el.is_integer()) || !std::isfinite(*v))
+    if (!v || !(el.is_floating_point() || el.is_integer()))
       fail(key, "expected an array of finite numbers, found an element that is " + type_name(el));
+    if (!std::isfinite(*v)) fail(key, "expected an array of finite numbers, found nan or inf");
     out.push_back(*v);
   }
   if (n > 0 && out.size() != n) fail(key, fmt::format("expected {} numbers, found {}", n, out.size()));
@@ -205,6 +207,10 @@ void TomlTable::finish() const {
 }
 
 toml::table parse_toml_file(const std::filesystem::path& path) {
+  // A directory opens as an empty stream and would read as an empty file ("missing table ...").
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw Error(fmt::format("{}: cannot open file (it does not exist or is not a regular file)", path.string()));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open file", path.string()));
   std::stringstream ss;
