@@ -473,9 +473,10 @@ class AptReader {
         if (st.args.size() != 9 || st.args[7] != "ANGLE")
           fail(st.line, "MOVARC/ after the radius expects ANGLE, degrees; found \"" + printable(st.args[7]) + "\"");
         const double deg = number(st, 8, "the swept angle in degrees");
-        if (!(deg > 0))
-          fail(st.line,
-               "MOVARC/ ANGLE " + printable(st.args[8]) + " is not positive (expected the swept angle in degrees > 0)");
+        // The turn count becomes an int (Move::rotation); a million turns is already no real program.
+        if (!(deg > 0) || deg > 360e6)
+          fail(st.line, "MOVARC/ ANGLE " + printable(st.args[8]) +
+                            " is out of range (expected the swept angle in degrees, > 0 and at most a million turns)");
         arc.sweep_deg = deg;
       }
       // CIRCLE/ values after r (NX: tolerance, thickness, tool diameter and corner radius) do not change the arc.

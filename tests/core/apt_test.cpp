@@ -407,7 +407,13 @@ TEST(Apt, ErrorsNameTheFileLineAndWord) {
       {"", "prog.apt: no FROM/ or GOTO/ record"},
       {"$$ only a comment\nPARTNO X\nFINI\n", "prog.apt: no FROM/ or GOTO/ record"},
       {"GOTO/0,0,0\n/1,2,3\n", "prog.apt:2: record \"1,2,3\" has no major word"},
-      {"GOTO/0,0,0\nG\x01\xff/1\n", "prog.apt:2: unknown APT major word 'G?" "?'"},
+      {"FEDRAT/1\nGOTO/1,0,0\nMOVARC/0,0,0,0,0,1,1,ANGLE,1e300\nGOTO/1,0,0\n",
+       "prog.apt:3: MOVARC/ ANGLE 1E300 is out of range"},
+      {"FEDRAT/1\nGOTO/1,0,0\nMOVARC/0,0,0,0,0,1,1,ANGLE,-90\nGOTO/1,0,0\n",
+       "prog.apt:3: MOVARC/ ANGLE -90 is out of range"},
+      {"GOTO/0,0,0\nG\x01\xff/1\n",
+       "prog.apt:2: unknown APT major word 'G?"
+       "?'"},
   };
   for (const auto& c : cases) {
     const std::string msg = error_of(c.program);
