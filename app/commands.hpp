@@ -4,11 +4,14 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace vmsim::app {
 
-// vmsim canon PROGRAM [--tool-table F]: LinuxCNC's canonical calls on stdout (as `rs274 -g`).
-int run_canon(const std::filesystem::path& program, const std::optional<std::filesystem::path>& tool_table);
+// vmsim canon PROGRAM [--tool-table F] [--no-motion-m LIST]: LinuxCNC's canonical calls on stdout (as `rs274 -g`).
+// no_motion_mcodes: M codes the machine remaps to actions without motion (GcodeOptions::no_motion_mcodes).
+int run_canon(const std::filesystem::path& program, const std::optional<std::filesystem::path>& tool_table,
+              const std::vector<int>& no_motion_mcodes = {});
 
 struct InterpArgs {
   std::filesystem::path job;

@@ -22,6 +22,10 @@ int main(int argc, char** argv) {
   canon->add_option("PROGRAM", program, "G-code program (.ngc)")->required()->check(CLI::ExistingFile);
   canon->add_option("--tool-table,-t", tool_table, "LinuxCNC tool table (T1 P1 Z0 D10 lines)")
       ->check(CLI::ExistingFile);
+  std::vector<int> no_motion_mcodes;
+  canon->add_option("--no-motion-m", no_motion_mcodes,
+                    "comma-separated M codes the machine remaps to actions without motion (e.g. 428,429)")
+      ->delimiter(',');
 
   vmsim::app::InterpArgs interp_args;
   auto* interp = app.add_subcommand(
@@ -38,7 +42,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (*canon) return vmsim::app::run_canon(program, tool_table);
+    if (*canon) return vmsim::app::run_canon(program, tool_table, no_motion_mcodes);
     if (*interp) return vmsim::app::run_interp(interp_args);
   } catch (const vmsim::core::Error& e) {
     std::fprintf(stderr, "vmsim: error: %s\n", e.what());

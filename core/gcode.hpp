@@ -2,6 +2,8 @@
 // RS274/NGC G-code as LinuxCNC's interpreter reads it.
 #include "core/toolpath.hpp"
 
+#include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -14,6 +16,16 @@ struct GcodeOptions {
   // M codes that a machine remaps to actions without motion (boat-xyzac.ngc's M428/M429 kinematics switch).
   // Any other M code LinuxCNC does not define is an error naming the line.
   std::vector<int> no_motion_mcodes;
+
+  // LinuxCNC's machine units (INI LINEAR_UNITS): the tool table and the offset parameters (#5211.., #5221..)
+  // are in these units. vmsim's machines are metric; `rs274 -g` standalone treats its tables as inches.
+  bool inch_machine = false;
+  // Block delete switch: skip lines that start with '/'. Off, as in LinuxCNC and `rs274 -g` by default.
+  bool block_delete = false;
+  // Guards against endless programs: executed lines (loops count every pass) and canonical calls made.
+  // Exceeding either is an error naming the line ("possible endless loop"), never a hang or memory blow-up.
+  std::uint64_t max_blocks = 50'000'000;
+  std::size_t max_canon_calls = 10'000'000;
 };
 
 // One canonical machining call as `rs274 -g` prints it (without its running number), and its source line.
@@ -30,6 +42,9 @@ struct GcodeResult {
 
 // Interprets the whole program. Errors (core::Error) name the file, the line and the offending word.
 GcodeResult interpret_gcode(const std::filesystem::path& program, const GcodeOptions& options = {});
+
+// One line of `rs274 -g` output: "%5d " number, the N column padded to 7 characters, the call.
+std::string format_canon_line(int number, const CanonCall& call);
 
 inline ToolPath read_gcode(const std::filesystem::path& program, const GcodeOptions& options = {}) {
   return interpret_gcode(program, options).path;

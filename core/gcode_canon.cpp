@@ -1,0 +1,54 @@
+// Canonical calls as text, formatted like LinuxCNC's standalone canon (saicanon.cc) prints them.
+#include "core/error.hpp"
+#include "core/gcode_interp.hpp"
+
+#include <cstdio>
+
+namespace vmsim::core::gcode {
+
+const std::string CanonWriter::kNoN = "N.....";
+
+void CanonWriter::print(const char* format, ...) {
+  if (calls_.size() >= max_calls_)
+    throw Error(located(file_, line_,
+                        "more than " + std::to_string(max_calls_) + " canonical calls: possible endless loop"));
+  // printf formatting on purpose: "%.4f" rounds, and prints -0.0000, exactly as `rs274` does.
+  char small[256];
+  va_list args;
+  va_start(args, format);
+  va_list copy;
+  va_copy(copy, args);
+  const int n = std::vsnprintf(small, sizeof small, format, args);
+  va_end(args);
+  std::string text;
+  if (n < 0) {
+    va_end(copy);
+    throw Error("internal error: cannot format a canonical call");
+  }
+  if (static_cast<std::size_t>(n) < sizeof small) {
+    text.assign(small, static_cast<std::size_t>(n));
+  } else {  // huge values (e.g. F1e300) print hundreds of digits
+    text.resize(static_cast<std::size_t>(n) + 1);
+    std::vsnprintf(text.data(), text.size(), format, copy);
+    text.resize(static_cast<std::size_t>(n));
+  }
+  va_end(copy);
+  calls_.push_back(CanonCall{line_, *n_word_, std::move(text)});
+}
+
+}  // namespace vmsim::core::gcode
+
+namespace vmsim::core {
+
+std::string format_canon_line(int number, const CanonCall& call) {
+  char head[32];
+  std::snprintf(head, sizeof head, "%5d ", number);
+  std::string s = head;
+  s += call.n_word;
+  // rs274 pads the N column to 7 characters ("N..... ", "N30    "); longer N words run into the call.
+  if (call.n_word.size() < 7) s.append(7 - call.n_word.size(), ' ');
+  s += call.text;
+  return s;
+}
+
+}  // namespace vmsim::core
