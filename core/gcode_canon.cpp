@@ -2,6 +2,7 @@
 #include "core/error.hpp"
 #include "core/gcode_interp.hpp"
 
+#include <charconv>
 #include <cstdio>
 
 namespace vmsim::core::gcode {
@@ -9,9 +10,6 @@ namespace vmsim::core::gcode {
 const std::string CanonWriter::kNoN = "N.....";
 
 void CanonWriter::print(const char* format, ...) {
-  if (calls_.size() >= max_calls_)
-    throw Error(located(file_, line_,
-                        "more than " + std::to_string(max_calls_) + " canonical calls: possible endless loop"));
   // printf formatting on purpose: "%.4f" rounds, and prints -0.0000, exactly as `rs274` does.
   char small[256];
   va_list args;
@@ -33,7 +31,52 @@ void CanonWriter::print(const char* format, ...) {
     text.resize(static_cast<std::size_t>(n));
   }
   va_end(copy);
+  push(std::move(text));
+}
+
+void CanonWriter::push(std::string text) {
+  if (calls_.size() >= max_calls_)
+    throw Error(located(file_, line_,
+                        "more than " + std::to_string(max_calls_) + " canonical calls: possible endless loop"));
   calls_.push_back(CanonCall{line_, *n_word_, std::move(text)});
+}
+
+namespace {
+void append_fixed4(std::string& s, double v) {
+  char buf[400];  // %.4f of 1.8e308 has 309 integer digits
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed, 4);
+  s.append(buf, r.ptr);
+}
+}  // namespace
+
+void CanonWriter::axes_call(const char* name, const double* values, int n) {
+  std::string text;
+  text.reserve(16 + 12 * static_cast<std::size_t>(n));
+  text += name;
+  text += '(';
+  for (int i = 0; i < n; ++i) {
+    if (i) text += ", ";
+    append_fixed4(text, values[i]);
+  }
+  text += ')';
+  push(std::move(text));
+}
+
+void CanonWriter::arc_call(const double* plane4, int rotation, const double* rest4) {
+  std::string text;
+  text.reserve(112);
+  text += "ARC_FEED(";
+  for (int i = 0; i < 4; ++i) {
+    append_fixed4(text, plane4[i]);
+    text += ", ";
+  }
+  text += std::to_string(rotation);
+  for (int i = 0; i < 4; ++i) {
+    text += ", ";
+    append_fixed4(text, rest4[i]);
+  }
+  text += ')';
+  push(std::move(text));
 }
 
 }  // namespace vmsim::core::gcode

@@ -47,6 +47,10 @@ struct ExprError : std::runtime_error {
 class NameTable {
  public:
   int intern(const std::string& name);
+  int find(const std::string& name) const {  // -1 if the name was never interned
+    const auto it = ids_.find(name);
+    return it == ids_.end() ? -1 : it->second;
+  }
   const std::string& name(int id) const { return names_[static_cast<std::size_t>(id)]; }
   std::size_t size() const { return names_.size(); }
 

@@ -293,6 +293,9 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
 
 GcodeResult Interpreter::run() {
   build_flow();
+  // A straight program makes about one call and one move per line; loops grow the vectors as they go.
+  canon_.reserve(prog_.lines.size() + 16);
+  path_.moves.reserve(prog_.lines.size());
   canon_.no_line();
   // What LinuxCNC's interpreter says when it starts (Interp::init, then ON_RESET), in program units (mm).
   canon_.print("USE_LENGTH_UNITS(CANON_UNITS_MM)");

@@ -293,6 +293,7 @@ void Interpreter::apply_assignments(const SourceLine& line) {
     int index;
     double value;
   };
+  if (line.assignments.empty()) return;
   std::vector<Pending> pending;
   pending.reserve(line.assignments.size());
   for (const Assignment& a : line.assignments) {
@@ -343,11 +344,13 @@ Block Interpreter::read_block(const SourceLine& line) {
       const double t = v * 10.0;
       const double r = std::nearbyint(t);
       if (std::fabs(t - r) > 1e-3 || r < 0.0 || r > 9999.0) fail(word('G', v) + " is not a G code");
-      b.g_codes.push_back(static_cast<int>(r));
+      if (b.n_g == Block::kMaxCodes) fail("too many G codes on one line");
+      b.g_codes[static_cast<std::size_t>(b.n_g++)] = static_cast<int>(r);
     } else if (w.letter == 'M') {
       const double r = std::nearbyint(v);
       if (std::fabs(r - v) > 1e-4 || r < 0.0 || r > 9999.0) fail(word('M', v) + " is not an M code");
-      b.m_codes.push_back(static_cast<int>(r));
+      if (b.n_m == Block::kMaxCodes) fail("too many M codes on one line");
+      b.m_codes[static_cast<std::size_t>(b.n_m++)] = static_cast<int>(r);
     } else {
       if (b.has(w.letter)) fail(std::string("two ") + w.letter + " words on one line");
       b.value[static_cast<std::size_t>(w.letter - 'A')] = v;
@@ -358,7 +361,8 @@ Block Interpreter::read_block(const SourceLine& line) {
 }
 
 void Interpreter::check_codes(Block& b) {
-  for (const int g : b.g_codes) {
+  for (int gi = 0; gi < b.n_g; ++gi) {
+    const int g = b.g_codes[static_cast<std::size_t>(gi)];
     const int group = g_group(g);
     if (group < 0) {
       if (const char* why = g_unsupported(g)) fail(g_name(g) + " " + why);
@@ -367,13 +371,19 @@ void Interpreter::check_codes(Block& b) {
     if (g == 400) {
       // G40 is group 7 on its own; G41/G42 were rejected above.
     }
-    if (b.g_mode[static_cast<std::size_t>(group)] != -1)
-      fail(g_name(b.g_mode[static_cast<std::size_t>(group)]) + " and " + g_name(g) + " are in the same modal group (" +
-           g_group_name(group) + ")");
-    b.g_mode[static_cast<std::size_t>(group)] = g;
+    int& slot = b.g_mode[static_cast<std::size_t>(group)];
+    // LinuxCNC lets G80 share a block with another motion code, which wins ("G80 G81 ..." starts a cycle).
+    if (group == 1 && (slot == 800 || (g == 800 && slot != -1))) {
+      if (slot == 800) slot = g;
+      continue;
+    }
+    if (slot != -1)
+      fail(g_name(slot) + " and " + g_name(g) + " are in the same modal group (" + g_group_name(group) + ")");
+    slot = g;
   }
-  if (b.m_codes.size() > 4) fail("more than four M codes on one line");
-  for (const int m : b.m_codes) {
+  if (b.n_m > 4) fail("more than four M codes on one line");
+  for (int mi = 0; mi < b.n_m; ++mi) {
+    const int m = b.m_codes[static_cast<std::size_t>(mi)];
     if (std::find(options_.no_motion_mcodes.begin(), options_.no_motion_mcodes.end(), m) !=
         options_.no_motion_mcodes.end()) {
       b.no_motion_m = true;  // remapped by the machine: accepted, makes no motion and no canonical call
@@ -454,7 +464,7 @@ bool Interpreter::execute_block(Block& b) {
     feed_rate_ = b['F'];
     feed_linear_mm_ = feed_rate_ * (inch_ ? kMmPerInch : 1.0);
     feed_angular_deg_ = feed_rate_;
-    canon_.print("SET_FEED_RATE(%.4f)", feed_rate_);
+    canon_.axes_call("SET_FEED_RATE", &feed_rate_, 1);
   }
   if (b.has('S')) {
     speed_ = b['S'];
@@ -504,13 +514,10 @@ void Interpreter::comment(const std::string& text) {
         for (std::size_t k = i + 1; k < close; ++k)
           if (!std::isspace(static_cast<unsigned char>(s[k]))) name += static_cast<char>(std::tolower(static_cast<unsigned char>(s[k])));
         i = close + 1;
-        for (std::size_t id = 0; id < prog_.names.size(); ++id) {
-          if (prog_.names.name(static_cast<int>(id)) != name) continue;
-          if (exists(static_cast<int>(id))) {
-            value = named(static_cast<int>(id));
-            found = true;
-          }
-          break;
+        const int id = prog_.names.find(name);
+        if (id >= 0 && exists(id)) {
+          value = named(id);
+          found = true;
         }
       } else {
         out += '#';
@@ -955,9 +962,13 @@ void Interpreter::axis_offsets(int g, const Block& b) {
 }
 
 void Interpreter::save_home(int g) {
-  // G28.1 / G30.1: the current point in machine coordinates, in machine units (convert_savehome).
+  // G28.1 / G30.1: the current point in machine coordinates, in machine units (convert_savehome). Unlike
+  // LinuxCNC 2.9 this applies the XY rotation (G10 L2 R), the inverse of what G28/G30 do with the point, so
+  // the stored point is where the machine is.
   Pos m{};
-  for (std::size_t i = 0; i < 6; ++i) m[i] = pos_[i] + tool_offset_[i] + origin_offset_[i] + axis_offset_[i];
+  for (std::size_t i = 0; i < 6; ++i) m[i] = pos_[i] + axis_offset_[i];
+  rotate(m[0], m[1], rotation_xy_);
+  for (std::size_t i = 0; i < 6; ++i) m[i] += tool_offset_[i] + origin_offset_[i];
   const std::size_t base = g == 281 ? 5161 : 5181;
   for (std::size_t i = 0; i < 6; ++i) params_[base + i] = i < 3 ? to_user_len(m[i]) : m[i];
 }
@@ -1003,10 +1014,7 @@ bool Interpreter::stop(const Block& b) {
     canon_.print("ENABLE_FEED_OVERRIDE()");
     feed_override_ = true;
   }
-  if (!speed_override_) {
-    canon_.print("ENABLE_SPEED_OVERRIDE(0)");
-    speed_override_ = true;
-  }
+  speed_override_ = true;  // re-enabled too, but rs274 (2.9) prints no call for it
   canon_.print("STOP_SPINDLE_TURNING(0)");
   spindle_ = 0;
   canon_.print("SET_SPINDLE_MODE(0 %.4f)", 0.0);

@@ -213,9 +213,26 @@ void read_line(std::string_view raw, SourceLine& line, ExprPool& pool, NameTable
   LineReader(text, pool, names).read(line);
 }
 
+// (debug,...) and friends may name parameters the code never mentions; intern them too, so that they can be
+// looked up like any other name.
+void intern_comment_names(const std::string& comment, NameTable& names) {
+  for (std::size_t i = comment.find("#<"); i != std::string::npos; i = comment.find("#<", i + 2)) {
+    const std::size_t close = comment.find('>', i + 2);
+    if (close == std::string::npos) return;
+    std::string name;
+    for (std::size_t k = i + 2; k < close; ++k)
+      if (!std::isspace(static_cast<unsigned char>(comment[k])))
+        name += static_cast<char>(std::tolower(static_cast<unsigned char>(comment[k])));
+    if (!name.empty()) names.intern(name);
+  }
+}
+
 }  // namespace
 
-std::string oword_name(const std::string& label) { return "o" + label; }
+std::string oword_name(const std::string& label) {
+  std::string s = "o";
+  s += label;
+  return s; }
 
 const char* oword_keyword(OKind kind) {
   for (const OKeyword& k : kOKeywords)
@@ -225,6 +242,9 @@ const char* oword_keyword(OKind kind) {
 
 ParsedProgram parse_program(std::string_view text) {
   ParsedProgram program;
+  // Set by every subroutine return, whether or not the program reads them.
+  program.names.intern("_value");
+  program.names.intern("_value_returned");
   std::size_t start = 0;
   int number = 0;
   while (start < text.size()) {
@@ -236,6 +256,7 @@ ParsedProgram parse_program(std::string_view text) {
     line.number = ++number;
     try {
       read_line(raw, line, program.exprs, program.names);
+      if (line.comment) intern_comment_names(*line.comment, program.names);
     } catch (const LineError& e) {
       // Keep the line (its N word, its number) but nothing to execute: the error is raised if it runs.
       line.error = e.what();

@@ -145,13 +145,13 @@ void Interpreter::record_arc(const Pos& end, Plane plane, double c1, double c2, 
 }
 
 void Interpreter::traverse_to(const Pos& e) {
-  canon_.print("STRAIGHT_TRAVERSE(%.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", e[0], e[1], e[2], e[3], e[4], e[5]);
+  canon_.axes_call("STRAIGHT_TRAVERSE", e.data(), 6);
   record_line(true, e);
   pos_ = e;
 }
 
 void Interpreter::feed_to(const Pos& e) {
-  canon_.print("STRAIGHT_FEED(%.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", e[0], e[1], e[2], e[3], e[4], e[5]);
+  canon_.axes_call("STRAIGHT_FEED", e.data(), 6);
   record_line(false, e);
   pos_ = e;
 }
@@ -160,7 +160,7 @@ void Interpreter::set_inverse_time_rate(double length) {
   // G93: the interpreter turns "this move takes 1/F minutes" into a feed rate (inverse_time_rate_*), with
   // LinuxCNC's lower bound of 0.1 so that a zero-length move still gets a feed.
   feed_rate_ = std::max(0.1, length * block_f_);
-  canon_.print("SET_FEED_RATE(%.4f)", feed_rate_);
+  canon_.axes_call("SET_FEED_RATE", &feed_rate_, 1);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -315,8 +315,9 @@ void Interpreter::arc(int g, const Block& b) {
     const double z1 = pos_[ax.c], z2 = end[ax.c];
     set_inverse_time_rate(z2 == z1 ? radius * std::fabs(theta) : std::hypot(radius * theta, z2 - z1));
   }
-  canon_.print("ARC_FEED(%.4f, %.4f, %.4f, %.4f, %d, %.4f, %.4f, %.4f, %.4f)", x2, y2, cx, cy, turn, end[ax.c], end[3],
-               end[4], end[5]);
+  const double plane4[4] = {x2, y2, cx, cy};
+  const double rest4[4] = {end[ax.c], end[3], end[4], end[5]};
+  canon_.arc_call(plane4, turn, rest4);
   record_arc(end, plane_, cx, cy, turn);
   pos_ = end;
 }
