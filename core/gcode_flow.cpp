@@ -163,6 +163,9 @@ void Interpreter::build_flow() {
       case OKind::Call: break;
     }
   }
+  // Mismatches found on the way explain blocks left open, so they are the ones to report first.
+  for (std::size_t i = first_line_; i < end_line_ && first_flow_error_ < 0; ++i)
+    if (!flow_error_[i].empty()) first_flow_error_ = static_cast<long>(i);
   for (const Open& o : open)
     if (flow_error_[o.line].empty())
       flow_error_[o.line] = where(o) + " has no matching " + oword_name(o.label) + " " + closer(o.kind);
@@ -305,6 +308,15 @@ GcodeResult Interpreter::run() {
   canon_.print("SET_FEED_REFERENCE(CANON_XYZ)");
   canon_.print("ON_RESET()");
   path_.initial_position = machine(pos_);
+  // A broken O-word structure is reported before anything runs, like a compiler would (unreachable code
+  // included, since a skipped block is found by its structure).
+  if (first_flow_error_ < 0)
+    for (std::size_t i = first_line_; i < end_line_ && first_flow_error_ < 0; ++i)
+      if (!flow_error_[i].empty()) first_flow_error_ = static_cast<long>(i);
+  if (first_flow_error_ >= 0) {
+    line_ = static_cast<std::size_t>(first_flow_error_);
+    fail(flow_error_[line_]);
+  }
 
   std::size_t idx = first_line_;
   for (;;) {

@@ -165,6 +165,7 @@ class Interpreter final : public ParamSource {
   std::vector<int> match_;
   std::vector<std::uint8_t> do_end_;
   std::vector<std::string> flow_error_;
+  long first_flow_error_ = -1;  // line index of the O-word error to report
   std::unordered_map<std::string, std::size_t> subs_;
   std::size_t end_line_ = 0;    // lines from here on are not part of the program
   std::size_t first_line_ = 0;  // after an opening '%'
