@@ -308,6 +308,7 @@ GcodeResult Interpreter::run() {
   canon_.print("SET_FEED_REFERENCE(CANON_XYZ)");
   canon_.print("ON_RESET()");
   path_.initial_position = machine(pos_);
+  tip_ = path_.initial_position;
   // A broken O-word structure is reported before anything runs, like a compiler would (unreachable code
   // included, since a skipped block is found by its structure).
   if (first_flow_error_ < 0)

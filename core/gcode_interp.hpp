@@ -140,6 +140,7 @@ class Interpreter final : public ParamSource {
   void feed_to(const Pos& end);
   void record_line(bool rapid, const Pos& end);
   void record_arc(const Pos& end, Plane plane, double c1, double c2, int turn);
+  void start_move(Move& m, const Pos& end);  // start, end, tool data, source line
   void set_inverse_time_rate(double length);
 
   // ---- geometry and units
@@ -215,6 +216,11 @@ class Interpreter final : public ParamSource {
   // ---- output
   CanonWriter canon_;
   ToolPath path_;
+  // Where the controlled point physically is (ToolPath frame) and the tool length offset it is measured
+  // with. Moves start here, not at the interpreter's idea of the position: the two differ where LinuxCNC's
+  // bookkeeping is not exact (G10 L2 with an XY rotation while G92 is active), and the machine does not jump.
+  Vec6 tip_ = Vec6::Zero();
+  double tip_tlo_mm_ = 0.0;
   bool diameter_from_feed_ = false;
 };
 

@@ -79,12 +79,24 @@ Vec6 Interpreter::machine(const Pos& p) const {
   return v;
 }
 
+void Interpreter::start_move(Move& m, const Pos& end) {
+  const double unit = inch_ ? kMmPerInch : 1.0;
+  m.tool_number = current_tool_;
+  m.tool_length_offset_mm = tool_offset_[2] * unit;
+  // A new length offset moves the controlled point (along Z), not the machine.
+  m.start = tip_;
+  m.start[kZ] += tip_tlo_mm_ - m.tool_length_offset_mm;
+  m.end = machine(end);
+  m.source_line = prog_.lines[line_].number;
+  tip_ = m.end;
+  tip_tlo_mm_ = m.tool_length_offset_mm;
+}
+
 void Interpreter::record_line(bool rapid, const Pos& end) {
   Move m;
   m.kind = MotionKind::Line;
   m.rapid = rapid;
-  m.start = machine(pos_);
-  m.end = machine(end);
+  start_move(m, end);
   // Zero-length moves stay in the canonical calls (rs274 prints them) but carry nothing for the machine.
   if ((m.end - m.start).cwiseAbs().maxCoeff() <= 1e-9) return;
   constexpr double kTinyMove = 1e-7;  // LinuxCNC's find_straight_length: does X, Y or Z move?
@@ -104,9 +116,6 @@ void Interpreter::record_line(bool rapid, const Pos& end) {
         path_.tool_diameter_mm = options_.inch_machine ? t->diameter * kMmPerInch : t->diameter;
     }
   }
-  m.tool_number = current_tool_;
-  m.tool_length_offset_mm = tool_offset_[2] * (inch_ ? kMmPerInch : 1.0);
-  m.source_line = prog_.lines[line_].number;
   path_.moves.push_back(m);
 }
 
@@ -116,8 +125,7 @@ void Interpreter::record_arc(const Pos& end, Plane plane, double c1, double c2, 
          " plane with a rotated coordinate system (G10 L2 R) is not supported");
   Move m;
   m.kind = MotionKind::Arc;
-  m.start = machine(pos_);
-  m.end = machine(end);
+  start_move(m, end);
   const PlaneAxes ax = axes_of(plane);
   Pos centre = pos_;
   centre[ax.a] = c1;
@@ -138,9 +146,6 @@ void Interpreter::record_arc(const Pos& end, Plane plane, double c1, double c2, 
     if (const ToolEntry* t = tools_ != nullptr && current_tool_ != 0 ? tools_->find(current_tool_) : nullptr)
       path_.tool_diameter_mm = options_.inch_machine ? t->diameter * kMmPerInch : t->diameter;
   }
-  m.tool_number = current_tool_;
-  m.tool_length_offset_mm = tool_offset_[2] * (inch_ ? kMmPerInch : 1.0);
-  m.source_line = prog_.lines[line_].number;
   path_.moves.push_back(m);
 }
 

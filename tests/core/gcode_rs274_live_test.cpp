@@ -98,9 +98,10 @@ void compare(const std::string& name, const std::string& text, bool inch_machine
     ASSERT_EQ(format_canon_line(static_cast<int>(i + 1), mine.canon[i]), ref.lines[i]) << name << " line " << i + 1;
   compared = ref.lines.size();
   // The ToolPath is continuous when no tool length offset changes (each move starts where the last ended).
-  if (!with_table)
+  if (!with_table) {
     for (std::size_t i = 1; i < mine.path.moves.size(); ++i)
       ASSERT_LT((mine.path.moves[i].start - mine.path.moves[i - 1].end).norm(), 1e-9) << name << " move " << i;
+  }
 }
 
 struct Program {
