@@ -4,6 +4,7 @@
 // small enough to check by hand; the samples mimic what CATIA, NX and Autodesk's ISO 4343 post write.
 #include "core/apt.hpp"
 #include "core/error.hpp"
+#include "core/program.hpp"
 
 #include <gtest/gtest.h>
 
@@ -367,6 +368,13 @@ TEST(Apt, ZeroLengthMovesAreDropped) {
   ASSERT_EQ(tp.moves.size(), 1u);
   EXPECT_FALSE(tp.moves[0].rapid);  // the RAPID was spent on the dropped move
   EXPECT_EQ(tp.moves[0].source_line, 6);
+}
+
+TEST(Apt, ReadProgramDispatchesClExtensions) {
+  for (const char* name : {"a.apt", "b.cl", "c.CLS", "d.aptsource"}) {
+    const ToolPath tp = read_program(write_cl("GOTO/0,0,0\nFEDRAT/10\nGOTO/1,0,0\n", name));
+    EXPECT_EQ(tp.moves.size(), 1u) << name;
+  }
 }
 
 // Each bad program and the text its error must contain: "file:line: what".
