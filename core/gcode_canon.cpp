@@ -3,6 +3,7 @@
 #include "core/gcode_interp.hpp"
 
 #include <charconv>
+#include <cstdarg>
 #include <cstdio>
 
 namespace vmsim::core::gcode {

@@ -58,7 +58,6 @@ double unary(UnaryFn fn, double x) {
     case UnaryFn::Asin:
       if (x < -1.0 || x > 1.0) throw ExprError("argument to ASIN is outside [-1, 1]");
       return rad_to_deg(std::asin(x));
-    case UnaryFn::Atan: return rad_to_deg(std::atan(x));  // not reachable from the grammar (ATAN is binary)
     case UnaryFn::Cos: return std::cos(deg_to_rad(x));
     case UnaryFn::Exp: return std::exp(x);
     case UnaryFn::Fix: return std::floor(x);

@@ -24,7 +24,7 @@ inline constexpr int kMaxTreeHeight = 1000;
 inline constexpr double kToleranceEqual = 1e-4;
 
 enum class ExprOp : std::uint8_t { Number, Param, NamedParam, Exists, Negate, Unary, Atan2, Binary };
-enum class UnaryFn : std::uint8_t { Abs, Acos, Asin, Atan, Cos, Exp, Fix, Fup, Round, Ln, Sin, Sqrt, Tan };
+enum class UnaryFn : std::uint8_t { Abs, Acos, Asin, Cos, Exp, Fix, Fup, Round, Ln, Sin, Sqrt, Tan };  // ATAN is binary
 // In LinuxCNC's precedence order, highest first: ** ; * / MOD ; + - ; comparisons ; AND OR XOR.
 enum class BinaryOp : std::uint8_t { Power, Times, Divide, Modulo, Plus, Minus, Eq, Ne, Gt, Ge, Lt, Le, And, Or, Xor };
 

@@ -182,7 +182,8 @@ bool Interpreter::eval_condition(std::size_t idx) {
 
 std::size_t Interpreter::exec_oword(std::size_t idx) {
   const OWord& o = *prog_.lines[idx].oword;
-  const std::string name = oword_name(o.label) + " " + oword_keyword(o.kind);
+  // Built only for messages: loops pass here millions of times.
+  const auto name = [&o] { return oword_name(o.label) + " " + oword_keyword(o.kind); };
   if (!flow_error_[idx].empty()) fail(flow_error_[idx]);
   const auto jump = [&](std::size_t i) { return static_cast<std::size_t>(match_[i]); };
   switch (o.kind) {
@@ -191,14 +192,14 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
     case OKind::Return: {
       const std::size_t sub_line = jump(idx);  // endsub and return both point at their sub
       if (frames_.size() < 2 || frames_.back().sub_line != static_cast<int>(sub_line))
-        fail(name + " reached without a call of " + oword_name(o.label));
+        fail(name() + " reached without a call of " + oword_name(o.label));
       double value = 0.0;
       const bool has_value = o.expr != kNoExpr;
       if (has_value) {
         try {
           value = prog_.exprs.evaluate(o.expr, *this);
         } catch (const ExprError& e) {
-          fail(name + ": " + e.what());
+          fail(name() + ": " + e.what());
         }
       }
       Frame& f = frames_.back();
@@ -212,19 +213,19 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
     }
     case OKind::Call: {
       const auto it = subs_.find(o.label);
-      if (it == subs_.end()) fail(name + ": there is no " + oword_name(o.label) + " sub in " + file_);
+      if (it == subs_.end()) fail(name() + ": there is no " + oword_name(o.label) + " sub in " + file_);
       if (!flow_error_[it->second].empty()) {
         line_ = it->second;
         fail(flow_error_[it->second]);
       }
       if (frames_.size() > kMaxCallDepth)
-        fail(name + ": subroutines nested more than " + std::to_string(kMaxCallDepth) + " deep (endless recursion?)");
+        fail(name() + ": subroutines nested more than " + std::to_string(kMaxCallDepth) + " deep (endless recursion?)");
       std::array<double, 30> args{};
       for (std::size_t i = 0; i < o.args.size(); ++i) {
         try {
           args[i] = prog_.exprs.evaluate(o.args[i], *this);
         } catch (const ExprError& e) {
-          fail(name + " argument " + std::to_string(i + 1) + ": " + e.what());
+          fail(name() + " argument " + std::to_string(i + 1) + ": " + e.what());
         }
       }
       Frame f;
@@ -265,7 +266,7 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
       try {
         count = prog_.exprs.evaluate(o.expr, *this);
       } catch (const ExprError& e) {
-        fail(name + ": " + e.what());
+        fail(name() + ": " + e.what());
       }
       const double n = std::nearbyint(count);
       if (n < 1.0) return jump(idx) + 1;
@@ -347,6 +348,11 @@ GcodeResult Interpreter::run() {
     canon_.set_line(line.number, line.n_word);
     if (line.oword) {
       idx = exec_oword(idx);
+      continue;
+    }
+    if (line.words.empty() && !line.comment) {  // only parameter settings: nothing else to execute
+      apply_assignments(line);
+      ++idx;
       continue;
     }
     Block b = read_block(line);

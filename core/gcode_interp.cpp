@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 namespace vmsim::core::gcode {
@@ -294,8 +295,13 @@ void Interpreter::apply_assignments(const SourceLine& line) {
     double value;
   };
   if (line.assignments.empty()) return;
-  std::vector<Pending> pending;
-  pending.reserve(line.assignments.size());
+  // Up to 8 settings on the stack (loops run these lines millions of times), more on the heap.
+  std::array<Pending, 8> small{};
+  std::vector<Pending> large;
+  const bool fits = line.assignments.size() <= small.size();
+  if (!fits) large.resize(line.assignments.size());
+  Pending* pending = fits ? small.data() : large.data();
+  std::size_t n = 0;
   for (const Assignment& a : line.assignments) {
     Pending p{a.name, 0, 0.0};
     try {
@@ -315,9 +321,10 @@ void Interpreter::apply_assignments(const SourceLine& line) {
       const std::string target = a.name >= 0 ? "#<" + prog_.names.name(a.name) + ">" : "#" + (p.index ? std::to_string(p.index) : std::string("..."));
       fail("setting " + target + ": " + e.what());
     }
-    pending.push_back(p);
+    pending[n++] = p;
   }
-  for (const Pending& p : pending) {
+  for (std::size_t k = 0; k < n; ++k) {
+    const Pending& p = pending[k];
     if (p.name < 0) {
       params_[static_cast<std::size_t>(p.index)] = p.value;
     } else if (prog_.names.name(p.name)[0] == '_') {
@@ -368,9 +375,6 @@ void Interpreter::check_codes(Block& b) {
       if (const char* why = g_unsupported(g)) fail(g_name(g) + " " + why);
       fail(g_name(g) + " is not a G code LinuxCNC knows");
     }
-    if (g == 400) {
-      // G40 is group 7 on its own; G41/G42 were rejected above.
-    }
     int& slot = b.g_mode[static_cast<std::size_t>(group)];
     // LinuxCNC lets G80 share a block with another motion code, which wins ("G80 G81 ..." starts a cycle).
     if (group == 1 && (slot == 800 || (g == 800 && slot != -1))) {
@@ -392,7 +396,8 @@ void Interpreter::check_codes(Block& b) {
     const int group = m_group(m);
     if (group < 0) {
       if (const char* why = m_unsupported(m)) fail(word('M', m) + " " + why);
-      fail(word('M', m) + " is not an M code LinuxCNC knows");
+      fail(word('M', m) + " is not an M code LinuxCNC knows; if the machine remaps it to an action without motion, "
+           "declare it (--no-motion-m, GcodeOptions::no_motion_mcodes)");
     }
     if (b.m_mode[static_cast<std::size_t>(group)] != -1)
       fail(word('M', b.m_mode[static_cast<std::size_t>(group)]) + " and M" + std::to_string(m) +
@@ -420,9 +425,7 @@ void Interpreter::check_codes(Block& b) {
     b.motion = motion_mode_;
   }
   if (g0 == 530 && b.motion != 0 && b.motion != 10) fail("G53 must be used with G0 or G1");
-  if (g0 == 100 || g0 == 920 || g0 == 520) {
-    if (!b.has_axis() && g0 != 100) fail(g_name(g0) + " needs at least one axis word");
-  }
+  if ((g0 == 920 || g0 == 520) && !b.has_axis()) fail(g_name(g0) + " needs at least one axis word");
   // No word may go unused (LinuxCNC's check_other_codes).
   const bool arc = b.motion == 20 || b.motion == 30;
   const bool cyc = is_cycle(b.motion);
@@ -441,7 +444,7 @@ void Interpreter::check_codes(Block& b) {
   if (b.has('Q') && b.motion != 730 && b.motion != 830 && b.g_mode[13] != 640 && b.m_mode[6] != 61 && !b.no_motion_m)
     fail("Q word with no G73, G83, G64 or M61 to use it");
   if (b.m_mode[6] == 61 && !b.has('Q')) fail("M61 needs a Q word (the tool number)");
-  if (b.has('F') && b[('F')] < 0.0) fail("negative F word");
+  if (b.has('F') && b['F'] < 0.0) fail("negative F word");
   if (b.has('S') && b['S'] < 0.0) fail("negative S word (spindle speed)");
 }
 

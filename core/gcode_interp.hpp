@@ -14,7 +14,6 @@
 #include "core/tool_table.hpp"
 
 #include <array>
-#include <cstdarg>
 #include <cstdint>
 #include <optional>
 #include <utility>
