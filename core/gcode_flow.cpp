@@ -213,7 +213,8 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
     }
     case OKind::Call: {
       const auto it = subs_.find(o.label);
-      if (it == subs_.end()) fail(name() + ": there is no " + oword_name(o.label) + " sub in " + file_);
+      if (it == subs_.end()) fail(name() + ": there is no " + oword_name(o.label) + " sub in " + file_ +
+                                     " (subroutines in separate files are not supported)");
       if (!flow_error_[it->second].empty()) {
         line_ = it->second;
         fail(flow_error_[it->second]);

@@ -1,5 +1,6 @@
-// Block execution: evaluation of a line, LinuxCNC's modal groups and checks, and every non-motion code in
-// LinuxCNC's order of execution (comment, feed mode, F, S, T, M codes, G codes, stops).
+// Block execution: evaluation of a line, LinuxCNC's modal groups and checks, and the non-motion codes in
+// LinuxCNC's order of execution (comment, feed mode, F, S, T, M codes, G codes, stops). Parameters live in
+// gcode_params.cpp, coordinate systems and offsets in gcode_offsets.cpp, motions in gcode_motion.cpp.
 #include "core/gcode_interp.hpp"
 
 #include "core/error.hpp"
@@ -14,42 +15,6 @@ namespace vmsim::core::gcode {
 namespace {
 
 constexpr double kMmPerInch = 25.4;
-
-// LinuxCNC's predefined named parameters (#<_x>, #<_metric>, ...): read-only, computed when read.
-enum class PredefKind : std::uint8_t {
-  None, X, Y, Z, A, B, C, U, V, W, Line, MotionMode, Plane, Ccomp, Metric, Imperial, Absolute, Incremental,
-  InverseTime, UnitsPerMinute, UnitsPerRev, CoordSystem, ToolOffset, RetractRPlane, RetractOldZ, SpindleRpmMode,
-  SpindleCssMode, IjkAbsolute, LatheDiameter, LatheRadius, SpindleOn, SpindleCw, Mist, Flood, SpeedOverride,
-  FeedOverride, AdaptiveFeed, FeedHold, Feed, Rpm, CurrentTool, CurrentPocket, SelectedTool, SelectedPocket,
-  CallLevel, RemapLevel, Task, VMajor, VMinor
-};
-
-struct PredefName {
-  const char* name;
-  PredefKind kind;
-};
-constexpr PredefName kPredef[] = {
-    {"_x", PredefKind::X}, {"_y", PredefKind::Y}, {"_z", PredefKind::Z}, {"_a", PredefKind::A},
-    {"_b", PredefKind::B}, {"_c", PredefKind::C}, {"_u", PredefKind::U}, {"_v", PredefKind::V},
-    {"_w", PredefKind::W}, {"_line", PredefKind::Line}, {"_motion_mode", PredefKind::MotionMode},
-    {"_plane", PredefKind::Plane}, {"_ccomp", PredefKind::Ccomp}, {"_metric", PredefKind::Metric},
-    {"_imperial", PredefKind::Imperial}, {"_absolute", PredefKind::Absolute},
-    {"_incremental", PredefKind::Incremental}, {"_inverse_time", PredefKind::InverseTime},
-    {"_units_per_minute", PredefKind::UnitsPerMinute}, {"_units_per_rev", PredefKind::UnitsPerRev},
-    {"_coord_system", PredefKind::CoordSystem}, {"_tool_offset", PredefKind::ToolOffset},
-    {"_retract_r_plane", PredefKind::RetractRPlane}, {"_retract_old_z", PredefKind::RetractOldZ},
-    {"_spindle_rpm_mode", PredefKind::SpindleRpmMode}, {"_spindle_css_mode", PredefKind::SpindleCssMode},
-    {"_ijk_absolute_mode", PredefKind::IjkAbsolute}, {"_lathe_diameter_mode", PredefKind::LatheDiameter},
-    {"_lathe_radius_mode", PredefKind::LatheRadius}, {"_spindle_on", PredefKind::SpindleOn},
-    {"_spindle_cw", PredefKind::SpindleCw}, {"_mist", PredefKind::Mist}, {"_flood", PredefKind::Flood},
-    {"_speed_override", PredefKind::SpeedOverride}, {"_feed_override", PredefKind::FeedOverride},
-    {"_adaptive_feed", PredefKind::AdaptiveFeed}, {"_feed_hold", PredefKind::FeedHold},
-    {"_feed", PredefKind::Feed}, {"_rpm", PredefKind::Rpm}, {"_current_tool", PredefKind::CurrentTool},
-    {"_current_pocket", PredefKind::CurrentPocket}, {"_selected_tool", PredefKind::SelectedTool},
-    {"_selected_pocket", PredefKind::SelectedPocket}, {"_call_level", PredefKind::CallLevel},
-    {"_remap_level", PredefKind::RemapLevel}, {"_task", PredefKind::Task}, {"_vmajor", PredefKind::VMajor},
-    {"_vminor", PredefKind::VMinor},
-};
 
 // Modal groups of the G codes vmsim executes (LinuxCNC's numbering), -1 for anything else.
 int g_group(int g) {
@@ -135,12 +100,6 @@ const char* m_unsupported(int m) {
 
 bool is_cycle(int g) { return g == 730 || g == 810 || g == 820 || g == 830 || g == 850 || g == 890; }
 
-std::string fmt_num(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
-  return buf;
-}
-
 // "G1", "T2.5": built by appending (GCC 12 warns falsely on "literal" + std::string temporaries).
 std::string word(char letter, double v) {
   std::string s(1, letter);
@@ -150,34 +109,14 @@ std::string word(char letter, double v) {
 
 }  // namespace
 
-// ---------------------------------------------------------------------------------------------------------------
-// Construction and parameters
-
-Interpreter::Interpreter(const ParsedProgram& program, std::string file, const GcodeOptions& options,
-                         const ToolTable* tools)
-    : prog_(program),
-      file_(std::move(file)),
-      options_(options),
-      tools_(tools),
-      params_(kNumParams, 0.0),
-      globals_(program.names.size()),
-      canon_(options.max_canon_calls, file_) {
-  predef_.assign(program.names.size(), 0);
-  for (std::size_t id = 0; id < program.names.size(); ++id)
-    for (const PredefName& p : kPredef)
-      if (program.names.name(static_cast<int>(id)) == p.name) predef_[id] = static_cast<std::uint8_t>(p.kind);
-  // Globals the interpreter sets on subroutine returns (only names the program uses are interned).
-  for (std::size_t id = 0; id < program.names.size(); ++id) {
-    const std::string& name = program.names.name(static_cast<int>(id));
-    if (name == "_value") value_id_ = static_cast<int>(id);
-    if (name == "_value_returned") value_returned_id_ = static_cast<int>(id);
-    if (name == "_value" || name == "_value_returned") globals_[id] = 0.0;
-  }
-  params_[5220] = 1.0;  // G54 active
-  params_[5599] = 1.0;  // (debug, ...) messages on, as in LinuxCNC
-  path_.source_path = file_;
-  frames_.emplace_back();  // the main program's frame (its named locals, its repeat counters)
+std::string fmt_num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
 }
+
+// ---------------------------------------------------------------------------------------------------------------
+// Messages
 
 void Interpreter::fail(const std::string& message) const {
   const int number = line_ < prog_.lines.size() ? prog_.lines[line_].number : 0;
@@ -191,148 +130,6 @@ std::string Interpreter::g_name(int g10) const {
     s += std::to_string(g10 % 10);
   }
   return s;
-}
-
-double Interpreter::numbered(double index) const {
-  const double r = std::nearbyint(index);
-  if (std::fabs(r - index) > 1e-4) throw ExprError("parameter number #" + fmt_num(index) + " is not a whole number");
-  if (r < 1.0 || r >= kNumParams)
-    throw ExprError("parameter number #" + fmt_num(index) + " is out of range (1 to " + std::to_string(kNumParams - 1) + ")");
-  const int i = static_cast<int>(r);
-  if (i >= 5420 && i <= 5428) return i <= 5425 ? pos_[static_cast<std::size_t>(i - 5420)] : 0.0;
-  if (i >= 5400 && i <= 5413) {
-    if (i == 5400) return current_tool_;
-    const ToolEntry* t = tools_ != nullptr && current_tool_ != 0 ? tools_->find(current_tool_) : nullptr;
-    if (t == nullptr) return 0.0;
-    if (i >= 5401 && i <= 5406) return t->offset[i - 5401];
-    if (i == 5410) return t->diameter;
-    return 0.0;
-  }
-  return params_[static_cast<std::size_t>(i)];
-}
-
-double Interpreter::named(int id) const {
-  const auto kind = static_cast<PredefKind>(predef_[static_cast<std::size_t>(id)]);
-  const auto flag = [](bool b) { return b ? 1.0 : 0.0; };
-  switch (kind) {
-    case PredefKind::None: break;
-    case PredefKind::X: return pos_[0];
-    case PredefKind::Y: return pos_[1];
-    case PredefKind::Z: return pos_[2];
-    case PredefKind::A: return pos_[3];
-    case PredefKind::B: return pos_[4];
-    case PredefKind::C: return pos_[5];
-    case PredefKind::U:
-    case PredefKind::V:
-    case PredefKind::W: return 0.0;
-    case PredefKind::Line: return line_ < prog_.lines.size() ? prog_.lines[line_].number : 0;
-    case PredefKind::MotionMode: return motion_mode_;
-    case PredefKind::Plane: return plane_ == Plane::XY ? 170 : plane_ == Plane::XZ ? 180 : 190;
-    case PredefKind::Ccomp: return 400;
-    case PredefKind::Metric: return flag(!inch_);
-    case PredefKind::Imperial: return flag(inch_);
-    case PredefKind::Absolute: return flag(absolute_);
-    case PredefKind::Incremental: return flag(!absolute_);
-    case PredefKind::InverseTime: return flag(inverse_time_);
-    case PredefKind::UnitsPerMinute: return flag(!inverse_time_);
-    case PredefKind::UnitsPerRev: return 0.0;
-    case PredefKind::CoordSystem: {
-      static constexpr int kCodes[] = {540, 550, 560, 570, 580, 590, 591, 592, 593};
-      return kCodes[origin_index_ - 1];
-    }
-    case PredefKind::ToolOffset: return flag(tlo_active_);
-    case PredefKind::RetractRPlane: return flag(retract_r_plane_);
-    case PredefKind::RetractOldZ: return flag(!retract_r_plane_);
-    case PredefKind::SpindleRpmMode: return 1.0;
-    case PredefKind::SpindleCssMode: return 0.0;
-    case PredefKind::IjkAbsolute: return flag(ijk_absolute_);
-    case PredefKind::LatheDiameter: return 0.0;
-    case PredefKind::LatheRadius: return 1.0;
-    case PredefKind::SpindleOn: return flag(spindle_ != 0);
-    case PredefKind::SpindleCw: return flag(spindle_ == 1);
-    case PredefKind::Mist: return flag(mist_);
-    case PredefKind::Flood: return flag(flood_);
-    case PredefKind::SpeedOverride: return flag(speed_override_);
-    case PredefKind::FeedOverride: return flag(feed_override_);
-    case PredefKind::AdaptiveFeed: return 0.0;
-    case PredefKind::FeedHold: return 1.0;
-    case PredefKind::Feed: return feed_rate_;
-    case PredefKind::Rpm: return speed_;
-    case PredefKind::CurrentTool:
-    case PredefKind::CurrentPocket: return current_tool_;
-    case PredefKind::SelectedTool:
-    case PredefKind::SelectedPocket: return selected_tool_;
-    case PredefKind::CallLevel: return static_cast<double>(frames_.size() - 1);
-    case PredefKind::RemapLevel: return 0.0;
-    // A simulated run is the machine's run (LinuxCNC's task), not a preview.
-    case PredefKind::Task: return 1.0;
-    case PredefKind::VMajor: return 2.0;
-    case PredefKind::VMinor: return 9.0;
-  }
-  const std::string& name = prog_.names.name(id);
-  if (name[0] == '_') {
-    const auto& g = globals_[static_cast<std::size_t>(id)];
-    if (!g) throw ExprError("named parameter #<" + name + "> is not defined");
-    return *g;
-  }
-  const auto& locals = frames_.back().locals;
-  const auto it = locals.find(id);
-  if (it == locals.end()) throw ExprError("named parameter #<" + name + "> is not defined");
-  return it->second;
-}
-
-bool Interpreter::exists(int id) const {
-  if (static_cast<PredefKind>(predef_[static_cast<std::size_t>(id)]) != PredefKind::None) return true;
-  if (prog_.names.name(id)[0] == '_') return globals_[static_cast<std::size_t>(id)].has_value();
-  return frames_.back().locals.contains(id);
-}
-
-void Interpreter::apply_assignments(const SourceLine& line) {
-  // LinuxCNC reads the whole line first (every value with the old parameters), then sets the parameters.
-  struct Pending {
-    int name;
-    int index;
-    double value;
-  };
-  if (line.assignments.empty()) return;
-  // Up to 8 settings on the stack (loops run these lines millions of times), more on the heap.
-  std::array<Pending, 8> small{};
-  std::vector<Pending> large;
-  const bool fits = line.assignments.size() <= small.size();
-  if (!fits) large.resize(line.assignments.size());
-  Pending* pending = fits ? small.data() : large.data();
-  std::size_t n = 0;
-  for (const Assignment& a : line.assignments) {
-    Pending p{a.name, 0, 0.0};
-    try {
-      if (a.name < 0) {
-        const double idx = prog_.exprs.evaluate(a.index, *this);
-        const double r = std::nearbyint(idx);
-        if (std::fabs(r - idx) > 1e-4) throw ExprError("parameter number #" + fmt_num(idx) + " is not a whole number");
-        if (r < 1.0 || r >= kNumParams)
-          throw ExprError("parameter number #" + fmt_num(idx) + " is out of range (1 to 5601)");
-        p.index = static_cast<int>(r);
-        if (p.index >= 5400 && p.index <= 5428) throw ExprError("parameter #" + std::to_string(p.index) + " is read-only");
-      } else if (static_cast<PredefKind>(predef_[static_cast<std::size_t>(a.name)]) != PredefKind::None) {
-        throw ExprError("#<" + prog_.names.name(a.name) + "> is a read-only predefined parameter");
-      }
-      p.value = prog_.exprs.evaluate(a.value, *this);
-    } catch (const ExprError& e) {
-      const std::string target = a.name >= 0 ? "#<" + prog_.names.name(a.name) + ">" : "#" + (p.index ? std::to_string(p.index) : std::string("..."));
-      fail("setting " + target + ": " + e.what());
-    }
-    pending[n++] = p;
-  }
-  for (std::size_t k = 0; k < n; ++k) {
-    const Pending& p = pending[k];
-    if (p.name < 0) {
-      params_[static_cast<std::size_t>(p.index)] = p.value;
-    } else if (prog_.names.name(p.name)[0] == '_') {
-      globals_[static_cast<std::size_t>(p.name)] = p.value;
-    } else {
-      frames_.back().locals[p.name] = p.value;
-    }
-  }
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -735,103 +532,6 @@ void Interpreter::length_units(int g) {
   feed_rate_ *= f;
 }
 
-double Interpreter::to_user_len(double v) const {
-  if (options_.inch_machine == inch_) return v;
-  return options_.inch_machine ? v / kMmPerInch : v * kMmPerInch;
-}
-
-double Interpreter::from_user_len(double v) const {
-  if (options_.inch_machine == inch_) return v;
-  return options_.inch_machine ? v * kMmPerInch : v / kMmPerInch;
-}
-
-double Interpreter::tool_offset_prog(const ToolEntry* t, int axis) const {
-  if (t == nullptr) return 0.0;
-  return axis < 3 ? from_user_len(t->offset[axis]) : t->offset[axis];
-}
-
-void Interpreter::tool_length_offset(int g, const Block& b) {
-  Pos next{};
-  if (g == 430 || g == 432) {
-    int tool = current_tool_;
-    if (b.has('H')) {
-      const double h = b['H'];
-      if (h < 0 || h != std::floor(h) || h > 1e9) fail("G43 H" + fmt_num(h) + ": H must be a tool number (0 or more)");
-      // H0 means the tool in the spindle (LinuxCNC's pocket 0).
-      if (h != 0.0) tool = static_cast<int>(h);
-    } else if (g == 432) {
-      fail("G43.2 needs an H word");
-    }
-    const ToolEntry* t = tool_entry(tool, g_name(g).c_str());
-    if (g == 432) next = tool_offset_;
-    for (int i = 0; i < 6; ++i) next[static_cast<std::size_t>(i)] += tool_offset_prog(t, i);
-  } else if (g == 431) {
-    next = tool_offset_;
-    static constexpr char kAxes[] = "XYZABC";
-    for (int i = 0; i < 6; ++i)
-      if (b.has(kAxes[i])) next[static_cast<std::size_t>(i)] = b[kAxes[i]];
-  }
-  for (int i : {0, 1, 3, 4, 5})
-    if (next[static_cast<std::size_t>(i)] != 0.0)
-      fail(g_name(g) + ": tool offsets along " + std::string(1, "XYZABC"[i]) +
-           " are not supported (only Z tool length offsets)");
-  canon_.print("USE_TOOL_LENGTH_OFFSET(%.4f %.4f %.4f, %.4f %.4f %.4f, %.4f %.4f %.4f)", next[0], next[1], next[2],
-               next[3], next[4], next[5], 0.0, 0.0, 0.0);
-  // The controlled point moves with the offset; the machine does not (convert_tool_length_offset).
-  double dx = tool_offset_[0] - next[0];
-  double dy = tool_offset_[1] - next[1];
-  rotate(dx, dy, -rotation_xy_);
-  pos_[0] += dx;
-  pos_[1] += dy;
-  for (std::size_t i = 2; i < 6; ++i) pos_[i] += tool_offset_[i] - next[i];
-  tool_offset_ = next;
-  tlo_active_ = g != 490;
-}
-
-void Interpreter::rotate(double& x, double& y, double deg) {
-  const double t = deg * std::numbers::pi / 180.0;  // LinuxCNC's D2R
-  const double xx = x * std::cos(t) - y * std::sin(t);
-  const double yy = x * std::sin(t) + y * std::cos(t);
-  x = xx;
-  y = yy;
-}
-
-void Interpreter::current_in_system(int system, Pos& p) const {
-  // Where the current point would be in another coordinate system (find_current_in_system).
-  p = pos_;
-  for (std::size_t i = 0; i < 6; ++i) p[i] += axis_offset_[i];
-  rotate(p[0], p[1], rotation_xy_);
-  for (std::size_t i = 0; i < 6; ++i) p[i] += origin_offset_[i];
-  const std::size_t base = 5201 + static_cast<std::size_t>(system) * 20;
-  for (std::size_t i = 0; i < 6; ++i) {
-    const double off = params_[base + i];
-    p[i] -= i < 3 ? from_user_len(off) : off;
-  }
-  rotate(p[0], p[1], -params_[5210 + static_cast<std::size_t>(system) * 20]);
-  if (params_[5210] != 0.0)
-    for (std::size_t i = 0; i < 6; ++i) p[i] -= i < 3 ? from_user_len(params_[5211 + i]) : params_[5211 + i];
-}
-
-void Interpreter::coordinate_system(int g) {
-  static constexpr int kCodes[] = {540, 550, 560, 570, 580, 590, 591, 592, 593};
-  const int origin = static_cast<int>(std::find(std::begin(kCodes), std::end(kCodes), g) - std::begin(kCodes)) + 1;
-  if (origin == origin_index_) {
-    canon_.print("COMMENT(\"%s\")", "interpreter: continuing to use same coordinate system");
-    return;
-  }
-  current_in_system(origin, pos_);
-  origin_index_ = origin;
-  params_[5220] = origin;
-  const std::size_t base = 5201 + static_cast<std::size_t>(origin) * 20;
-  for (std::size_t i = 0; i < 6; ++i) origin_offset_[i] = i < 3 ? from_user_len(params_[base + i]) : params_[base + i];
-  rotation_xy_ = params_[base + 9];
-  canon_.print("SET_G5X_OFFSET(%d, %.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", origin, origin_offset_[0], origin_offset_[1],
-               origin_offset_[2], origin_offset_[3], origin_offset_[4], origin_offset_[5]);
-  canon_.print("SET_G92_OFFSET(%.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", axis_offset_[0], axis_offset_[1], axis_offset_[2],
-               axis_offset_[3], axis_offset_[4], axis_offset_[5]);
-  canon_.print("SET_XY_ROTATION(%.4f)", rotation_xy_);
-}
-
 void Interpreter::emit_control_mode(ControlMode mode, double tolerance) {
   control_ = mode;
   control_tolerance_ = tolerance;
@@ -856,124 +556,6 @@ void Interpreter::control_mode(int g, const Block& b) {
     naivecam_tolerance_ = q >= 0.0 ? q : p >= 0.0 ? p : 0.0;
     canon_.print("SET_NAIVECAM_TOLERANCE(%.4f)", naivecam_tolerance_);
   }
-}
-
-void Interpreter::setup_g10(const Block& b) {
-  if (!b.has('L')) fail("G10 needs an L word (L2 or L20: set a coordinate system)");
-  const double l = b['L'];
-  if (l == 1.0 || l == 10.0 || l == 11.0) fail("G10 L" + fmt_num(l) + " (tool table editing) is not supported");
-  if (l != 2.0 && l != 20.0) fail("G10 L" + fmt_num(l) + " is not supported (G10 L2 and G10 L20 are)");
-  const bool l20 = l == 20.0;
-  const double pw = b.has('P') ? b['P'] : -1.0;
-  int p = static_cast<int>(std::clamp(pw, -1.0, 100.0) + 0.0001);
-  if (pw < 0.0) p = 0;
-  if (p < 0 || p > 9) fail("G10 L" + fmt_num(l) + " P" + fmt_num(pw) + ": P must be 0 (active system) to 9 (G59.3)");
-  if (p == 0) p = origin_index_;
-  Pos cur{};
-  current_in_system(p, cur);
-  const std::size_t base = 5201 + static_cast<std::size_t>(p) * 20;
-  double r = 0.0;
-  if (b.has('R')) {
-    if (l20) fail("G10 L20 does not take an R word");
-    r = b['R'];
-    params_[base + 9] = r;
-  } else {
-    r = params_[base + 9];
-  }
-  double x = 0, y = 0;
-  if (l20) {
-    double oldx = cur[0], oldy = cur[1];
-    x = b.has('X') ? b['X'] : cur[0];
-    y = b.has('Y') ? b['Y'] : cur[1];
-    rotate(oldx, oldy, r);
-    rotate(x, y, r);
-    x = oldx + from_user_len(params_[base + 0]) - x;
-    y = oldy + from_user_len(params_[base + 1]) - y;
-    params_[base + 0] = to_user_len(x);
-    params_[base + 1] = to_user_len(y);
-    if (p == origin_index_) {
-      rotate(pos_[0], pos_[1], rotation_xy_);
-      rotation_xy_ = 0.0;
-    }
-  } else {
-    if (b.has('X')) params_[base + 0] = to_user_len(b['X']);
-    if (b.has('Y')) params_[base + 1] = to_user_len(b['Y']);
-    x = from_user_len(params_[base + 0]);
-    y = from_user_len(params_[base + 1]);
-  }
-  Pos off{x, y, 0, 0, 0, 0};
-  static constexpr char kAxes[] = "XYZABC";
-  for (std::size_t i = 2; i < 6; ++i) {
-    const bool len = i < 3;
-    if (b.has(kAxes[i])) {
-      double v = b[kAxes[i]];
-      if (l20) v = cur[i] + (len ? from_user_len(params_[base + i]) : params_[base + i]) - v;
-      params_[base + i] = len ? to_user_len(v) : v;
-      off[i] = v;
-    } else {
-      off[i] = len ? from_user_len(params_[base + i]) : params_[base + i];
-    }
-  }
-  if (p == origin_index_) {
-    rotate(pos_[0], pos_[1], rotation_xy_);
-    for (std::size_t i = 0; i < 6; ++i) pos_[i] += origin_offset_[i] - off[i];
-    origin_offset_ = off;
-    canon_.print("SET_G5X_OFFSET(%d, %.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", p, off[0], off[1], off[2], off[3], off[4],
-                 off[5]);
-    rotate(pos_[0], pos_[1], -r);
-    rotation_xy_ = r;
-    canon_.print("SET_XY_ROTATION(%.4f)", rotation_xy_);
-  } else {
-    canon_.print("COMMENT(\"%s\")", "interpreter: setting coordinate system origin");
-  }
-}
-
-void Interpreter::axis_offsets(int g, const Block& b) {
-  static constexpr char kAxes[] = "XYZABC";
-  if (g == 520 || g == 920) {
-    params_[5210] = 1.0;
-    for (std::size_t i = 0; i < 6; ++i) {
-      if (!b.has(kAxes[i])) continue;
-      const double v = b[kAxes[i]];
-      if (g == 520) {  // G52: the local offset itself
-        pos_[i] += axis_offset_[i] - v;
-        axis_offset_[i] = v;
-      } else {  // G92: the offset that makes the current point read v
-        axis_offset_[i] = pos_[i] + axis_offset_[i] - v;
-        pos_[i] = v;
-      }
-    }
-    for (std::size_t i = 0; i < 6; ++i) params_[5211 + i] = i < 3 ? to_user_len(axis_offset_[i]) : axis_offset_[i];
-  } else if (g == 921 || g == 922) {
-    params_[5210] = 0.0;
-    for (std::size_t i = 0; i < 6; ++i) {
-      pos_[i] += axis_offset_[i];
-      axis_offset_[i] = 0.0;
-    }
-    if (g == 921)
-      for (std::size_t i = 0; i < 6; ++i) params_[5211 + i] = 0.0;
-  } else {  // G92.3: back to the offsets kept in the parameters
-    params_[5210] = 1.0;
-    for (std::size_t i = 0; i < 6; ++i) {
-      const double v = i < 3 ? from_user_len(params_[5211 + i]) : params_[5211 + i];
-      pos_[i] += axis_offset_[i] - v;
-      axis_offset_[i] = v;
-    }
-  }
-  canon_.print("SET_G92_OFFSET(%.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", axis_offset_[0], axis_offset_[1],
-               axis_offset_[2], axis_offset_[3], axis_offset_[4], axis_offset_[5]);
-}
-
-void Interpreter::save_home(int g) {
-  // G28.1 / G30.1: the current point in machine coordinates, in machine units (convert_savehome). Unlike
-  // LinuxCNC 2.9 this applies the XY rotation (G10 L2 R), the inverse of what G28/G30 do with the point, so
-  // the stored point is where the machine is.
-  Pos m{};
-  for (std::size_t i = 0; i < 6; ++i) m[i] = pos_[i] + axis_offset_[i];
-  rotate(m[0], m[1], rotation_xy_);
-  for (std::size_t i = 0; i < 6; ++i) m[i] += tool_offset_[i] + origin_offset_[i];
-  const std::size_t base = g == 281 ? 5161 : 5181;
-  for (std::size_t i = 0; i < 6; ++i) params_[base + i] = i < 3 ? to_user_len(m[i]) : m[i];
 }
 
 bool Interpreter::stop(const Block& b) {

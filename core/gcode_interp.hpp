@@ -28,6 +28,8 @@ using Pos = std::array<double, 6>;  // X Y Z (program units) A B C (degrees), in
 enum class Plane : std::uint8_t { XY, XZ, YZ };  // G17, G18, G19 (canon names)
 enum class ControlMode : std::uint8_t { ExactPath, ExactStop, Continuous };
 
+std::string fmt_num(double v);  // "%.10g", for messages
+
 inline constexpr int kNumParams = 5602;  // LinuxCNC's RS274NGC_MAX_PARAMETERS: #1 .. #5601
 inline constexpr int kMaxCallDepth = 200;
 
