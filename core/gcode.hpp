@@ -18,7 +18,8 @@ struct GcodeOptions {
   std::vector<int> no_motion_mcodes;
 
   // LinuxCNC's machine units (INI LINEAR_UNITS): the tool table and the offset parameters (#5211.., #5221..)
-  // are in these units. vmsim's machines are metric; `rs274 -g` standalone treats its tables as inches.
+  // are in these units. vmsim's machines are metric; `rs274 -g` standalone treats its tables as inches, so
+  // set this to reproduce its tool length offsets. Programs start in G21 either way, as under `rs274 -g`.
   bool inch_machine = false;
   // Block delete switch: skip lines that start with '/'. Off, as in LinuxCNC and `rs274 -g` by default.
   bool block_delete = false;
