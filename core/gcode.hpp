@@ -23,11 +23,12 @@ struct GcodeOptions {
   bool inch_machine = false;
   // Block delete switch: skip lines that start with '/'. Off, as in LinuxCNC and `rs274 -g` by default.
   bool block_delete = false;
-  // Guards against endless programs: executed lines (loops count every pass) and canonical calls made
-  // (each costs about 400 bytes with its Move; 5 million is far beyond real programs, yet bounded).
-  // Exceeding either is an error naming the line ("possible endless loop"), never a hang or memory blow-up.
-  std::uint64_t max_blocks = 50'000'000;
-  std::size_t max_canon_calls = 5'000'000;
+  // Guards against endless programs, so that a runaway loop is an error naming the line ("possible endless
+  // loop") within a second or two, never a hang or a memory blow-up: executed lines (loops count every pass),
+  // and canonical calls beyond 16 per line of the program (what loops, subroutines and cycle repeats add; a
+  // call with its Move costs about 400 bytes).
+  std::uint64_t max_blocks = 20'000'000;
+  std::size_t max_canon_calls = 1'000'000;
 };
 
 // One canonical machining call as `rs274 -g` prints it (without its running number), and its source line.

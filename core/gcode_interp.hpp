@@ -51,6 +51,7 @@ class CanonWriter {
   void arc_call(const double* plane4, int rotation, const double* rest4);
   void push(std::string text);
   std::vector<CanonCall> take() { return std::move(calls_); }
+  std::size_t remaining() const { return max_calls_ - calls_.size(); }
   void reserve(std::size_t n) { calls_.reserve(n); }
   std::size_t size() const { return calls_.size(); }
 

@@ -410,6 +410,14 @@ void Interpreter::cycle(int g, Block& b) {
     current_cc = old_cc;
   }
   const double clear_cc = retract_r_plane_ ? r : old_cc;
+  // Say at once when the repeats and pecks asked for cannot fit the bound on canonical calls, rather than
+  // after making millions of them (L999999999, or Q far smaller than the depth).
+  const double pecks = (g == 730 || g == 830) ? std::max(0.0, std::ceil((r - cc) / delta)) : 0.0;
+  const double per_hole = 4.0 + 3.0 * pecks;
+  if (static_cast<double>(repeats) * per_hole > static_cast<double>(canon_.remaining()))
+    fail(code + ": " + std::to_string(repeats) + (repeats == 1 ? " hole" : " holes") +
+         (pecks > 0 ? " of " + num(pecks) + " pecks each" : std::string()) + " would make more than the " +
+         std::to_string(canon_.remaining()) + " canonical calls left: possible endless loop");
   const ControlMode saved_mode = control_;
   const double saved_tolerance = control_tolerance_;
   if (saved_mode != ControlMode::ExactPath) emit_control_mode(ControlMode::ExactPath, 0.0);

@@ -5,7 +5,9 @@
 
 #include "core/error.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace vmsim::core::gcode {
 
@@ -60,7 +62,8 @@ Interpreter::Interpreter(const ParsedProgram& program, std::string file, const G
       tools_(tools),
       params_(kNumParams, 0.0),
       globals_(program.names.size()),
-      canon_(options.max_canon_calls, file_) {
+      // Straight-line code makes at most a few calls per line; the budget on top is what loops may add.
+      canon_(options.max_canon_calls + std::min<std::size_t>(program.lines.size(), SIZE_MAX / 32) * 16, file_) {
   predef_.assign(program.names.size(), 0);
   for (std::size_t id = 0; id < program.names.size(); ++id)
     for (const PredefName& p : kPredef)
