@@ -42,7 +42,9 @@ Rs274Run run_rs274(const fs::path& program, const fs::path* table, const TempDir
     q += '\'';
     return q;
   };
-  std::string cmd = kRs274.string();
+  // rs274 keeps its tool table in $HOME/.tool.mmap, truncated at start: two runs sharing a HOME (ctest -j)
+  // crash each other with SIGBUS. Each run gets the test's own folder as HOME.
+  std::string cmd = "HOME=" + quoted(dir.path()) + " " + kRs274.string();
   cmd += " -g ";
   if (table != nullptr) {
     cmd += "-t ";
