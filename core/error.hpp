@@ -11,9 +11,12 @@ struct Error : std::runtime_error {
 
 // "file:line: message" (line <= 0 omits the line).
 inline std::string located(const std::string& file, int line, const std::string& message) {
-  std::string s = file;
-  if (line > 0) s += ":" + std::to_string(line);
-  return s + ": " + message;
+  std::string s;
+  s.reserve(file.size() + message.size() + 16);
+  s.append(file);
+  if (line > 0) s.append(":").append(std::to_string(line));
+  s.append(": ").append(message);
+  return s;
 }
 
 }  // namespace vmsim::core

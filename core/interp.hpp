@@ -25,6 +25,8 @@ struct InterpResult {
   InterpStats stats;
 };
 
+// `path` is in axis coordinates (core::toolpath_in_axis_space): its moves join end to start. Setpoints start at
+// path.initial_position and end exactly at the last move's end.
 InterpResult interpolate(const ToolPath& path, const Machine& machine, const InterpOptions& options);
 
 }  // namespace vmsim::core

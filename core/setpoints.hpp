@@ -19,4 +19,12 @@ struct Setpoints {
   double duration_s() const { return samples() > 0 ? (samples() - 1) * period_s : 0.0; }
 };
 
+// Largest |velocity|, |acceleration| and |jerk| per axis (axis units per s, s^2, s^3), by backward finite
+// differences of the setpoints as the drives receive them, with the axes at rest before the first sample and
+// after the last.
+struct AxisPeaks {
+  Eigen::ArrayXd velocity, acceleration, jerk;
+};
+AxisPeaks finite_difference_peaks(const Setpoints& setpoints);
+
 }  // namespace vmsim::core

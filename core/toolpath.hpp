@@ -51,10 +51,13 @@ struct Move {
   int source_line = 0;               // 1-based line of the program that made this move
 };
 
+// Consecutive moves join in machine coordinates: a move starts where the previous one ended, plus any change of
+// the tool length offset (G43/G49 moves the controlled point, not the axes). On a 3-axis machine the Z axis
+// carries tip + tool_length_offset_mm (core/kinematics).
 struct ToolPath {
   std::string source_path;   // the program file as the user named it
-  std::vector<Move> moves;   // in program order; each move starts where the previous one ended
-  Vec6 initial_position = Vec6::Zero();
+  std::vector<Move> moves;   // in program order
+  Vec6 initial_position = Vec6::Zero();  // controlled point before the first move (no tool length offset)
   // Tool diameter from the program or tool table when known (APT CUTTER/, LinuxCNC tool table D); 0 = unknown.
   double tool_diameter_mm = 0.0;
   double tool_corner_radius_mm = 0.0;
