@@ -3,6 +3,7 @@
 #include "core/atomic_file.hpp"
 #include "core/interp.hpp"
 #include "core/job.hpp"
+#include "core/kinematics.hpp"
 #include "core/program.hpp"
 
 #include <fmt/format.h>
@@ -37,7 +38,7 @@ int run_interp(const InterpArgs& args) {
   const core::Job job = core::load_job(args.job);
   core::ProgramOptions popt;
   popt.tool_table = job.tool_table_file;
-  const core::ToolPath path = core::read_program(job.program_file, popt);
+  const core::ToolPath path = core::toolpath_in_axis_space(core::read_program(job.program_file, popt), job.machine);
   core::InterpOptions iopt;
   iopt.period_s = job.interp.period_s;
   iopt.tolerance_mm = job.interp.tolerance_mm;
@@ -51,6 +52,21 @@ int run_interp(const InterpArgs& args) {
               r.stats.moves, r.stats.blends, r.stats.exact_stops, static_cast<long long>(r.setpoints.samples()),
               r.setpoints.period_s * 1e3);
   std::printf("cycle time: %.3f s\n", r.stats.cycle_time_s);
+  const core::AxisPeaks peaks = core::finite_difference_peaks(r.setpoints);
+  std::printf("axis  peak velocity        peak acceleration      peak jerk              (finite differences; limit)\n");
+  for (std::size_t a = 0; a < job.machine.axes.size(); ++a) {
+    const core::MachineAxis& ax = job.machine.axes[a];
+    const bool lin = ax.kind == core::AxisKind::Linear;
+    // Trade units: m/min, m/s^2, m/s^3 for linear axes; deg/s, deg/s^2, deg/s^3 for rotary ones.
+    const double fv = lin ? 0.06 : 180.0 / 3.14159265358979323846, fa = lin ? 1e-3 : fv, fj = fa;
+    const char* uv = lin ? "m/min" : "deg/s";
+    const char* ua = lin ? "m/s2" : "deg/s2";
+    const char* uj = lin ? "m/s3" : "deg/s3";
+    const auto i = static_cast<Eigen::Index>(a);
+    std::printf("%-4s  %7.3f / %-7.3g %-5s %7.3f / %-7.3g %-6s %8.3f / %-7.3g %-6s\n", ax.name.c_str(),
+                peaks.velocity[i] * fv, ax.max_velocity * fv, uv, peaks.acceleration[i] * fa,
+                ax.max_acceleration * fa, ua, peaks.jerk[i] * fj, ax.max_jerk * fj, uj);
+  }
   std::printf("wrote %s\n", (dir / "setpoints.csv").string().c_str());
   return 0;
 }
