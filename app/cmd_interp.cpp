@@ -1,6 +1,7 @@
 // vmsim interp JOB: the interpolator alone, so users can look at setpoints before the drives act on them.
 #include "app/commands.hpp"
 #include "core/atomic_file.hpp"
+#include "core/error.hpp"
 #include "core/interp.hpp"
 #include "core/job.hpp"
 #include "core/kinematics.hpp"
@@ -8,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstdio>
 
 namespace vmsim::app {
@@ -38,6 +40,7 @@ int run_interp(const InterpArgs& args) {
   const core::Job job = core::load_job(args.job);
   core::ProgramOptions popt;
   popt.tool_table = job.tool_table_file;
+  popt.no_motion_mcodes = job.no_motion_mcodes;
   const core::ToolPath path = core::toolpath_in_axis_space(core::read_program(job.program_file, popt), job.machine);
   core::InterpOptions iopt;
   iopt.period_s = job.interp.period_s;
@@ -45,13 +48,22 @@ int run_interp(const InterpArgs& args) {
   iopt.feed_scale = args.feed_scale.value_or(1.0);
   const core::InterpResult r = core::interpolate(path, job.machine, iopt);
 
-  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
-  std::filesystem::create_directories(dir);
-  write_setpoints_csv(dir / "setpoints.csv", r.setpoints, job.machine);
   std::printf("job %s: %d moves, %d blends, %d exact stops, %lld setpoints at Te = %g ms\n", job.name.c_str(),
               r.stats.moves, r.stats.blends, r.stats.exact_stops, static_cast<long long>(r.setpoints.samples()),
               r.setpoints.period_s * 1e3);
   std::printf("cycle time: %.3f s\n", r.stats.cycle_time_s);
+  // Feed reached on cutting moves (not rapids), against the highest programmed feed.
+  double programmed = 0.0, reached = 0.0;
+  for (const core::Move& m : path.moves)
+    if (!m.rapid && m.feed_mode == core::FeedMode::UnitsPerMinute) programmed = std::max(programmed, m.feed_mm_per_min);
+  for (Eigen::Index k = 0; k < r.setpoints.samples(); ++k) {
+    const int mi = r.setpoints.move_index[k];
+    if (mi >= 0 && !path.moves[static_cast<std::size_t>(mi)].rapid)
+      reached = std::max(reached, r.setpoints.path_speed_mm_per_s[k] * 60.0);
+  }
+  if (programmed > 0)
+    std::printf("feed on cutting moves: programmed up to %.0f mm/min, reached up to %.0f mm/min\n",
+                programmed * iopt.feed_scale, reached);
   const core::AxisPeaks peaks = core::finite_difference_peaks(r.setpoints);
   std::printf("axis  peak velocity        peak acceleration      peak jerk              (finite differences; limit)\n");
   for (std::size_t a = 0; a < job.machine.axes.size(); ++a) {
@@ -63,10 +75,16 @@ int run_interp(const InterpArgs& args) {
     const char* ua = lin ? "m/s2" : "deg/s2";
     const char* uj = lin ? "m/s3" : "deg/s3";
     const auto i = static_cast<Eigen::Index>(a);
-    std::printf("%-4s  %7.3f / %-7.3g %-5s %7.3f / %-7.3g %-6s %8.3f / %-7.3g %-6s\n", ax.name.c_str(),
+    std::printf("%-4s  %7.3f / %-7g %-5s %7.3f / %-7g %-6s %8.3f / %-7g %-6s\n", ax.name.c_str(),
                 peaks.velocity[i] * fv, ax.max_velocity * fv, uv, peaks.acceleration[i] * fa,
                 ax.max_acceleration * fa, ua, peaks.jerk[i] * fj, ax.max_jerk * fj, uj);
   }
+  if (args.summary_only) return 0;
+  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  write_setpoints_csv(dir / "setpoints.csv", r.setpoints, job.machine);
   std::printf("wrote %s\n", (dir / "setpoints.csv").string().c_str());
   return 0;
 }

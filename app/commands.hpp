@@ -17,6 +17,7 @@ struct InterpArgs {
   std::filesystem::path job;
   std::optional<std::filesystem::path> out_dir;  // default: the current directory
   std::optional<double> feed_scale;              // multiplies every programmed feed (override, as on the NC panel)
+  bool summary_only = false;                     // print the summary, write no file
 };
 // vmsim interp JOB: setpoints.csv (t, each axis, path speed) and the cycle time.
 int run_interp(const InterpArgs& args);

@@ -34,6 +34,8 @@ int main(int argc, char** argv) {
   interp->add_option("--out,-o", interp_args.out_dir, "output directory for setpoints.csv (created if absent)");
   interp->add_option("--feed-scale", interp_args.feed_scale, "multiply every programmed feed (e.g. 0.5)")
       ->check(CLI::PositiveNumber);
+  interp->add_flag("--summary-only", interp_args.summary_only,
+                   "print the cycle time and the axis peaks, write no setpoints.csv");
 
   try {
     app.parse(argc, argv);

@@ -66,9 +66,10 @@ struct NodeGeom {
   Vec6 dk_abs = Vec6::Zero();  // |d(curvature vector)/ds| per axis
 };
 
-NodeGeom node_geometry(const PathPiece& pc, double s_local, const Limits6& lim) {
+// Geometry and speed limit at curve parameter u of a piece.
+NodeGeom node_geometry_u(const PathPiece& pc, double u, const Limits6& lim) {
   NodeGeom g;
-  const PathJet j = pc.jet_s(s_local);
+  const PathJet j = pc.jet_at_u(u);
   g.t_abs = j.t.cwiseAbs();
   g.k_abs = j.k.cwiseAbs();
   g.dk_abs = j.dk.cwiseAbs();
@@ -90,15 +91,19 @@ NodeGeom node_geometry(const PathPiece& pc, double s_local, const Limits6& lim) 
   return g;
 }
 
-// Smallest speed limit on [s0, s1] of a curved piece, by bisection while the limit changes by more than 2 %
+NodeGeom node_geometry(const PathPiece& pc, double s_local, const Limits6& lim) {
+  return node_geometry_u(pc, pc.u_at(s_local), lim);
+}
+
+// Smallest speed limit on [u0, u1] of a curved piece, by bisection while the limit changes by more than 2 %
 // between neighbouring points (depth <= 8: 1/256 of a node interval).
-double min_speed_limit(const PathPiece& pc, double s0, double v0, double s1, double v1, const Limits6& lim, int depth) {
-  const double sm = 0.5 * (s0 + s1);
-  const double vm = node_geometry(pc, sm, lim).vlim;
+double min_speed_limit(const PathPiece& pc, double u0, double v0, double u1, double v1, const Limits6& lim, int depth) {
+  const double um = 0.5 * (u0 + u1);
+  const double vm = node_geometry_u(pc, um, lim).vlim;
   double v = std::min({v0, v1, vm});
   if (depth < 8 && (std::abs(vm - v0) > 0.02 * v || std::abs(vm - v1) > 0.02 * v)) {
-    v = std::min(v, min_speed_limit(pc, s0, v0, sm, vm, lim, depth + 1));
-    v = std::min(v, min_speed_limit(pc, sm, vm, s1, v1, lim, depth + 1));
+    v = std::min(v, min_speed_limit(pc, u0, v0, um, vm, lim, depth + 1));
+    v = std::min(v, min_speed_limit(pc, um, vm, u1, v1, lim, depth + 1));
   }
   return v;
 }
@@ -574,19 +579,21 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
       n = std::max(4, static_cast<int>(std::ceil(std::abs(pc.dtheta * (pc.u_end - pc.u_begin)) / (units::kPi / 36))));
     n = std::max(n, static_cast<int>(std::ceil(pc.length / 0.5)));
     const bool curved = pc.kind != PathPiece::Kind::Line;
+    // Nodes evenly spaced in the curve parameter (no arc-length inversion; blends are nearly uniform anyway).
+    const double span = pc.u_end - pc.u_begin;
+    std::vector<NodeGeom> gk(n + 1);
+    for (int k = 0; k <= n; ++k) gk[k] = node_geometry_u(pc, pc.u_begin + span * k / n, lim);
     // The limit between two nodes: on curved pieces, the smallest over points bisected until the limit varies by
     // less than 2 % from one point to the next (a blend's curvature can peak sharply between its nodes).
     std::vector<double> between(n, kInf);
     if (curved) {
-      std::vector<double> vk(n + 1);
-      for (int k = 0; k <= n; ++k) vk[k] = node_geometry(pc, pc.length * k / n, lim).vlim;
-      for (int k = 0; k < n; ++k) {
-        between[k] = min_speed_limit(pc, pc.length * k / n, vk[k], pc.length * (k + 1) / n, vk[k + 1], lim, 0);
-      }
+      for (int k = 0; k < n; ++k)
+        between[k] = min_speed_limit(pc, pc.u_begin + span * k / n, gk[k].vlim, pc.u_begin + span * (k + 1) / n,
+                                     gk[k + 1].vlim, lim, 0);
     }
     for (int k = 0; k <= n; ++k) {
-      const double sl = pc.length * k / n;
-      NodeGeom g = node_geometry(pc, sl, lim);
+      const double sl = k == 0 ? 0.0 : (k == n ? pc.length : pc.s_at(pc.u_begin + span * k / n));
+      NodeGeom g = gk[k];
       if (k > 0) g.vlim = std::min(g.vlim, between[k - 1]);
       if (k < n) g.vlim = std::min(g.vlim, between[k]);
       if (k == 0 && !plan.s.empty()) {  // junction: the stricter of both sides
@@ -671,11 +678,11 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
     const Eigen::Index ns = static_cast<Eigen::Index>(smp.s.size());
     Eigen::MatrixXd xp(ns, 6);
     std::vector<int> move_of(ns);
-    std::size_t hint = 0;
+    SmoothPath::Cursor cursor;
     for (Eigen::Index k = 0; k < ns; ++k) {
       const double sk = smp.s[k];
-      xp.row(k) = sp.point(sk, &hint).transpose();
-      const PathPiece& pc = sp.pieces[sp.piece_at(sk, hint)];
+      xp.row(k) = sp.point(sk, cursor).transpose();
+      const PathPiece& pc = sp.pieces[sp.piece_at(sk, cursor.piece)];
       move_of[k] = (pc.move_index == pc.move_index_next || sk < pc.s_begin + 0.5 * pc.length) ? pc.move_index
                                                                                               : pc.move_index_next;
     }

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 namespace vmsim::core {
 
 namespace {
@@ -75,6 +77,13 @@ Job load_job(const std::filesystem::path& path) {
     job.machine_file = jt.existing_path("machine");
     job.program_file = jt.existing_path("program");
     job.tool_table_file = jt.opt_existing_path("tool_table");
+    if (auto codes = jt.opt_numbers("no_motion_mcodes")) {
+      for (double c : *codes) {
+        if (c != std::floor(c) || c < 0 || c > 999)
+          jt.fail("no_motion_mcodes", fmt::format("expected M code numbers 0..999, found {}", c));
+        job.no_motion_mcodes.push_back(static_cast<int>(c));
+      }
+    }
     jt.finish();
   }
   job.machine = load_machine(job.machine_file);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace vmsim::core {
 
@@ -39,6 +40,7 @@ struct Job {
   std::filesystem::path machine_file;
   std::filesystem::path program_file;
   std::optional<std::filesystem::path> tool_table_file;
+  std::vector<int> no_motion_mcodes;   // G-code M codes the machine remaps to actions without motion
   Machine machine;
   ToolSpec tool;
   StockSpec stock;

@@ -167,8 +167,8 @@ double PathPiece::u_at(double s_local) const {
   return u;
 }
 
-PathJet PathPiece::jet_s(double s_local) const {
-  const CurveJet c = jet_u(u_at(s_local));
+PathJet PathPiece::jet_at_u(double u) const {
+  const CurveJet c = jet_u(u);
   // Chain rule from u to arc length s, with sigma = |p_u| = ds/du.
   const double sig = c.pu.norm();
   const double sig_u = c.pu.dot(c.puu) / sig;
@@ -199,13 +199,46 @@ std::size_t SmoothPath::piece_at(double s, std::size_t hint) const {
   return it == pieces.begin() ? 0 : static_cast<std::size_t>(it - pieces.begin()) - 1;
 }
 
-Vec6 SmoothPath::point(double s, std::size_t* hint) const {
+Vec6 SmoothPath::point(double s) const {
   if (pieces.empty() || s <= 0) return start;
   if (s >= length) return end;
-  const std::size_t i = piece_at(s, hint ? *hint : 0);
-  if (hint) *hint = i;
-  const PathPiece& p = pieces[i];
+  const PathPiece& p = pieces[piece_at(s)];
   return p.point_u(p.u_at(s - p.s_begin));
+}
+
+Vec6 SmoothPath::point(double s, Cursor& c) const {
+  if (pieces.empty() || s <= 0) return start;
+  if (s >= length) return end;
+  const std::size_t i = piece_at(s, c.piece);
+  const PathPiece& p = pieces[i];
+  const double sl = s - p.s_begin;
+  if (p.uniform) {
+    c.piece = i;
+    return p.point_u(p.u_at(sl));
+  }
+  if (i != c.piece || c.u < 0 || sl < c.s_local) {  // new piece or a step back: full inversion
+    c.piece = i;
+    c.u = p.u_at(sl);
+    c.s_local = sl;
+    return p.point_u(c.u);
+  }
+  // Newton from the previous parameter; the interval is short, so the 4-point rule is exact to round-off.
+  const double u0 = c.u, s0 = c.s_local;
+  double u = u0 + (sl - s0) / p.speed_u(u0);
+  if (!(std::abs(u - u0) <= (p.u_end - p.u_begin) / PathPiece::kTable)) {  // a long step: full inversion
+    c.u = p.u_at(sl);
+    c.s_local = sl;
+    return p.point_u(c.u);
+  }
+  for (int it = 0; it < 4; ++it) {
+    const double f = s0 + integrate_speed(p, u0, u) - sl;
+    const double step = f / p.speed_u(u);
+    u = std::clamp(u - step, p.u_begin, p.u_end);
+    if (std::abs(step) < 1e-14 * (p.u_end - p.u_begin)) break;
+  }
+  c.u = u;
+  c.s_local = sl;
+  return p.point_u(u);
 }
 
 namespace {

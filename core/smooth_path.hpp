@@ -59,7 +59,8 @@ struct PathPiece {
   // Local arc length (0 .. length) to the curve parameter, and back.
   double u_at(double s_local) const;
   double s_at(double u) const;
-  PathJet jet_s(double s_local) const;      // derivatives w.r.t. arc length
+  PathJet jet_s(double s_local) const { return jet_at_u(u_at(s_local)); }  // derivatives w.r.t. arc length
+  PathJet jet_at_u(double u) const;         // the same, at a curve parameter (no arc-length inversion)
   void finalize();                          // computes length (and the table for non-uniform pieces)
 };
 
@@ -79,7 +80,15 @@ struct SmoothPath {
 
   // Index of the piece holding arc length s (pieces are contiguous; hint speeds up monotone queries).
   std::size_t piece_at(double s, std::size_t hint = 0) const;
-  Vec6 point(double s, std::size_t* hint = nullptr) const;
+  Vec6 point(double s) const;
+
+  // Point at arc length s for increasing queries (setpoints): Newton on the arc length starts from the previous
+  // query's parameter, one or two steps over a short interval instead of a search from the table.
+  struct Cursor {
+    std::size_t piece = 0;
+    double u = -1.0, s_local = 0.0;
+  };
+  Vec6 point(double s, Cursor& cursor) const;
 };
 
 // Program axes to path space (rad -> deg for A B C) and back.

@@ -25,12 +25,12 @@ import os
 R_BALL = 5.0          # ball-end mill of diameter 10 mm
 R_FILLET = 10.0       # concave cylinder joining the two planes
 SLOPE_DEG = 30.0      # inclination of P2
-X_TANGENT = 30.0      # end of the floor P1
-INCLINE_LENGTH = 30.0  # length of P2 along its slope
-WIDTH = 20.0          # extent of the part along Y
+X_TANGENT = 80.0      # end of the floor P1: long enough for the fast pass to reach 10 m/min before the fillet
+INCLINE_LENGTH = 50.0  # length of P2 along its slope
+WIDTH = 10.0          # extent of the part along Y (41 passes; the fast pass is the middle one)
 STEPOVER = 0.25       # distance between passes (seed 004)
 X_START = -8.0        # passes start and end clear of the part edges (tool radius + margin)
-SAFE_Z = 25.0         # retract height
+SAFE_Z = 40.0         # retract height, above the top of the slope
 APPROACH_Z = 2.0      # rapid down to here, then feed down
 FEED_REFERENCE = 100.0   # mm/min = 0.1 m/min
 FEED_FAST = 10000.0      # mm/min = 10 m/min
