@@ -58,11 +58,13 @@ int run_interp(const InterpArgs& args) {
     if (!m.rapid && m.feed_mode == core::FeedMode::UnitsPerMinute) programmed = std::max(programmed, m.feed_mm_per_min);
   for (Eigen::Index k = 0; k < r.setpoints.samples(); ++k) {
     const int mi = r.setpoints.move_index[k];
-    if (mi >= 0 && !path.moves[static_cast<std::size_t>(mi)].rapid)
+    if (mi < 0) continue;
+    const core::Move& m = path.moves[static_cast<std::size_t>(mi)];
+    if (!m.rapid && m.feed_mode == core::FeedMode::UnitsPerMinute)
       reached = std::max(reached, r.setpoints.path_speed_mm_per_s[k] * 60.0);
   }
   if (programmed > 0)
-    std::printf("feed on cutting moves: programmed up to %.0f mm/min, reached up to %.0f mm/min\n",
+    std::printf("feed on cutting moves (G94): programmed up to %.0f mm/min, reached up to %.0f mm/min\n",
                 programmed * iopt.feed_scale, reached);
   const core::AxisPeaks peaks = core::finite_difference_peaks(r.setpoints);
   std::printf("axis  peak velocity        peak acceleration      peak jerk              (finite differences; limit)\n");

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# make validate: long validation runs whose figures go into the issue notes (not part of make test).
+# Usage: scripts/validate.sh PATH/TO/vmsim
+set -euo pipefail
+vmsim=${1:?usage: scripts/validate.sh PATH/TO/vmsim}
+here=$(cd "$(dirname "$0")/.." && pwd)
+shared="$here/../shared/data/gcode"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+echo "== Interpolation of real programs (Mikron UCP 710, Te 1 ms, tolerance 20 um)"
+if [ -d "$shared" ]; then
+  for prog in tort 3D_Chips boat-xyzac; do
+    extra=""
+    [ "$prog" = boat-xyzac ] && extra="no_motion_mcodes = [428, 429]"
+    table="$shared/tooltables/tool_common.tbl"
+    [ "$prog" = boat-xyzac ] && table="$shared/tooltables/xyzac-trt.tbl"
+    cat > "$tmp/$prog.toml" <<TOML
+[job]
+name = "$prog"
+machine = "$here/parts/machines/mikron_ucp710.toml"
+program = "$shared/programs/$prog.ngc"
+tool_table = "$table"
+$extra
+TOML
+    echo "-- $prog.ngc"
+    start=$(date +%s.%N)
+    if "$vmsim" interp "$tmp/$prog.toml" --summary-only; then
+      end=$(date +%s.%N)
+      echo "wall time: $(echo "$end - $start" | bc) s"
+    fi
+    echo
+  done
+else
+  echo "(../shared/data absent: skipped)"
+fi
+
+echo "== Random-path limits and tolerance (10 000 paths, the interpolator's hard requirement)"
+"$here/build/tests/core_tests" --gtest_filter='Interp.RandomPaths*' | grep -E 'worst|OK|FAILED'

@@ -1,0 +1,174 @@
+// The vmsim command line, end to end, as a user runs it: exit codes, messages, and the files it writes.
+// References: the plane-cylinder program itself (its first and last programmed points), and the error
+// conventions of DESIGN.md (file:line:key, non-zero exit, no half-written output).
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device rd;
+    dir_ = fs::temp_directory_path() / ("vmsim_cli_" + std::to_string(rd()) + std::to_string(rd()));
+    fs::create_directories(dir_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  const fs::path& path() const { return dir_; }
+
+ private:
+  fs::path dir_;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+CliRun vmsim(const std::string& args, const TempDir& tmp) {
+  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
+  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(cmd.c_str());
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+void write(const fs::path& p, const std::string& text) {
+  std::ofstream f(p, std::ios::binary);
+  f << text;
+}
+
+std::vector<double> row(const std::string& line) {
+  std::vector<double> v;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
+  return v;
+}
+
+const std::string kSource = VMSIM_SOURCE_DIR;
+
+}  // namespace
+
+TEST(Cli, VersionAndHelp) {
+  TempDir tmp;
+  CliRun v = vmsim("--version", tmp);
+  EXPECT_EQ(v.code, 0);
+  EXPECT_NE(v.out.find("vmsim 0."), std::string::npos) << v.out;
+  CliRun h = vmsim("--help", tmp);
+  EXPECT_EQ(h.code, 0);
+  for (const char* sub : {"canon", "interp"}) EXPECT_NE(h.out.find(sub), std::string::npos) << h.out;
+  CliRun hi = vmsim("interp --help", tmp);
+  EXPECT_EQ(hi.code, 0);
+  EXPECT_NE(hi.out.find("--summary-only"), std::string::npos) << hi.out;
+  CliRun none = vmsim("", tmp);
+  EXPECT_NE(none.code, 0);
+}
+
+TEST(Cli, InterpWritesSetpointsFromStartToProgramEnd) {
+  TempDir tmp;
+  const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
+  CliRun r = vmsim("interp '" + job + "' --out '" + (tmp.path() / "out").string() + "'", tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("cycle time:"), std::string::npos);
+  EXPECT_NE(r.out.find("reached up to 10000 mm/min"), std::string::npos) << r.out;
+  std::ifstream csv(tmp.path() / "out" / "setpoints.csv");
+  std::string header, line, first, last;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "t_s,X_mm,Y_mm,Z_mm,A_deg,C_deg,path_speed_mm_per_s");
+  std::size_t n = 0;
+  while (std::getline(csv, line)) {
+    if (n == 0) first = line;
+    last = line;
+    const std::vector<double> v = row(line);
+    ASSERT_EQ(v.size(), 7u) << line;
+    ASSERT_NEAR(v[0], n * 1e-3, 1e-9) << "sample " << n;  // Te = 1 ms
+    ++n;
+  }
+  ASSERT_GT(n, 1000u);
+  // LinuxCNC starts at the origin; the program ends with G0 Z40 at X134.461524 Y5 under G43 with a 50 mm tool:
+  // the Z axis ends at 40 + 50.
+  const std::vector<double> a = row(first), b = row(last);
+  EXPECT_EQ(a[1], 0.0);
+  EXPECT_EQ(a[2], 0.0);
+  EXPECT_EQ(a[3], 0.0);
+  EXPECT_NEAR(b[1], 134.461524, 1e-9);
+  EXPECT_NEAR(b[2], 5.0, 1e-9);
+  EXPECT_NEAR(b[3], 90.0, 1e-9);
+}
+
+TEST(Cli, UnknownJobKeyIsAnErrorNamingFileLineAndKey) {
+  TempDir tmp;
+  const fs::path job = tmp.path() / "job.toml";
+  write(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"" + kSource +
+                 "/parts/plane_cylinder/plane_cylinder_fast.ngc\"\n[interpolation]\nperiod_ms = 1\ntolerence_mm = 0.01\n");
+  CliRun r = vmsim("interp '" + job.string() + "' --summary-only", tmp);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find(job.string() + ":6:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("interpolation.tolerence_mm"), std::string::npos) << r.err;
+}
+
+TEST(Cli, ProgramErrorNamesTheLineAndWritesNothing) {
+  TempDir tmp;
+  const fs::path prog = tmp.path() / "bad.ngc";
+  write(prog, "G21 G90\nG1 X10 F100\nG1 X20 Q7 F100\nM2\n");  // Q is not a word of G1
+  const fs::path job = tmp.path() / "job.toml";
+  write(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"bad.ngc\"\n");
+  const fs::path out = tmp.path() / "out";
+  CliRun r = vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad.ngc:3"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out / "setpoints.csv"));
+}
+
+TEST(Cli, TravelErrorLeavesNoOutputFile) {
+  TempDir tmp;
+  const fs::path prog = tmp.path() / "far.ngc";
+  write(prog, "G21 G90\nG1 X100 F1000\nG1 X500\nM2\n");  // X travel of the Mikron is +-355 mm
+  const fs::path job = tmp.path() / "job.toml";
+  write(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"far.ngc\"\n");
+  const fs::path out = tmp.path() / "out";
+  fs::create_directories(out);
+  CliRun r = vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("far.ngc:3"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("travel"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_empty(out));  // neither setpoints.csv nor a temporary file
+}
+
+TEST(Cli, CanonPrintsLinuxCncCalls) {
+  TempDir tmp;
+  const fs::path prog = tmp.path() / "arc.ngc";
+  write(prog, "G21 G90 F300\nG1 X10\nG2 X20 Y0 I5 J0\nM2\n");
+  CliRun r = vmsim("canon '" + prog.string() + "'", tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("STRAIGHT_FEED(10.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)"), std::string::npos) << r.out;
+  // LinuxCNC's ARC_FEED(first_end, second_end, first_axis, second_axis, rotation, axis_end, a, b, c): clockwise.
+  EXPECT_NE(r.out.find("ARC_FEED(20.0000, 0.0000, 15.0000, 0.0000, -1, 0.0000, 0.0000, 0.0000, 0.0000)"),
+            std::string::npos)
+      << r.out;
+}
