@@ -26,6 +26,56 @@ int program_axis_of(const std::string& name) {
   return -1;
 }
 
+DriveParams read_drive(const TomlTable& t, const MachineAxis& ax) {
+  DriveParams d;
+  const bool linear = ax.kind == AxisKind::Linear;
+  d.kv_per_s = t.positive("kv_1000_per_min") * units::kKvMPerMinPerMmToPerS;
+  d.kf = t.opt_nonnegative("kf").value_or(0.0);
+  d.ka = t.opt_nonnegative("ka").value_or(0.0);
+  auto samples = [&](const char* key) {
+    const long long n = t.opt_integer(key).value_or(0);
+    if (n < 0 || n > 100) t.fail(key, fmt::format("expected 0..100 samples, found {}", n));
+    return static_cast<int>(n);
+  };
+  d.position_delay_samples = samples("position_delay_samples");
+  d.feedforward_delay_samples = samples("feedforward_delay_samples");
+  d.velocity_period_s = t.positive("velocity_loop_period_us") * 1e-6;
+  d.velocity_kp_A_s_per_rad = t.positive("velocity_kp_A_s_per_rad");
+  d.velocity_tn_s = t.positive("velocity_tn_ms") * 1e-3;
+  d.current_limit_A = t.positive("current_limit_A");
+  d.current_period_s = t.positive("current_loop_period_us") * 1e-6;
+  if (d.current_period_s > d.velocity_period_s)
+    t.fail("current_loop_period_us", "expected a period no longer than the velocity loop's");
+  d.current_kp_V_per_A = t.positive("current_kp_V_per_A");
+  d.current_tn_s = t.positive("current_tn_ms") * 1e-3;
+  d.resistance_ohm = t.positive("resistance_ohm");
+  d.inductance_H = t.positive("inductance_mH") * 1e-3;
+  d.torque_constant_Nm_per_A = t.positive("torque_constant_Nm_per_A");
+  d.voltage_limit_V = t.positive("voltage_limit_V");
+  d.inertia_kg_m2 = t.positive("inertia_kg_m2");
+  d.coulomb_Nm = t.opt_nonnegative("coulomb_friction_Nm").value_or(0.0);
+  d.viscous_Nm_s_per_rad = t.opt_nonnegative("viscous_friction_Nm_s_per_rad").value_or(0.0);
+  if (auto st = t.opt_nonnegative("stribeck_static_Nm")) {
+    if (*st <= d.coulomb_Nm) t.fail("stribeck_static_Nm", "expected a breakaway torque above coulomb_friction_Nm");
+    d.stribeck_static_Nm = *st;
+    d.stribeck_velocity_rad_per_s = t.positive("stribeck_velocity_rad_per_s");
+  }
+  if (linear) {
+    d.axis_per_motor_rad = t.positive("screw_lead_mm") / (2 * units::kPi);
+  } else {
+    d.axis_per_motor_rad = t.positive("gear_deg_per_motor_rev") * units::kDegToRad / (2 * units::kPi);
+  }
+  const std::string g = t.opt_choice("gravity", {"none", "constant", "tilting"}).value_or("none");
+  if (g != "none") {
+    d.gravity = g == "constant" ? DriveParams::Gravity::Constant : DriveParams::Gravity::Tilting;
+    if (g == "tilting" && linear) t.fail("gravity", "\"tilting\" is for rotary axes (a linear axis is \"constant\")");
+    d.gravity_Nm = t.number("gravity_torque_Nm");
+    d.gravity_angle_offset_rad = t.opt_number("gravity_angle_offset_deg").value_or(0.0) * units::kDegToRad;
+  }
+  t.finish();
+  return d;
+}
+
 MachineAxis read_axis(const TomlTable& t) {
   // A limit that is finite in the file can overflow in the unit conversion (1e308 m/min); an infinite limit
   // would silently switch off the check it stands for.
@@ -65,6 +115,7 @@ MachineAxis read_axis(const TomlTable& t) {
     t.fail(ax.kind == AxisKind::Linear ? "travel_mm" : "travel_deg", "expected [min, max] with min < max");
   // Documentation of where each value comes from; read so that it is not an unknown key.
   (void)t.opt_string("source");
+  if (auto d = t.opt_table("drive")) ax.drive = read_drive(*d, ax);
   t.finish();
   return ax;
 }

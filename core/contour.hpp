@@ -1,0 +1,29 @@
+#pragma once
+// Contour error: the shortest distance from the actual tool position to the commanded path, signed
+// (seed 000 section III.B eq. 1-2, seed 001 section 4).
+#include <Eigen/Core>
+
+#include <optional>
+
+namespace vmsim::core {
+
+struct ContourOptions {
+  // Search window (command samples) around the previous foot point; it bounds the cost and keeps the foot
+  // point from jumping to a neighbouring raster pass. <= 0: chosen from the largest tracking error.
+  int window_samples = 0;
+  // Planar profiles: the sign follows the in-plane normal n = plane_normal x tangent (seed 000's XZ profile:
+  // plane_normal = +Y). Without it the sign follows the principal normal of the command path.
+  std::optional<Eigen::Vector3d> plane_normal;
+};
+
+struct ContourError {
+  Eigen::ArrayXd signed_mm;     // per actual sample
+  Eigen::ArrayXi foot_segment;  // command segment [i, i+1] holding the foot point
+  double max_abs_mm = 0.0, rms_mm = 0.0, mse_um2 = 0.0;
+};
+
+// command, actual: samples x 3 (mm), the same sampling instants (actual may have extra settling rows).
+ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd& actual,
+                           const ContourOptions& options = {});
+
+}  // namespace vmsim::core
