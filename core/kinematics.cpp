@@ -9,7 +9,32 @@ void require_xyz(const Machine& machine) {
   if (machine.kinematics != "xyz")
     throw Error(machine.source_file + ": kinematics \"" + machine.kinematics + "\" is not supported here");
 }
+class CartesianXyz final : public Kinematics {
+ public:
+  explicit CartesianXyz(const Machine& m) : x_(m.axis_index(kX)), y_(m.axis_index(kY)), z_(m.axis_index(kZ)) {}
+  ToolPose forward(const Eigen::VectorXd& axes, double tlo) const override {
+    ToolPose p;
+    p.tip_mm = Eigen::Vector3d(axes[x_], axes[y_], axes[z_] - tlo);
+    return p;
+  }
+  Eigen::VectorXd inverse(const ToolPose& pose, double tlo, const Eigen::VectorXd& near) const override {
+    Eigen::VectorXd a = near;
+    a[x_] = pose.tip_mm.x();
+    a[y_] = pose.tip_mm.y();
+    a[z_] = pose.tip_mm.z() + tlo;
+    return a;
+  }
+
+ private:
+  int x_, y_, z_;
+};
+
 }  // namespace
+
+std::unique_ptr<Kinematics> make_kinematics(const Machine& machine) {
+  require_xyz(machine);
+  return std::make_unique<CartesianXyz>(machine);
+}
 
 Vec6 axes_from_tip(const Vec6& tip, double tool_length_offset_mm, const Machine& machine) {
   require_xyz(machine);
