@@ -13,63 +13,61 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr Interval kEmpty{1.0f, -1.0f};
 }  // namespace
 
-DexelGrid::DexelGrid(const Eigen::Vector3d& origin, const Eigen::Vector3d& U, const Eigen::Vector3d& V, double du,
-                     double dv, int nu, int nv, double length)
-    : origin_(origin), U_(U.normalized()), V_(V.normalized()), W_(U.normalized().cross(V.normalized())), du_(du),
-      dv_(dv), length_(length), nu_(nu), nv_(nv) {
-  if (nu <= 0 || nv <= 0 || !(du > 0) || !(dv > 0) || !(length > 0))
-    throw core::Error("dexel grid: expected positive sizes and spacings");
-  head_.assign(static_cast<std::size_t>(nu) * static_cast<std::size_t>(nv), kEmpty);
-  overflow_.resize(static_cast<std::size_t>(nv));
-}
+IntervalStore::IntervalStore(std::size_t rays, std::size_t rays_per_row)
+    : per_row_(std::max<std::size_t>(1, rays_per_row)), head_(rays, kEmpty),
+      overflow_((rays + per_row_ - 1) / per_row_ + 1) {}
 
-void DexelGrid::fill(double lo, double hi) {
+void IntervalStore::fill(double lo, double hi) {
   std::fill(head_.begin(), head_.end(), Interval{static_cast<float>(lo), static_cast<float>(hi)});
   for (auto& row : overflow_) row.clear();
 }
 
-std::vector<Interval>& DexelGrid::spill(int i, int j) { return overflow_[static_cast<std::size_t>(j)][i]; }
-
-void DexelGrid::set_intervals(int i, int j, const std::vector<Interval>& iv) {
-  Interval& h = head_[static_cast<std::size_t>(j) * nu_ + i];
-  if (std::isnan(h.lo)) overflow_[static_cast<std::size_t>(j)].erase(i);
+void IntervalStore::set(std::size_t ray, const std::vector<Interval>& iv) {
+  Interval& h = head_[ray];
+  if (std::isnan(h.lo)) row_of(ray).erase(ray);
   if (iv.empty()) {
     h = kEmpty;
   } else if (iv.size() == 1) {
     h = iv.front();
   } else {
     h = Interval{kNaN, kNaN};
-    spill(i, j) = iv;
+    row_of(ray)[ray] = iv;
   }
 }
 
-void DexelGrid::intervals(int i, int j, std::vector<Interval>& out) const {
+void IntervalStore::get(std::size_t ray, std::vector<Interval>& out) const {
   out.clear();
-  const Interval& h = head_[static_cast<std::size_t>(j) * nu_ + i];
+  const Interval& h = head_[ray];
   if (std::isnan(h.lo)) {
-    const auto& row = overflow_[static_cast<std::size_t>(j)];
-    out = row.at(i);
+    out = row_of(ray).at(ray);
   } else if (!is_empty(h)) {
     out.push_back(h);
   }
 }
 
-double DexelGrid::top(int i, int j) const {
-  const Interval& h = head_[static_cast<std::size_t>(j) * nu_ + i];
-  if (std::isnan(h.lo)) return overflow_[static_cast<std::size_t>(j)].at(i).back().hi;
+double IntervalStore::top(std::size_t ray) const {
+  const Interval& h = head_[ray];
+  if (std::isnan(h.lo)) return row_of(ray).at(ray).back().hi;
   if (is_empty(h)) return std::numeric_limits<double>::quiet_NaN();
   return h.hi;
 }
 
-void DexelGrid::subtract(int i, int j, double t0, double t1) {
-  Interval& h = head_[static_cast<std::size_t>(j) * nu_ + i];
+double IntervalStore::bottom(std::size_t ray) const {
+  const Interval& h = head_[ray];
+  if (std::isnan(h.lo)) return row_of(ray).at(ray).front().lo;
+  if (is_empty(h)) return std::numeric_limits<double>::quiet_NaN();
+  return h.lo;
+}
+
+void IntervalStore::subtract(std::size_t ray, double t0, double t1) {
+  Interval& h = head_[ray];
   if (!std::isnan(h.lo)) {
     if (is_empty(h) || t1 <= h.lo || t0 >= h.hi) return;
     const bool keep_low = t0 > h.lo, keep_high = t1 < h.hi;
     if (keep_low && keep_high) {  // the cut splits the interval
       const Interval lowp{h.lo, static_cast<float>(t0)}, highp{static_cast<float>(t1), h.hi};
       h = Interval{kNaN, kNaN};
-      spill(i, j) = {lowp, highp};
+      row_of(ray)[ray] = {lowp, highp};
     } else if (keep_low) {
       h.hi = static_cast<float>(t0);
     } else if (keep_high) {
@@ -80,8 +78,8 @@ void DexelGrid::subtract(int i, int j, double t0, double t1) {
     return;
   }
   // Several intervals: rebuild the list without [t0, t1].
-  auto& row = overflow_[static_cast<std::size_t>(j)];
-  std::vector<Interval>& iv = row.at(i);
+  auto& row = row_of(ray);
+  std::vector<Interval>& iv = row.at(ray);
   std::vector<Interval> out;
   out.reserve(iv.size() + 1);
   for (const Interval& x : iv) {
@@ -93,26 +91,44 @@ void DexelGrid::subtract(int i, int j, double t0, double t1) {
     if (t1 < x.hi) out.push_back({static_cast<float>(t1), x.hi});
   }
   if (out.size() <= 1) {
-    row.erase(i);
+    row.erase(ray);
     h = out.empty() ? kEmpty : out.front();
   } else {
     iv.swap(out);
   }
 }
 
-std::size_t DexelGrid::memory_bytes() const {
+std::size_t IntervalStore::memory_bytes() const {
   std::size_t b = head_.capacity() * sizeof(Interval) + overflow_.capacity() * sizeof(overflow_[0]);
   for (const auto& row : overflow_)
     for (const auto& [k, v] : row) b += sizeof(k) + sizeof(v) + 2 * sizeof(void*) + v.capacity() * sizeof(Interval);
   return b;
 }
 
-std::size_t DexelGrid::interval_count() const {
+std::size_t IntervalStore::interval_count() const {
   std::size_t n = 0;
   for (const Interval& h : head_) n += !std::isnan(h.lo) && !is_empty(h);
   for (const auto& row : overflow_)
     for (const auto& [k, v] : row) n += v.size();
   return n;
+}
+
+DexelGrid::DexelGrid(const Eigen::Vector3d& origin, const Eigen::Vector3d& U, const Eigen::Vector3d& V, double du,
+                     double dv, int nu, int nv, double length)
+    : origin_(origin), U_(U.normalized()), V_(V.normalized()), W_(U.normalized().cross(V.normalized())), du_(du),
+      dv_(dv), length_(length), nu_(nu), nv_(nv) {
+  if (nu <= 0 || nv <= 0 || !(du > 0) || !(dv > 0) || !(length > 0))
+    throw core::Error("dexel grid: expected positive sizes and spacings");
+  store_ = IntervalStore(static_cast<std::size_t>(nu) * static_cast<std::size_t>(nv), static_cast<std::size_t>(nu));
+}
+
+NeedleSet::NeedleSet(std::vector<Eigen::Vector3d> origin, std::vector<Eigen::Vector3d> direction,
+                     std::vector<double> length)
+    : origin_(std::move(origin)), dir_(std::move(direction)), length_(std::move(length)) {
+  if (origin_.size() != dir_.size() || origin_.size() != length_.size())
+    throw core::Error("needle set: origins, directions and lengths differ in number");
+  for (auto& d : dir_) d.normalize();
+  store_ = IntervalStore(origin_.size(), kBlock);
 }
 
 }  // namespace vmsim::removal

@@ -20,6 +20,35 @@ struct Interval {
   float lo, hi;
 };
 
+// Material intervals of a set of rays: one interval per ray in place (8 bytes), more in a per-row overflow table.
+// Rays are grouped in rows; concurrent updates of different rows are safe.
+class IntervalStore {
+ public:
+  IntervalStore() = default;
+  IntervalStore(std::size_t rays, std::size_t rays_per_row);
+  std::size_t size() const { return head_.size(); }
+
+  void fill(double lo, double hi);
+  void set(std::size_t ray, const std::vector<Interval>& iv);
+  void get(std::size_t ray, std::vector<Interval>& out) const;  // sorted, disjoint
+  double top(std::size_t ray) const;                            // highest material point, NaN when empty
+  double bottom(std::size_t ray) const;                         // lowest material point, NaN when empty
+  void subtract(std::size_t ray, double t0, double t1);
+  std::size_t memory_bytes() const;
+  std::size_t interval_count() const;
+
+ private:
+  static bool is_empty(const Interval& h) { return !(h.lo <= h.hi); }
+  std::unordered_map<std::size_t, std::vector<Interval>>& row_of(std::size_t ray) { return overflow_[ray / per_row_]; }
+  const std::unordered_map<std::size_t, std::vector<Interval>>& row_of(std::size_t ray) const {
+    return overflow_[ray / per_row_];
+  }
+  std::size_t per_row_ = 1;
+  // lo = NaN: the ray's intervals are in the overflow table; lo > hi: empty.
+  std::vector<Interval> head_;
+  std::vector<std::unordered_map<std::size_t, std::vector<Interval>>> overflow_;
+};
+
 class DexelGrid {
  public:
   DexelGrid() = default;
@@ -37,31 +66,45 @@ class DexelGrid {
   const Eigen::Vector3d& V() const { return V_; }
   const Eigen::Vector3d& W() const { return W_; }
   Eigen::Vector3d ray_origin(int i, int j) const { return origin_ + (i * du_) * U_ + (j * dv_) * V_; }
+  std::size_t ray(int i, int j) const { return static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_) + i; }
 
   // Every ray full over [lo, hi] (ray parameters).
-  void fill(double lo, double hi);
-  void set_intervals(int i, int j, const std::vector<Interval>& iv);
-  // The material intervals of a ray, sorted, disjoint.
-  void intervals(int i, int j, std::vector<Interval>& out) const;
-  // Highest material point along the ray (the part's surface seen against the ray), or NaN when empty.
-  double top(int i, int j) const;
+  void fill(double lo, double hi) { store_.fill(lo, hi); }
+  void set_intervals(int i, int j, const std::vector<Interval>& iv) { store_.set(ray(i, j), iv); }
+  void intervals(int i, int j, std::vector<Interval>& out) const { store_.get(ray(i, j), out); }
+  double top(int i, int j) const { return store_.top(ray(i, j)); }
   // Removes [t0, t1] from a ray. Rows may be updated concurrently; one row must not.
-  void subtract(int i, int j, double t0, double t1);
+  void subtract(int i, int j, double t0, double t1) { store_.subtract(ray(i, j), t0, t1); }
 
-  std::size_t memory_bytes() const;
-  std::size_t interval_count() const;
+  std::size_t memory_bytes() const { return store_.memory_bytes(); }
+  std::size_t interval_count() const { return store_.interval_count(); }
 
  private:
-  static bool is_empty(const Interval& h) { return !(h.lo <= h.hi); }
-  std::vector<Interval>& spill(int i, int j);
-
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero(), U_ = Eigen::Vector3d::UnitX(), V_ = Eigen::Vector3d::UnitY(),
                   W_ = Eigen::Vector3d::UnitZ();
   double du_ = 1, dv_ = 1, length_ = 0;
   int nu_ = 0, nv_ = 0;
-  // One interval per ray in place. lo = NaN: the ray's intervals are in overflow_[j][i]; lo > hi: empty.
-  std::vector<Interval> head_;
-  std::vector<std::unordered_map<int, std::vector<Interval>>> overflow_;
+  IntervalStore store_;
+};
+
+// Needles: rays at chosen points along chosen directions (seed 004's N-buffer: normals of the nominal surface,
+// or the rays of a measurement grid). Needle k runs from origin[k] along direction[k] over [0, length[k]].
+class NeedleSet {
+ public:
+  NeedleSet() = default;
+  NeedleSet(std::vector<Eigen::Vector3d> origin, std::vector<Eigen::Vector3d> direction, std::vector<double> length);
+  std::size_t size() const { return origin_.size(); }
+  const Eigen::Vector3d& origin(std::size_t k) const { return origin_[k]; }
+  const Eigen::Vector3d& direction(std::size_t k) const { return dir_[k]; }
+  double length(std::size_t k) const { return length_[k]; }
+  IntervalStore& store() { return store_; }
+  const IntervalStore& store() const { return store_; }
+  static constexpr std::size_t kBlock = 64;  // needles per row of the store (a work item)
+
+ private:
+  std::vector<Eigen::Vector3d> origin_, dir_;
+  std::vector<double> length_;
+  IntervalStore store_;
 };
 
 }  // namespace vmsim::removal

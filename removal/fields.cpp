@@ -1,0 +1,138 @@
+#include "removal/fields.hpp"
+
+#include "core/error.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace vmsim::removal {
+
+namespace {
+int count(double extent, double h) { return std::max(1, static_cast<int>(std::floor(extent / h + 1e-9)) + 1); }
+
+// Parameter range of the ray o + t u inside the box (slab method); false when it misses.
+bool ray_box(const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Box& b, double& t0, double& t1) {
+  t0 = -1e300;
+  t1 = 1e300;
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(u[i]) < 1e-15) {
+      if (o[i] < b.lo[i] || o[i] > b.hi[i]) return false;
+      continue;
+    }
+    double a = (b.lo[i] - o[i]) / u[i], c = (b.hi[i] - o[i]) / u[i];
+    if (a > c) std::swap(a, c);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, c);
+  }
+  return t0 <= t1;
+}
+}  // namespace
+
+DexelGrid make_zmap(const Box& r, double h) {
+  if (!(h > 0)) throw core::Error("z-map: the spacing must be > 0");
+  const Eigen::Vector3d ext = r.hi - r.lo;
+  return DexelGrid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, h, count(ext.x(), h), count(ext.y(), h),
+                   ext.z());
+}
+
+TriDexel make_tridexel(const Box& r, double h) {
+  if (!(h > 0)) throw core::Error("tri-dexel: the spacing must be > 0");
+  const Eigen::Vector3d e = r.hi - r.lo;
+  TriDexel t;
+  t.x = DexelGrid(r.lo, Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(), h, h, count(e.y(), h), count(e.z(), h), e.x());
+  t.y = DexelGrid(r.lo, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), h, h, count(e.z(), h), count(e.x(), h), e.y());
+  t.z = DexelGrid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, h, count(e.x(), h), count(e.y(), h), e.z());
+  return t;
+}
+
+void fill_box(DexelGrid& g, const Box& stock) {
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < g.nv(); ++j) {
+    for (int i = 0; i < g.nu(); ++i) {
+      double t0, t1;
+      if (ray_box(g.ray_origin(i, j), g.W(), stock, t0, t1) && t1 > 0 && t0 < g.length()) {
+        g.set_intervals(i, j, {Interval{static_cast<float>(std::max(0.0, t0)), static_cast<float>(std::min(g.length(), t1))}});
+      } else {
+        g.set_intervals(i, j, {});
+      }
+    }
+  }
+}
+
+void fill_box(NeedleSet& n, const Box& stock) {
+  const auto count_n = static_cast<std::ptrdiff_t>(n.size());
+  const auto blocks = (count_n + static_cast<std::ptrdiff_t>(NeedleSet::kBlock) - 1) / static_cast<std::ptrdiff_t>(NeedleSet::kBlock);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+    for (std::ptrdiff_t k = b * NeedleSet::kBlock; k < std::min(count_n, (b + 1) * static_cast<std::ptrdiff_t>(NeedleSet::kBlock)); ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      double t0, t1;
+      if (ray_box(n.origin(kk), n.direction(kk), stock, t0, t1) && t1 > 0 && t0 < n.length(kk)) {
+        n.store().set(kk, {Interval{static_cast<float>(std::max(0.0, t0)), static_cast<float>(std::min(n.length(kk), t1))}});
+      } else {
+        n.store().set(kk, {});
+      }
+    }
+  }
+}
+
+CutStats cut(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
+  // Each block of needles gathers the sweeps whose bounding boxes meet its own (a sort-and-sweep on x keeps this
+  // near-linear for spatially ordered needles, as a measurement grid's are).
+  const std::size_t nblocks = (n.size() + NeedleSet::kBlock - 1) / NeedleSet::kBlock;
+  std::vector<Box> sb(sweeps.size());
+  std::vector<std::size_t> order(sweeps.size());
+  for (std::size_t k = 0; k < sweeps.size(); ++k) {
+    sweeps[k].bounds(sb[k].lo, sb[k].hi);
+    order[k] = k;
+  }
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return sb[a].lo.x() < sb[b].lo.x(); });
+  double max_width = 0;
+  for (const Box& b : sb) max_width = std::max(max_width, b.hi.x() - b.lo.x());
+  std::size_t tests = 0, cuts = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : tests, cuts)
+  for (std::ptrdiff_t bi = 0; bi < static_cast<std::ptrdiff_t>(nblocks); ++bi) {
+    const std::size_t k0 = static_cast<std::size_t>(bi) * NeedleSet::kBlock, k1 = std::min(n.size(), k0 + NeedleSet::kBlock);
+    Box bb{Eigen::Vector3d::Constant(1e300), Eigen::Vector3d::Constant(-1e300)};
+    for (std::size_t k = k0; k < k1; ++k) {
+      const Eigen::Vector3d a = n.origin(k), e = a + n.length(k) * n.direction(k);
+      bb.lo = bb.lo.cwiseMin(a.cwiseMin(e));
+      bb.hi = bb.hi.cwiseMax(a.cwiseMax(e));
+    }
+    // Sweeps with lo.x in [bb.lo.x - max_width, bb.hi.x].
+    auto first = std::lower_bound(order.begin(), order.end(), bb.lo.x() - max_width,
+                                  [&](std::size_t s, double v) { return sb[s].lo.x() < v; });
+    std::vector<std::size_t> cand;
+    for (auto it = first; it != order.end() && sb[*it].lo.x() <= bb.hi.x(); ++it) {
+      const Box& s = sb[*it];
+      if ((s.hi.array() >= bb.lo.array()).all() && (s.lo.array() <= bb.hi.array()).all()) cand.push_back(*it);
+    }
+    std::sort(cand.begin(), cand.end());  // program order (the result does not depend on it, but keep it tidy)
+    for (std::size_t k = k0; k < k1; ++k) {
+      for (std::size_t s : cand) {
+        double t0, t1;
+        ++tests;
+        if (!ray_interval(sweeps[s], n.origin(k), n.direction(k), t0, t1)) continue;
+        if (t1 <= 0 || t0 >= n.length(k)) continue;
+        n.store().subtract(k, t0, t1);
+        ++cuts;
+      }
+    }
+  }
+  return {tests, cuts};
+}
+
+core::HeightGrid height_grid(const DexelGrid& g) {
+  if ((g.W() - Eigen::Vector3d::UnitZ()).norm() > 1e-12) throw core::Error("height grid: the dexel grid is not along +Z");
+  core::HeightGrid h;
+  h.x0_mm = g.origin().x();
+  h.y0_mm = g.origin().y();
+  h.dx_mm = g.du();
+  h.dy_mm = g.dv();
+  h.z_mm.resize(g.nv(), g.nu());
+  for (int j = 0; j < g.nv(); ++j)
+    for (int i = 0; i < g.nu(); ++i) h.z_mm(j, i) = g.origin().z() + g.top(i, j);
+  return h;
+}
+
+}  // namespace vmsim::removal
