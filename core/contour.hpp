@@ -20,9 +20,15 @@ struct ContourError {
   Eigen::ArrayXd signed_mm;     // per actual sample
   Eigen::ArrayXi foot_segment;  // command segment [i, i+1] holding the foot point
   double max_abs_mm = 0.0, rms_mm = 0.0, mse_um2 = 0.0;
+  int window_samples = 0;       // the search window used (the option, or the default chosen from the data)
 };
 
-// command, actual: samples x 3 (mm), the same sampling instants (actual may have extra settling rows).
+// command, actual: samples x 3 (mm), the same sampling instants (actual may have extra settling rows; the
+// command's last point is held). Per actual sample: the nearest command sample near the previous foot point, then
+// the exact distance to its two adjacent segments. Sign: sign(n . E), E = foot point - actual (command minus
+// actual, as seed 000's E = X_d - X_a); n = plane_normal x tangent, or the principal normal of the command path
+// (carried over straight stretches). Positive: the actual lies on the -n side (outside a curve). contour.cpp
+// says how the search keeps to the pass being followed. Throws core::Error for non-finite or non-3D input.
 ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd& actual,
                            const ContourOptions& options = {});
 
