@@ -1,0 +1,187 @@
+#include "drives/simulate.hpp"
+
+#include "core/error.hpp"
+#include "drives/cascade_axis.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <optional>
+
+namespace vmsim::drives {
+
+namespace {
+
+using Index = Eigen::Index;
+
+// Everything one axis needs, prepared before the parallel region (nothing in it allocates or throws).
+struct AxisJob {
+  std::optional<CascadeAxis> model;  // empty: an axis without a drive that never moves (it holds its position)
+  const double* kv = nullptr;        // this axis' column of the gain schedule (setpoint rows), or null
+  const double* kf = nullptr;
+  std::vector<InnerSample> inner;    // one Te of current-loop samples, for the full-rate trace
+};
+
+// One axis from its setpoint column to its response columns. Row k of the response is the axis at t = k*Te, the
+// instant setpoint k is sent: row 0 is the resting state after reset, row k+1 the state after the drive has worked
+// on setpoint k for one Te. Beyond the last setpoint the NC holds it (and its last gains) for the settling rows.
+void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double te, Index rows, AxisResponse& out,
+              FullRateTrace* trace) {
+  const Index n_set = setpoints.rows();
+  const double x0 = setpoints(0, axis);
+  if (!job.model) {
+    out.position.col(axis).setConstant(x0);
+    return;
+  }
+  CascadeAxis& m = *job.model;
+  std::vector<InnerSample>& inner = job.inner;
+  const Index nin = m.inner_steps();
+
+  AxisSample s = m.sample();
+  double prev_x = x0, prev_v = 0.0;  // the NC's previous setpoint and velocity (at rest before the first one)
+  for (Index k = 0; k < rows; ++k) {
+    out.position(k, axis) = s.position;
+    out.velocity(k, axis) = s.velocity;
+    out.acceleration(k, axis) = s.acceleration;
+    out.current_A(k, axis) = s.current_A;
+    out.current_setpoint_A(k, axis) = s.current_setpoint_A;
+    if (k + 1 == rows) break;
+    const Index ks = k < n_set ? k : n_set - 1;
+    AxisCommand c;
+    c.position = setpoints(ks, axis);
+    // The NC's feedforward set points: backward differences of the position setpoints.
+    c.velocity = (c.position - prev_x) / te;
+    c.acceleration = (c.velocity - prev_v) / te;
+    prev_x = c.position;
+    prev_v = c.velocity;
+    if (job.kv) c.kv_per_s = job.kv[ks];
+    if (job.kf) c.kf = job.kf[ks];
+    if (trace) {
+      s = m.step(c, inner.data());
+      for (Index n = 0; n < nin; ++n) {
+        const InnerSample& q = inner[static_cast<std::size_t>(n)];
+        const Index r = k * nin + n;
+        trace->position[r] = q.position;
+        trace->velocity[r] = q.velocity;
+        trace->current_A[r] = q.current_A;
+        trace->current_setpoint_A[r] = q.current_setpoint_A;
+        trace->voltage_V[r] = q.voltage_V;
+      }
+    } else {
+      s = m.step(c);
+    }
+  }
+  if (trace) {  // the last row's instant closes the trace
+    const InnerSample q = m.inner_sample();
+    const Index r = (rows - 1) * nin;
+    trace->position[r] = q.position;
+    trace->velocity[r] = q.velocity;
+    trace->current_A[r] = q.current_A;
+    trace->current_setpoint_A[r] = q.current_setpoint_A;
+    trace->voltage_V[r] = q.voltage_V;
+  }
+  // Jerk: backward difference of the accelerations (at rest before row 0).
+  for (Index k = 0; k < rows; ++k)
+    out.jerk(k, axis) = (out.acceleration(k, axis) - (k > 0 ? out.acceleration(k - 1, axis) : 0.0)) / te;
+}
+
+}  // namespace
+
+AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine& machine,
+                           const SimulateOptions& options) {
+  const std::string& file = machine.source_file;
+  const Index n_axes = static_cast<Index>(machine.axes.size());
+  const double te = setpoints.period_s;
+  if (!(te > 0.0 && std::isfinite(te)))
+    throw core::Error(fmt::format("setpoints: the period Te must be positive, found {}", te));
+  if (setpoints.samples() == 0) throw core::Error("setpoints: no samples to simulate");
+  if (setpoints.position.cols() != n_axes)
+    throw core::Error(core::located(file, 0, fmt::format("the setpoints have {} axes, the machine {}",
+                                                         setpoints.position.cols(), n_axes)));
+  if (!setpoints.axis_names.empty()) {
+    for (Index a = 0; a < n_axes; ++a)
+      if (static_cast<std::size_t>(a) >= setpoints.axis_names.size() ||
+          setpoints.axis_names[static_cast<std::size_t>(a)] != machine.axes[static_cast<std::size_t>(a)].name)
+        throw core::Error(core::located(file, 0, "the setpoints' axes are not the machine's axes in its order"));
+  }
+  if (!setpoints.position.allFinite()) throw core::Error("setpoints: a position is not finite");
+  if (!(options.settle_s >= 0.0 && std::isfinite(options.settle_s)))
+    throw core::Error(fmt::format("settle_s must be >= 0, found {}", options.settle_s));
+
+  const Index n_set = setpoints.samples();
+  const Index rows = n_set + static_cast<Index>(std::llround(options.settle_s / te));
+
+  const GainSchedule* g = options.gains;
+  const auto check_schedule = [&](const Eigen::MatrixXd& m, const char* what) {
+    if (m.size() == 0) return false;
+    if (m.rows() != n_set || m.cols() != n_axes)
+      throw core::Error(fmt::format("gain schedule {}: {} x {}, expected one row per setpoint and a column per axis "
+                                    "({} x {})",
+                                    what, m.rows(), m.cols(), n_set, n_axes));
+    for (Index i = 0; i < m.size(); ++i) {
+      const double v = m.data()[i];
+      if (!std::isnan(v) && !(std::isfinite(v) && v >= 0.0))
+        throw core::Error(fmt::format("gain schedule {}: {} at row {} is not a gain (expected >= 0, or NaN for the "
+                                      "drive's own)",
+                                      what, v, i % m.rows()));
+    }
+    return true;
+  };
+  const bool have_kv = g && check_schedule(g->kv_per_s, "kv_per_s");
+  const bool have_kf = g && check_schedule(g->kf, "kf");
+  if (have_kv && (g->kv_per_s.array() == 0.0).any()) throw core::Error("gain schedule kv_per_s: Kv must be > 0");
+
+  AxisResponse out;
+  out.period_s = te;
+  for (const auto& ax : machine.axes) out.axis_names.push_back(ax.name);
+  for (Eigen::MatrixXd* m : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
+                             &out.current_setpoint_A})
+    m->setZero(rows, n_axes);
+
+  std::vector<AxisJob> jobs(static_cast<std::size_t>(n_axes));
+  if (options.full_rate_trace) out.trace.resize(static_cast<std::size_t>(n_axes));
+  for (Index a = 0; a < n_axes; ++a) {
+    const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(a)];
+    AxisJob& job = jobs[static_cast<std::size_t>(a)];
+    const bool moves = (setpoints.position.col(a).array() != setpoints.position(0, a)).any();
+    if (!ax.drive) {
+      if (moves)
+        throw core::Error(core::located(
+            file, 0,
+            fmt::format("axis {} moves but has no [axes.drive] section: its drive cannot be simulated (add the "
+                        "drive parameters, see parts/README.md)",
+                        ax.name)));
+      continue;
+    }
+    try {
+      job.model.emplace(*ax.drive, te, ax.kind);
+      job.model->reset(setpoints.position(0, a));
+    } catch (const core::Error& e) {
+      throw core::Error(core::located(file, 0, fmt::format("axis {} [axes.drive]: {}", ax.name, e.what())));
+    }
+    if (have_kv) job.kv = g->kv_per_s.col(a).data();
+    if (have_kf) job.kf = g->kf.col(a).data();
+    if (options.full_rate_trace) {
+      FullRateTrace& t = out.trace[static_cast<std::size_t>(a)];
+      t.period_s = ax.drive->current_period_s;
+      job.inner.resize(static_cast<std::size_t>(job.model->inner_steps()));
+      const Index n = (rows - 1) * job.model->inner_steps() + 1;
+      for (Eigen::ArrayXd* v : {&t.position, &t.velocity, &t.current_A, &t.current_setpoint_A, &t.voltage_V})
+        v->setZero(n);
+    }
+  }
+
+  // Axes are independent (no coupling in the model, seed 004 section 2.2): each thread runs whole axes, writing
+  // only its own columns, so the results do not depend on the thread count or the schedule.
+  const int n = static_cast<int>(n_axes);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int a = 0; a < n; ++a) {
+    FullRateTrace* t = options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model
+                           ? &out.trace[static_cast<std::size_t>(a)]
+                           : nullptr;
+    run_axis(jobs[static_cast<std::size_t>(a)], setpoints.position, a, te, rows, out, t);
+  }
+  return out;
+}
+
+}  // namespace vmsim::drives
