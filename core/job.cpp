@@ -37,8 +37,11 @@ ToolSpec read_tool(const TomlTable& t) {
 
 StockSpec read_stock(const TomlTable& t) {
   StockSpec s;
-  const std::string type = t.choice("type", {"box", "stl"});
-  if (type == "box") {
+  const std::string type = t.choice("type", {"box", "stl", "job"});
+  if (type == "job") {
+    s.kind = StockSpec::Kind::Job;
+    s.job_file = t.existing_path("job");
+  } else if (type == "box") {
     s.kind = StockSpec::Kind::Box;
     auto lo = t.numbers("min_mm", 3), hi = t.numbers("max_mm", 3);
     s.min_mm = Eigen::Vector3d(lo[0], lo[1], lo[2]);
@@ -50,6 +53,41 @@ StockSpec read_stock(const TomlTable& t) {
   }
   t.finish();
   return s;
+}
+
+RemovalSpec read_removal(const TomlTable& t) {
+  RemovalSpec r;
+  const std::string field = t.opt_choice("field", {"zmap", "tridexel", "nbuffer"}).value_or("zmap");
+  r.field = field == "zmap" ? RemovalSpec::Field::ZMap
+            : field == "tridexel" ? RemovalSpec::Field::TriDexel
+                                  : RemovalSpec::Field::NBuffer;
+  if (auto h = t.opt_positive("spacing_mm")) {
+    if (*h < 1e-4) t.fail("spacing_mm", "expected at least 0.0001 mm");
+    r.spacing_mm = *h;
+  }
+  const std::string motion = t.opt_choice("motion", {"actual", "setpoints", "program"}).value_or("actual");
+  r.motion = motion == "actual" ? RemovalSpec::Motion::Actual
+             : motion == "setpoints" ? RemovalSpec::Motion::Setpoints
+                                     : RemovalSpec::Motion::Program;
+  if (auto tol = t.opt_positive("track_tolerance_mm")) r.track_tolerance_mm = *tol;
+  if (r.field == RemovalSpec::Field::NBuffer) {
+    r.needles_file = t.existing_path("needles_file");
+    r.needle_half_length_mm = t.opt_positive("needle_half_length_mm").value_or(1.0);
+  } else if (t.has("needles_file") || t.has("needle_half_length_mm")) {
+    t.fail(t.has("needles_file") ? "needles_file" : "needle_half_length_mm", "only valid with field = \"nbuffer\"");
+  }
+  t.finish();
+  return r;
+}
+
+ReferenceSpec read_reference(const TomlTable& t) {
+  ReferenceSpec r;
+  const std::string kind = t.opt_choice("kind", {"program", "stock", "none"}).value_or("program");
+  r.kind = kind == "program" ? ReferenceSpec::Kind::Program
+           : kind == "stock" ? ReferenceSpec::Kind::Stock
+                             : ReferenceSpec::Kind::None;
+  t.finish();
+  return r;
 }
 
 InterpSpec read_interp(const TomlTable& t) {
@@ -90,6 +128,10 @@ Job load_job(const std::filesystem::path& path) {
   if (auto t = top.opt_table("tool")) job.tool = read_tool(*t);
   if (auto t = top.opt_table("stock")) job.stock = read_stock(*t);
   if (auto t = top.opt_table("interpolation")) job.interp = read_interp(*t);
+  if (auto t = top.opt_table("removal")) job.removal = read_removal(*t);
+  if (auto t = top.opt_table("reference")) job.reference = read_reference(*t);
+  if (job.reference.kind == ReferenceSpec::Kind::Stock && job.stock.kind != StockSpec::Kind::Job)
+    top.fail("reference", "kind = \"stock\" needs a stock of type \"job\" (the part another job leaves)");
   top.finish();
   return job;
 }

@@ -23,10 +23,31 @@ struct ToolSpec {
 };
 
 struct StockSpec {
-  enum class Kind { None, Box, Mesh } kind = Kind::None;
+  // Box; a closed triangle mesh (binary or ASCII STL); or the part another job leaves (Kind::Job).
+  enum class Kind { None, Box, Mesh, Job } kind = Kind::None;
   Eigen::Vector3d min_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d max_mm = Eigen::Vector3d::Zero();
-  std::filesystem::path mesh_file;  // Kind::Mesh: binary or ASCII STL
+  std::filesystem::path mesh_file;  // Kind::Mesh
+  std::filesystem::path job_file;   // Kind::Job
+};
+
+// How material is removed (seed 004 section 4).
+struct RemovalSpec {
+  enum class Field { ZMap, TriDexel, NBuffer } field = Field::ZMap;
+  double spacing_mm = 0.05;       // ray spacing of z-map and tri-dexel grids
+  // Whose motion cuts: the drives' actual positions (the marks come from the drives), the interpolator's
+  // setpoints, or the programmed path itself (seed 004 section 1: to separate interpolator and drive effects).
+  enum class Motion { Actual, Setpoints, Program } motion = Motion::Actual;
+  double track_tolerance_mm = 1e-4;  // largest distance between the removed motion and the sampled poses
+  std::filesystem::path needles_file;  // NBuffer: CSV x,y,z,nx,ny,nz (mm): needles through points along normals
+  double needle_half_length_mm = 1.0;  // each needle runs from point - L n to point + L n
+};
+
+// What the predicted surface is compared with to find the marks.
+struct ReferenceSpec {
+  // The same program cut exactly along its programmed path (the nominal cut), the stock this job starts from
+  // (for a stock of Kind::Job: the low-feed part of seed 004), or nothing.
+  enum class Kind { Program, Stock, None } kind = Kind::Program;
 };
 
 struct InterpSpec {
@@ -45,6 +66,8 @@ struct Job {
   ToolSpec tool;
   StockSpec stock;
   InterpSpec interp;
+  RemovalSpec removal;
+  ReferenceSpec reference;
 };
 
 Job load_job(const std::filesystem::path& path);
