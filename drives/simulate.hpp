@@ -11,6 +11,7 @@
 namespace vmsim::drives {
 
 // Per-sample gains (seed 000's OGA): samples x axes; NaN keeps the drive's own value. Empty matrices: no schedule.
+// During the settling rows the last row's gains stay in force.
 struct GainSchedule {
   Eigen::MatrixXd kv_per_s, kf;
 };
@@ -21,7 +22,9 @@ struct SimulateOptions {
   double settle_s = 0.2;          // keep simulating this long after the last setpoint (axes come to rest)
 };
 
-// Inner-loop samples of one axis at its current-loop period.
+// Inner-loop samples of one axis at its current-loop period: sample n is at t = n * period_s (the state at the start
+// of that current period, with the setpoint and voltage held over it); (rows - 1) * Te / period_s + 1 samples, so
+// the last one is at the last row's instant. Empty for an axis without a drive (held, not simulated).
 struct FullRateTrace {
   double period_s = 0.0;
   Eigen::ArrayXd position, velocity, current_A, current_setpoint_A, voltage_V;
@@ -30,7 +33,9 @@ struct FullRateTrace {
 struct AxisResponse {
   double period_s = 1e-3;               // Te
   std::vector<std::string> axis_names;  // machine axes, in the machine file's order
-  // samples x axes, axis units (mm, rad): one row per setpoint, then the settling samples.
+  // samples x axes, axis units (mm, rad): one row per setpoint, then the settling samples. Row k is the axis at
+  // t = k Te, the instant setpoint k is sent (row 0: at rest at the first setpoint), so rows and setpoints share
+  // their time base. Acceleration: mean over the period ending at row k; jerk: its backward difference.
   Eigen::MatrixXd position, velocity, acceleration, jerk, current_A, current_setpoint_A;
   std::vector<FullRateTrace> trace;     // per axis when full_rate_trace
   Eigen::Index samples() const { return position.rows(); }
