@@ -138,6 +138,44 @@ TEST(CascadeAxis, CurrentNeverExceedsItsLimit) {
   }
 }
 
+// Reference: seed 004 section 3.1 (eq. 1 at zero acceleration): at constant speed the motor torque equals the
+// resistant torque, Kt i = friction(w) + gravity, which is how the seed identifies the friction law from currents.
+// Checked on the Mikron X with a Stribeck term added (breakaway 3 N m, Stribeck speed 2 rad/s) and on Z (gravity):
+// the steady current at several feeds equals (Tc + (Ts - Tc) exp(-(w/ws)^2) + B w + G) / Kt within 0.1 %.
+TEST(CascadeAxis, SteadyCurrentIsTheFrictionLaw) {
+  const core::Machine m = mikron();
+  for (const char* name : {"X", "Z"}) {
+    core::DriveParams p = axis_drive(m, name);
+    if (std::string(name) == "X") {
+      p.stribeck_static_Nm = 3.0;
+      p.stribeck_velocity_rad_per_s = 2.0;
+    }
+    for (double feed : {100.0, 500.0, 2000.0, 10000.0}) {  // mm/min
+      const double v = feed / 60.0;
+      CascadeAxis ax(p, 1e-3, core::AxisKind::Linear);
+      ax.reset(0.0);
+      double prev_x = 0.0, sum = 0.0;
+      for (int k = 0; k < 1500; ++k) {
+        AxisCommand c;
+        c.position = v * k * 1e-3;
+        c.velocity = (c.position - prev_x) / 1e-3;
+        prev_x = c.position;
+        const AxisSample s = ax.step(c);
+        if (k >= 1400) sum += s.current_A / 100.0;
+      }
+      const double w = v / p.axis_per_motor_rad;
+      double friction = p.coulomb_Nm + p.viscous_Nm_s_per_rad * w;
+      if (p.stribeck_static_Nm > 0.0) {
+        const double q = w / p.stribeck_velocity_rad_per_s;
+        friction += (p.stribeck_static_Nm - p.coulomb_Nm) * std::exp(-q * q);
+      }
+      const double gravity = p.gravity == core::DriveParams::Gravity::Constant ? p.gravity_Nm : 0.0;
+      const double ref = (friction + gravity) / p.torque_constant_Nm_per_A;
+      EXPECT_NEAR(sum / ref, 1.0, 1e-3) << name << " at " << feed << " mm/min: " << sum << " A vs " << ref << " A";
+    }
+  }
+}
+
 // Reference: a drive at rest holding a load stays put. Z carries a constant gravity torque; A a tilting one,
 // gravity_Nm sin(A), tried at several angles. Run with the machine file's friction and without any (then only the
 // loops hold the load). Drift < 1e-6 axis units (mm, rad) over 3 s.
