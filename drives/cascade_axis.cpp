@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <unsupported/Eigen/MatrixFunctions>
 
+#include <algorithm>
 #include <cmath>
 
 namespace vmsim::drives {
@@ -161,7 +162,7 @@ void CascadeAxis::rest_at(double position) {
 // the integrator is frozen while the output is saturated and the error pushes it further out. It needs no tuning
 // parameter (back-calculation would need a tracking time the seeds do not give) and it keeps the integrator where
 // it was when the limit was hit, so the axis leaves saturation without the overshoot an unbounded integrator
-// gives; it is also what drive firmware does ("integrator stop" at the torque limit).
+// gives. It is the common "integrator stop at the limit" of industrial speed controllers.
 inline void CascadeAxis::velocity_loop(double w_cmd, double i_ff) {
   const double err = w_cmd - w_;
   const double integ = iv_ + kiv_ * err;

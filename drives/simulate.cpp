@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace vmsim::drives {
 
