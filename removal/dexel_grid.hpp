@@ -32,6 +32,8 @@ class IntervalStore {
   void set(std::size_t ray, const std::vector<Interval>& iv);
   void get(std::size_t ray, std::vector<Interval>& out) const;  // sorted, disjoint
   double top(std::size_t ray) const;                            // highest material point, NaN when empty
+  // The in-place intervals (hot loops read them directly; lo = NaN marks a ray with several intervals).
+  const Interval* head() const { return head_.data(); }
   double bottom(std::size_t ray) const;                         // lowest material point, NaN when empty
   void subtract(std::size_t ray, double t0, double t1);
   std::size_t memory_bytes() const;
@@ -73,6 +75,7 @@ class DexelGrid {
   void set_intervals(int i, int j, const std::vector<Interval>& iv) { store_.set(ray(i, j), iv); }
   void intervals(int i, int j, std::vector<Interval>& out) const { store_.get(ray(i, j), out); }
   double top(int i, int j) const { return store_.top(ray(i, j)); }
+  const Interval* head_row(int j) const { return store_.head() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_); }
   // Removes [t0, t1] from a ray. Rows may be updated concurrently; one row must not.
   void subtract(int i, int j, double t0, double t1) { store_.subtract(ray(i, j), t0, t1); }
 
