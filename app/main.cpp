@@ -37,6 +37,26 @@ int main(int argc, char** argv) {
   interp->add_flag("--summary-only", interp_args.summary_only,
                    "print the cycle time and the axis peaks, write no setpoints.csv");
 
+  vmsim::app::IdentifyArgs id_args;
+  auto* identify = app.add_subcommand(
+      "identify-friction", "Identify an axis' friction law and inertia from a trace of time, position or velocity, current");
+  identify->add_option("TRACE", id_args.trace, "CSV: t_s, current_A, position_mm|position_deg|velocity_mm_per_s|velocity_deg_per_s")
+      ->required()->check(CLI::ExistingFile);
+  identify->add_option("--torque-constant", id_args.torque_constant_Nm_per_A, "motor torque constant Kt (N m/A)")
+      ->check(CLI::PositiveNumber);
+  identify->add_option("--lead-mm", id_args.lead_mm, "screw lead of a linear axis (mm per motor revolution)")
+      ->check(CLI::PositiveNumber)
+      ->excludes(identify->add_option("--gear-deg-per-rev", id_args.gear_deg_per_rev,
+                                      "gear of a rotary axis (deg per motor revolution)")->check(CLI::PositiveNumber));
+  identify->add_option("--machine", id_args.machine, "machine file giving Kt, lead or gear and gravity of --axis")
+      ->check(CLI::ExistingFile)
+      ->needs(identify->add_option("--axis", id_args.axis, "axis name in the machine file (X Y Z A B C)"));
+  identify->add_option("--gravity", id_args.gravity, "gravity model: auto (default), none, constant, tilting")
+      ->check(CLI::IsMember({"auto", "none", "constant", "tilting"}));
+  identify->add_option("--smoothing-ms", id_args.smoothing_ms, "differentiation window (default 10 ms)")
+      ->check(CLI::PositiveNumber);
+  identify->add_option("--out,-o", id_args.out_dir, "write drive_identified.toml, friction_fit.csv, report.json here");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -46,6 +66,7 @@ int main(int argc, char** argv) {
   try {
     if (*canon) return vmsim::app::run_canon(program, tool_table, no_motion_mcodes);
     if (*interp) return vmsim::app::run_interp(interp_args);
+    if (*identify) return vmsim::app::run_identify_friction(id_args);
   } catch (const vmsim::core::Error& e) {
     std::fprintf(stderr, "vmsim: error: %s\n", e.what());
     return 2;
