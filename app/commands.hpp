@@ -35,4 +35,23 @@ struct IdentifyArgs {
 // vmsim identify-friction TRACE: Coulomb and viscous friction, gravity offset and inertia of one axis (seed 004 3.1).
 int run_identify_friction(const IdentifyArgs& args);
 
+struct MotionArgs {
+  std::filesystem::path job;
+  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<double> feed_scale;
+  bool full_rate_trace = false;                  // also write every current-loop sample (large)
+};
+// vmsim motion JOB: setpoints through the servo drives; actual positions, tracking and contour errors, currents
+// (CSV), report.json.
+int run_motion(const MotionArgs& args);
+
+struct RunArgs {
+  std::filesystem::path job;
+  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<double> feed_scale;
+  bool quiet = false;                            // no progress on stderr
+};
+// vmsim run JOB: the whole chain to the machined surface and its marks; report.json, height grids, part mesh.
+int run_run(const RunArgs& args);
+
 }  // namespace vmsim::app

@@ -57,6 +57,25 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   identify->add_option("--out,-o", id_args.out_dir, "write drive_identified.toml, friction_fit.csv, report.json here");
 
+  vmsim::app::MotionArgs motion_args;
+  auto* motion = app.add_subcommand(
+      "motion", "Simulate the servo drives following the setpoints: actual positions, tracking and contour errors");
+  motion->add_option("JOB", motion_args.job, "job file (job.toml)")->required()->check(CLI::ExistingFile);
+  motion->add_option("--out,-o", motion_args.out_dir, "output directory (created if absent)");
+  motion->add_option("--feed-scale", motion_args.feed_scale, "multiply every programmed feed (e.g. 0.5)")
+      ->check(CLI::PositiveNumber);
+  motion->add_flag("--full-rate-trace", motion_args.full_rate_trace,
+                   "also write every current-loop sample of every axis (trace_<axis>.csv, large)");
+
+  vmsim::app::RunArgs run_args;
+  auto* run = app.add_subcommand(
+      "run", "Run the whole chain: interpolator, drives, material removal; the machined surface and its marks");
+  run->add_option("JOB", run_args.job, "job file (job.toml)")->required()->check(CLI::ExistingFile);
+  run->add_option("--out,-o", run_args.out_dir, "output directory (created if absent)");
+  run->add_option("--feed-scale", run_args.feed_scale, "multiply every programmed feed of this job")
+      ->check(CLI::PositiveNumber);
+  run->add_flag("--quiet,-q", run_args.quiet, "no progress on stderr");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -67,6 +86,8 @@ int main(int argc, char** argv) {
     if (*canon) return vmsim::app::run_canon(program, tool_table, no_motion_mcodes);
     if (*interp) return vmsim::app::run_interp(interp_args);
     if (*identify) return vmsim::app::run_identify_friction(id_args);
+    if (*motion) return vmsim::app::run_motion(motion_args);
+    if (*run) return vmsim::app::run_run(run_args);
   } catch (const vmsim::core::Error& e) {
     std::fprintf(stderr, "vmsim: error: %s\n", e.what());
     return 2;

@@ -161,7 +161,7 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
           double t0, t1;
           ++tests;
           if (!ray_interval(sw, grid.ray_origin(i, j), W, t0, t1)) continue;
-          if (t1 <= 0 || t0 >= grid.length()) continue;
+          if (t1 <= 0 || t0 >= grid.length() || t1 - t0 <= 1e-9) continue;  // zero-width contacts cut nothing
           grid.subtract(i, j, t0, t1);
           ++cuts;
         }

@@ -113,7 +113,7 @@ CutStats cut(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
         double t0, t1;
         ++tests;
         if (!ray_interval(sweeps[s], n.origin(k), n.direction(k), t0, t1)) continue;
-        if (t1 <= 0 || t0 >= n.length(k)) continue;
+        if (t1 <= 0 || t0 >= n.length(k) || t1 - t0 <= 1e-9) continue;  // zero-width contacts cut nothing
         n.store().subtract(k, t0, t1);
         ++cuts;
       }

@@ -51,6 +51,8 @@ int quadratic_roots(double a, double b, double c, double& r0, double& r1) {
 // Tolerance of the feasibility checks of the boundary candidates (the candidates lie exactly on one constraint;
 // the others are checked with this slack so that tangent cases are not lost to round-off).
 constexpr double kSlack = 1e-9;
+// Grazing contacts (mm): see ray_interval_axial.
+constexpr double kGraze = 1e-9;
 
 // ---- Ball end: dist(p, parallelogram c + s a + l d, s in [0, h], l in [0, 1]) <= R ----
 
@@ -238,7 +240,10 @@ bool ray_interval_axial(const SweptTool& s, const Eigen::Vector3d& o, double sig
     lstar = q.dot(e) / ee;
     dperp2 = std::max(0.0, (q - lstar * e).squaredNorm());
   }
-  if (dperp2 > R * R) return false;
+  // A ray that only grazes the tool's side (within 1 nm) is not cut: that contact has no width, and whether round-off
+  // puts it in or out must not decide whether a whole ray of material goes.
+  const double Rg = R - kGraze;
+  if (dperp2 >= Rg * Rg) return false;
   const double el = std::sqrt(ee);
   // l-range where the axis passes within R of the ray.
   double la = 0, lb = 1;

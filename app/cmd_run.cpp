@@ -1,0 +1,498 @@
+// vmsim run JOB: the whole chain. Program -> interpolator -> drives -> kinematics -> material removal -> surfaces,
+// and the marks: the signed deviation of the predicted surface from the reference surface.
+#include "app/commands.hpp"
+#include "app/progress.hpp"
+#include "app/report.hpp"
+#include "core/atomic_file.hpp"
+#include "core/contour.hpp"
+#include "core/error.hpp"
+#include "core/interp.hpp"
+#include "core/job.hpp"
+#include "core/kinematics.hpp"
+#include "core/program.hpp"
+#include "core/stl.hpp"
+#include "core/units.hpp"
+#include "drives/simulate.hpp"
+#include "metrology/grid_io.hpp"
+#include "metrology/marks.hpp"
+#include "removal/fields.hpp"
+#include "removal/mesh_stock.hpp"
+#include "removal/surface.hpp"
+#include "removal/track.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <optional>
+#include <set>
+#include <sstream>
+
+namespace vmsim::app {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+const char* motion_name(core::RemovalSpec::Motion m) {
+  switch (m) {
+    case core::RemovalSpec::Motion::Actual: return "actual";
+    case core::RemovalSpec::Motion::Setpoints: return "setpoints";
+    case core::RemovalSpec::Motion::Program: return "program";
+  }
+  return "?";
+}
+
+// One job's motion through the chain, as far as its removal needs it.
+struct Motion {
+  core::ToolPath program;  // tool tip, workpiece frame
+  core::InterpResult interp;
+  std::optional<drives::AxisResponse> response;
+  std::optional<core::ContourError> contour;
+  nlohmann::json timings = nlohmann::json::object();
+};
+
+Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, Progress& progress) {
+  Motion m;
+  auto t0 = Clock::now();
+  core::ProgramOptions popt;
+  popt.tool_table = job.tool_table_file;
+  popt.no_motion_mcodes = job.no_motion_mcodes;
+  m.program = core::read_program(job.program_file, popt);
+  m.timings["read_program"] = seconds_since(t0);
+  if (kind == core::RemovalSpec::Motion::Program) return m;
+  t0 = Clock::now();
+  progress.stage(job.name + ": interpolation");
+  core::InterpOptions iopt;
+  iopt.period_s = job.interp.period_s;
+  iopt.tolerance_mm = job.interp.tolerance_mm;
+  iopt.feed_scale = feed_scale;
+  m.interp = core::interpolate(core::toolpath_in_axis_space(m.program, job.machine), job.machine, iopt);
+  progress.done();
+  m.timings["interpolate"] = seconds_since(t0);
+  if (kind == core::RemovalSpec::Motion::Actual) {
+    t0 = Clock::now();
+    progress.stage(job.name + ": servo drives");
+    m.response = drives::simulate_axes(m.interp.setpoints, job.machine);
+    progress.done();
+    m.timings["drives"] = seconds_since(t0);
+  }
+  return m;
+}
+
+double tlo_at(const Motion& m, Eigen::Index k) {
+  const core::Setpoints& sp = m.interp.setpoints;
+  const int mi = sp.move_index[std::min(k, sp.samples() - 1)];
+  return mi >= 0 ? m.program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
+}
+
+// Tool-tip track of the motion that cuts.
+removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind) {
+  removal::PoseTrack tr;
+  if (kind == core::RemovalSpec::Motion::Program) {
+    // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
+    // tenth of the track tolerance (the kernel's sweeps are exact between points).
+    std::vector<Eigen::Vector3d> pts;
+    if (!m.program.moves.empty()) pts.push_back(m.program.moves.front().start.head<3>());
+    for (const core::Move& mv : m.program.moves) {
+      if (mv.kind == core::MotionKind::Line) {
+        pts.push_back(mv.end.head<3>());
+        continue;
+      }
+      int i1 = 0, i2 = 1, iw = 2;
+      if (mv.plane == core::ArcPlane::ZX) i1 = 2, i2 = 0, iw = 1;
+      if (mv.plane == core::ArcPlane::YZ) i1 = 1, i2 = 2, iw = 0;
+      const double c1 = mv.centre_mm[0], c2 = mv.centre_mm[1];
+      const double r0 = std::hypot(mv.start[i1] - c1, mv.start[i2] - c2), r1 = std::hypot(mv.end[i1] - c1, mv.end[i2] - c2);
+      const double t0 = std::atan2(mv.start[i2] - c2, mv.start[i1] - c1), te = std::atan2(mv.end[i2] - c2, mv.end[i1] - c1);
+      const int turns = std::abs(mv.rotation) - 1;
+      double sweep;
+      const bool full = std::hypot(mv.end[i1] - mv.start[i1], mv.end[i2] - mv.start[i2]) < 1e-9;
+      if (mv.rotation > 0) {
+        sweep = std::fmod(te - t0 + 4 * core::units::kPi, 2 * core::units::kPi);
+        if (full) sweep = 2 * core::units::kPi;
+        sweep += 2 * core::units::kPi * turns;
+      } else {
+        sweep = std::fmod(t0 - te + 4 * core::units::kPi, 2 * core::units::kPi);
+        if (full) sweep = 2 * core::units::kPi;
+        sweep = -(sweep + 2 * core::units::kPi * turns);
+      }
+      const double tol = 0.1 * job.removal.track_tolerance_mm, r = std::max(r0, r1);
+      const double dphi = 2 * std::acos(std::max(0.0, 1 - tol / std::max(r, 1e-9)));
+      const int n = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / std::max(dphi, 1e-6))));
+      for (int k = 1; k <= n; ++k) {
+        const double f = double(k) / n, th = t0 + f * sweep, rr = r0 + f * (r1 - r0);
+        Eigen::Vector3d p = (mv.start.head<3>() + f * (mv.end.head<3>() - mv.start.head<3>())).eval();
+        p[i1] = c1 + rr * std::cos(th);
+        p[i2] = c2 + rr * std::sin(th);
+        p[iw] = mv.start[iw] + f * (mv.end[iw] - mv.start[iw]);
+        pts.push_back(k == n ? Eigen::Vector3d(mv.end.head<3>()) : p);
+      }
+    }
+    tr.tip_mm.resize(static_cast<Eigen::Index>(pts.size()), 3);
+    for (std::size_t k = 0; k < pts.size(); ++k) tr.tip_mm.row(static_cast<Eigen::Index>(k)) = pts[k].transpose();
+    return tr;
+  }
+  const auto kin = core::make_kinematics(job.machine);
+  const core::Setpoints& sp = m.interp.setpoints;
+  const bool actual = kind == core::RemovalSpec::Motion::Actual;
+  const Eigen::MatrixXd& axes = actual ? m.response->position : sp.position;
+  const Eigen::Index n = axes.rows();
+  tr.period_s = sp.period_s;
+  tr.tip_mm.resize(n, 3);
+  for (Eigen::Index k = 0; k < n; ++k)
+    tr.tip_mm.row(k) = kin->forward(axes.row(k).transpose(), tlo_at(m, k)).tip_mm.transpose();
+  if (actual) {
+    // Between Te samples the axes move along the cubic through both samples with the drives' velocities
+    // (Cartesian machine: tip velocity = X Y Z velocity).
+    tr.tip_velocity_mm_per_s.resize(n, 3);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const Eigen::VectorXd v = m.response->velocity.row(k).transpose();
+      for (int c = 0; c < 3; ++c) tr.tip_velocity_mm_per_s(k, c) = v[job.machine.axis_index(c)];
+    }
+  }
+  return tr;
+}
+
+// The stock's dexels.
+struct Field {
+  core::RemovalSpec::Field kind = core::RemovalSpec::Field::ZMap;
+  removal::Box region;
+  double spacing_mm = 0.05;
+  removal::DexelGrid zmap;
+  removal::TriDexel tri;
+  removal::NeedleSet needles;
+  std::vector<Eigen::Vector3d> needle_point, needle_normal;  // nominal points and normals (N-buffer)
+  double needle_half = 1.0;
+
+  std::size_t rays() const {
+    switch (kind) {
+      case core::RemovalSpec::Field::ZMap: return static_cast<std::size_t>(zmap.nu()) * zmap.nv();
+      case core::RemovalSpec::Field::TriDexel:
+        return static_cast<std::size_t>(tri.x.nu()) * tri.x.nv() + static_cast<std::size_t>(tri.y.nu()) * tri.y.nv() +
+               static_cast<std::size_t>(tri.z.nu()) * tri.z.nv();
+      case core::RemovalSpec::Field::NBuffer: return needles.size();
+    }
+    return 0;
+  }
+  std::size_t memory_bytes() const {
+    switch (kind) {
+      case core::RemovalSpec::Field::ZMap: return zmap.memory_bytes();
+      case core::RemovalSpec::Field::TriDexel: return tri.x.memory_bytes() + tri.y.memory_bytes() + tri.z.memory_bytes();
+      case core::RemovalSpec::Field::NBuffer: return needles.store().memory_bytes();
+    }
+    return 0;
+  }
+};
+
+void read_needles(const core::Job& job, Field& f) {
+  const auto& file = job.removal.needles_file;
+  std::ifstream in(file);
+  if (!in) throw core::Error(file.string() + ": cannot open file");
+  std::string line;
+  int lineno = 0;
+  std::vector<Eigen::Vector3d> o, d;
+  std::vector<double> len;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;
+    double v[6];
+    std::stringstream ss(line);
+    std::string cell;
+    int c = 0;
+    while (c < 6 && std::getline(ss, cell, ',')) {
+      char* end = nullptr;
+      v[c] = std::strtod(cell.c_str(), &end);
+      if (end == cell.c_str() || !std::isfinite(v[c]))
+        throw core::Error(core::located(file.string(), lineno, "expected x,y,z,nx,ny,nz numbers (mm)"));
+      ++c;
+    }
+    if (c != 6) throw core::Error(core::located(file.string(), lineno, "expected 6 values x,y,z,nx,ny,nz"));
+    const Eigen::Vector3d p(v[0], v[1], v[2]), n(v[3], v[4], v[5]);
+    if (n.norm() < 1e-9) throw core::Error(core::located(file.string(), lineno, "the normal has zero length"));
+    f.needle_point.push_back(p);
+    f.needle_normal.push_back(n.normalized());
+    o.push_back(p - job.removal.needle_half_length_mm * n.normalized());
+    d.push_back(n.normalized());
+    len.push_back(2 * job.removal.needle_half_length_mm);
+  }
+  if (o.empty()) throw core::Error(file.string() + ": no needles");
+  f.needles = removal::NeedleSet(std::move(o), std::move(d), std::move(len));
+  f.needle_half = job.removal.needle_half_length_mm;
+}
+
+void fill_stock(Field& f, const core::Job& job, const std::optional<core::TriangleMesh>& mesh) {
+  if (mesh) {
+    switch (f.kind) {
+      case core::RemovalSpec::Field::ZMap: removal::fill_mesh(f.zmap, *mesh); break;
+      case core::RemovalSpec::Field::TriDexel:
+        for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::fill_mesh(*g, *mesh);
+        break;
+      case core::RemovalSpec::Field::NBuffer: removal::fill_mesh(f.needles, *mesh); break;
+    }
+    return;
+  }
+  const removal::Box b{job.stock.min_mm, job.stock.max_mm};
+  switch (f.kind) {
+    case core::RemovalSpec::Field::ZMap: removal::fill_box(f.zmap, b); break;
+    case core::RemovalSpec::Field::TriDexel:
+      for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::fill_box(*g, b);
+      break;
+    case core::RemovalSpec::Field::NBuffer: removal::fill_box(f.needles, b); break;
+  }
+}
+
+void cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+  switch (f.kind) {
+    case core::RemovalSpec::Field::ZMap: removal::cut(f.zmap, sweeps); break;
+    case core::RemovalSpec::Field::TriDexel:
+      for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::cut(*g, sweeps);
+      break;
+    case core::RemovalSpec::Field::NBuffer: removal::cut(f.needles, sweeps); break;
+  }
+}
+
+std::vector<removal::SweptTool> sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
+  removal::TrackOptions topt;
+  topt.tolerance_mm = job.removal.track_tolerance_mm;
+  return removal::sweeps_from_track(removal::make_tool(job.tool), tr, topt).sweeps;
+}
+
+// A job's starting field: a box or mesh stock, or the part another job leaves (run here, recursively).
+Field initial_field(const core::Job& job, double feed_scale, Progress& progress, std::set<std::string>& chain) {
+  const std::string key = std::filesystem::weakly_canonical(job.file).string();
+  if (!chain.insert(key).second) throw core::Error(job.file.string() + ": the stock jobs form a cycle");
+  Field f;
+  if (job.stock.kind == core::StockSpec::Kind::Job) {
+    const core::Job parent = core::load_job(job.stock.job_file);
+    f = initial_field(parent, 1.0, progress, chain);
+    const Motion pm = simulate_motion(parent, 1.0, parent.removal.motion, progress);
+    progress.stage(parent.name + ": material removal");
+    cut_field(f, sweeps_of(parent, track_of(pm, parent, parent.removal.motion)));
+    progress.done();
+    (void)feed_scale;
+    return f;
+  }
+  std::optional<core::TriangleMesh> mesh;
+  removal::Box region;
+  if (job.stock.kind == core::StockSpec::Kind::Box) {
+    region = removal::Box{job.stock.min_mm, job.stock.max_mm};
+  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
+    mesh = core::read_stl(job.stock.mesh_file);
+    core::check_closed(*mesh, job.stock.mesh_file.string());
+    region.lo = mesh->vertices_mm.colwise().minCoeff().transpose();
+    region.hi = mesh->vertices_mm.colwise().maxCoeff().transpose();
+  } else {
+    throw core::Error(job.file.string() + ": [stock] is required to remove material (box, stl or job)");
+  }
+  f.kind = job.removal.field;
+  f.region = region;
+  f.spacing_mm = job.removal.spacing_mm;
+  const double rays_limit = 4e8;  // ~3.2 GB of dexels: far beyond this machine's jobs, a typo in spacing_mm
+  const Eigen::Vector3d ext = region.hi - region.lo;
+  const double estimate = (ext.x() / f.spacing_mm + 1) * (ext.y() / f.spacing_mm + 1) *
+                          (f.kind == core::RemovalSpec::Field::TriDexel ? 3 : 1);
+  if (f.kind != core::RemovalSpec::Field::NBuffer && estimate > rays_limit)
+    throw core::Error(job.file.string() + fmt::format(": [removal] spacing_mm = {} gives {:.3g} rays ({:.1f} GB); "
+                                                      "choose a larger spacing",
+                                                      f.spacing_mm, estimate, estimate * 8 / 1e9));
+  switch (f.kind) {
+    case core::RemovalSpec::Field::ZMap: f.zmap = removal::make_zmap(region, f.spacing_mm); break;
+    case core::RemovalSpec::Field::TriDexel: f.tri = removal::make_tridexel(region, f.spacing_mm); break;
+    case core::RemovalSpec::Field::NBuffer: read_needles(job, f); break;
+  }
+  progress.stage(job.name + ": stock");
+  fill_stock(f, job, mesh);
+  progress.done();
+  return f;
+}
+
+// Surface of a grid field (z-map, or the tri-dexel's Z grid).
+core::HeightGrid surface_of(const Field& f) {
+  return removal::height_grid(f.kind == core::RemovalSpec::Field::TriDexel ? f.tri.z : f.zmap);
+}
+
+// Along each needle, the surface's position relative to the nominal point (mm along the normal; NaN if empty).
+Eigen::VectorXd needle_offsets(const Field& f) {
+  Eigen::VectorXd o(static_cast<Eigen::Index>(f.needles.size()));
+  for (std::size_t k = 0; k < f.needles.size(); ++k) o[static_cast<Eigen::Index>(k)] = f.needles.store().top(k) - f.needle_half;
+  return o;
+}
+
+}  // namespace
+
+int run_run(const RunArgs& args) {
+  const auto t_start = Clock::now();
+  const core::Job job = core::load_job(args.job);
+  Progress progress(!args.quiet);
+  std::set<std::string> chain;
+
+  auto t0 = Clock::now();
+  Field field = initial_field(job, 1.0, progress, chain);
+  const double t_stock = seconds_since(t0);
+  const Field start = field;  // the stock this job starts from (reference "stock")
+
+  const double feed_scale = args.feed_scale.value_or(1.0);
+  Motion motion = simulate_motion(job, feed_scale, job.removal.motion, progress);
+  if (motion.response) {
+    t0 = Clock::now();
+    const auto kin = core::make_kinematics(job.machine);
+    const core::Setpoints& sp = motion.interp.setpoints;
+    Eigen::MatrixXd cmd(motion.response->samples(), 3), act(motion.response->samples(), 3);
+    for (Eigen::Index k = 0; k < cmd.rows(); ++k) {
+      cmd.row(k) = kin->forward(sp.position.row(std::min(k, sp.samples() - 1)).transpose(), tlo_at(motion, k)).tip_mm.transpose();
+      act.row(k) = kin->forward(motion.response->position.row(k).transpose(), tlo_at(motion, k)).tip_mm.transpose();
+    }
+    motion.contour = core::contour_error(cmd, act);
+    motion.timings["contour_error"] = seconds_since(t0);
+  }
+
+  t0 = Clock::now();
+  progress.stage(job.name + ": material removal");
+  const removal::PoseTrack track = track_of(motion, job, job.removal.motion);
+  removal::TrackOptions topt;
+  topt.tolerance_mm = job.removal.track_tolerance_mm;
+  const removal::TrackSweeps ts = removal::sweeps_from_track(removal::make_tool(job.tool), track, topt);
+  cut_field(field, ts.sweeps);
+  progress.done();
+  const double t_cut = seconds_since(t0);
+
+  // The reference surface.
+  t0 = Clock::now();
+  std::optional<Field> ref;
+  std::string ref_name = "none";
+  if (job.reference.kind == core::ReferenceSpec::Kind::Stock) {
+    ref = start;
+    ref_name = "stock: the part " + job.stock.job_file.filename().string() + " leaves";
+  } else if (job.reference.kind == core::ReferenceSpec::Kind::Program) {
+    progress.stage(job.name + ": reference (programmed path)");
+    ref = start;
+    const Motion pm = simulate_motion(job, feed_scale, core::RemovalSpec::Motion::Program, progress);
+    cut_field(*ref, sweeps_of(job, track_of(pm, job, core::RemovalSpec::Motion::Program)));
+    progress.done();
+    ref_name = "program: the same program cut exactly along its programmed path";
+  }
+  const double t_ref = seconds_since(t0);
+
+  // Outputs.
+  t0 = Clock::now();
+  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  std::vector<std::string> files;
+  nlohmann::json marks_json = nlohmann::json::array();
+  std::vector<metrology::Mark> marks;
+  nlohmann::json surface_json;
+  if (field.kind != core::RemovalSpec::Field::NBuffer) {
+    const core::HeightGrid pred = surface_of(field);
+    metrology::write_height_csv(dir / "surface.csv", pred);
+    metrology::write_height_npy(dir / "surface.npy", pred);
+    files.insert(files.end(), {"surface.csv", "surface.npy", "surface.npy.json"});
+    std::optional<core::HeightGrid> dev;
+    if (ref) {
+      const core::HeightGrid rs = surface_of(*ref);
+      dev = metrology::deviation(pred, rs);
+      metrology::write_height_csv(dir / "reference.csv", rs);
+      metrology::write_height_csv(dir / "deviation.csv", *dev);
+      metrology::write_height_npy(dir / "deviation.npy", *dev);
+      files.insert(files.end(), {"reference.csv", "deviation.csv", "deviation.npy", "deviation.npy.json"});
+      marks = metrology::find_marks(*dev, 1e-3);  // marks deeper than 1 um
+    }
+    const core::TriangleMesh mesh = removal::heightfield_mesh(pred, field.region.lo.z(), dev ? &*dev : nullptr);
+    core::write_stl_binary(dir / "part.stl", mesh);
+    files.push_back("part.stl");
+    surface_json = {{"grid", {{"x0_mm", pred.x0_mm}, {"y0_mm", pred.y0_mm}, {"dx_mm", pred.dx_mm}, {"dy_mm", pred.dy_mm},
+                              {"nx", pred.nx()}, {"ny", pred.ny()}}},
+                    {"mesh_triangles", mesh.triangles.rows()}};
+    if (dev) {
+      const double lo = dev->z_mm.isNaN().select(0, dev->z_mm).minCoeff();
+      const double hi = dev->z_mm.isNaN().select(0, dev->z_mm).maxCoeff();
+      surface_json["deviation_min_mm"] = lo;
+      surface_json["deviation_max_mm"] = hi;
+    }
+  } else {
+    const Eigen::VectorXd pred = needle_offsets(field);
+    const Eigen::VectorXd rs = ref ? needle_offsets(*ref) : Eigen::VectorXd::Constant(pred.size(), NAN);
+    core::AtomicFile out(dir / "needles.csv");
+    out.stream() << "x_mm,y_mm,z_mm,nx,ny,nz,surface_offset_mm,reference_offset_mm,deviation_mm\n";
+    double worst = 0;
+    std::size_t worst_k = 0;
+    for (std::size_t k = 0; k < field.needles.size(); ++k) {
+      const auto kk = static_cast<Eigen::Index>(k);
+      const double d = pred[kk] - rs[kk];
+      if (std::isfinite(d) && std::abs(d) > std::abs(worst)) worst = d, worst_k = k;
+      const Eigen::Vector3d& p = field.needle_point[k];
+      const Eigen::Vector3d& n = field.needle_normal[k];
+      out.stream() << fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f}\n", p.x(), p.y(),
+                                  p.z(), n.x(), n.y(), n.z(), pred[kk], rs[kk], d);
+    }
+    out.commit();
+    files.push_back("needles.csv");
+    if (std::abs(worst) > 1e-3) {
+      metrology::Mark m;
+      m.depth_mm = std::abs(worst);
+      m.overcut = worst < 0;
+      m.x_mm = field.needle_point[worst_k].x();
+      m.y_mm = field.needle_point[worst_k].y();
+      marks.push_back(m);
+    }
+  }
+  for (const metrology::Mark& m : marks)
+    marks_json.push_back({{"depth_mm", m.depth_mm}, {"kind", m.overcut ? "overcut" : "undercut"}, {"x_mm", m.x_mm},
+                          {"y_mm", m.y_mm}, {"x_extent_mm", m.x_extent_mm}, {"y_extent_mm", m.y_extent_mm},
+                          {"area_mm2", m.area_mm2}});
+  const double t_write = seconds_since(t0);
+
+  nlohmann::json report = report_header("run", job);
+  report["removal"] = {{"field", field.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
+                                 : field.kind == core::RemovalSpec::Field::TriDexel ? "tridexel"
+                                                                                     : "nbuffer"},
+                       {"spacing_mm", field.spacing_mm},
+                       {"rays", field.rays()},
+                       {"memory_bytes", field.memory_bytes()},
+                       {"motion", motion_name(job.removal.motion)},
+                       {"track_points", ts.points},
+                       {"sweeps", ts.sweeps.size()},
+                       {"track_tolerance_mm", job.removal.track_tolerance_mm}};
+  report["reference"] = ref_name;
+  report["marks"] = marks_json;
+  report["surface"] = surface_json;
+  if (job.removal.motion != core::RemovalSpec::Motion::Program)
+    report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
+                               {"setpoints", motion.interp.setpoints.samples()},
+                               {"period_s", motion.interp.setpoints.period_s}};
+  if (motion.contour)
+    report["contour_error"] = {{"max_abs_mm", motion.contour->max_abs_mm},
+                               {"rms_mm", motion.contour->rms_mm},
+                               {"mse_um2", motion.contour->mse_um2}};
+  report["files"] = files;
+  nlohmann::json timings = motion.timings;
+  timings["stock"] = t_stock;
+  timings["removal"] = t_cut;
+  timings["reference"] = t_ref;
+  timings["write"] = t_write;
+  timings["total"] = seconds_since(t_start);
+  report["timings_s"] = timings;
+  write_report(dir / "report.json", report);
+  files.push_back("report.json");
+
+  std::printf("job %s: %s motion, %zu sweeps on %zu rays (%.1f MB)\n", job.name.c_str(), motion_name(job.removal.motion),
+              ts.sweeps.size(), field.rays(), field.memory_bytes() / 1e6);
+  if (motion.contour)
+    std::printf("contour error: max %.2f um, rms %.2f um\n", motion.contour->max_abs_mm * 1e3, motion.contour->rms_mm * 1e3);
+  std::printf("reference: %s\n", ref_name.c_str());
+  if (ref && marks.empty()) std::printf("marks: none deeper than 1 um\n");
+  for (std::size_t k = 0; k < marks.size() && k < 5; ++k) {
+    const metrology::Mark& m = marks[k];
+    std::printf("mark %zu: %s %.2f um at x %.3f y %.3f, %.3f x %.3f mm\n", k + 1, m.overcut ? "overcut " : "undercut",
+                m.depth_mm * 1e3, m.x_mm, m.y_mm, m.x_extent_mm, m.y_extent_mm);
+  }
+  std::printf("wrote %s (%zu files) in %.1f s\n", dir.string().c_str(), files.size(), seconds_since(t_start));
+  return 0;
+}
+
+}  // namespace vmsim::app
