@@ -3,7 +3,7 @@
 // load_job, compiled with AddressSanitizer and UBSan (tests/hostile/CMakeLists.txt). The only acceptable outcomes
 // are success, or a core::Error whose message starts with the file's name; any other exception fails, a crash
 // aborts the process (the sanitizer report and the input's path are printed), and each input must finish within
-// 5 s (a hang guard, not a performance test; a watchdog ends the process after 60 s).
+// 20 s (a hang guard, not a performance test; a watchdog ends the process after 60 s).
 #include "core/error.hpp"
 #include "core/job.hpp"
 #include "core/machine.hpp"
