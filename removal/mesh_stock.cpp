@@ -270,7 +270,8 @@ struct MeshDexelizer::Impl {
            double length, Scratch& s, std::vector<Interval>& out, MeshFillStats& stats) const {
     out.clear();
     double ta, tb;
-    if (!clip(o, d, ta, tb)) return;
+    // A needle with a zero (hence NaN once normalised) or non-finite direction or origin meets nothing.
+    if (!d.allFinite() || !o.allFinite() || !clip(o, d, ta, tb)) return;
     ++stats.rays;
     s.spans.clear();
     if (cast(o, d, ta, tb, s, false)) {
