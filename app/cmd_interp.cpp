@@ -1,5 +1,6 @@
 // vmsim interp JOB: the interpolator alone, so users can look at setpoints before the drives act on them.
 #include "app/commands.hpp"
+#include "app/job_program.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/interp.hpp"
@@ -38,10 +39,7 @@ void write_setpoints_csv(const std::filesystem::path& file, const core::Setpoint
 
 int run_interp(const InterpArgs& args) {
   const core::Job job = core::load_job(args.job);
-  core::ProgramOptions popt;
-  popt.tool_table = job.tool_table_file;
-  popt.no_motion_mcodes = job.no_motion_mcodes;
-  const core::ToolPath path = core::toolpath_in_axis_space(core::read_program(job.program_file, popt), job.machine);
+  const core::ToolPath path = core::toolpath_in_axis_space(read_job_program(job), job.machine);
   core::InterpOptions iopt;
   iopt.period_s = job.interp.period_s;
   iopt.tolerance_mm = job.interp.tolerance_mm;

@@ -1,5 +1,7 @@
 // vmsim motion JOB: program -> interpolator -> servo drives -> kinematics -> contour error.
 #include "app/commands.hpp"
+#include "app/contour_stats.hpp"
+#include "app/job_program.hpp"
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/contour.hpp"
@@ -62,10 +64,7 @@ int run_motion(const MotionArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
   const core::Machine& machine = job.machine;
-  core::ProgramOptions popt;
-  popt.tool_table = job.tool_table_file;
-  popt.no_motion_mcodes = job.no_motion_mcodes;
-  const core::ToolPath program = core::read_program(job.program_file, popt);
+  const core::ToolPath program = read_job_program(job);
   const core::ToolPath path = core::toolpath_in_axis_space(program, machine);
   const double t_read = seconds_since(t_start);
 
@@ -106,7 +105,7 @@ int run_motion(const MotionArgs& args) {
       const double e = setpoint(k, a) - resp.position(k, a);
       max_te = std::max(max_te, std::abs(e));
       sum2 += e * e;
-      peak_i = std::max(peak_i, std::abs(resp.current_A(k, a)));
+      peak_i = std::max(peak_i, resp.current_peak_A(k, a));
       peak_v = std::max(peak_v, std::abs(resp.velocity(k, a)));
       peak_acc = std::max(peak_acc, std::abs(resp.acceleration(k, a)));
       peak_j = std::max(peak_j, std::abs(resp.jerk(k, a)));
@@ -151,7 +150,7 @@ int run_motion(const MotionArgs& args) {
     h_axes += fmt::format(",{0}_{1},{0}_velocity_{1}_per_s,{0}_acceleration_{1}_per_s2,{0}_jerk_{1}_per_s3", ax.name, u);
     h_sp += fmt::format(",{}_{}", ax.name, u);
     h_te += fmt::format(",{}_tracking_{}", ax.name, u == "mm" ? "mm" : "deg");
-    h_i += fmt::format(",{0}_current_A,{0}_current_setpoint_A", ax.name);
+    h_i += fmt::format(",{0}_current_mean_A,{0}_current_peak_A,{0}_current_setpoint_A", ax.name);
   }
   std::vector<std::string> files;
   write_csv(dir / "setpoints.csv", "t_s" + h_sp + ",path_speed_mm_per_s", [&](Eigen::Index k, std::string& l) {
@@ -180,7 +179,8 @@ int run_motion(const MotionArgs& args) {
   write_csv(dir / "currents.csv", "t_s" + h_i, [&](Eigen::Index k, std::string& l) {
     l += fmt::format("{:.6f}", k * te);
     for (Eigen::Index a = 0; a < na; ++a)
-      l += fmt::format(",{:.5f},{:.5f}", resp.current_A(k, a), resp.current_setpoint_A(k, a));
+      l += fmt::format(",{:.5f},{:.5f},{:.5f}", resp.current_mean_A(k, a), resp.current_peak_A(k, a),
+                       resp.current_setpoint_A(k, a));
   }, n);
   files.push_back("currents.csv");
   if (args.full_rate_trace) {
@@ -211,7 +211,8 @@ int run_motion(const MotionArgs& args) {
                              {"blends", ir.stats.blends},
                              {"exact_stops", ir.stats.exact_stops}};
   report["axes"] = axes;
-  report["contour_error"] = {{"max_abs_mm", ce.max_abs_mm}, {"rms_mm", ce.rms_mm}, {"mse_um2", ce.mse_um2}};
+  const ContourStats cutting = cutting_contour_stats(ce, sp, program);
+  report["contour_error"] = contour_json(ce, cutting);
   report["limits_held"] = {{"setpoints_velocity_acceleration_jerk", setpoint_limits_held},
                            {"currents", currents_within_limit}};
   report["files"] = files;
@@ -222,8 +223,8 @@ int run_motion(const MotionArgs& args) {
   std::printf("job %s: cycle time %.3f s, %lld setpoints, drives simulated in %.2f s (%.0fx real time)\n",
               job.name.c_str(), ir.stats.cycle_time_s, static_cast<long long>(ns), t_drives,
               t_drives > 0 ? (n * te) / t_drives : 0.0);
-  std::printf("contour error: max %.2f um, rms %.2f um, MSE %.3f um^2\n", ce.max_abs_mm * 1e3, ce.rms_mm * 1e3,
-              ce.mse_um2);
+  std::printf("contour error on cutting moves: max %.2f um, rms %.2f um, MSE %.3f um^2 (all moves: max %.2f um)\n",
+              cutting.max_abs_mm * 1e3, cutting.rms_mm * 1e3, cutting.mse_um2, ce.max_abs_mm * 1e3);
   std::printf("axis  max tracking error   peak current / limit\n");
   for (const auto& ax : machine.axes) {
     const auto& j = axes[ax.name];

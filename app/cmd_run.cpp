@@ -1,6 +1,8 @@
 // vmsim run JOB: the whole chain. Program -> interpolator -> drives -> kinematics -> material removal -> surfaces,
 // and the marks: the signed deviation of the predicted surface from the reference surface.
 #include "app/commands.hpp"
+#include "app/contour_stats.hpp"
+#include "app/job_program.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
@@ -19,6 +21,7 @@
 #include "removal/mesh_stock.hpp"
 #include "removal/surface.hpp"
 #include "removal/track.hpp"
+#include "render/mesh_io.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -58,10 +61,7 @@ struct Motion {
 Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, Progress& progress) {
   Motion m;
   auto t0 = Clock::now();
-  core::ProgramOptions popt;
-  popt.tool_table = job.tool_table_file;
-  popt.no_motion_mcodes = job.no_motion_mcodes;
-  m.program = core::read_program(job.program_file, popt);
+  m.program = read_job_program(job);
   m.timings["read_program"] = seconds_since(t0);
   if (kind == core::RemovalSpec::Motion::Program) return m;
   t0 = Clock::now();
@@ -226,12 +226,14 @@ void read_needles(const core::Job& job, Field& f) {
 
 void fill_stock(Field& f, const core::Job& job, const std::optional<core::TriangleMesh>& mesh) {
   if (mesh) {
+    // One dexelizer: the closedness check and Embree's tree once for every grid.
+    const removal::MeshDexelizer dex(*mesh, job.stock.mesh_file.string());
     switch (f.kind) {
-      case core::RemovalSpec::Field::ZMap: removal::fill_mesh(f.zmap, *mesh); break;
+      case core::RemovalSpec::Field::ZMap: dex.fill(f.zmap); break;
       case core::RemovalSpec::Field::TriDexel:
-        for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::fill_mesh(*g, *mesh);
+        for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) dex.fill(*g);
         break;
-      case core::RemovalSpec::Field::NBuffer: removal::fill_mesh(f.needles, *mesh); break;
+      case core::RemovalSpec::Field::NBuffer: dex.fill(f.needles); break;
     }
     return;
   }
@@ -261,28 +263,31 @@ std::vector<removal::SweptTool> sweeps_of(const core::Job& job, const removal::P
   return removal::sweeps_from_track(removal::make_tool(job.tool), tr, topt).sweeps;
 }
 
+Field initial_field(const core::Job& job, double feed_scale, Progress& progress, std::set<std::string>& chain);
+
+// The part a job leaves: its stock, cut by its own motion.
+Field final_field(const core::Job& job, Progress& progress, std::set<std::string>& chain) {
+  Field f = initial_field(job, 1.0, progress, chain);
+  const Motion m = simulate_motion(job, 1.0, job.removal.motion, progress);
+  progress.stage(job.name + ": material removal");
+  cut_field(f, sweeps_of(job, track_of(m, job, job.removal.motion)));
+  progress.done();
+  return f;
+}
+
 // A job's starting field: a box or mesh stock, or the part another job leaves (run here, recursively).
 Field initial_field(const core::Job& job, double feed_scale, Progress& progress, std::set<std::string>& chain) {
   const std::string key = std::filesystem::weakly_canonical(job.file).string();
   if (!chain.insert(key).second) throw core::Error(job.file.string() + ": the stock jobs form a cycle");
   Field f;
-  if (job.stock.kind == core::StockSpec::Kind::Job) {
-    const core::Job parent = core::load_job(job.stock.job_file);
-    f = initial_field(parent, 1.0, progress, chain);
-    const Motion pm = simulate_motion(parent, 1.0, parent.removal.motion, progress);
-    progress.stage(parent.name + ": material removal");
-    cut_field(f, sweeps_of(parent, track_of(pm, parent, parent.removal.motion)));
-    progress.done();
-    (void)feed_scale;
-    return f;
-  }
+  if (job.stock.kind == core::StockSpec::Kind::Job) return final_field(core::load_job(job.stock.job_file), progress, chain);
+  (void)feed_scale;
   std::optional<core::TriangleMesh> mesh;
   removal::Box region;
   if (job.stock.kind == core::StockSpec::Kind::Box) {
     region = removal::Box{job.stock.min_mm, job.stock.max_mm};
   } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
     mesh = core::read_stl(job.stock.mesh_file);
-    core::check_closed(*mesh, job.stock.mesh_file.string());
     region.lo = mesh->vertices_mm.colwise().minCoeff().transpose();
     region.hi = mesh->vertices_mm.colwise().maxCoeff().transpose();
   } else {
@@ -364,7 +369,18 @@ int run_run(const RunArgs& args) {
   t0 = Clock::now();
   std::optional<Field> ref;
   std::string ref_name = "none";
-  if (job.reference.kind == core::ReferenceSpec::Kind::Stock) {
+  if (job.reference.kind == core::ReferenceSpec::Kind::Job) {
+    std::set<std::string> ref_chain = {std::filesystem::weakly_canonical(job.file).string()};
+    ref = final_field(core::load_job(job.reference.job_file), progress, ref_chain);
+    ref_name = "job: the part " + job.reference.job_file.filename().string() + " leaves";
+  } else if (job.reference.kind == core::ReferenceSpec::Kind::Feed) {
+    ref = start;
+    const Motion rm = simulate_motion(job, feed_scale * job.reference.feed_scale, job.removal.motion, progress);
+    progress.stage(job.name + ": reference (feeds x " + fmt::format("{:g}", job.reference.feed_scale) + ")");
+    cut_field(*ref, sweeps_of(job, track_of(rm, job, job.removal.motion)));
+    progress.done();
+    ref_name = fmt::format("feed: the same program through the same chain at {:g} x its feeds", job.reference.feed_scale);
+  } else if (job.reference.kind == core::ReferenceSpec::Kind::Stock) {
     ref = start;
     ref_name = "stock: the part " + job.stock.job_file.filename().string() + " leaves";
   } else if (job.reference.kind == core::ReferenceSpec::Kind::Program) {
@@ -404,7 +420,8 @@ int run_run(const RunArgs& args) {
     }
     const core::TriangleMesh mesh = removal::heightfield_mesh(pred, field.region.lo.z(), dev ? &*dev : nullptr);
     core::write_stl_binary(dir / "part.stl", mesh);
-    files.push_back("part.stl");
+    render::write_vtp(dir / "part.vtp", mesh);
+    files.insert(files.end(), {"part.stl", "part.vtp"});
     surface_json = {{"grid", {{"x0_mm", pred.x0_mm}, {"y0_mm", pred.y0_mm}, {"dx_mm", pred.dx_mm}, {"dy_mm", pred.dy_mm},
                               {"nx", pred.nx()}, {"ny", pred.ny()}}},
                     {"mesh_triangles", mesh.triangles.rows()}};
@@ -465,10 +482,11 @@ int run_run(const RunArgs& args) {
     report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
                                {"setpoints", motion.interp.setpoints.samples()},
                                {"period_s", motion.interp.setpoints.period_s}};
-  if (motion.contour)
-    report["contour_error"] = {{"max_abs_mm", motion.contour->max_abs_mm},
-                               {"rms_mm", motion.contour->rms_mm},
-                               {"mse_um2", motion.contour->mse_um2}};
+  std::optional<ContourStats> cutting;
+  if (motion.contour) {
+    cutting = cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
+    report["contour_error"] = contour_json(*motion.contour, *cutting);
+  }
   report["files"] = files;
   nlohmann::json timings = motion.timings;
   timings["stock"] = t_stock;
@@ -482,8 +500,9 @@ int run_run(const RunArgs& args) {
 
   std::printf("job %s: %s motion, %zu sweeps on %zu rays (%.1f MB)\n", job.name.c_str(), motion_name(job.removal.motion),
               ts.sweeps.size(), field.rays(), field.memory_bytes() / 1e6);
-  if (motion.contour)
-    std::printf("contour error: max %.2f um, rms %.2f um\n", motion.contour->max_abs_mm * 1e3, motion.contour->rms_mm * 1e3);
+  if (cutting)
+    std::printf("contour error on cutting moves: max %.2f um, rms %.2f um\n", cutting->max_abs_mm * 1e3,
+                cutting->rms_mm * 1e3);
   std::printf("reference: %s\n", ref_name.c_str());
   if (ref && marks.empty()) std::printf("marks: none deeper than 1 um\n");
   for (std::size_t k = 0; k < marks.size() && k < 5; ++k) {

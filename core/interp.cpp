@@ -527,6 +527,8 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
 
   SmoothPathOptions sopt;
   sopt.tolerance_mm = options.tolerance_mm;
+  sopt.axis_jerk = lim.j;
+  sopt.rapid_speed = lim.v.head<3>().minCoeff();
   sopt.feed_scale = options.feed_scale;
   const SmoothPath sp = build_smooth_path(path, sopt);
 

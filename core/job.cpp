@@ -82,10 +82,19 @@ RemovalSpec read_removal(const TomlTable& t) {
 
 ReferenceSpec read_reference(const TomlTable& t) {
   ReferenceSpec r;
-  const std::string kind = t.opt_choice("kind", {"program", "stock", "none"}).value_or("program");
+  const std::string kind = t.opt_choice("kind", {"program", "feed", "job", "stock", "none"}).value_or("program");
   r.kind = kind == "program" ? ReferenceSpec::Kind::Program
+           : kind == "feed"  ? ReferenceSpec::Kind::Feed
+           : kind == "job"   ? ReferenceSpec::Kind::Job
            : kind == "stock" ? ReferenceSpec::Kind::Stock
                              : ReferenceSpec::Kind::None;
+  if (r.kind == ReferenceSpec::Kind::Job) r.job_file = t.existing_path("job");
+  else if (t.has("job")) t.fail("job", "only valid with kind = \"job\"");
+  if (r.kind == ReferenceSpec::Kind::Feed) {
+    r.feed_scale = t.positive("feed_scale");
+  } else if (t.has("feed_scale")) {
+    t.fail("feed_scale", "only valid with kind = \"feed\"");
+  }
   t.finish();
   return r;
 }
@@ -115,6 +124,7 @@ Job load_job(const std::filesystem::path& path) {
     job.machine_file = jt.existing_path("machine");
     job.program_file = jt.existing_path("program");
     job.tool_table_file = jt.opt_existing_path("tool_table");
+    if (auto st = jt.opt_numbers("start_mm", 3)) job.start_mm = Eigen::Vector3d((*st)[0], (*st)[1], (*st)[2]);
     if (auto codes = jt.opt_numbers("no_motion_mcodes")) {
       for (double c : *codes) {
         if (c != std::floor(c) || c < 0 || c > 999)

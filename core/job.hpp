@@ -45,9 +45,12 @@ struct RemovalSpec {
 
 // What the predicted surface is compared with to find the marks.
 struct ReferenceSpec {
-  // The same program cut exactly along its programmed path (the nominal cut), the stock this job starts from
-  // (for a stock of Kind::Job: the low-feed part of seed 004), or nothing.
-  enum class Kind { Program, Stock, None } kind = Kind::Program;
+  // The same program cut exactly along its programmed path (the nominal cut); the same program through the same
+  // chain with its feeds scaled (seed 004's low-feed reference); the part another job leaves; the stock this job
+  // starts from; or nothing.
+  enum class Kind { Program, Feed, Job, Stock, None } kind = Kind::Program;
+  double feed_scale = 0.01;        // Kind::Feed
+  std::filesystem::path job_file;  // Kind::Job
 };
 
 struct InterpSpec {
@@ -62,6 +65,9 @@ struct Job {
   std::filesystem::path program_file;
   std::optional<std::filesystem::path> tool_table_file;
   std::vector<int> no_motion_mcodes;   // G-code M codes the machine remaps to actions without motion
+  // Where the tool tip is before the program runs (workpiece frame). Without it the program's own start applies
+  // (LinuxCNC: the origin, which with a tool length offset puts the tip below the origin).
+  std::optional<Eigen::Vector3d> start_mm;
   Machine machine;
   ToolSpec tool;
   StockSpec stock;

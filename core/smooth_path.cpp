@@ -448,8 +448,7 @@ SmoothPath build_smooth_path(const ToolPath& path, const SmoothPathOptions& opti
   out.start = base.front().point_u(base.front().u_begin);
   out.end = base.back().point_u(base.back().u_end);
 
-  const double tol = options.tolerance_mm;
-  const double target = 0.9 * tol;  // margin for the deviation between the checked samples
+  const double corner_target = 0.9 * options.tolerance_mm;  // margin for the deviation between checked samples
   std::vector<double> length0(base.size());
   for (std::size_t i = 0; i < base.size(); ++i) length0[i] = base[i].length;
 
@@ -467,6 +466,19 @@ SmoothPath build_smooth_path(const ToolPath& path, const SmoothPathOptions& opti
     const double cosang = std::clamp(ja.t.dot(jb.t), -1.0, 1.0);
     const double angle = std::acos(cosang);
     const bool g1 = angle < 1e-9;
+    double target = corner_target;
+    if (angle < 1e-6) {
+      // Tangent junction: a transition of length L bridging the curvature jump dK has a rate |dK| / L, so the axis
+      // jerk v^3 |dK_i| / L stays within J_i for L >= v^3 |dK_i| / J_i; it then leaves the path by about
+      // L^2 |dK| / 24 (a clothoid's shift). Twice that, within the tolerance, is all the rounding it gets: at low
+      // feed next to none.
+      const Vec6 dk = ja.k - jb.k;
+      const double v = std::min({A.feed_limit, B.feed_limit, options.rapid_speed});
+      double L = 0;
+      for (int i = 0; i < 6; ++i)
+        if (std::abs(dk[i]) > 0) L = std::max(L, v * v * v * std::abs(dk[i]) / options.axis_jerk[i]);
+      target = std::min(corner_target, 2 * L * L * dk.norm() / 24);
+    }
     const bool g2 = g1 && (ja.k - jb.k).norm() < 1e-9;
     if (g2) {  // already curvature-continuous
       A.finalize();

@@ -66,6 +66,12 @@ struct PathPiece {
 
 struct SmoothPathOptions {
   double tolerance_mm = 0.020;
+  // Tangent junctions (a line into a tangent arc: only the curvature jumps) are rounded only as far as the jerk
+  // limit needs at the programmed feed, as an NC's tangential-transition rounding does (Sinumerik G645): the
+  // transition must be long enough that v^3 |dK| stays within the axis jerk. These give the jerk per axis in path
+  // units (mm/s^3, deg/s^3) and the speed assumed for rapids.
+  Vec6 axis_jerk = Vec6::Constant(1e300);
+  double rapid_speed = 1e300;
   // Corners sharper than this (angle between the tangents) are not blended: the axes stop there.
   double max_blend_angle_rad = 170.0 * 3.14159265358979323846 / 180.0;
   double feed_scale = 1.0;

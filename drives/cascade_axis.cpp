@@ -254,15 +254,20 @@ AxisSample CascadeAxis::advance(const AxisCommand& c, InnerSample* trace) {
   const double i_ff = ff_current_per_accel_ * ad;
   const double w_start = w_;
   int n = 0;
+  double i_sum = 0.0, i_peak = 0.0;
   for (int v = 0; v < current_per_te_; v += current_per_velocity_) {
     velocity_loop(w_cmd, i_ff);
     for (int k = 0; k < current_per_velocity_; ++k, ++n) {
       current_loop();
       if constexpr (kTrace) trace[n] = InnerSample{x_, r_ * w_, i_, iset_, u_};
       plant(u_);
+      i_sum += i_;
+      i_peak = std::max(i_peak, std::abs(i_));
     }
   }
   AxisSample s = sample();
+  s.current_mean_A = i_sum / n;
+  s.current_peak_A = i_peak;
   // Mean acceleration over the period just ended (the backward difference of the exact speeds), so that jerk by
   // differencing follows the same convention as the setpoints' finite differences.
   s.acceleration = r_ * (w_ - w_start) / te_;
@@ -281,6 +286,8 @@ AxisSample CascadeAxis::sample() const {
   s.velocity = r_ * w_;
   s.acceleration = 0.0;
   s.current_A = i_;
+  s.current_mean_A = i_;
+  s.current_peak_A = std::abs(i_);
   s.current_setpoint_A = iset_;
   return s;
 }

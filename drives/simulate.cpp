@@ -46,6 +46,8 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
     out.velocity(k, axis) = s.velocity;
     out.acceleration(k, axis) = s.acceleration;
     out.current_A(k, axis) = s.current_A;
+    out.current_mean_A(k, axis) = s.current_mean_A;
+    out.current_peak_A(k, axis) = s.current_peak_A;
     out.current_setpoint_A(k, axis) = s.current_setpoint_A;
     if (k + 1 == rows) break;
     const Index ks = k < n_set ? k : n_set - 1;
@@ -137,7 +139,7 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
   out.period_s = te;
   for (const auto& ax : machine.axes) out.axis_names.push_back(ax.name);
   for (Eigen::MatrixXd* m : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
-                             &out.current_setpoint_A})
+                             &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
     m->setZero(rows, n_axes);
 
   std::vector<AxisJob> jobs(static_cast<std::size_t>(n_axes));

@@ -37,6 +37,7 @@ struct AxisResponse {
   // t = k Te, the instant setpoint k is sent (row 0: at rest at the first setpoint), so rows and setpoints share
   // their time base. Acceleration: mean over the period ending at row k; jerk: its backward difference.
   Eigen::MatrixXd position, velocity, acceleration, jerk, current_A, current_setpoint_A;
+  Eigen::MatrixXd current_mean_A, current_peak_A;  // over each Te period (see AxisSample)
   std::vector<FullRateTrace> trace;     // per axis when full_rate_trace
   Eigen::Index samples() const { return position.rows(); }
 };

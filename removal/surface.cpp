@@ -29,34 +29,30 @@ core::TriangleMesh heightfield_mesh(const core::HeightGrid& g, double bottom, co
       if (a >= 0 && c >= 0 && e >= 0) t.emplace_back(a, c, e);
     }
   if (closed) {
-    // Bottom copies of the boundary nodes, walls between them, and a bottom fan of two triangles per cell along
-    // the boundary would leave T-junctions: the bottom is a plain grid too (same nodes, z = bottom).
+    // The bottom: only the boundary nodes (no T-junctions with the walls), in a fan about the bottom's centre,
+    // which keeps every triangle proper and the mesh small (the top carries the detail).
+    std::vector<std::pair<Eigen::Index, Eigen::Index>> ring;  // boundary nodes, counter-clockwise from above
+    for (Eigen::Index i = 0; i < nx; ++i) ring.emplace_back(0, i);
+    for (Eigen::Index j = 1; j < ny; ++j) ring.emplace_back(j, nx - 1);
+    for (Eigen::Index i = nx - 2; i >= 0; --i) ring.emplace_back(ny - 1, i);
+    for (Eigen::Index j = ny - 2; j >= 1; --j) ring.emplace_back(j, 0);
     const int base = static_cast<int>(v.size());
-    for (Eigen::Index j = 0; j < ny; ++j)
-      for (Eigen::Index i = 0; i < nx; ++i) {
-        v.emplace_back(g.x(i), g.y(j), bottom);
-        d.push_back(0.0);
-      }
-    auto bot = [&](Eigen::Index j, Eigen::Index i) { return base + static_cast<int>(j * nx + i); };
-    for (Eigen::Index j = 0; j + 1 < ny; ++j)
-      for (Eigen::Index i = 0; i + 1 < nx; ++i) {
-        t.emplace_back(bot(j, i), bot(j + 1, i + 1), bot(j, i + 1));  // facing -Z
-        t.emplace_back(bot(j, i), bot(j + 1, i), bot(j + 1, i + 1));
-      }
-    // Walls, outward normals.
-    for (Eigen::Index i = 0; i + 1 < nx; ++i) {
-      t.emplace_back(at(0, i), bot(0, i), bot(0, i + 1));  // y = y0 side, facing -Y
-      t.emplace_back(at(0, i), bot(0, i + 1), at(0, i + 1));
-      const Eigen::Index j = ny - 1;  // facing +Y
-      t.emplace_back(at(j, i), at(j, i + 1), bot(j, i + 1));
-      t.emplace_back(at(j, i), bot(j, i + 1), bot(j, i));
+    for (const auto& [j, i] : ring) {
+      v.emplace_back(g.x(i), g.y(j), bottom);
+      d.push_back(0.0);
     }
-    for (Eigen::Index j = 0; j + 1 < ny; ++j) {
-      t.emplace_back(at(j, 0), at(j + 1, 0), bot(j + 1, 0));  // x = x0 side, facing -X
-      t.emplace_back(at(j, 0), bot(j + 1, 0), bot(j, 0));
-      const Eigen::Index i = nx - 1;  // facing +X
-      t.emplace_back(at(j, i), bot(j, i), bot(j + 1, i));
-      t.emplace_back(at(j, i), bot(j + 1, i), at(j + 1, i));
+    const int centre = static_cast<int>(v.size());
+    v.emplace_back(0.5 * (g.x(0) + g.x(nx - 1)), 0.5 * (g.y(0) + g.y(ny - 1)), bottom);
+    d.push_back(0.0);
+    const int nr = static_cast<int>(ring.size());
+    for (int k = 0; k < nr; ++k) {
+      const int a = base + k, b = base + (k + 1) % nr;
+      t.emplace_back(centre, b, a);  // facing -Z
+      // Wall between top ring node k, k+1 and their bottom copies, facing outwards.
+      const int ta = at(ring[static_cast<std::size_t>(k)].first, ring[static_cast<std::size_t>(k)].second);
+      const int tb = at(ring[static_cast<std::size_t>((k + 1) % nr)].first, ring[static_cast<std::size_t>((k + 1) % nr)].second);
+      t.emplace_back(ta, a, b);
+      t.emplace_back(ta, b, tb);
     }
   }
   m.vertices_mm.resize(static_cast<Eigen::Index>(v.size()), 3);

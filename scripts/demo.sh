@@ -1,17 +1,21 @@
 #!/usr/bin/env bash
-# make demo: the plane-cylinder part of seed 004 (section 4) through the stages of the chain that exist so far.
+# make demo: the plane-cylinder part of seed 004 (section 4) through the whole chain: interpolator, servo drives,
+# material removal, and the mark the fast pass leaves at the fillet.
 # Usage: scripts/demo.sh PATH/TO/vmsim
 set -euo pipefail
 vmsim=${1:?usage: scripts/demo.sh PATH/TO/vmsim}
 here=$(cd "$(dirname "$0")/.." && pwd)
 part="$here/parts/plane_cylinder"
+out="$here/build/demo"
 
-echo "== vmsim demo: plane-cylinder part (seed 004 section 4), ball-end D10, passes in XZ planes 0.25 mm apart"
-echo "   floor, concave R10 fillet, 30 deg slope; Mikron UCP 710 limits (seed 000 Table I); Te 1 ms, tolerance 20 um"
+echo "== vmsim demo: plane-cylinder part (seed 004 section 4): floor, concave R10 fillet, 30 deg slope; ball-end D10,"
+echo "   passes in XZ planes 0.25 mm apart on a stock with 0.05 mm allowance; Mikron UCP 710 (seed 000 Table I)."
 echo
-for job in reference fast; do
-  echo "-- job_$job.toml"
-  "$vmsim" interp "$part/job_$job.toml" --summary-only
-  echo
-done
-echo "Setpoints of a job: $vmsim interp $part/job_fast.toml --out DIR   (writes DIR/setpoints.csv)"
+echo "-- 0.1 m/min: every pass; its marks against the program cut exactly (seed 004: negligible)"
+"$vmsim" run "$part/job_reference.toml" --out "$out/reference"
+echo
+echo "-- 10 m/min: the middle pass; its mark against the same pass at 0.1 m/min (seed 004: about 0.02 mm)"
+"$vmsim" run "$part/job_fast.toml" --out "$out/fast"
+echo
+echo "Results (report.json, surface/deviation grids, part.stl, part.vtp): $out/reference and $out/fast"
+echo "Setpoints and drive signals of a job: $vmsim motion $part/job_fast.toml --out DIR"

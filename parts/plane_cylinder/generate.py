@@ -15,9 +15,11 @@ point is the ball's tip (G43 with the tool length); along the floor the tip is o
 fillet it follows an arc of radius R_FILLET - 5 programmed as G18 G2, up the slope a straight line.
 The finishing allowance (0.05 mm) is a property of the stock, not of this program.
 
-Programs written (checked in; rerun this script after changing a constant):
+Files written (checked in; rerun this script after changing a constant):
   plane_cylinder_reference.ngc  every pass at the low feed, 0.1 m/min: the reference surface of seed 004
-  plane_cylinder_fast.ngc       the middle pass only, at 10 m/min: the pass that leaves the mark
+  plane_cylinder_fast.ngc       the middle pass (y = 5) alone, at 10 m/min: the pass that leaves the mark
+  plane_cylinder_stock.stl      the semi-finished part: the surface offset by the finishing allowance (0.05 mm),
+                                a closed solid over x in [0, PART_LENGTH], y in [0, WIDTH], down to z = PART_BOTTOM
 """
 import math
 import os
@@ -35,6 +37,10 @@ APPROACH_Z = 2.0      # rapid down to here, then feed down
 FEED_REFERENCE = 100.0   # mm/min = 0.1 m/min
 FEED_FAST = 10000.0      # mm/min = 10 m/min
 FEED_PLUNGE = 1000.0     # mm/min, approach and retract feeds of the fast program
+ALLOWANCE = 0.05      # finishing allowance left on the semi-finished stock (seed 004)
+PART_LENGTH = 120.0   # the part's extent along X (the slope is cut off there)
+PART_BOTTOM = -10.0   # bottom of the part
+ARC_SAGITTA = 1e-4    # largest distance between the stock's facets and its cylinder (mm)
 
 
 def tip_path():
@@ -85,6 +91,51 @@ def write(name, lines):
     os.replace(path + ".tmp", path)
 
 
+def stock_profile():
+    """(x, z) points of the semi-finished surface: floor, fillet and slope offset by ALLOWANCE along the normal."""
+    a = math.radians(SLOPE_DEG)
+    r = R_FILLET - ALLOWANCE                         # the concave fillet's offset keeps its axis
+    cx, cz = X_TANGENT, R_FILLET
+    pts = [(0.0, ALLOWANCE), (X_TANGENT, ALLOWANCE)]
+    n = max(2, int(math.ceil(a / (2 * math.acos(1 - ARC_SAGITTA / r)))))
+    for k in range(1, n + 1):
+        phi = a * k / n
+        pts.append((cx + r * math.sin(phi), cz - r * math.cos(phi)))
+    x1, z1 = pts[-1]
+    pts.append((PART_LENGTH, z1 + (PART_LENGTH - x1) * math.tan(a)))
+    return pts
+
+
+def write_stock_stl(name):
+    """Closed, outward-facing triangles: the offset surface on top, two side walls, two ends and the bottom."""
+    prof = stock_profile()
+    tris = []
+    y0, y1, zb = 0.0, WIDTH, PART_BOTTOM
+    for (xa, za), (xb, zb_) in zip(prof, prof[1:]):
+        tris.append(((xa, y0, za), (xb, y0, zb_), (xb, y1, zb_)))  # top, normal up
+        tris.append(((xa, y0, za), (xb, y1, zb_), (xa, y1, za)))
+        tris.append(((xa, y0, zb), (xb, y0, zb), (xb, y0, zb_)))   # side y = 0, normal -Y
+        tris.append(((xa, y0, zb), (xb, y0, zb_), (xa, y0, za)))
+        tris.append(((xa, y1, zb), (xb, y1, zb_), (xb, y1, zb)))   # side y = WIDTH, normal +Y
+        tris.append(((xa, y1, zb), (xa, y1, za), (xb, y1, zb_)))
+        tris.append(((xa, y0, zb), (xb, y1, zb), (xb, y0, zb)))    # bottom strip (same x breaks), normal -Z
+        tris.append(((xa, y0, zb), (xa, y1, zb), (xb, y1, zb)))
+    x0, xe = prof[0][0], prof[-1][0]
+    z0, ze = prof[0][1], prof[-1][1]
+    tris += [((x0, y0, zb), (x0, y0, z0), (x0, y1, z0)), ((x0, y0, zb), (x0, y1, z0), (x0, y1, zb))]  # x = 0, -X
+    tris += [((xe, y0, zb), (xe, y1, ze), (xe, y0, ze)), ((xe, y0, zb), (xe, y1, zb), (xe, y1, ze))]  # x = end, +X
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), name)
+    with open(path + ".tmp", "w") as f:
+        f.write("solid plane_cylinder_stock\n")
+        for t in tris:
+            f.write("  facet normal 0 0 0\n    outer loop\n")
+            for v in t:
+                f.write("      vertex %.9f %.9f %.9f\n" % v)
+            f.write("    endloop\n  endfacet\n")
+        f.write("endsolid plane_cylinder_stock\n")
+    os.replace(path + ".tmp", path)
+
+
 def main():
     n = int(round(WIDTH / STEPOVER)) + 1
     ref = []
@@ -95,12 +146,15 @@ def main():
     ref.append("M30")
     write("plane_cylinder_reference.ngc", ref)
 
+    # Seed 004: "only one path is executed with the high feedrate": the middle pass, whose groove job_fast.toml
+    # compares with the same pass run at 0.1 m/min (its reference: the same program at 1/100 of the feed).
     fast = []
     header(fast, "plane-cylinder part: the middle pass at 10 m/min")
-    one_pass(fast, (n // 2) * STEPOVER, FEED_FAST, FEED_PLUNGE)
+    one_pass(fast, (n // 2) * STEPOVER, FEED_FAST, FEED_FAST / 10)
     fast.append("M5")
     fast.append("M30")
     write("plane_cylinder_fast.ngc", fast)
+    write_stock_stl("plane_cylinder_stock.stl")
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -171,4 +172,44 @@ TEST(Cli, CanonPrintsLinuxCncCalls) {
   EXPECT_NE(r.out.find("ARC_FEED(20.0000, 0.0000, 15.0000, 0.0000, -1, 0.0000, 0.0000, 0.0000, 0.0000)"),
             std::string::npos)
       << r.out;
+}
+
+namespace {
+double json_number_after(const std::string& text, const std::string& key, std::size_t from = 0) {
+  const auto k = text.find("\"" + key + "\"", from);
+  if (k == std::string::npos) return NAN;
+  const auto colon = text.find(':', k);
+  return std::stod(text.substr(colon + 1));
+}
+}  // namespace
+
+// The whole chain on the plane-cylinder part (seed 004 section 4, Fig. 6), the figure the seed reports: at 10 m/min
+// the pass leaves a mark of about 0.02 mm at the fillet against the same pass at 0.1 m/min. The issue asks for the
+// order of magnitude with the one machine file: 0.01 to 0.04 mm.
+TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
+  TempDir tmp;
+  const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
+  CliRun r = vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string rep = slurp(tmp.path() / "out" / "report.json");
+  ASSERT_NE(rep.find("\"marks\""), std::string::npos) << rep;
+  const double depth = json_number_after(rep, "depth_mm", rep.find("\"marks\""));
+  EXPECT_GE(depth, 0.010) << rep;
+  EXPECT_LE(depth, 0.040) << rep;
+  EXPECT_EQ(rep.find("\"sha256\": \"\""), std::string::npos);
+  for (const char* f : {"surface.csv", "deviation.csv", "part.stl", "part.vtp", "report.json"})
+    EXPECT_TRUE(fs::exists(tmp.path() / "out" / f)) << f;
+}
+
+// At 0.1 m/min over the whole surface the marks against the program cut exactly stay below 0.003 mm (seed 004:
+// negligible).
+TEST(Cli, RunPlaneCylinderLowFeedMarksAreNegligible) {
+  TempDir tmp;
+  const std::string job = kSource + "/parts/plane_cylinder/job_reference.toml";
+  CliRun r = vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string rep = slurp(tmp.path() / "out" / "report.json");
+  const double lo = json_number_after(rep, "deviation_min_mm"), hi = json_number_after(rep, "deviation_max_mm");
+  EXPECT_GT(lo, -0.003) << rep;
+  EXPECT_LT(hi, 0.003) << rep;
 }

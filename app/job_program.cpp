@@ -1,0 +1,24 @@
+#include "app/job_program.hpp"
+
+#include "core/program.hpp"
+
+namespace vmsim::app {
+
+core::ToolPath read_job_program(const core::Job& job) {
+  core::ProgramOptions popt;
+  popt.tool_table = job.tool_table_file;
+  popt.no_motion_mcodes = job.no_motion_mcodes;
+  core::ToolPath tp = core::read_program(job.program_file, popt);
+  if (job.start_mm && !tp.moves.empty()) {
+    core::Move& first = tp.moves.front();
+    first.start.head<3>() = *job.start_mm;
+    // initial_position has no tool length offset applied: the axes sit at the tip plus the first move's offset.
+    tp.initial_position = first.start;
+    tp.initial_position[core::kZ] += first.tool_length_offset_mm;
+  } else if (job.start_mm) {
+    tp.initial_position.head<3>() = *job.start_mm;
+  }
+  return tp;
+}
+
+}  // namespace vmsim::app
