@@ -42,7 +42,10 @@ core::TriangleMesh heightfield_mesh(const core::HeightGrid& g, double bottom, co
       d.push_back(0.0);
     }
     const int centre = static_cast<int>(v.size());
-    v.emplace_back(0.5 * (g.x(0) + g.x(nx - 1)), 0.5 * (g.y(0) + g.y(ny - 1)), bottom);
+    // The fan's centre sits inside a grid cell at an irrational fraction of it, so that rays on this grid or on
+    // finer regular grids (reading the part back) do not pass through the vertex all the fan's triangles share.
+    v.emplace_back(g.x((nx - 1) / 2) + 0.3183098861837907 * g.dx_mm, g.y((ny - 1) / 2) + 0.2718281828459045 * g.dy_mm,
+                   bottom);
     d.push_back(0.0);
     const int nr = static_cast<int>(ring.size());
     for (int k = 0; k < nr; ++k) {

@@ -111,12 +111,12 @@ TEST(Cli, InterpWritesSetpointsFromStartToProgramEnd) {
     ++n;
   }
   ASSERT_GT(n, 1000u);
-  // LinuxCNC starts at the origin; the program ends with G0 Z40 at X134.461524 Y5 under G43 with a 50 mm tool:
-  // the Z axis ends at 40 + 50.
+  // The job starts the tool tip at (-8, 5, 40) (start_mm); the program ends with G0 Z40 at X134.461524 Y5 under
+  // G43 with a 50 mm tool: the Z axis starts and ends at 40 + 50.
   const std::vector<double> a = row(first), b = row(last);
-  EXPECT_EQ(a[1], 0.0);
-  EXPECT_EQ(a[2], 0.0);
-  EXPECT_EQ(a[3], 0.0);
+  EXPECT_EQ(a[1], -8.0);
+  EXPECT_EQ(a[2], 5.0);
+  EXPECT_EQ(a[3], 90.0);
   EXPECT_NEAR(b[1], 134.461524, 1e-9);
   EXPECT_NEAR(b[2], 5.0, 1e-9);
   EXPECT_NEAR(b[3], 90.0, 1e-9);
