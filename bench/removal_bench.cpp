@@ -1,15 +1,29 @@
 // Material removal throughput on the raster of ../shared/peers/peer_freecad_sim.py (the side-by-side comparison
-// with FreeCAD's path simulator): a 100 x 100 mm area, zig-zag passes along X 0.5 mm apart, 21 points per pass
-// 5 mm apart following z = 15 - 3 exp(-((x - 50)/15)^2), ball-end R5, stock 100 x 100 x 20.
-// Counters: ray-tool evaluations per second (one thread), and the largest height error against the exact ball
-// envelope of peer_envelope_grid.py (its formula, evaluated here at its 1 mm nodes, which lie on pass centres).
+// with FreeCAD's path simulator): the peer's whole program, move for move. From (0,0,30): G1 plunge to
+// z = zdip(0) at (0,0); 201 zig-zag passes along X, 0.5 mm apart in Y (even passes x 0 -> 100, odd 100 -> 0), each
+// 20 moves through 21 points 5 mm apart on z = zdip(x) = 15 - 3 exp(-((x - 50)/15)^2); a stepover move in Y at
+// constant z between passes; the final G0 Z30 retract (FreeCAD applies G0 like G1). Ball end R5 (the peer's tool is
+// 45 mm long from the tip), stock 100 x 100 x 20. Coordinates are the exact values (the peer's G-code rounds them
+// to 0.1 um), as in peer_envelope_grid.py.
+//
+// Arguments: spacing as 1/n mm (16, 32) and the OpenMP thread count (1, 2).
+// Counters: ray-tool evaluations per second (all threads; per thread), the height error against the exact ball
+// envelope of peer_envelope_grid.py (its formula, evaluated here at the 1 mm nodes x, y in [2, 98], which lie on
+// pass centres), the z-map's memory (DexelGrid::memory_bytes per dexel) and the stock set-up time (make_zmap +
+// fill_box, not in the timed region). The timed region is cut() alone.
+// VMSIM_REMOVAL_HEIGHTS=prefix writes the z-map's heights at x, y = 1..99 mm to prefix_<n>_t<threads>.xyz ("x y z"
+// lines, the layout of the peer script's .heights.xyz) for comparison with peer_envelope_grid.py's ref.xyz.
 // Figures: bench/README.md.
 #include "removal/fields.hpp"
 
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
 
 namespace {
 
@@ -21,19 +35,27 @@ std::vector<SweptTool> raster(double step) {
   Tool t;
   t.radius_mm = 5;
   t.corner_radius_mm = 5;
-  t.length_mm = 40;
-  std::vector<SweptTool> out;
-  const int ny = static_cast<int>(100 / step) + 1;
+  t.length_mm = 45;
+  // Tip positions in program order (peer_freecad_sim.py: G0 Z30, G0 X0 Y0, G1 Z zdip(0), passes, G0 Z30).
+  std::vector<Eigen::Vector3d> p{{0, 0, 30}, {0, 0, zdip(0)}};
+  const int ny = static_cast<int>(std::lround(100 / step)) + 1;
   for (int j = 0; j < ny; ++j) {
     const double y = j * step;
-    for (int k = 0; k < 20; ++k) {
-      const int a = (j % 2 == 0) ? k : 20 - k, b = (j % 2 == 0) ? k + 1 : 19 - k;
-      SweptTool s;
-      s.tool = t;
-      s.tip0 = Eigen::Vector3d(5.0 * a, y, zdip(5.0 * a));
-      s.d = Eigen::Vector3d(5.0 * b, y, zdip(5.0 * b)) - s.tip0;
-      out.push_back(s);
+    for (int k = 0; k <= 20; ++k) {
+      if (j == 0 && k == 0) continue;  // the plunge's end; for j > 0, k = 0 is the stepover move
+      const double x = 5.0 * ((j % 2 == 0) ? k : 20 - k);
+      p.emplace_back(x, y, zdip(x));
     }
+  }
+  p.emplace_back(p.back().x(), p.back().y(), 30.0);
+  std::vector<SweptTool> out;
+  for (std::size_t k = 1; k < p.size(); ++k) {
+    if ((p[k] - p[k - 1]).norm() == 0) continue;
+    SweptTool s;
+    s.tool = t;
+    s.tip0 = p[k - 1];
+    s.d = p[k] - p[k - 1];
+    out.push_back(s);
   }
   return out;
 }
@@ -54,34 +76,75 @@ double envelope(double x) {
   return e;
 }
 
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 void BM_ZmapBallRaster(benchmark::State& state) {
-  const double h = 1.0 / static_cast<double>(state.range(0));  // spacing: 1/16 and 1/32 mm
-  omp_set_num_threads(1);
+  const int n = static_cast<int>(state.range(0));
+  const double h = 1.0 / n;  // spacing: 1/16 and 1/32 mm
+  const int threads = static_cast<int>(state.range(1));
+  omp_set_num_threads(threads);
   const std::vector<SweptTool> sw = raster(0.5);
   const Box stock{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(100, 100, 20)};
-  std::size_t tests = 0;
-  double max_err = 0;
+  std::size_t tests = 0, mem = 0, dexels = 0, intervals = 0;
+  double max_err = 0, sum2 = 0, setup_ms = 0;
+  int nodes = 0;
   for (auto _ : state) {
     state.PauseTiming();
+    const auto t0 = std::chrono::steady_clock::now();
     DexelGrid z = make_zmap(stock, h);
     fill_box(z, stock);
+    setup_ms += ms_since(t0);
     state.ResumeTiming();
     tests = cut(z, sw).ray_tests;
     state.PauseTiming();
-    max_err = 0;
+    max_err = 0, sum2 = 0, nodes = 0;
     for (int xi = 2; xi <= 98; ++xi) {
       const double e = envelope(xi);
-      for (int yi = 2; yi <= 98; ++yi)
-        max_err = std::max(max_err, std::abs(z.top(static_cast<int>(std::lround(xi / h)), static_cast<int>(std::lround(yi / h))) - e));
+      for (int yi = 2; yi <= 98; ++yi) {
+        const double d = z.top(static_cast<int>(std::lround(xi / h)), static_cast<int>(std::lround(yi / h))) - e;
+        max_err = std::max(max_err, std::abs(d));
+        sum2 += d * d;
+        ++nodes;
+      }
+    }
+    mem = z.memory_bytes();
+    dexels = static_cast<std::size_t>(z.nu()) * static_cast<std::size_t>(z.nv());
+    intervals = z.interval_count();
+    if (const char* prefix = std::getenv("VMSIM_REMOVAL_HEIGHTS")) {
+      const std::string path = std::string(prefix) + "_" + std::to_string(n) + "_t" + std::to_string(threads) + ".xyz";
+      if (std::FILE* f = std::fopen(path.c_str(), "w")) {
+        for (int xi = 1; xi <= 99; ++xi)
+          for (int yi = 1; yi <= 99; ++yi)
+            std::fprintf(f, "%d %d %.7f\n", xi, yi, z.top(static_cast<int>(std::lround(xi / h)), static_cast<int>(std::lround(yi / h))));
+        std::fclose(f);
+      }
     }
     state.ResumeTiming();
   }
   omp_set_num_threads(omp_get_num_procs());
   const double it = static_cast<double>(state.iterations());
-  state.counters["ray_tests/s"] = benchmark::Counter(it * tests, benchmark::Counter::kIsRate);
+  state.counters["ray_tests/s"] = benchmark::Counter(it * static_cast<double>(tests), benchmark::Counter::kIsRate);
+  state.counters["ray_tests/s/thread"] =
+      benchmark::Counter(it * static_cast<double>(tests) / threads, benchmark::Counter::kIsRate);
+  state.counters["ray_tests"] = static_cast<double>(tests);
   state.counters["max_err_um"] = max_err * 1e3;
+  state.counters["rms_err_um"] = std::sqrt(sum2 / nodes) * 1e3;
   state.counters["sweeps"] = static_cast<double>(sw.size());
+  state.counters["setup_ms"] = setup_ms / it;
+  state.counters["dexels"] = static_cast<double>(dexels);
+  state.counters["intervals"] = static_cast<double>(intervals);
+  state.counters["zmap_MB"] = static_cast<double>(mem) / 1e6;
+  state.counters["B/dexel"] = static_cast<double>(mem) / static_cast<double>(dexels);
 }
-BENCHMARK(BM_ZmapBallRaster)->Arg(16)->Arg(32)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ZmapBallRaster)
+    ->ArgNames({"n", "threads"})
+    ->Args({16, 1})
+    ->Args({32, 1})
+    ->Args({16, 2})
+    ->Args({32, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
