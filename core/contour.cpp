@@ -22,6 +22,11 @@
 //    its pass, however close they are; at a corner or a U-turn the tool's own direction turns, and the foot
 //    follows. Candidates reached by descent (the tool overshooting the end of a move and coming back) are
 //    always allowed.
+//  - Same instant: the command point at the actual's own instant (the point the drives are following) is also a
+//    candidate, under the same direction test. The arc-length budget cannot reach it where the path retraces
+//    itself (a move out and back along the same line, as a program's first rapid from a job's start position):
+//    the foot slides back down the outgoing leg, whose points are as near as the return leg's, and would be left
+//    at its start, arc-length far from the move that follows.
 //  - Index window: candidates are also limited to `window_samples` distinct points either side of the previous
 //    foot (seed 001's buffer of length m). Default: twice the largest tracking error (command at the same
 //    instant minus actual) over the smallest distinct command step, in [32, 65536]. Jerk-limited stops make the
@@ -183,6 +188,11 @@ ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd
   out.foot_segment.resize(m);
   if (m == 0) return out;
 
+  // Distinct point of every command row.
+  std::vector<Eigen::Index> row_q(static_cast<std::size_t>(command.rows()));
+  for (Eigen::Index q = 0, r = 0; q < q_n; ++q)
+    for (; r <= path.last[static_cast<std::size_t>(q)]; ++r) row_q[static_cast<std::size_t>(r)] = q;
+
   const double* P = path.p.data();
   const double* S = path.s.data();
   auto pt = [&](Eigen::Index q) { return P + 3 * q; };
@@ -249,6 +259,12 @@ ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd
         prev = d;
         if (d < best2 && (descent || !moving || runs_with_motion(q))) best2 = d, best = q;
       }
+    }
+    // The command point at this instant (the held last point for settling rows).
+    {
+      const Eigen::Index q = row_q[static_cast<std::size_t>(std::min<Eigen::Index>(k, command.rows() - 1))];
+      const double d = dist2(pt(q), ax, ay, az);
+      if (d < best2 && (!moving || runs_with_motion(q))) best2 = d, best = q;
     }
     f = best;
 

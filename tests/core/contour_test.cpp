@@ -368,6 +368,35 @@ TEST(Contour, MatchesBruteForceOnASmooth3DCurve) {
   EXPECT_LT(worst, kNm);
 }
 
+// A path that folds back on itself: from S out 40 mm and back to S along the same line (a rapid that leaves and
+// returns, as a program's first move from a job's start position does), then on at right angles for 20 mm. The
+// actual follows 5 samples late; on the way back it passes exactly through the outgoing leg's samples, so the foot
+// slides back down the outgoing leg (the same points: the distance is right). At S it must leave for the new leg:
+// every distance stays within the lag (5 samples of at most 0.0515 mm), not the distance back to S (up to 20 mm).
+TEST(Contour, FoldBackDoesNotTrapTheFootOnTheOutgoingLeg) {
+  const Eigen::Vector3d s(2, 3, 4), o = s + Eigen::Vector3d(40, 0, 0), e = s + Eigen::Vector3d(0, 0, -20);
+  std::vector<Eigen::Vector3d> v, act;
+  for (int i = 0; i < 20; ++i) v.push_back(s);
+  for (int i = 1; i <= 800; ++i) v.push_back(s + (o - s) * i / 800.0);
+  for (int i = 0; i < 20; ++i) v.push_back(o);
+  const int back0 = static_cast<int>(v.size());
+  for (int i = 1; i <= 777; ++i) v.push_back(o + (s - o) * i / 777.0);  // not on the outgoing leg's samples
+  const int back1 = static_cast<int>(v.size());
+  for (int i = 1; i <= 400; ++i) v.push_back(s + (e - s) * i / 400.0);
+  for (int i = 0; i < 20; ++i) v.push_back(e);
+  for (int k = 0; k < static_cast<int>(v.size()); ++k) {
+    const int j = std::max(0, k - 5);
+    if (j >= back0 && j < back1) {  // on the way back: the outgoing sample nearest the command's point
+      const double f = 1.0 - double(j - back0 + 1) / 777.0;
+      act.push_back(s + (o - s) * std::round(f * 800.0) / 800.0);
+    } else {
+      act.push_back(v[j]);
+    }
+  }
+  const ContourError ce = contour_error(rows(v), rows(act));
+  EXPECT_LT(ce.max_abs_mm, 5 * 0.0515 + kNm);
+}
+
 TEST(Contour, WindowOptionAndDefault) {
   const Line line;
   const Eigen::MatrixXd cmd = line.command();
