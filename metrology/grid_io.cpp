@@ -2,31 +2,81 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "metrology/units.hpp"
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
+#include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 namespace vmsim::metrology {
 
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Larger grids than this are surely a typo or a hostile header (2^28 nodes = 2 GiB of heights).
+constexpr long long kMaxNodes = 1LL << 28;
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string trim(std::string_view s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  return std::string(s);
+}
+
+// Splits a data line at blanks, tabs, commas and semicolons.
+void split_fields(const std::string& line, std::vector<std::string_view>& out) {
+  out.clear();
+  std::size_t i = 0;
+  const auto sep = [](char c) { return c == ' ' || c == '\t' || c == ',' || c == ';' || c == '\r'; };
+  while (i < line.size()) {
+    while (i < line.size() && sep(line[i])) ++i;
+    const std::size_t b = i;
+    while (i < line.size() && !sep(line[i])) ++i;
+    if (i > b) out.emplace_back(line.data() + b, i - b);
+  }
+}
+
+bool is_nan_token(std::string_view t) {
+  const std::string l = lower(std::string(t));
+  return l == "nan" || l == "-nan" || l == "+nan" || l == "bad" || l == "nodata";
+}
+
+// A height or coordinate in the file's unit (10^pow10 m) as mm; NaN for "nan".
+std::optional<double> value_mm(std::string_view t, int pow10) {
+  if (is_nan_token(t)) return kNaN;
+  return parse_decimal_scaled(t, pow10 + 3);
+}
+
+std::string exact(double v) { return std::isfinite(v) ? fmt::format("{}", v) : std::string("nan"); }
+
+}  // namespace
+
 void write_height_csv(const std::filesystem::path& file, const core::HeightGrid& g) {
   core::AtomicFile out(file);
   auto& s = out.stream();
-  s << fmt::format("# vmsim height grid, mm; row j is y = y0 + j dy, column i is x = x0 + i dx\n");
-  s << fmt::format("# x0_mm={:.9g} y0_mm={:.9g} dx_mm={:.9g} dy_mm={:.9g} nx={} ny={}\n", g.x0_mm, g.y0_mm, g.dx_mm,
-                   g.dy_mm, g.nx(), g.ny());
+  s << "# vmsim height grid, mm; row j is y = y0 + j dy, column i is x = x0 + i dx\n";
+  s << fmt::format("# x0_mm={} y0_mm={} dx_mm={} dy_mm={} nx={} ny={}\n", g.x0_mm, g.y0_mm, g.dx_mm, g.dy_mm, g.nx(),
+                   g.ny());
   std::string line;
   for (Eigen::Index j = 0; j < g.ny(); ++j) {
     line.clear();
     for (Eigen::Index i = 0; i < g.nx(); ++i) {
       if (i) line += ',';
-      const double z = g.z_mm(j, i);
-      line += std::isfinite(z) ? fmt::format("{:.7f}", z) : "nan";
+      line += exact(g.z_mm(j, i));  // shortest digits that read back as the same double
     }
     line += '\n';
     s << line;
@@ -45,23 +95,26 @@ core::HeightGrid read_height_csv(const std::filesystem::path& file) {
   while (std::getline(in, line)) {
     ++lineno;
     if (line.rfind("# x0_mm=", 0) == 0) {
+      if (nx >= 0) throw core::Error(core::located(file.string(), lineno, "a second grid header"));
       if (std::sscanf(line.c_str(), "# x0_mm=%lf y0_mm=%lf dx_mm=%lf dy_mm=%lf nx=%ld ny=%ld", &g.x0_mm, &g.y0_mm,
                       &g.dx_mm, &g.dy_mm, &nx, &ny) != 6 || nx <= 0 || ny <= 0 || nx > 100000 || ny > 100000 ||
-          !(g.dx_mm > 0) || !(g.dy_mm > 0))
+          static_cast<long long>(nx) * ny > kMaxNodes || !(g.dx_mm > 0) || !(g.dy_mm > 0) ||
+          !std::isfinite(g.dx_mm) || !std::isfinite(g.dy_mm) || !std::isfinite(g.x0_mm) || !std::isfinite(g.y0_mm))
         throw core::Error(core::located(file.string(), lineno, "bad grid header (x0_mm= y0_mm= dx_mm= dy_mm= nx= ny=)"));
-      values.reserve(static_cast<std::size_t>(nx * ny));
+      // The values come with the rows; the header's size alone does not get to allocate.
+      values.reserve(static_cast<std::size_t>(std::min<long long>(static_cast<long long>(nx) * ny, 1 << 20)));
       continue;
     }
-    if (line.empty() || line[0] == '#') continue;
+    if (line.empty() || line[0] == '#' || line == "\r") continue;
     if (nx < 0) throw core::Error(core::located(file.string(), lineno, "data before the grid header"));
     std::stringstream ss(line);
     std::string cell;
     long count = 0;
     while (std::getline(ss, cell, ',')) {
-      char* end = nullptr;
-      const double v = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str()) throw core::Error(core::located(file.string(), lineno, "not a number: \"" + cell + "\""));
-      values.push_back(v);
+      const std::string t = trim(cell);
+      const auto v = value_mm(t, -3);
+      if (!v) throw core::Error(core::located(file.string(), lineno, "not a number: \"" + t.substr(0, 40) + "\""));
+      values.push_back(std::isfinite(*v) ? *v : kNaN);
       ++count;
     }
     if (count != nx) throw core::Error(core::located(file.string(), lineno, fmt::format("expected {} values, found {}", nx, count)));
@@ -91,9 +144,221 @@ void write_height_npy(const std::filesystem::path& file, const core::HeightGrid&
   out.commit();
   std::filesystem::path side = file;
   side += ".json";
-  core::write_file_atomic(side, fmt::format("{{\"x0_mm\": {:.9g}, \"y0_mm\": {:.9g}, \"dx_mm\": {:.9g}, \"dy_mm\": {:.9g}, "
+  core::write_file_atomic(side, fmt::format("{{\"x0_mm\": {}, \"y0_mm\": {}, \"dx_mm\": {}, \"dy_mm\": {}, "
                                             "\"nx\": {}, \"ny\": {}, \"z_unit\": \"mm\", \"row\": \"y\"}}\n",
                                             g.x0_mm, g.y0_mm, g.dx_mm, g.dy_mm, g.nx(), g.ny()));
+}
+
+// ---- points on a lattice ----
+
+namespace {
+
+// The lattice of one coordinate: origin and step from the distinct values (gaps that are multiples of the step
+// are missing columns), or an error.
+struct Lattice {
+  double origin = 0, step = 1;
+  long long count = 1;
+};
+
+Lattice lattice_of(std::vector<double> v, const std::string& what, const char* axis) {
+  std::sort(v.begin(), v.end());
+  const double lo = v.front(), hi = v.back(), range = hi - lo;
+  Lattice L;
+  L.origin = lo;
+  if (!(range > 0)) return L;
+  const double tol = 1e-9 * std::max(range, std::max(std::abs(lo), std::abs(hi)));
+  double gap = HUGE_VAL;
+  for (std::size_t k = 1; k < v.size(); ++k)
+    if (v[k] - v[k - 1] > tol) gap = std::min(gap, v[k] - v[k - 1]);
+  const double n = std::round(range / gap);
+  if (!(n >= 1) || n > static_cast<double>(kMaxNodes))
+    throw core::Error(what + fmt::format(": the {} coordinates do not form a grid (range {:.9g} mm, smallest step {:.9g} mm)",
+                                         axis, range, gap));
+  L.step = range / n;
+  L.count = static_cast<long long>(n) + 1;
+  for (double x : v) {
+    const double k = std::round((x - lo) / L.step);
+    if (std::abs(x - (lo + k * L.step)) > 1e-3 * L.step)
+      throw core::Error(what + fmt::format(": {} = {:.9g} mm is not on the grid of step {:.9g} mm from {:.9g} mm; the points "
+                                           "must lie on a regular x/y grid",
+                                           axis, x, L.step, lo));
+  }
+  return L;
+}
+
+}  // namespace
+
+core::HeightGrid points_to_grid(const Eigen::Matrix<double, Eigen::Dynamic, 3>& p, const std::string& what) {
+  const Eigen::Index n = p.rows();
+  if (n == 0) throw core::Error(what + ": no points");
+  std::vector<double> xs(static_cast<std::size_t>(n)), ys(static_cast<std::size_t>(n));
+  for (Eigen::Index k = 0; k < n; ++k) {
+    if (!std::isfinite(p(k, 0)) || !std::isfinite(p(k, 1)))
+      throw core::Error(what + fmt::format(": point {} has no finite x and y", k + 1));
+    xs[static_cast<std::size_t>(k)] = p(k, 0), ys[static_cast<std::size_t>(k)] = p(k, 1);
+  }
+  Lattice lx = lattice_of(xs, what, "x"), ly = lattice_of(ys, what, "y");
+  // A single row or column: take the other axis' step, so the grid is square.
+  if (lx.count == 1 && ly.count > 1) lx.step = ly.step;
+  if (ly.count == 1 && lx.count > 1) ly.step = lx.step;
+  const double nodes = static_cast<double>(lx.count) * static_cast<double>(ly.count);
+  if (nodes > static_cast<double>(kMaxNodes) || nodes > 16.0 * static_cast<double>(n) + 1024)
+    throw core::Error(what + fmt::format(": {} points would need a {} x {} grid; they are too sparse to be one", n,
+                                         lx.count, ly.count));
+  core::HeightGrid g;
+  g.x0_mm = lx.origin, g.y0_mm = ly.origin, g.dx_mm = lx.step, g.dy_mm = ly.step;
+  g.z_mm = core::HeightArray::Constant(static_cast<Eigen::Index>(ly.count), static_cast<Eigen::Index>(lx.count), kNaN);
+  std::vector<std::uint8_t> taken(static_cast<std::size_t>(nodes), 0);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const auto i = static_cast<Eigen::Index>(std::llround((p(k, 0) - lx.origin) / lx.step));
+    const auto j = static_cast<Eigen::Index>(std::llround((p(k, 1) - ly.origin) / ly.step));
+    const std::size_t c = static_cast<std::size_t>(j * g.nx() + i);
+    if (taken[c])
+      throw core::Error(what + fmt::format(": two points at x {:.9g}, y {:.9g} mm (point {})", p(k, 0), p(k, 1), k + 1));
+    taken[c] = 1;
+    g.z_mm(j, i) = std::isfinite(p(k, 2)) ? p(k, 2) : kNaN;
+  }
+  return g;
+}
+
+core::HeightGrid read_xyz_grid(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw core::Error(file.string() + ": cannot open file");
+  int pow10 = -3;
+  std::vector<double> v;
+  std::string line;
+  std::vector<std::string_view> f;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    const std::string t = trim(line);
+    if (t.empty()) continue;
+    if (t[0] == '#' || t.rfind("//", 0) == 0) {
+      const std::string l = lower(t);
+      for (const char* key : {"unit:", "units:", "unit =", "units ="}) {
+        const auto at = l.find(key);
+        if (at == std::string::npos) continue;
+        const std::string u = trim(t.substr(at + std::strlen(key)));
+        const auto p = length_unit_pow10(u);
+        if (!p) throw core::Error(core::located(file.string(), lineno, "unknown length unit \"" + u.substr(0, 20) + "\" (m, mm, um, nm)"));
+        pow10 = *p;
+      }
+      continue;
+    }
+    split_fields(t, f);
+    if (f.size() != 3) {
+      // A header line of words before the data ("x y z", "X[mm] Y[mm] Z[mm]").
+      if (v.empty() && !f.empty() && !std::isdigit(static_cast<unsigned char>(f[0][0])) && f[0][0] != '-' &&
+          f[0][0] != '+' && f[0][0] != '.')
+        continue;
+      throw core::Error(core::located(file.string(), lineno, fmt::format("expected 3 values x y z, found {}", f.size())));
+    }
+    for (int c = 0; c < 3; ++c) {
+      const auto x = value_mm(f[static_cast<std::size_t>(c)], pow10);
+      if (!x || (c < 2 && !std::isfinite(*x))) {
+        if (v.empty() && c == 0) goto next_line;  // a header of words
+        throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(f[static_cast<std::size_t>(c)]).substr(0, 40) + "\""));
+      }
+      v.push_back(*x);
+    }
+  next_line:;
+  }
+  if (v.empty()) throw core::Error(file.string() + ": no points (expected lines of x y z)");
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> pts(v.data(), static_cast<Eigen::Index>(v.size() / 3), 3);
+  return points_to_grid(pts, file.string());
+}
+
+void write_xyz(const std::filesystem::path& file, const core::HeightGrid& g) {
+  core::AtomicFile out(file);
+  auto& s = out.stream();
+  std::string line;
+  for (Eigen::Index j = 0; j < g.ny(); ++j) {
+    line.clear();
+    for (Eigen::Index i = 0; i < g.nx(); ++i)
+      if (g.valid(j, i)) line += fmt::format("{} {} {}\n", g.x(i), g.y(j), g.z_mm(j, i));
+    s << line;
+  }
+  out.commit();
+}
+
+core::HeightGrid read_matrix_grid(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw core::Error(file.string() + ": cannot open file");
+  std::optional<double> width, height, dx, dy, x0, y0;
+  int zpow10 = -3;
+  std::vector<double> v;
+  long long nx = -1;
+  long long ny = 0;
+  std::string line;
+  std::vector<std::string_view> f;
+  int lineno = 0;
+  // "12.5 um" -> mm
+  const auto length = [&](const std::string& val) -> double {
+    std::vector<std::string_view> parts;
+    split_fields(val, parts);
+    if (parts.empty() || parts.size() > 2)
+      throw core::Error(core::located(file.string(), lineno, "expected a length \"<number> <unit>\", found \"" + val.substr(0, 40) + "\""));
+    int p = -3;
+    if (parts.size() == 2) {
+      const auto u = length_unit_pow10(parts[1]);
+      if (!u) throw core::Error(core::located(file.string(), lineno, "unknown length unit \"" + std::string(parts[1]).substr(0, 20) + "\" (m, mm, um, nm)"));
+      p = *u;
+    }
+    const auto x = parse_decimal_scaled(parts[0], p + 3);
+    if (!x || !std::isfinite(*x))
+      throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(parts[0]).substr(0, 40) + "\""));
+    return *x;
+  };
+  while (std::getline(in, line)) {
+    ++lineno;
+    const std::string t = trim(line);
+    if (t.empty()) continue;
+    if (t[0] == '#') {
+      const std::string body = trim(std::string_view(t).substr(1));
+      std::size_t sep = body.find(':');
+      if (sep == std::string::npos) sep = body.find('=');
+      if (sep == std::string::npos) continue;  // a comment
+      const std::string key = lower(trim(std::string_view(body).substr(0, sep)));
+      const std::string val = trim(std::string_view(body).substr(sep + 1));
+      if (key == "width") width = length(val);
+      else if (key == "height") height = length(val);
+      else if (key == "dx" || key == "x spacing") dx = length(val);
+      else if (key == "dy" || key == "y spacing") dy = length(val);
+      else if (key == "x0" || key == "x offset") x0 = length(val);
+      else if (key == "y0" || key == "y offset") y0 = length(val);
+      else if (key == "value units" || key == "z unit" || key == "z units") {
+        const auto u = length_unit_pow10(val);
+        if (!u) throw core::Error(core::located(file.string(), lineno, "unknown height unit \"" + val.substr(0, 20) + "\" (m, mm, um, nm)"));
+        zpow10 = *u;
+      }
+      continue;
+    }
+    split_fields(t, f);
+    if (nx < 0) nx = static_cast<long long>(f.size());
+    if (static_cast<long long>(f.size()) != nx)
+      throw core::Error(core::located(file.string(), lineno, fmt::format("{} values, the first row has {}", f.size(), nx)));
+    for (const auto& tok : f) {
+      const auto z = value_mm(tok, zpow10);
+      if (!z) throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(tok).substr(0, 40) + "\""));
+      v.push_back(std::isfinite(*z) ? *z : kNaN);
+    }
+    ++ny;
+    if (nx * ny > kMaxNodes) throw core::Error(core::located(file.string(), lineno, "more heights than vmsim accepts"));
+  }
+  if (nx <= 0 || ny == 0) throw core::Error(file.string() + ": no rows of heights");
+  core::HeightGrid g;
+  if (dx) g.dx_mm = *dx;
+  else if (width) g.dx_mm = *width / static_cast<double>(nx);
+  else throw core::Error(file.string() + ": the header gives no x spacing (\"# dx: 5 um\" or Gwyddion's \"# Width: 1 mm\")");
+  if (dy) g.dy_mm = *dy;
+  else if (height) g.dy_mm = *height / static_cast<double>(ny);
+  else if (dx && !width) g.dy_mm = g.dx_mm;
+  else throw core::Error(file.string() + ": the header gives no y spacing (\"# dy: 5 um\" or Gwyddion's \"# Height: 1 mm\")");
+  if (!(g.dx_mm > 0) || !(g.dy_mm > 0)) throw core::Error(file.string() + ": the grid spacing must be positive");
+  g.x0_mm = x0.value_or(0.0);
+  g.y0_mm = y0.value_or(0.0);
+  g.z_mm = Eigen::Map<core::HeightArray>(v.data(), static_cast<Eigen::Index>(ny), static_cast<Eigen::Index>(nx));
+  return g;
 }
 
 }  // namespace vmsim::metrology

@@ -1,18 +1,45 @@
 #pragma once
-// Height grids to and from files. This holds the simple formats; X3P, SDF and .sur come with the metrology issue.
+// Height grids to and from the simple file formats: vmsim's matrix CSV, NumPy .npy, ASCII point lists (x y z per
+// line) and ASCII matrices with a header giving spacing and units (as Gwyddion exports them). X3P, SDF and .sur
+// have their own headers; surface_io.hpp reads any of them by content.
 #include "core/height_grid.hpp"
 
+#include <Eigen/Core>
+
 #include <filesystem>
+#include <string>
 
 namespace vmsim::metrology {
 
 // Matrix CSV: '#' header lines giving x0, y0, dx, dy (mm) and the size, then one line per row j (y), nx values
-// (mm, "nan" where invalid). Written atomically.
+// (mm, "nan" where invalid). Numbers are written with the shortest digits that read back as the same double, so
+// a grid read back is the same bit for bit. Written atomically.
 void write_height_csv(const std::filesystem::path& file, const core::HeightGrid& grid);
 core::HeightGrid read_height_csv(const std::filesystem::path& file);
 
 // NumPy .npy (float64, shape ny x nx, C order; NaN where invalid) for Python users, plus the grid geometry in a
 // JSON sidecar file.npy.json. Written atomically.
 void write_height_npy(const std::filesystem::path& file, const core::HeightGrid& grid);
+
+// Points that lie on a regular x/y lattice (columns of equal x, rows of equal y, to 1e-3 of the step; some nodes
+// may be missing) to a grid whose missing nodes are invalid. Throws core::Error starting with `what` (a file
+// name) when the points are not on a lattice, when two fall on one node, or when the lattice would be far larger
+// than the points (more than 16 nodes per point).
+core::HeightGrid points_to_grid(const Eigen::Matrix<double, Eigen::Dynamic, 3>& points_mm, const std::string& what);
+
+// ASCII point list: one point per line, "x y z" separated by blanks, tabs, commas or semicolons; lines starting
+// with '#' or '//' are comments, and a comment "# unit: um" (m, mm, um, nm) gives the unit of all three columns
+// (default mm). A z of "nan" is an invalid point. The points must lie on a lattice (points_to_grid).
+core::HeightGrid read_xyz_grid(const std::filesystem::path& file);
+// One line "x y z" (mm, shortest exact digits) per valid node, for CloudCompare and other point tools.
+void write_xyz(const std::filesystem::path& file, const core::HeightGrid& grid);
+
+// ASCII matrix with a header: '#' lines "key: value [unit]" or "key = value [unit]", then one row of heights per
+// line (y = y0 + j dy), separated by blanks, tabs, commas or semicolons; "nan" is invalid. Keys (any case):
+//   Width, Height        the grid's extent, nx dx and ny dy (Gwyddion's ASCII export)
+//   dx, dy               the spacing (or "x spacing", "y spacing")
+//   x0, y0               the position of node (0, 0) (or "x offset", "y offset"); default 0
+//   Value units, z unit  the unit of the heights (default mm); lengths name their unit after the number.
+core::HeightGrid read_matrix_grid(const std::filesystem::path& file);
 
 }  // namespace vmsim::metrology
