@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <optional>
@@ -436,12 +437,14 @@ int run_run(const RunArgs& args) {
     const Eigen::VectorXd rs = ref ? needle_offsets(*ref) : Eigen::VectorXd::Constant(pred.size(), NAN);
     core::AtomicFile out(dir / "needles.csv");
     out.stream() << "x_mm,y_mm,z_mm,nx,ny,nz,surface_offset_mm,reference_offset_mm,deviation_mm\n";
-    double worst = 0;
-    std::size_t worst_k = 0;
+    double worst = 0, lo = INFINITY, hi = -INFINITY;
+    std::size_t worst_k = 0, empty = 0;
     for (std::size_t k = 0; k < field.needles.size(); ++k) {
       const auto kk = static_cast<Eigen::Index>(k);
       const double d = pred[kk] - rs[kk];
       if (std::isfinite(d) && std::abs(d) > std::abs(worst)) worst = d, worst_k = k;
+      if (std::isfinite(d)) lo = std::min(lo, d), hi = std::max(hi, d);
+      if (!std::isfinite(pred[kk])) ++empty;
       const Eigen::Vector3d& p = field.needle_point[k];
       const Eigen::Vector3d& n = field.needle_normal[k];
       out.stream() << fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f}\n", p.x(), p.y(),
@@ -449,6 +452,13 @@ int run_run(const RunArgs& args) {
     }
     out.commit();
     files.push_back("needles.csv");
+    // The needles' summary, as the grid fields give theirs: how many, how many the tool emptied (the surface lies
+    // beyond their inner end), and the extremes of the deviation (overcuts negative).
+    surface_json = {{"needles", field.needles.size()}, {"empty_needles", empty}};
+    if (lo <= hi) {
+      surface_json["deviation_min_mm"] = lo;
+      surface_json["deviation_max_mm"] = hi;
+    }
     if (std::abs(worst) > 1e-3) {
       metrology::Mark m;
       m.depth_mm = std::abs(worst);
