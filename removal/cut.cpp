@@ -1,17 +1,12 @@
 #include "removal/cut.hpp"
 
+#include "removal/row_bounds.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace vmsim::removal {
-
-// removal/row_bounds_*.cpp
-void row_bounds_generic(double R, double base_w, double cu, double eu, double ev, double inv_ee, double inv_el,
-                        double delta, double qv, double du, int ia, int n, double* t_lb, double* rr_out,
-                        double* lstar_out);
-void row_bounds_avx2(double R, double base_w, double cu, double eu, double ev, double inv_ee, double inv_el,
-                     double delta, double qv, double du, int ia, int n, double* t_lb, double* rr_out, double* lstar_out);
 
 namespace {
 
@@ -39,22 +34,28 @@ bool axial_ball(const DexelGrid& g, const SweptTool& s, AxialBall& b) {
   return true;
 }
 
-// Lower bounds of the cut's start on a row chunk (removal/row_bounds.inc, built twice: plain and for AVX2; the
-// AVX2 build is chosen at run time when the CPU has it).
+// The exact cut on each ray of a row chunk (removal/row_bounds.inc, built twice: plain and for AVX2; the AVX2 build
+// is chosen at run time when the CPU has it; both give the same bits).
+// Where the sweep's top ends on the ray at (qu, qv) (relative to the ball centre's start, grid frame): the highest
+// point of the tool's rounded top over the move, the mirror of the lowest point's closed form.
+double axial_ball_top(const AxialBall& b, double qv, double qu) {
+  const double R2 = b.R * b.R;
+  const double pe = qu * b.eu + qv * b.ev, cr = qu * b.ev - qv * b.eu;
+  const double dperp2 = cr * cr * b.inv_ee, rr = std::sqrt(std::max(0.0, R2 - dperp2));
+  const double lstar = pe * b.inv_ee, half = rr / b.el;
+  const double la = std::max(0.0, lstar - half), lb = std::min(1.0, lstar + half);
+  const double lhi = std::clamp(lstar + b.kk * rr / b.el, la, lb);
+  const double r2hi = dperp2 + b.ee * (lhi - lstar) * (lhi - lstar);
+  return (b.cw - b.R) + b.delta * lhi + b.L - b.R + std::sqrt(std::max(0.0, R2 - r2hi));
+}
+
 bool use_avx2() {
   static const bool yes = __builtin_cpu_supports("avx2");
   return yes;
 }
-void row_bounds(const AxialBall& b, double qv, double du, int ia, int n, double* t_lb, double* rr, double* lstar) {
-  if (use_avx2()) {
-    row_bounds_avx2(b.R, b.cw - b.R, b.cu, b.eu, b.ev, b.inv_ee, 1 / b.el, b.delta, qv, du, ia, n, t_lb, rr, lstar);
-  } else {
-    row_bounds_generic(b.R, b.cw - b.R, b.cu, b.eu, b.ev, b.inv_ee, 1 / b.el, b.delta, qv, du, ia, n, t_lb, rr, lstar);
-  }
-}
 
 std::size_t cut_row_axial_ball(DexelGrid& g, const AxialBall& b, int j, int i0, int i1) {
-  const double qv = j * g.dv() - b.cv, R2 = b.R * b.R, Rel = b.R * b.el;
+  const double qv = j * g.dv() - b.cv, Rel = b.R * b.el;
   // Columns whose distance to the centre's segment line is within R, and whose projection falls within R of it.
   double lo = i0 * g.du() - b.cu, hi = i1 * g.du() - b.cu;  // q_u range
   if (std::abs(b.ev) > 1e-15) {
@@ -73,36 +74,34 @@ std::size_t cut_row_axial_ball(DexelGrid& g, const AxialBall& b, int j, int i0, 
   const int ia = std::max(i0, static_cast<int>(std::ceil((lo + b.cu) / g.du() - 1e-9)));
   const int ib = std::min(i1, static_cast<int>(std::floor((hi + b.cu) / g.du() + 1e-9)));
   if (ia > ib) return 0;
-  const double base_w = b.cw - b.R;
+  RowCutParams p;
+  p.R = b.R, p.L = b.L, p.cu = b.cu, p.eu = b.eu, p.ev = b.ev, p.ee = b.ee, p.inv_ee = b.inv_ee, p.inv_el = 1 / b.el;
+  p.delta = b.delta, p.kk = b.kk, p.base_w = b.cw - b.R, p.du = g.du();
   constexpr int kChunk = 256;
-  double tlb[kChunk], rrs[kChunk], lss[kChunk];
+  double lbs[kChunk], t0s[kChunk], t1s[kChunk];
+  int idx[kChunk];
+  const bool avx2 = use_avx2();
   for (int c0 = ia; c0 <= ib; c0 += kChunk) {
     const int n = std::min(kChunk, ib - c0 + 1);
-    row_bounds(b, qv, g.du(), c0, n, tlb, rrs, lss);
     const Interval* head = g.head_row(j) + c0;
+    // Keep the rays whose material the sweep may reach (a NaN in place, several intervals: kept), then the exact cut.
+    (avx2 ? row_prefilter_avx2 : row_prefilter_generic)(p, qv, c0, n, lbs);
+    int m = 0;
     for (int k = 0; k < n; ++k) {
-      // The ball's section at the closest approach bounds the sweep's lowest point: when the ray's material already
-      // ends below it (most of a raster's overlapping sweeps), nothing to do. (A ray with several intervals has a
-      // NaN in place and takes the exact path.)
-      const Interval h = head[k];
-      if (tlb[k] >= h.hi) continue;  // false for NaN: read the ray properly below
+      idx[m] = k;
+      m += !(lbs[k] >= head[k].hi);
+    }
+    if (m == 0) continue;
+    (avx2 ? row_bounds_avx2 : row_bounds_generic)(p, qv, c0, idx, m, t0s, t1s);
+    for (int q = 0; q < m; ++q) {
+      const int k = idx[q];
+      if (t0s[q] >= head[k].hi) continue;  // false for NaN: such rays are read properly below
       const int i = c0 + k;
-      const double top = g.top(i, j);
-      if (!(tlb[k] < top)) continue;
-      const double rr = rrs[k], lstar = lss[k], half = rr / b.el;
-      const double la = std::max(0.0, lstar - half), lb = std::min(1.0, lstar + half);
-      const double dperp2 = R2 - rr * rr;
-      const double sl = b.kk * rr / b.el;
-      const double l_lo = std::clamp(lstar - sl, la, lb);
-      const double r2lo = dperp2 + b.ee * (l_lo - lstar) * (l_lo - lstar);
-      const double t0 = base_w + b.delta * l_lo + b.R - std::sqrt(std::max(0.0, R2 - r2lo));
+      const double t0 = t0s[q], top = g.top(i, j);
       if (t0 >= top || t0 >= g.length()) continue;
-      // The sweep's top: exact only when the ray holds material above the lowest the tool's top can be.
-      double t1 = base_w + std::min(b.delta * la, b.delta * lb) + b.L - b.R;
+      double t1 = t1s[q];
       if (t1 < top) {
-        const double l_hi = std::clamp(lstar + sl, la, lb);
-        const double r2hi = dperp2 + b.ee * (l_hi - lstar) * (l_hi - lstar);
-        t1 = base_w + b.delta * l_hi + b.L - b.R + std::sqrt(std::max(0.0, R2 - r2hi));
+        t1 = axial_ball_top(b, qv, i * g.du() - b.cu);  // material above the tool's lowest top: the exact end
       } else {
         t1 = std::max(top, g.length()) + 1.0;  // past the material: the cut takes everything above t0
       }

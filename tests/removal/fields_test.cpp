@@ -205,27 +205,26 @@ TEST(Fields, ZmapCostsEightBytesPerDexel) {
   RecordProperty("bytes_per_dexel", std::to_string(per));
 }
 
-namespace vmsim::removal {
-void row_bounds_generic(double R, double base_w, double cu, double eu, double ev, double inv_ee, double inv_el,
-                        double delta, double qv, double du, int ia, int n, double* t_lb, double* rr_out,
-                        double* lstar_out);
-void row_bounds_avx2(double R, double base_w, double cu, double eu, double ev, double inv_ee, double inv_el,
-                     double delta, double qv, double du, int ia, int n, double* t_lb, double* rr_out, double* lstar_out);
-}  // namespace vmsim::removal
+#include "removal/row_bounds.hpp"
 
 // The z-map kernel's vectorised part is built twice (plain and AVX2, picked at run time): both must give the same
 // bits, or results would depend on the CPU.
 TEST(Fields, VectorisedKernelIsIdenticalOnEveryCpu) {
   if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "this CPU has no AVX2";
-  double a[300], b[300], c[300], d[300], e[300], f[300];
+  double a[300], b[300], d[300], e[300];
+  int idx[300];
+  for (int k = 0; k < 300; ++k) idx[k] = (k * 7) % 300;
   for (int trial = 0; trial < 50; ++trial) {
     const double s = trial * 0.37;
-    vmsim::removal::row_bounds_generic(5, 1 + s, 3 - s, 0.7 + s, -0.2 * s, 1 / (0.49 + s * s), 1.1, 0.3 - s, 0.9 - s, 0.0625, -7, 300, a, b, c);
-    vmsim::removal::row_bounds_avx2(5, 1 + s, 3 - s, 0.7 + s, -0.2 * s, 1 / (0.49 + s * s), 1.1, 0.3 - s, 0.9 - s, 0.0625, -7, 300, d, e, f);
+    vmsim::removal::RowCutParams p{5, 40, 3 - s, 0.7 + s, -0.2 * s, 0.49 + s * s, 1 / (0.49 + s * s), 1.1, 0.3 - s, 0.4, 1 + s, 0.0625};
+    vmsim::removal::row_bounds_generic(p, 0.9 - s, -7, idx, 300, a, b);
+    vmsim::removal::row_bounds_avx2(p, 0.9 - s, -7, idx, 300, d, e);
     for (int k = 0; k < 300; ++k) {
       ASSERT_EQ(std::memcmp(&a[k], &d[k], 8), 0) << trial << " " << k;
       ASSERT_EQ(std::memcmp(&b[k], &e[k], 8), 0);
-      ASSERT_EQ(std::memcmp(&c[k], &f[k], 8), 0);
     }
+    vmsim::removal::row_prefilter_generic(p, 0.9 - s, -7, 300, a);
+    vmsim::removal::row_prefilter_avx2(p, 0.9 - s, -7, 300, d);
+    for (int k = 0; k < 300; ++k) ASSERT_EQ(std::memcmp(&a[k], &d[k], 8), 0) << trial << " " << k;
   }
 }
