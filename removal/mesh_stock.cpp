@@ -15,7 +15,19 @@
 // crossing the float surface is reported by at least one of the triangles at an edge, but a ray through an edge
 // may be reported by both and a ray through a vertex by any subset of its fan. Rather than guess which duplicates
 // to drop (a ray touching a silhouette edge legitimately crosses twice at one t), such rays are detected in double
-// (crossing within tau of an edge line, face parallel to the ray, odd crossing count) and re-cast shifted.
+// (crossing within tau of an edge line, face parallel to the ray, odd crossing count) and resolved exactly by a
+// symbolic perturbation (resolve()): an exact point-in-triangle test in the plane normal to the ray, with ties on
+// edges and vertices broken by shifting the ray infinitesimally (Simulation of Simplicity), one shift into each
+// quadrant around it, the union of the four results kept.
+//
+// Why not shifted re-casts (what this did before): four rays shifted by delta = 16 tau, each mapped back onto the
+// original through the planes of the triangles it crossed. Around a vertex shared by many long thin triangles (a
+// fan: heightfield_mesh's bottom, CAD exports) that fails: with apex angles of ~1 degree, a ray within ~60 tau of
+// the centre stays within tau of some fan edge line, so every shifted ray was degenerate again (unresolved, then
+// a lenient cast that dropped the fan's near-edge crossings: no material at all), and the crossings of rays that
+// did resolve were mapped back through whichever thin triangles they happened to land in. No finite shift is
+// right for every valence; the symbolic shift is infinitesimal, exact and consistent across shared edges, so the
+// fan contributes exactly one crossing whatever its valence.
 //
 // Rays lying in the plane of a BVH box face: Embree turns a zero direction component into a tiny positive one,
 // so a ray exactly on a box's upper face (a vertex coordinate) leaves the box at t = 0 and sees none of its
@@ -27,11 +39,14 @@
 //     altogether; it then gets the open-set answer (nothing at the touching point or face) instead of the closed
 //     one. Axis-aligned rays at a vertex's own double coordinates (a grid on the stock's bounding box, a lattice
 //     through the mesh's nodes) are detected: there Embree's edge tests come out exactly 0, which counts as a hit.
-//   - A degenerate ray's shifted rays pass delta (1.6e-5 x mesh size) to 2.75 delta away: an interval only they
-//     see (the original misses its triangles by more than tau) is dropped, so a feature thinner than delta right
-//     at a degenerate ray can be lost or, when the original's own crossings are near, merged with them.
-//   - t of a crossing within tau of an edge is the plane intersection of a triangle the ray passes within tau of:
-//     off by up to tau / tan(angle between the ray and the face) on grazing faces.
+//   - A degenerate ray sees only triangles Embree reported plus those reached from them through vertices and
+//     edges within tau of the ray; a triangle the ray crosses exactly but that is neither (float error beyond
+//     tau: not for a mesh whose coordinates fit in float to ~1e-7 of its size) leaves an odd count in every
+//     shift: the ray is counted as unresolved and gets the lenient best effort.
+//   - Projection onto the plane normal to the ray rounds (exact for rays along an axis, e.g. every grid): for an
+//     oblique ray within ~1e-16 x distance of an edge, which side it passes is decided on the rounded projection,
+//     consistently for all triangles at that edge. t of a crossing at a face nearly parallel to the ray is the
+//     plane intersection, as ill-conditioned as the geometry (kept within the triangle's extent along the ray).
 //   - A self-intersecting mesh (check_closed does not look for intersections) gives crossing-parity (XOR) results.
 #include "removal/mesh_stock.hpp"
 
@@ -43,16 +58,15 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
-#include <numbers>
 
 namespace vmsim::removal {
 
 namespace {
 
 constexpr double kTauRel = 1e-6;     // tau / mesh size: ~10x Embree's float error on a mesh centred at 0
-constexpr double kShiftPerTau = 16;  // delta / tau: shifted rays stay clear of the feature that made them degenerate
-constexpr int kAttempts = 8;         // angles tried per quadrant before a quadrant is given up
+constexpr double kMarginPerTau = 65; // the cast span's margin beyond the mesh's box, well beyond Embree's error
 constexpr double kMaxCoordMm = 1e9;  // as core/stl.cpp: keeps float conversions far from overflow
 
 struct Crossing {
@@ -89,6 +103,45 @@ void embree_error(void* user, RTCError code, const char* str) {
   if (msg->empty()) *msg = "Embree error " + std::to_string(static_cast<int>(code)) + (str ? std::string(": ") + str : "");
 }
 
+// ---- exact 2-D orientation (the sign of a x b), for the symbolic resolution of degenerate rays ----
+
+// a + b = s + err exactly (Knuth's two-sum; round to nearest, no fast-math).
+inline void two_sum(double a, double b, double& s, double& err) {
+  s = a + b;
+  const double bb = s - a;
+  err = (a - (s - bb)) + (b - bb);
+}
+
+// The sign of x[0] + ... + x[n-1], exactly: the terms are grown into a non-overlapping expansion (Shewchuk's
+// Grow-Expansion), whose sign is that of its largest non-zero component, the last one.
+int expansion_sign(const double* x, int n) {
+  double e[8];
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    double q = x[i];
+    for (int j = 0; j < m; ++j) two_sum(q, e[j], q, e[j]);
+    e[m++] = q;
+  }
+  for (int j = m - 1; j >= 0; --j)
+    if (e[j] != 0) return e[j] > 0 ? 1 : -1;
+  return 0;
+}
+
+// sign(ax by - ay bx), exact: a filtered double evaluation (Shewchuk's orient2d bound, which also covers the
+// differences that are exact here), else the two products split exactly with fma and summed as an expansion.
+// Exact unless a non-zero product falls below ~1e-290 mm^2 (fma's error term would underflow): far below geometry.
+int cross_sign(double ax, double ay, double bx, double by) {
+  constexpr double kEps = 0x1p-53;
+  constexpr double kBound = (3 + 16 * kEps) * kEps;
+  const double l = ax * by, r = ay * bx, det = l - r, bound = kBound * (std::abs(l) + std::abs(r));
+  if (det > bound) return 1;
+  if (-det > bound) return -1;
+  const double x[4] = {l, -r, std::fma(ax, by, -l), -std::fma(ay, bx, -r)};
+  return expansion_sign(x, 4);
+}
+
+inline int sign(double x) { return (x > 0) - (x < 0); }
+
 // Orthonormal e1, e2 with e1 x e2 = d (d unit), from the axis least aligned with d: deterministic.
 void basis(const Eigen::Vector3d& d, Eigen::Vector3d& e1, Eigen::Vector3d& e2) {
   const Eigen::Vector3d a = std::abs(d.x()) <= std::abs(d.y()) && std::abs(d.x()) <= std::abs(d.z())
@@ -106,15 +159,30 @@ struct MeshDexelizer::Impl {
   std::vector<std::array<int, 3>> tri;    // Embree primID -> vertex indices (triangles with 3 distinct vertices)
   Eigen::Vector3d center, lo, hi;         // bounding box; Embree works relative to its centre
   std::array<std::vector<float>, 3> coords;  // the distinct float vertex coordinates Embree sees, per axis
-  double tau = 0, delta = 0, margin = 0;  // mm
+  std::vector<int> ring_start, ring;      // triangles around each vertex: ring[ring_start[v] .. ring_start[v + 1])
+  double tau = 0, margin = 0;             // mm
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::string embree_message;
 
+  // A triangle near a degenerate ray, in the plane normal to the ray: vertex k at p[k] = (e1.(v - o), e2.(v - o)),
+  // so the ray is the point 0; edge k runs from p[k] to p[k + 1].
+  struct Candidate {
+    int tri;
+    double p[3][2];
+    signed char side[3];      // exact sign of p[k] x p[k + 1]: which side of edge k's line the ray is on (0: on it)
+    signed char dx[3], dy[3]; // signs of the edge's components: which side a symbolically shifted ray is on
+    double t;                 // where the ray crosses it (only for triangles some shifted ray crosses)
+  };
+
   struct Scratch {
     std::vector<unsigned> prims;
-    std::vector<Crossing> hits, own;
+    std::vector<Crossing> hits;
     std::vector<std::pair<double, double>> spans;
+    std::vector<Candidate> cand;
+    std::vector<double> ts;
+    std::vector<std::uint32_t> tri_mark, vert_mark;  // == gen: already a candidate / ring already gathered
+    std::uint32_t gen = 0;
   };
 
   ~Impl() {
@@ -247,22 +315,153 @@ struct MeshDexelizer::Impl {
     return r;
   }
 
-  // A crossing h of a shifted ray, carried back onto the original ray o + t d. If the original ray meets h's
-  // triangle, or passes within tau of it, the plane intersection is that point (to ~tau over the crossing angle).
-  // If it misses it, the shift moved the crossing across an edge onto a neighbour (on a grazing face this moves
-  // t by 1e-3 mm and more), and the original's own clean crossing of the same kind (`own`: entering or leaving)
-  // within the shift's reach in t is taken. With neither, the shifted ray sees something the original ray does
-  // not (it passed within delta of a corner): NaN, and the caller drops that interval.
-  double map_back(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Crossing& h,
-                  const std::vector<Crossing>& own) const {
-    const Classified c = classify(o, d, h.tri);
-    if (!c.planar && c.md >= -tau) return c.t;
-    const double reach = 3 * delta / std::max(std::abs(c.dn), 1e-3) + tau;
-    const Crossing* best = nullptr;
-    for (const Crossing& x : own)
-      if (x.enter == h.enter && std::abs(x.t - h.t) <= reach && (!best || std::abs(x.t - h.t) < std::abs(best->t - h.t)))
-        best = &x;
-    return best ? best->t : std::numeric_limits<double>::quiet_NaN();
+  // Resolves a degenerate ray o + t d (e1, e2 span the plane normal to d) by symbolic perturbation, appending the
+  // inside spans to s.spans; returns how many of the four perturbed rays came out with an even crossing count.
+  //
+  // The ray is seen in the plane normal to it, where it is the point 0 and every triangle is its projection (a
+  // vertex's projection is one expression of the vertex and the ray, so triangles sharing a vertex or an edge see
+  // the same projected coordinates, bit for bit: the projected mesh is as watertight as the mesh). A
+  // ray crosses a triangle iff 0 lies inside its projection, decided by the signs of p[k] x p[k + 1] over its three
+  // edges, computed exactly. When 0 lies on an edge's line (the ray passes through an edge or a vertex), the ray
+  // is shifted symbolically: 0 becomes eps u + eps^2 w for an infinitesimal eps, and the sign of the edge's test
+  // becomes the sign of the first non-zero term of  p[k] x p[k + 1]  +  eps (p[k + 1] - p[k]) x u  +  eps^2
+  // (p[k + 1] - p[k]) x w  (Simulation of Simplicity). With u, w along the frame's axes the two extra terms are
+  // signs of the edge's coordinate differences, exact comparisons, and never both 0 for an edge of a triangle
+  // with a non-zero projection. An edge's two triangles evaluate the same quantities with opposite signs, so the
+  // shifted ray is strictly on one side of every edge line: it crosses one of the two triangles at an edge the
+  // surface passes through, both or neither at a fold, exactly one triangle of a fan around a vertex it passes
+  // through, and no triangle whose projection has zero area (faces parallel to the ray). Its crossings are those
+  // of a generic ray, so on a closed mesh their count is even and their parity is right, whatever the valence of
+  // the vertex or the thinness of the triangles; the crossing parameters are the limits as eps -> 0, the plane
+  // intersections of the original ray with the crossed triangles.
+  //
+  // Four shifts, (u, w) = (e1, e2), (e2, -e1), (-e1, -e2), (-e2, e1): one into each quadrant around the ray. The
+  // union of their intervals is the closed set: a ray along a face, an edge or a corner of the solid, or touching
+  // it at a point, gets what it touches (as fill_box does on a box's faces and corners).
+  //
+  // The candidates: what Embree reported for the ray, plus, by flooding, every triangle around a vertex, or across
+  // an edge, of a candidate where that vertex or edge lies within tau of the ray (Embree, in float, may report any
+  // triangle of a fan at the vertex the ray passes through, or only the neighbour of the triangle the exact test
+  // picks at an edge; all of them are needed for the exact test to choose).
+  int resolve(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+              Scratch& s) const {
+    if (s.tri_mark.size() != tri.size()) s.tri_mark.assign(tri.size(), 0);
+    if (s.vert_mark.size() != v.size()) s.vert_mark.assign(v.size(), 0);
+    if (++s.gen == 0) {  // wrapped: clear the marks once every 4e9 rays
+      std::fill(s.tri_mark.begin(), s.tri_mark.end(), 0);
+      std::fill(s.vert_mark.begin(), s.vert_mark.end(), 0);
+      s.gen = 1;
+    }
+    s.cand.clear();
+    const auto add = [&](int p) {
+      if (s.tri_mark[static_cast<std::size_t>(p)] == s.gen) return;
+      s.tri_mark[static_cast<std::size_t>(p)] = s.gen;
+      Candidate c;
+      c.tri = p;
+      const std::array<int, 3>& k3 = tri[static_cast<std::size_t>(p)];
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d r = v[static_cast<std::size_t>(k3[static_cast<std::size_t>(k)])] - o;
+        c.p[k][0] = e1.x() * r.x() + e1.y() * r.y() + e1.z() * r.z();
+        c.p[k][1] = e2.x() * r.x() + e2.y() * r.y() + e2.z() * r.z();
+      }
+      s.cand.push_back(c);
+    };
+    for (unsigned p : s.prims) add(static_cast<int>(p));
+    const double tau2 = tau * tau;
+    for (std::size_t i = 0; i < s.cand.size(); ++i) {
+      // The candidate's vertices and edges within tau of the ray (in double; only the candidate set depends on
+      // it) bring in the triangles around those vertices and across those edges.
+      const Candidate c = s.cand[i];  // a copy: add() may move s.cand
+      const std::array<int, 3> k = tri[static_cast<std::size_t>(c.tri)];
+      for (int e = 0; e < 3; ++e) {
+        const double* a = c.p[e];
+        const double* b = c.p[(e + 1) % 3];
+        const int va = k[static_cast<std::size_t>(e)], vb = k[static_cast<std::size_t>((e + 1) % 3)];
+        if (a[0] * a[0] + a[1] * a[1] <= tau2 && s.vert_mark[static_cast<std::size_t>(va)] != s.gen) {
+          s.vert_mark[static_cast<std::size_t>(va)] = s.gen;
+          for (int r = ring_start[static_cast<std::size_t>(va)]; r < ring_start[static_cast<std::size_t>(va) + 1]; ++r)
+            add(ring[static_cast<std::size_t>(r)]);
+        }
+        const double ex = b[0] - a[0], ey = b[1] - a[1], len2 = ex * ex + ey * ey;
+        const double f = len2 > 0 ? std::clamp(-(a[0] * ex + a[1] * ey) / len2, 0.0, 1.0) : 0.0;
+        const double px = a[0] + f * ex, py = a[1] + f * ey;
+        if (px * px + py * py > tau2) continue;
+        for (int r = ring_start[static_cast<std::size_t>(va)]; r < ring_start[static_cast<std::size_t>(va) + 1]; ++r) {
+          const auto& n = tri[static_cast<std::size_t>(ring[static_cast<std::size_t>(r)])];
+          if (n[0] == vb || n[1] == vb || n[2] == vb) add(ring[static_cast<std::size_t>(r)]);
+        }
+      }
+    }
+
+    // Exact side of each edge line, and the crossing parameter of every triangle some shifted ray may cross.
+    for (Candidate& c : s.cand) {
+      int lo = 0, hi = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double* a = c.p[k];
+        const double* b = c.p[(k + 1) % 3];
+        c.side[k] = static_cast<signed char>(cross_sign(a[0], a[1], b[0], b[1]));
+        c.dx[k] = static_cast<signed char>(sign(b[0] - a[0]));
+        c.dy[k] = static_cast<signed char>(sign(b[1] - a[1]));
+        lo = std::min(lo, static_cast<int>(c.side[k]));
+        hi = std::max(hi, static_cast<int>(c.side[k]));
+      }
+      c.t = std::numeric_limits<double>::quiet_NaN();
+      if (lo < 0 && hi > 0) continue;  // strictly outside one edge: no shift makes the ray cross it
+      c.t = crossing_t(o, d, c);
+    }
+
+    int resolved = 0;
+    for (int q = 0; q < 4; ++q) {
+      s.ts.clear();
+      for (const Candidate& c : s.cand) {
+        if (std::isnan(c.t)) continue;
+        int common = 0;
+        bool crossed = true;
+        for (int k = 0; k < 3 && crossed; ++k) {
+          // The first non-zero term of the edge's test for the shift (u, w) of quadrant q (see above): with
+          // g = p[k + 1] - p[k], g x u and g x w are +-g.x or +-g.y.
+          int sg = c.side[k];
+          if (sg == 0) {
+            static constexpr int kU[4][2] = {{0, -1}, {1, 0}, {0, 1}, {-1, 0}};  // g x u = kU[q][0] g.x + kU[q][1] g.y
+            static constexpr int kW[4][2] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};  // g x w likewise
+            sg = kU[q][0] * c.dx[k] + kU[q][1] * c.dy[k];
+            if (sg == 0) sg = kW[q][0] * c.dx[k] + kW[q][1] * c.dy[k];
+          }
+          if (sg == 0 || (common != 0 && sg != common)) crossed = false;
+          common = sg;
+        }
+        if (crossed) s.ts.push_back(c.t);
+      }
+      if (s.ts.size() % 2) continue;  // a crossed triangle missing from the candidates (see the residual risks)
+      ++resolved;
+      std::sort(s.ts.begin(), s.ts.end());
+      // Crossings at one point (a touch) come out in either order within rounding: pairs of the sorted list.
+      for (std::size_t k = 0; k + 1 < s.ts.size(); k += 2) s.spans.emplace_back(s.ts[k], s.ts[k + 1]);
+    }
+    return resolved;
+  }
+
+  // Where the ray crosses the candidate's triangle: the plane intersection, as for clean crossings (for faces
+  // normal to an axis, fill_box's own arithmetic). The crossing lies in the triangle, so its parameter lies
+  // between the vertices' projections onto the ray; a plane intersection further out than tau from that range
+  // (a face so nearly parallel to the ray that d.n is rounding) is clamped into it. A face with d.n exactly 0 that
+  // the exact test says is crossed gets the barycentric combination of its vertices' parameters.
+  double crossing_t(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Candidate& c) const {
+    const auto& k = tri[static_cast<std::size_t>(c.tri)];
+    double tv[3];
+    for (int i = 0; i < 3; ++i) tv[i] = (v[static_cast<std::size_t>(k[static_cast<std::size_t>(i)])] - o).dot(d);
+    const double lo = std::min({tv[0], tv[1], tv[2]}), hi = std::max({tv[0], tv[1], tv[2]});
+    const Classified cl = classify(o, d, c.tri);
+    if (!cl.planar) return cl.t < lo - tau || cl.t > hi + tau ? std::clamp(cl.t, lo, hi) : cl.t;
+    double w[3], sum = 0;  // w[i]: the sub-area opposite vertex i, p[i+1] x p[i+2]
+    for (int i = 0; i < 3; ++i) {
+      const double* a = c.p[(i + 1) % 3];
+      const double* b = c.p[(i + 2) % 3];
+      w[i] = a[0] * b[1] - a[1] * b[0];
+      sum += w[i];
+    }
+    if (sum == 0) return 0.5 * (lo + hi);
+    return std::clamp((w[0] * tv[0] + w[1] * tv[1] + w[2] * tv[2]) / sum, lo, hi);
   }
 
   // The inside intervals of the ray o + t d, t in [0, length], as floats; e1, e2 span the plane normal to d.
@@ -278,29 +477,7 @@ struct MeshDexelizer::Impl {
       for (std::size_t k = 0; k + 1 < s.hits.size(); k += 2) s.spans.emplace_back(s.hits[k].t, s.hits[k + 1].t);
     } else {
       ++stats.degenerate;
-      s.own.swap(s.hits);  // the original ray's clean crossings, for map_back
-      int quadrants = 0;
-      for (int q = 0; q < 4; ++q) {
-        for (int att = 0; att < kAttempts; ++att) {
-          // Angles kept inside the quadrant and off the axes and diagonals, where structured meshes put edges.
-          const double th = q * (std::numbers::pi / 2) + 0.37 + 0.137 * att;
-          const double sh = delta * (1 + 0.25 * att);
-          const Eigen::Vector3d os = o + sh * (std::cos(th) * e1 + std::sin(th) * e2);
-          if (!cast(os, d, ta, tb, s, false)) continue;
-          // Crossings mapped back onto the original ray through their planes. A pair that comes out reversed is
-          // a touch (the original ray meets the solid at one point): kept as that point, as fill_box keeps a
-          // box's corner.
-          for (std::size_t k = 0; k + 1 < s.hits.size(); k += 2) {
-            double t0 = map_back(o, d, s.hits[k], s.own), t1 = map_back(o, d, s.hits[k + 1], s.own);
-            if (std::isnan(t0) || std::isnan(t1)) continue;
-            if (t0 > t1) t0 = t1 = 0.5 * (t0 + t1);
-            s.spans.emplace_back(t0, t1);
-          }
-          ++quadrants;
-          break;
-        }
-      }
-      if (quadrants == 0) {
+      if (resolve(o, d, e1, e2, s) == 0) {
         ++stats.unresolved;
         cast(o, d, ta, tb, s, true);
         for (std::size_t k = 0; k + 1 < s.hits.size(); k += 2) s.spans.emplace_back(s.hits[k].t, s.hits[k + 1].t);
@@ -347,8 +524,18 @@ MeshDexelizer::MeshDexelizer(const core::TriangleMesh& mesh, const std::string& 
   if (!(size > 0)) throw core::Error(core::located(source, 0, "the mesh has no extent"));
   m.center = 0.5 * (m.lo + m.hi);
   m.tau = kTauRel * size;
-  m.delta = kShiftPerTau * m.tau;
-  m.margin = 4 * m.delta + m.tau;  // the largest shift is 2.75 delta: shifted rays start outside the box too
+  m.margin = kMarginPerTau * m.tau;
+  // The triangles around each vertex, for gathering the whole fan at a vertex a degenerate ray passes through.
+  m.ring_start.assign(m.v.size() + 1, 0);
+  for (const auto& k : m.tri)
+    for (int c : k) ++m.ring_start[static_cast<std::size_t>(c) + 1];
+  for (std::size_t i = 0; i < m.v.size(); ++i) m.ring_start[i + 1] += m.ring_start[i];
+  m.ring.resize(3 * m.tri.size());
+  {
+    std::vector<int> fill(m.ring_start.begin(), m.ring_start.end() - 1);
+    for (std::size_t t = 0; t < m.tri.size(); ++t)
+      for (int c : m.tri[t]) m.ring[static_cast<std::size_t>(fill[static_cast<std::size_t>(c)]++)] = static_cast<int>(t);
+  }
 
   m.device = rtcNewDevice("verbose=0");
   if (!m.device)
@@ -394,7 +581,6 @@ MeshDexelizer::MeshDexelizer(const core::TriangleMesh& mesh, const std::string& 
 MeshDexelizer::~MeshDexelizer() = default;
 
 double MeshDexelizer::tolerance_mm() const { return impl_->tau; }
-double MeshDexelizer::shift_mm() const { return impl_->delta; }
 
 std::vector<Interval> MeshDexelizer::intervals(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double length) const {
   Eigen::Vector3d e1, e2;

@@ -11,11 +11,13 @@
 //     decides whether the crossing is clean (inside the triangle by more than tau = 1e-6 x the mesh size).
 //   - A ray with a crossing within tau of an edge or vertex, lying in a face's plane, or with an odd number of
 //     crossings is degenerate (a shared edge may be reported once or twice, a vertex by any of its triangles, a
-//     tangent ray may or may not touch). It is re-cast as four rays shifted by delta = 16 tau in four quadrants
-//     around it; each shifted ray's crossings are mapped back onto the original ray (the plane intersection if
-//     the original ray meets that triangle or passes within tau of it, else the original's own clean crossing of
-//     the same kind nearby), and the union of the four results is kept: a ray along the boundary of the solid
-//     gets the material it touches (the closed set, as fill_box gives on a box's faces and corners).
+//     tangent ray may or may not touch). It is resolved exactly in the plane normal to the ray: a triangle is
+//     crossed iff the ray's point lies inside its projection (exact orientation signs), and a ray exactly on an
+//     edge or vertex is shifted symbolically (Simulation of Simplicity), infinitesimally, into each of four
+//     quadrants around it, so that each shifted ray crosses exactly one triangle of a fan or an edge the surface
+//     passes through, whatever the valence. The crossings' t are the original ray's plane intersections with the
+//     triangles crossed, and the union of the four results is kept: a ray along the boundary of the solid gets the
+//     material it touches (the closed set, as fill_box gives on a box's faces and corners).
 // Precision: t is a double-precision plane intersection, then stored as a float offset like every dexel; for a
 // box mesh the stored floats equal fill_box's bit for bit. Residual risks are listed in mesh_stock.cpp.
 #include "core/mesh.hpp"
@@ -28,8 +30,8 @@ namespace vmsim::removal {
 
 struct MeshFillStats {
   std::size_t rays = 0;        // rays that reach the mesh's bounding box
-  std::size_t degenerate = 0;  // rays re-cast as four shifted rays
-  std::size_t unresolved = 0;  // degenerate rays whose shifted rays all stayed degenerate (best effort used)
+  std::size_t degenerate = 0;  // rays resolved by symbolic perturbation (through edges/vertices, in face planes)
+  std::size_t unresolved = 0;  // degenerate rays left with an odd crossing count in every shift (best effort used)
 };
 
 // A closed mesh prepared for ray casting (closedness checked once, Embree scene built once), so that the three
@@ -52,7 +54,6 @@ class MeshDexelizer {
   std::vector<Interval> intervals(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double length) const;
 
   double tolerance_mm() const;  // tau: crossings closer than this to an edge make a ray degenerate
-  double shift_mm() const;      // delta: how far degenerate rays are shifted
 
  private:
   struct Impl;
