@@ -4,6 +4,9 @@
 //     after the same sweeps are cut from both;
 //   - concave solids (a C-shaped prism, a frame with a through-hole) give the intervals worked out by hand;
 //   - rays through shared edges and vertices, along faces and touching silhouettes get the right parity;
+//   - rays through (and within rounding or tau of) vertices shared by hundreds of long thin triangles: the centre
+//     of a fan-capped prism, heightfield_mesh's bottom fan, the apices of a double pyramid (regressions: these
+//     came back empty or unresolved while degenerate rays were re-cast shifted by a finite distance);
 //   - open, flipped and non-manifold meshes are refused with the file's name;
 //   - results do not depend on the thread count.
 #include "core/error.hpp"
@@ -22,6 +25,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <numbers>
 #include <random>
 
 namespace fs = std::filesystem;
@@ -201,6 +205,78 @@ NeedleSet needles_for(const Box& b, std::size_t random_count) {
       }
   }
   return NeedleSet(o, d, len);
+}
+
+// [t0, t1]: the line o + t d inside a convex closed mesh, as the largest entering and smallest leaving plane
+// parameter over its faces; false when the line misses it (or runs parallel to a face outside its plane).
+bool convex_clip(const TriangleMesh& m, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double& t0, double& t1) {
+  t0 = -1e300, t1 = 1e300;
+  for (Eigen::Index k = 0; k < m.triangles.rows(); ++k) {
+    const Eigen::Vector3d a = m.vertices_mm.row(m.triangles(k, 0)), b = m.vertices_mm.row(m.triangles(k, 1)),
+                          c = m.vertices_mm.row(m.triangles(k, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    const double dn = d.dot(n), h = (a - o).dot(n);
+    if (dn == 0) {
+      if (h < 0) {
+        t0 = 1e300, t1 = -1e300;
+        return false;
+      }
+      continue;
+    }
+    if (dn < 0) {
+      t0 = std::max(t0, h / dn);
+    } else {
+      t1 = std::min(t1, h / dn);
+    }
+  }
+  return t0 <= t1;
+}
+
+// Every needle against convex_clip (m convex): one interval with both ends within tol, or none when the needle
+// misses; a needle that only touches the solid (less than 1e-6 mm inside, or a clipping reversed by no more than
+// rounding, as through a vertex from outside) may hold nothing or a point there. Returns how many needles had a
+// proper interval.
+int expect_convex(const TriangleMesh& m, const NeedleSet& n, const std::string& what, double tol = 1e-5) {
+  std::vector<Interval> iv;
+  int proper = 0, reported = 0;
+  for (std::size_t k = 0; k < n.size(); ++k) {
+    n.store().get(k, iv);
+    double t0, t1;
+    const bool clipped = convex_clip(m, n.origin(k), n.direction(k), t0, t1) || t0 <= t1 + 1e-9;
+    const bool hit = clipped && t1 > 0 && t0 < n.length(k);
+    t0 = std::max(t0, 0.0), t1 = std::min(t1, n.length(k));
+    bool ok;
+    if (hit && t1 - t0 >= 1e-6) {
+      ++proper;
+      ok = iv.size() == 1 && std::abs(iv[0].lo - t0) <= tol && std::abs(iv[0].hi - t1) <= tol;
+    } else if (hit) {
+      ok = iv.empty() || (iv.size() == 1 && std::abs(iv[0].lo - t0) <= tol && std::abs(iv[0].hi - t1) <= tol);
+    } else {
+      ok = iv.empty();
+    }
+    if (!ok && reported++ < 8)
+      ADD_FAILURE() << what << " needle " << k << " from " << n.origin(k).transpose() << " along "
+                    << n.direction(k).transpose() << ": ref " << (hit ? "" : "miss ") << "[" << t0 << ", " << t1
+                    << "], got " << show(iv);
+  }
+  return proper;
+}
+
+// A convex prism over an n-gon (an ellipse with semi-axes a, b about p) whose bottom (z0) and top (z1) caps are
+// fans of n long thin triangles about a centre vertex c inside it, away from the polygon's own centre: the centre
+// vertex has valence n + 1 on each cap, with apex angles down to ~1 degree for n = 240.
+TriangleMesh fan_prism(int n, const Eigen::Vector2d& c, const Eigen::Vector2d& p, double a, double b, double z0,
+                       double z1) {
+  std::vector<Eigen::Vector2d> pts = {c};
+  std::vector<int> loop;
+  std::vector<std::array<int, 3>> cap;
+  for (int k = 0; k < n; ++k) {
+    const double th = 2 * std::numbers::pi * k / n + 0.1;
+    pts.push_back(p + Eigen::Vector2d(a * std::cos(th), b * std::sin(th)));
+    loop.push_back(k + 1);
+    cap.push_back({0, k + 1, (k + 1) % n + 1});
+  }
+  return prism(pts, {loop}, cap, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), z0, z1);
 }
 
 }  // namespace
@@ -437,7 +513,7 @@ TEST(MeshStock, RaysThroughVerticesAndEdgesGetTheRightParity) {
 
 // An icosphere (convex: the intersection of its faces' half-spaces), rotated off the axes and placed far from the
 // origin, against the half-space clipping of each ray in double. Needles aimed exactly at its vertices and edge
-// midpoints exercise the shifted re-casts in every direction.
+// midpoints exercise the symbolic resolution of degenerate rays in every direction.
 TEST(MeshStock, ConvexPolyhedronAgainstHalfSpaceClipping) {
   const double phi = (1 + std::sqrt(5.0)) / 2;
   std::vector<Eigen::Vector3d> v = {{-1, phi, 0}, {1, phi, 0},  {-1, -phi, 0}, {1, -phi, 0}, {0, -1, phi}, {0, 1, phi},
@@ -566,6 +642,279 @@ TEST(MeshStock, HeightfieldMeshThroughItsOwnNodes) {
     }
   EXPECT_EQ(st.unresolved, 0u);
   EXPECT_EQ(st.degenerate, st.rays);  // every ray is on a vertex
+}
+
+// A vertex shared by many long thin triangles (a fan, as CAD exports and heightfield_mesh's bottom have): rays
+// exactly through the centre, exactly or nearly on the fan's edges, and at tiny offsets from the centre (down to
+// far below the tolerance; finite shifted re-casts stayed degenerate there) all enter through the bottom cap and
+// leave through the top, with no unresolved ray. Vertical rays get the caps' planes exactly; oblique ones are checked
+// against half-space clipping (the prism is convex).
+TEST(MeshStock, RaysThroughTheCentreOfAFanOfThinTriangles) {
+  const int n = 240;
+  const double z0 = -2.5, z1 = 4.25, oz = -5;
+  for (const double scale : {1.0, 1e-3}) {  // also a fan 50 um across: tau is then far below the part's features
+    const TriangleMesh m = via_stl(fan_prism(n, scale * Eigen::Vector2d(0.3183098861837907, -0.2718281828459045),
+                                             scale * Eigen::Vector2d(-6.1, 2.3), scale * 40, scale * 15, z0, z1),
+                                   "fan_prism.stl");
+    ASSERT_GT(signed_volume(m), 0);
+    const MeshDexelizer dex(m, "fan_prism.stl");
+    const double tau = dex.tolerance_mm();
+    // The STL round trip renumbers the vertices (and rounds them to float): the centres are the cap vertices
+    // nearest the nominal one, the rest of the bottom cap is the fan's rim.
+    const Eigen::Vector2d nominal = scale * Eigen::Vector2d(0.3183098861837907, -0.2718281828459045);
+    Eigen::Vector3d cb(1e300, 0, 0), ct(1e300, 0, 0);
+    std::vector<Eigen::Vector2d> rim;
+    for (Eigen::Index k = 0; k < m.vertices_mm.rows(); ++k) {
+      const Eigen::Vector3d p = m.vertices_mm.row(k).transpose();
+      Eigen::Vector3d& best = p.z() == z0 ? cb : ct;
+      if ((p.head<2>() - nominal).norm() < (best.head<2>() - nominal).norm()) best = p;
+      if (p.z() == z0) rim.push_back(p.head<2>());
+    }
+    ASSERT_EQ(cb.head<2>(), ct.head<2>());
+    ASSERT_EQ(rim.size(), static_cast<std::size_t>(n + 1));
+    const Eigen::Vector2d c = cb.head<2>();
+    rim.erase(std::find(rim.begin(), rim.end(), c));
+    const std::string tag = "scale " + std::to_string(scale) + ": ";
+
+    // Vertical needles (up from z = oz and down from z = 10), through points in the plane.
+    std::vector<Eigen::Vector2d> at = {c};
+    for (int k = 0; k < n; k += 7) {  // on (or within rounding of) the fan's edges, near the centre
+      const Eigen::Vector2d e = rim[static_cast<std::size_t>(k)] - c;
+      for (double s : {0x1p-40, 0x1p-30, 0x1p-20, 1e-9, 1e-7, 1e-5, 1e-3}) at.push_back(c + s * e);
+    }
+    for (double rho : {1e-300, 1e-15, 1e-12, 1e-10, 1e-8, 0.25 * tau, tau, 3 * tau, 16 * tau, 40 * tau, 1000 * tau})
+      for (int q = 0; q < 16; ++q) {
+        const double phi = q * std::numbers::pi / 8 + (q % 3) * 1e-9;
+        at.push_back(c + rho * Eigen::Vector2d(std::cos(phi), std::sin(phi)));
+      }
+    std::vector<Eigen::Vector3d> o, d;
+    std::vector<double> len;
+    for (const Eigen::Vector2d& p : at) {
+      o.emplace_back(p.x(), p.y(), oz), d.push_back(Eigen::Vector3d::UnitZ()), len.push_back(15);
+      o.emplace_back(p.x(), p.y(), 10), d.push_back(-Eigen::Vector3d::UnitZ()), len.push_back(15);
+    }
+    NeedleSet vertical(o, d, len);
+    MeshFillStats st = dex.fill(vertical);
+    EXPECT_EQ(st.unresolved, 0u) << tag;
+    std::vector<Interval> iv;
+    for (std::size_t k = 0; k < vertical.size(); ++k) {
+      vertical.store().get(k, iv);
+      const std::vector<Interval> want = {k % 2 == 0 ? Interval{static_cast<float>(z0 - oz), static_cast<float>(z1 - oz)}
+                                                     : Interval{static_cast<float>(10 - z1), static_cast<float>(10 - z0)}};
+      EXPECT_TRUE(same_bits(iv, want)) << tag << "needle " << k << " at " << vertical.origin(k).transpose() << ": "
+                                       << show(iv) << " want " << show(want);
+    }
+    std::printf("[ mesh     ] fan of %d (scale %g): %zu vertical needles, %zu degenerate, %zu unresolved\n", n,
+                scale, st.rays, st.degenerate, st.unresolved);
+
+    // Z-maps whose node (8, 8) is the centre, at spacings from 2^-30 mm (every ray within tau of the centre) to
+    // 2^-6 mm: c - 8 h and c - 8 h + 8 h are exact for these powers of two.
+    for (int e : {30, 24, 20, 14, 6}) {
+      const double h = std::ldexp(scale, -e);
+      const Box region{Eigen::Vector3d(c.x() - 8 * h, c.y() - 8 * h, oz),
+                       Eigen::Vector3d(c.x() + 8 * h, c.y() + 8 * h, 10)};
+      DexelGrid g = make_zmap(region, h);
+      ASSERT_EQ(g.ray_origin(8, 8).x(), c.x());
+      ASSERT_EQ(g.ray_origin(8, 8).y(), c.y());
+      st = dex.fill(g);
+      EXPECT_EQ(st.unresolved, 0u) << tag << "h = 2^-" << e;
+      for (int j = 0; j < g.nv(); ++j)
+        for (int i = 0; i < g.nu(); ++i) {
+          g.intervals(i, j, iv);
+          EXPECT_TRUE(same_bits(iv, {{static_cast<float>(z0 - oz), static_cast<float>(z1 - oz)}}))
+              << tag << "h = 2^-" << e << ", ray (" << i << ", " << j << "): " << show(iv);
+        }
+    }
+
+    // Oblique needles through both centres and through points on the fan's edges near them, against clipping.
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u(-1, 1);
+    o.clear(), d.clear(), len.clear();
+    for (int k = 0; k < 400; ++k) {
+      Eigen::Vector3d through = k % 2 ? cb : ct;
+      if (k % 4 >= 2) {
+        const Eigen::Vector2d e = rim[static_cast<std::size_t>(k % n)] - c;
+        through.head<2>() = c + (k % 8 >= 4 ? 1e-9 : 1e-4) * e;
+      }
+      Eigen::Vector3d dir(u(rng), u(rng), u(rng));
+      if (k % 5 == 0) dir.z() = 10 * dir.z();  // some steep ones
+      dir.normalize();
+      o.push_back(through - 20 * scale * dir), d.push_back(dir), len.push_back(40 * scale);
+    }
+    // And needles lying in the caps' planes through the centres (along the fan's edges and between them): the
+    // closed set holds the chord of the cap.
+    for (int k = 0; k < 60; ++k) {
+      const Eigen::Vector3d through = k % 2 ? cb : ct;
+      const Eigen::Vector2d e = k % 4 >= 2 ? rim[static_cast<std::size_t>(k % n)] - c : Eigen::Vector2d(u(rng), u(rng));
+      const Eigen::Vector3d dir = Eigen::Vector3d(e.x(), e.y(), 0).normalized();
+      o.push_back(through - 60 * scale * dir), d.push_back(dir), len.push_back(120 * scale);
+    }
+    NeedleSet oblique(o, d, len);
+    st = dex.fill(oblique);
+    EXPECT_EQ(st.unresolved, 0u) << tag;
+    EXPECT_GT(expect_convex(m, oblique, tag + "oblique"), 400);
+  }
+}
+
+// Vertices shared by many thin triangles that do not lie in one plane: the apices of a double pyramid over a
+// 256-gon. Rays through both apices (any shifted ray lands in one of many differently inclined thin triangles),
+// along the edges into them and at tiny offsets, vertical and oblique, against clipping.
+TEST(MeshStock, RaysThroughTheApicesOfADoublePyramid) {
+  const int n = 256;
+  const Eigen::Vector2d c(0.3183098861837907, -0.2718281828459045), p(-6.1, 2.3);
+  TriangleMesh m;
+  m.vertices_mm.resize(n + 2, 3);
+  for (int k = 0; k < n; ++k) {
+    const double th = 2 * std::numbers::pi * k / n + 0.1;
+    m.vertices_mm.row(k) << p.x() + 40 * std::cos(th), p.y() + 15 * std::sin(th), 0;
+  }
+  m.vertices_mm.row(n) << c.x(), c.y(), 7.5;    // top apex
+  m.vertices_mm.row(n + 1) << c.x(), c.y(), -5;  // bottom apex
+  m.triangles.resize(2 * n, 3);
+  for (int k = 0; k < n; ++k) {
+    m.triangles.row(2 * k) << n, k, (k + 1) % n;
+    m.triangles.row(2 * k + 1) << n + 1, (k + 1) % n, k;
+  }
+  ASSERT_GT(signed_volume(m), 0);
+  const MeshDexelizer dex(m, "double pyramid");
+  const double tau = dex.tolerance_mm();
+  const Eigen::Vector3d top = m.vertices_mm.row(n).transpose(), bottom = m.vertices_mm.row(n + 1).transpose();
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Eigen::Vector3d> o, d;
+  std::vector<double> len;
+  const auto add = [&](const Eigen::Vector3d& through, const Eigen::Vector3d& dir) {
+    o.push_back(through - 30 * dir.normalized()), d.push_back(dir.normalized()), len.push_back(60);
+  };
+  for (const Eigen::Vector3d& apex : {top, bottom}) {
+    add(apex, Eigen::Vector3d::UnitZ());
+    add(apex, -Eigen::Vector3d::UnitZ());
+    for (int k = 0; k < n; k += 5) {  // through points on (or within rounding of) the edges into the apex
+      const Eigen::Vector3d e = m.vertices_mm.row(k).transpose() - apex;
+      for (double s : {1e-9, 1e-6, 1e-3}) {
+        add(apex + s * e, Eigen::Vector3d::UnitZ());
+        add(apex + s * e, Eigen::Vector3d(0.2 * u(rng), 0.2 * u(rng), 1));
+      }
+    }
+    for (double rho : {1e-15, 1e-10, 0.25 * tau, tau, 10 * tau})
+      for (int q = 0; q < 12; ++q)
+        add(apex + rho * Eigen::Vector3d(std::cos(q * 0.5236), std::sin(q * 0.5236), 0), Eigen::Vector3d::UnitZ());
+    for (int k = 0; k < 200; ++k) add(apex, Eigen::Vector3d(u(rng), u(rng), u(rng)));  // through the apex
+  }
+  NeedleSet needles(o, d, len);
+  const MeshFillStats st = dex.fill(needles);
+  EXPECT_EQ(st.unresolved, 0u);
+  const int proper = expect_convex(m, needles, "double pyramid");
+  EXPECT_GT(proper, 400);
+  std::printf("[ mesh     ] double pyramid over a %d-gon: %zu needles, %d through the solid, %zu degenerate\n", n,
+              needles.size(), proper, st.degenerate);
+  // A z-map whose node (8, 8) is on both apices, at 2^-24 mm: every ray within tau of them.
+  const double h = 0x1p-24;
+  DexelGrid g = make_zmap(
+      Box{Eigen::Vector3d(c.x() - 8 * h, c.y() - 8 * h, -10), Eigen::Vector3d(c.x() + 8 * h, c.y() + 8 * h, 10)}, h);
+  ASSERT_EQ(g.ray_origin(8, 8).x(), c.x());
+  ASSERT_EQ(g.ray_origin(8, 8).y(), c.y());
+  const MeshFillStats gs = dex.fill(g);
+  EXPECT_EQ(gs.unresolved, 0u);
+  std::vector<Interval> iv;
+  for (int j = 0; j < g.nv(); ++j)
+    for (int i = 0; i < g.nu(); ++i) {
+      g.intervals(i, j, iv);
+      double t0, t1;
+      ASSERT_TRUE(convex_clip(m, g.ray_origin(i, j), Eigen::Vector3d::UnitZ(), t0, t1));
+      ASSERT_EQ(iv.size(), 1u) << i << " " << j << ": " << show(iv);
+      EXPECT_NEAR(iv[0].lo, t0, 1e-5) << i << " " << j;
+      EXPECT_NEAR(iv[0].hi, t1, 1e-5) << i << " " << j;
+    }
+}
+
+// heightfield_mesh's bottom is a fan of 2 (nx + ny) - 4 triangles about an off-lattice centre: z-maps with a node
+// exactly on that centre, and needles through it and along the fan's edges, get the solid between the bottom and
+// the top surface.
+TEST(MeshStock, HeightfieldBottomFanCentre) {
+  vmsim::core::HeightGrid hg;
+  hg.x0_mm = 10;
+  hg.y0_mm = -5;
+  hg.dx_mm = 0.5;
+  hg.dy_mm = 0.75;
+  hg.z_mm.resize(61, 41);
+  for (Eigen::Index j = 0; j < hg.ny(); ++j)
+    for (Eigen::Index i = 0; i < hg.nx(); ++i) hg.z_mm(j, i) = 3 + std::sin(0.3 * i) * std::cos(0.2 * j);
+  const double bottom = -2, oz = -3;
+  const TriangleMesh m = heightfield_mesh(hg, bottom);
+  const Eigen::Index nx = hg.nx(), ny = hg.ny();
+  const Eigen::Vector3d centre = m.vertices_mm.row(m.vertices_mm.rows() - 1).transpose();
+  ASSERT_EQ(centre.x(), hg.x((nx - 1) / 2) + 0.3183098861837907 * hg.dx_mm);
+  ASSERT_EQ(centre.y(), hg.y((ny - 1) / 2) + 0.2718281828459045 * hg.dy_mm);
+  ASSERT_EQ(centre.z(), bottom);
+  const MeshDexelizer dex(m, "heightfield");
+  // The top surface over (x, y): the cell's triangle (a, b, c) or (a, c, e) as heightfield_mesh splits it.
+  const auto top = [&](double x, double y) {
+    const double fx = (x - hg.x0_mm) / hg.dx_mm, fy = (y - hg.y0_mm) / hg.dy_mm;
+    const Eigen::Index i = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(std::floor(fx)), 0, nx - 2);
+    const Eigen::Index j = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(std::floor(fy)), 0, ny - 2);
+    const double u = fx - i, v = fy - j;
+    const double za = hg.z_mm(j, i), zb = hg.z_mm(j, i + 1), zc = hg.z_mm(j + 1, i + 1), ze = hg.z_mm(j + 1, i);
+    return u >= v ? za + u * (zb - za) + v * (zc - zb) : za + v * (ze - za) + u * (zc - ze);
+  };
+  std::vector<Interval> iv;
+  for (int e : {40, 30, 20, 12, 4}) {  // spacing 2^-e mm: c - 16 h and back are exact
+    const double h = std::ldexp(1.0, -e);
+    const Box region{Eigen::Vector3d(centre.x() - 16 * h, centre.y() - 16 * h, oz),
+                     Eigen::Vector3d(centre.x() + 16 * h, centre.y() + 16 * h, 6)};
+    DexelGrid g = make_zmap(region, h);
+    ASSERT_EQ(g.ray_origin(16, 16).x(), centre.x());
+    ASSERT_EQ(g.ray_origin(16, 16).y(), centre.y());
+    const MeshFillStats st = dex.fill(g);
+    EXPECT_EQ(st.unresolved, 0u) << "h = 2^-" << e;
+    for (int j = 0; j < g.nv(); ++j)
+      for (int i = 0; i < g.nu(); ++i) {
+        const Eigen::Vector3d p = g.ray_origin(i, j);
+        g.intervals(i, j, iv);
+        ASSERT_EQ(iv.size(), 1u) << "h = 2^-" << e << ", ray (" << i << ", " << j << "): " << show(iv);
+        EXPECT_EQ(iv[0].lo, static_cast<float>(bottom - oz)) << "h = 2^-" << e << ", ray (" << i << ", " << j << ")";
+        EXPECT_NEAR(iv[0].hi, top(p.x(), p.y()) - oz, 1e-5) << "h = 2^-" << e << ", ray (" << i << ", " << j << ")";
+      }
+    std::printf("[ mesh     ] heightfield bottom fan, z-map at 2^-%d mm about its centre: %zu degenerate, %zu "
+                "unresolved\n",
+                e, st.degenerate, st.unresolved);
+  }
+  // Needles through the centre and along the fan's edges near it, vertical and oblique (steep enough to leave
+  // through the top surface once: the top's slope is below 1); the top end found by bisection on the surface.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Eigen::Vector3d> o, d;
+  std::vector<double> len;
+  std::vector<double> want_lo;
+  const Eigen::Index base = m.vertices_mm.rows() - 1 - 2 * (nx + ny - 2);  // the bottom ring's first node
+  for (int k = 0; k < 600; ++k) {
+    Eigen::Vector3d through = centre;
+    if (k % 3 > 0) {
+      const Eigen::Vector3d r = m.vertices_mm.row(base + k % (2 * (nx + ny - 2))).transpose();
+      through = centre + (k % 3 == 1 ? 1e-9 : 1e-5) * (r - centre);
+    }
+    Eigen::Vector3d dir(0, 0, 1);
+    if (k % 4 > 0) dir = Eigen::Vector3d(0.3 * u(rng), 0.3 * u(rng), 1).normalized();
+    o.push_back(through - 5 * dir), d.push_back(dir), len.push_back(15);
+    want_lo.push_back(5);
+  }
+  NeedleSet needles(o, d, len);
+  const MeshFillStats st = dex.fill(needles);
+  EXPECT_EQ(st.unresolved, 0u);
+  for (std::size_t k = 0; k < needles.size(); ++k) {
+    needles.store().get(k, iv);
+    double a = 5, b = 15;  // the ray leaves the solid through the top between these
+    for (int it = 0; it < 100; ++it) {
+      const double t = 0.5 * (a + b);
+      const Eigen::Vector3d p = o[k] + t * d[k];
+      (p.z() < top(p.x(), p.y()) ? a : b) = t;
+    }
+    ASSERT_EQ(iv.size(), 1u) << "needle " << k << ": " << show(iv);
+    EXPECT_NEAR(iv[0].lo, want_lo[k], 1e-5) << "needle " << k;
+    EXPECT_NEAR(iv[0].hi, a, 1e-5) << "needle " << k;
+  }
+  std::printf("[ mesh     ] heightfield bottom fan, needles through its centre: %zu degenerate, %zu unresolved\n",
+              st.degenerate, st.unresolved);
 }
 
 TEST(MeshStock, ResultDoesNotDependOnThreadCount) {
