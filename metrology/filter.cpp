@@ -1,0 +1,137 @@
+#include "metrology/filter.hpp"
+
+#include "core/error.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace vmsim::metrology {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Kernel taps w_k = exp(-pi (k h / (alpha lc))^2), |k h| <= lc (the constant factor cancels in the normalisation).
+std::vector<double> taps(double h, double cutoff) {
+  const double alpha = std::sqrt(std::log(2.0) / kPi);
+  const long half = static_cast<long>(std::floor(cutoff / h + 1e-9));
+  std::vector<double> w(static_cast<std::size_t>(2 * half + 1));
+  for (long k = -half; k <= half; ++k) {
+    const double u = static_cast<double>(k) * h / (alpha * cutoff);
+    w[static_cast<std::size_t>(k + half)] = std::exp(-kPi * u * u);
+  }
+  return w;
+}
+
+}  // namespace
+
+core::HeightGrid gaussian_mean_surface(const core::HeightGrid& g, double cutoff) {
+  if (!(cutoff > 0) || !std::isfinite(cutoff)) throw core::Error(fmt::format("Gaussian filter: cut-off {} mm must be positive", cutoff));
+  const Eigen::Index nx = g.nx(), ny = g.ny();
+  const std::vector<double> wx = taps(g.dx_mm, cutoff), wy = taps(g.dy_mm, cutoff);
+  const long hx = static_cast<long>(wx.size() / 2), hy = static_cast<long>(wy.size() / 2);
+  // Pass 1, along x: numerator (z v) and denominator (v) per node.
+  core::HeightArray num1(ny, nx), den1(ny, nx);
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index j = 0; j < ny; ++j) {
+    std::vector<double> zv(static_cast<std::size_t>(nx)), v(static_cast<std::size_t>(nx));
+    for (Eigen::Index i = 0; i < nx; ++i) {
+      const double z = g.z_mm(j, i);
+      const bool ok = std::isfinite(z);
+      zv[static_cast<std::size_t>(i)] = ok ? z : 0.0;  // weight 0: takes no part, is not a height of 0
+      v[static_cast<std::size_t>(i)] = ok ? 1.0 : 0.0;
+    }
+    for (Eigen::Index i = 0; i < nx; ++i) {
+      const long k0 = std::max<long>(-hx, -static_cast<long>(i)), k1 = std::min<long>(hx, static_cast<long>(nx - 1 - i));
+      double n = 0, d = 0;
+      for (long k = k0; k <= k1; ++k) {
+        const double w = wx[static_cast<std::size_t>(k + hx)];
+        n += w * zv[static_cast<std::size_t>(i + k)];
+        d += w * v[static_cast<std::size_t>(i + k)];
+      }
+      num1(j, i) = n, den1(j, i) = d;
+    }
+  }
+  // Pass 2, along y, column blocks for cache locality.
+  core::HeightGrid out = g;
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index j = 0; j < ny; ++j) {
+    const long l0 = std::max<long>(-hy, -static_cast<long>(j)), l1 = std::min<long>(hy, static_cast<long>(ny - 1 - j));
+    std::vector<double> n(static_cast<std::size_t>(nx), 0.0), d(static_cast<std::size_t>(nx), 0.0);
+    for (long l = l0; l <= l1; ++l) {
+      const double w = wy[static_cast<std::size_t>(l + hy)];
+      const double* nr = &num1(j + l, 0);
+      const double* dr = &den1(j + l, 0);
+      for (Eigen::Index i = 0; i < nx; ++i) n[static_cast<std::size_t>(i)] += w * nr[i], d[static_cast<std::size_t>(i)] += w * dr[i];
+    }
+    for (Eigen::Index i = 0; i < nx; ++i)
+      if (std::isfinite(g.z_mm(j, i))) out.z_mm(j, i) = n[static_cast<std::size_t>(i)] / d[static_cast<std::size_t>(i)];
+  }
+  return out;
+}
+
+core::HeightGrid gaussian_highpass(const core::HeightGrid& g, double cutoff) {
+  core::HeightGrid out = gaussian_mean_surface(g, cutoff);
+  out.z_mm = g.z_mm - out.z_mm;  // NaN stays NaN
+  return out;
+}
+
+OutlierReport mask_outliers(core::HeightGrid& g, const OutlierOptions& o) {
+  if (o.window < 3 || o.window % 2 == 0 || o.window > 51)
+    throw core::Error(fmt::format("outliers: window {} must be odd, from 3 to 51", o.window));
+  if (!(o.k_sigma > 0)) throw core::Error("outliers: the threshold must be positive");
+  const Eigen::Index nx = g.nx(), ny = g.ny();
+  const int h = o.window / 2;
+  core::HeightArray dep = core::HeightArray::Constant(ny, nx, std::numeric_limits<double>::quiet_NaN());
+  const auto ok = [&](Eigen::Index b, Eigen::Index a) { return a >= 0 && b >= 0 && a < nx && b < ny && g.valid(b, a); };
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index j = 0; j < ny; ++j) {
+    std::vector<double> pred;
+    pred.reserve(static_cast<std::size_t>(o.window * o.window));
+    for (Eigen::Index i = 0; i < nx; ++i) {
+      if (!g.valid(j, i)) continue;
+      // Predictions of the node's height that are exact on any plane, so slopes and edges bias nothing: the mean
+      // of each pair of valid neighbours symmetric about it, and, where one of a pair is missing (an edge, a
+      // hole), the linear extrapolation 2 z(s) - z(2 s) from the present side s (nearest ring only).
+      pred.clear();
+      for (int b = -h; b <= h; ++b)
+        for (int a = -h; a <= h; ++a) {
+          if (b < 0 || (b == 0 && a <= 0)) continue;  // each pair once
+          const bool p = ok(j + b, i + a), m = ok(j - b, i - a);
+          if (p && m) {
+            pred.push_back(0.5 * (g.z_mm(j + b, i + a) + g.z_mm(j - b, i - a)));
+          } else if (std::max(std::abs(a), std::abs(b)) == 1) {
+            if (p && ok(j + 2 * b, i + 2 * a)) pred.push_back(2 * g.z_mm(j + b, i + a) - g.z_mm(j + 2 * b, i + 2 * a));
+            if (m && ok(j - 2 * b, i - 2 * a)) pred.push_back(2 * g.z_mm(j - b, i - a) - g.z_mm(j - 2 * b, i - 2 * a));
+          }
+        }
+      if (pred.size() < 3) continue;  // too few neighbours to judge
+      auto mid = pred.begin() + static_cast<std::ptrdiff_t>(pred.size() / 2);
+      std::nth_element(pred.begin(), mid, pred.end());
+      dep(j, i) = g.z_mm(j, i) - *mid;
+    }
+  }
+  std::vector<double> a;
+  a.reserve(static_cast<std::size_t>(dep.size()));
+  for (Eigen::Index k = 0; k < dep.size(); ++k)
+    if (std::isfinite(dep.data()[k])) a.push_back(std::abs(dep.data()[k]));
+  OutlierReport r;
+  if (a.empty()) return r;
+  auto mid = a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2);
+  std::nth_element(a.begin(), mid, a.end());
+  // Departures from a local median scatter around 0, so their MAD is the median of |departure|.
+  r.sigma_mm = std::max(1.4826 * *mid, 1e-7);  // floor 0.1 nm: a perfectly smooth synthetic surface has MAD 0
+  r.threshold_mm = o.k_sigma * r.sigma_mm;
+  for (Eigen::Index k = 0; k < dep.size(); ++k)
+    if (std::isfinite(dep.data()[k]) && std::abs(dep.data()[k]) > r.threshold_mm) {
+      g.z_mm.data()[k] = std::numeric_limits<double>::quiet_NaN();
+      ++r.masked;
+    }
+  return r;
+}
+
+}  // namespace vmsim::metrology
