@@ -1,0 +1,703 @@
+// Part pictures: geometry to VTK polydata (height grids directly, with their own normals; meshes through
+// vtkPolyDataNormals), a camera framed tightly on what is drawn, a raking key light, and the annotations (caption,
+// colour scale in um, scale bar) in a background layer around the scene's viewport.
+#include "render/scene.hpp"
+
+#include "core/error.hpp"
+#include "render/colormap.hpp"
+#include "render/detail.hpp"
+
+#include <vtkActor.h>
+#include <vtkActor2D.h>
+#include <vtkCamera.h>
+#include <vtkCellArray.h>
+#include <vtkContourFilter.h>
+#include <vtkFloatArray.h>
+#include <vtkLight.h>
+#include <vtkLookupTable.h>
+#include <vtkMatrix4x4.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkPolyDataMapper.h>
+#include <vtkPolyDataMapper2D.h>
+#include <vtkPolyDataNormals.h>
+#include <vtkProperty.h>
+#include <vtkProperty2D.h>
+#include <vtkRenderWindow.h>
+#include <vtkRenderer.h>
+#include <vtkScalarBarActor.h>
+#include <vtkSmartPointer.h>
+#include <vtkTextActor.h>
+#include <vtkTextProperty.h>
+#include <vtkTypeInt32Array.h>
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace vmsim::render {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+// What is drawn: the surface (with its deviation scalars in um when coloured) and, for grids, its side walls.
+struct Geometry {
+  vtkSmartPointer<vtkPolyData> surface, walls;
+  double bounds[6] = {0, 0, 0, 0, 0, 0};  // drawn (exaggerated) coordinates
+  std::vector<double> deviation_um;        // the coloured values, for the limits
+  double z_base_mm = 0, exaggeration = 1;
+};
+
+void check_view(const View& v, const char* what) {
+  if (!(v.vertical_exaggeration > 0) || !std::isfinite(v.vertical_exaggeration) || v.vertical_exaggeration > 1e4)
+    throw core::Error(fmt::format("{}: vertical exaggeration {} is not in (0, 10000]", what, v.vertical_exaggeration));
+  if (!(v.mark_magnification > 0) || !std::isfinite(v.mark_magnification) || v.mark_magnification > 1e5)
+    throw core::Error(fmt::format("{}: mark magnification {} is not in (0, 100000]", what, v.mark_magnification));
+  if (v.region && !(v.region->x_max_mm > v.region->x_min_mm && v.region->y_max_mm > v.region->y_min_mm))
+    throw core::Error(fmt::format("{}: the region x {}..{} y {}..{} mm is empty", what, v.region->x_min_mm,
+                                  v.region->x_max_mm, v.region->y_min_mm, v.region->y_max_mm));
+}
+
+vtkSmartPointer<vtkTypeInt32Array> int32_array(std::vector<std::int32_t>& v) {
+  auto a = vtkSmartPointer<vtkTypeInt32Array>::New();
+  a->SetNumberOfValues(static_cast<vtkIdType>(v.size()));
+  std::copy(v.begin(), v.end(), a->GetPointer(0));
+  return a;
+}
+
+vtkSmartPointer<vtkCellArray> cells_of(std::vector<std::int32_t>& offsets, std::vector<std::int32_t>& conn) {
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  cells->SetData(int32_array(offsets), int32_array(conn));  // 32-bit ids: half the memory of vtkIdType
+  return cells;
+}
+
+void update_bounds(Geometry& g) {
+  double b[6] = {std::numeric_limits<double>::max(), -std::numeric_limits<double>::max(),
+                 std::numeric_limits<double>::max(), -std::numeric_limits<double>::max(),
+                 std::numeric_limits<double>::max(), -std::numeric_limits<double>::max()};
+  for (vtkPolyData* pd : {g.surface.Get(), g.walls.Get()}) {
+    if (!pd || pd->GetNumberOfPoints() == 0) continue;
+    const double* pb = pd->GetBounds();
+    for (int i = 0; i < 3; ++i) b[2 * i] = std::min(b[2 * i], pb[2 * i]), b[2 * i + 1] = std::max(b[2 * i + 1], pb[2 * i + 1]);
+  }
+  std::copy(b, b + 6, g.bounds);
+}
+
+// ---- height grid ----------------------------------------------------------------------------------------------
+
+Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, const View& view, bool coloured) {
+  if (s.nx() < 2 || s.ny() < 2) throw core::Error("render_part: the height grid has fewer than 2 x 2 nodes");
+  if (!(s.dx_mm > 0) || !(s.dy_mm > 0)) throw core::Error("render_part: the height grid's spacing is not positive");
+  const bool magnified = view.mark_magnification != 1.0;
+  if (coloured || magnified) {
+    if (!dev)
+      throw core::Error(std::string("render_part: ") + (coloured ? "deviation colours" : "a mark magnification") +
+                        " asked for, but no deviation grid given");
+    if (dev->nx() != s.nx() || dev->ny() != s.ny() || std::abs(dev->x0_mm - s.x0_mm) > 1e-9 ||
+        std::abs(dev->y0_mm - s.y0_mm) > 1e-9 || std::abs(dev->dx_mm - s.dx_mm) > 1e-12 ||
+        std::abs(dev->dy_mm - s.dy_mm) > 1e-12)
+      throw core::Error(fmt::format("render_part: the deviation grid ({}x{}) is not the surface's grid ({}x{}, same "
+                                    "origin and spacing)", dev->nx(), dev->ny(), s.nx(), s.ny()));
+  }
+  // Index window of the region (one node of margin so the cut edge lies on or outside the region).
+  Eigen::Index i0 = 0, i1 = s.nx() - 1, j0 = 0, j1 = s.ny() - 1;
+  if (view.region) {
+    const Region& r = *view.region;
+    i0 = std::max<Eigen::Index>(0, static_cast<Eigen::Index>(std::floor((r.x_min_mm - s.x0_mm) / s.dx_mm)));
+    i1 = std::min<Eigen::Index>(s.nx() - 1, static_cast<Eigen::Index>(std::ceil((r.x_max_mm - s.x0_mm) / s.dx_mm)));
+    j0 = std::max<Eigen::Index>(0, static_cast<Eigen::Index>(std::floor((r.y_min_mm - s.y0_mm) / s.dy_mm)));
+    j1 = std::min<Eigen::Index>(s.ny() - 1, static_cast<Eigen::Index>(std::ceil((r.y_max_mm - s.y0_mm) / s.dy_mm)));
+    if (i1 - i0 < 1 || j1 - j0 < 1)
+      throw core::Error(fmt::format("render_part: the region x {}..{} y {}..{} mm does not overlap the grid (x {}..{}, "
+                                    "y {}..{} mm)", r.x_min_mm, r.x_max_mm, r.y_min_mm, r.y_max_mm, s.x0_mm,
+                                    s.x(s.nx() - 1), s.y0_mm, s.y(s.ny() - 1)));
+  }
+  const Eigen::Index nx = i1 - i0 + 1, ny = j1 - j0 + 1;
+  // The surface as drawn before the vertical exaggeration: with its deviation magnified where there is one.
+  const double mag = view.mark_magnification;
+  auto zm = [&](Eigen::Index j, Eigen::Index i) {
+    const double z = s.z_mm(j, i);
+    if (!magnified) return z;
+    const double d = dev->z_mm(j, i);
+    return std::isfinite(d) ? z + (mag - 1) * d : z;
+  };
+  double zmin = std::numeric_limits<double>::max(), zmax = -zmin;
+  for (Eigen::Index j = j0; j <= j1; ++j)
+    for (Eigen::Index i = i0; i <= i1; ++i)
+      if (s.valid(j, i)) zmin = std::min(zmin, zm(j, i)), zmax = std::max(zmax, zm(j, i));
+  if (zmin > zmax) throw core::Error("render_part: the height grid has no valid node in the drawn region");
+
+  Geometry g;
+  g.z_base_mm = zmin;
+  g.exaggeration = view.vertical_exaggeration;
+  const double e = view.vertical_exaggeration;
+  auto zd = [&](Eigen::Index j, Eigen::Index i) { return zmin + e * (zm(j, i) - zmin); };
+
+  // Nodes, with normals from central differences of the drawn heights (one-sided next to holes and edges).
+  vtkNew<vtkPoints> pts;
+  pts->SetDataTypeToFloat();
+  pts->SetNumberOfPoints(nx * ny);
+  vtkNew<vtkFloatArray> normals;
+  normals->SetNumberOfComponents(3);
+  normals->SetNumberOfTuples(nx * ny);
+  normals->SetName("Normals");
+  vtkNew<vtkFloatArray> scalars;
+  scalars->SetName("deviation_um");
+  if (coloured) scalars->SetNumberOfValues(nx * ny);
+  std::vector<std::int32_t> id(static_cast<std::size_t>(nx * ny), -1);
+  vtkIdType n = 0;
+  for (Eigen::Index j = j0; j <= j1; ++j)
+    for (Eigen::Index i = i0; i <= i1; ++i) {
+      if (!s.valid(j, i)) continue;
+      const Eigen::Index il = (i > 0 && s.valid(j, i - 1)) ? i - 1 : i, ir = (i + 1 < s.nx() && s.valid(j, i + 1)) ? i + 1 : i;
+      const Eigen::Index jl = (j > 0 && s.valid(j - 1, i)) ? j - 1 : j, jr = (j + 1 < s.ny() && s.valid(j + 1, i)) ? j + 1 : j;
+      const double gx = ir > il ? (zd(j, ir) - zd(j, il)) / ((ir - il) * s.dx_mm) : 0.0;
+      const double gy = jr > jl ? (zd(jr, i) - zd(jl, i)) / ((jr - jl) * s.dy_mm) : 0.0;
+      const double len = std::sqrt(gx * gx + gy * gy + 1);
+      pts->SetPoint(n, s.x(i), s.y(j), zd(j, i));
+      const float nrm[3] = {static_cast<float>(-gx / len), static_cast<float>(-gy / len), static_cast<float>(1 / len)};
+      normals->SetTypedTuple(n, nrm);
+      if (coloured) {
+        const double d = dev->z_mm(j, i);
+        scalars->SetValue(n, static_cast<float>(d * 1e3));
+        if (std::isfinite(d)) g.deviation_um.push_back(d * 1e3);
+      }
+      id[static_cast<std::size_t>((j - j0) * nx + (i - i0))] = static_cast<std::int32_t>(n++);
+    }
+  pts->SetNumberOfPoints(n);
+  normals->SetNumberOfTuples(n);
+  if (coloured) scalars->SetNumberOfValues(n);
+
+  // Two triangles per cell of four valid nodes, one where exactly three are valid (edges of holes stay close).
+  std::vector<std::int32_t> offsets, conn;
+  offsets.reserve(static_cast<std::size_t>(2 * nx * ny + 1));
+  conn.reserve(static_cast<std::size_t>(6 * nx * ny));
+  offsets.push_back(0);
+  auto tri = [&](std::int32_t a, std::int32_t b, std::int32_t c) {
+    conn.insert(conn.end(), {a, b, c});
+    offsets.push_back(static_cast<std::int32_t>(conn.size()));
+  };
+  for (Eigen::Index j = 0; j + 1 < ny; ++j)
+    for (Eigen::Index i = 0; i + 1 < nx; ++i) {
+      const std::int32_t a = id[static_cast<std::size_t>(j * nx + i)], b = id[static_cast<std::size_t>(j * nx + i + 1)];
+      const std::int32_t c = id[static_cast<std::size_t>((j + 1) * nx + i + 1)], d = id[static_cast<std::size_t>((j + 1) * nx + i)];
+      const int valid = (a >= 0) + (b >= 0) + (c >= 0) + (d >= 0);
+      if (valid == 4) {
+        tri(a, b, c);
+        tri(a, c, d);
+      } else if (valid == 3) {
+        if (a < 0) tri(b, c, d);
+        else if (b < 0) tri(a, c, d);
+        else if (c < 0) tri(a, b, d);
+        else tri(a, b, c);
+      }
+    }
+  g.surface = vtkSmartPointer<vtkPolyData>::New();
+  g.surface->SetPoints(pts);
+  g.surface->SetPolys(cells_of(offsets, conn));
+  g.surface->GetPointData()->SetNormals(normals);
+  if (coloured) g.surface->GetPointData()->SetScalars(scalars);
+
+  // Side walls along the four edges of the drawn window, down to a base below the lowest point: the part reads as
+  // a solid block, and a cut-out region shows its profile on its faces.
+  const double dz = std::max({0.06 * std::max((i1 - i0) * s.dx_mm, (j1 - j0) * s.dy_mm), 0.05 * e * (zmax - zmin), 1e-3});
+  const double base = zmin - dz;
+  vtkNew<vtkPoints> wp;
+  wp->SetDataTypeToFloat();
+  vtkNew<vtkFloatArray> wn;
+  wn->SetNumberOfComponents(3);
+  wn->SetName("Normals");
+  std::vector<std::int32_t> woff{0}, wconn;
+  auto wall = [&](Eigen::Index ja, Eigen::Index ia, Eigen::Index jb, Eigen::Index ib, float nx_, float ny_) {
+    if (!s.valid(ja, ia) || !s.valid(jb, ib)) return;
+    const auto first = static_cast<std::int32_t>(wp->GetNumberOfPoints());
+    wp->InsertNextPoint(s.x(ia), s.y(ja), zd(ja, ia));
+    wp->InsertNextPoint(s.x(ib), s.y(jb), zd(jb, ib));
+    wp->InsertNextPoint(s.x(ib), s.y(jb), base);
+    wp->InsertNextPoint(s.x(ia), s.y(ja), base);
+    for (int k = 0; k < 4; ++k) wn->InsertNextTuple3(nx_, ny_, 0);
+    wconn.insert(wconn.end(), {first, first + 3, first + 2, first + 1});  // counter-clockwise seen from outside
+    woff.push_back(static_cast<std::int32_t>(wconn.size()));
+  };
+  for (Eigen::Index i = i0; i < i1; ++i) {
+    wall(j0, i, j0, i + 1, 0, -1);
+    wall(j1, i + 1, j1, i, 0, 1);
+  }
+  for (Eigen::Index j = j0; j < j1; ++j) {
+    wall(j + 1, i0, j, i0, -1, 0);
+    wall(j, i1, j + 1, i1, 1, 0);
+  }
+  g.walls = vtkSmartPointer<vtkPolyData>::New();
+  g.walls->SetPoints(wp);
+  g.walls->SetPolys(cells_of(woff, wconn));
+  g.walls->GetPointData()->SetNormals(wn);
+  update_bounds(g);
+  return g;
+}
+
+// ---- mesh -----------------------------------------------------------------------------------------------------
+
+Geometry mesh_geometry(const core::TriangleMesh& m, const View& view, bool coloured, const std::string& array) {
+  const Eigen::Index nv = m.vertices_mm.rows(), nt = m.triangles.rows();
+  if (nv < 3 || nt < 1) throw core::Error("render_part: the mesh has no triangles");
+  if (view.mark_magnification != 1.0)
+    throw core::Error("render_part: mark magnification applies to height grids with a deviation grid, not to meshes");
+  if (nv > std::numeric_limits<std::int32_t>::max() / 2)
+    throw core::Error("render_part: the mesh has too many vertices");
+  const Eigen::VectorXd* dev = nullptr;
+  if (coloured) {
+    for (const auto& [name, values] : m.point_data)
+      if (name == array) dev = &values;
+    if (!dev) throw core::Error("render_part: deviation colours asked for, but the mesh has no \"" + array + "\" array");
+    if (dev->size() != nv)
+      throw core::Error(fmt::format("render_part: \"{}\" has {} values for {} vertices", array, dev->size(), nv));
+  }
+  // Triangles kept: those with their centroid in the region.
+  std::vector<char> keep(static_cast<std::size_t>(nt), 1);
+  std::vector<char> used(static_cast<std::size_t>(nv), 0);
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    for (int c = 0; c < 3; ++c)
+      if (m.triangles(t, c) < 0 || m.triangles(t, c) >= nv)
+        throw core::Error(fmt::format("render_part: triangle {} refers to vertex {}, the mesh has {}", t, m.triangles(t, c), nv));
+    if (view.region) {
+      const Region& r = *view.region;
+      const Eigen::Vector3d c = (m.vertices_mm.row(m.triangles(t, 0)) + m.vertices_mm.row(m.triangles(t, 1)) +
+                                 m.vertices_mm.row(m.triangles(t, 2))).transpose() / 3;
+      keep[static_cast<std::size_t>(t)] = c.x() >= r.x_min_mm && c.x() <= r.x_max_mm && c.y() >= r.y_min_mm && c.y() <= r.y_max_mm;
+    }
+    if (keep[static_cast<std::size_t>(t)])
+      for (int c = 0; c < 3; ++c) used[static_cast<std::size_t>(m.triangles(t, c))] = 1;
+  }
+  double zmin = std::numeric_limits<double>::max();
+  for (Eigen::Index v = 0; v < nv; ++v)
+    if (used[static_cast<std::size_t>(v)]) zmin = std::min(zmin, m.vertices_mm(v, 2));
+  if (zmin == std::numeric_limits<double>::max()) throw core::Error("render_part: no triangle of the mesh lies in the region");
+  Geometry g;
+  g.z_base_mm = zmin;
+  g.exaggeration = view.vertical_exaggeration;
+  std::vector<std::int32_t> id(static_cast<std::size_t>(nv), -1);
+  vtkNew<vtkPoints> pts;
+  pts->SetDataTypeToFloat();
+  vtkNew<vtkFloatArray> scalars;
+  scalars->SetName("deviation_um");
+  std::int32_t n = 0;
+  for (Eigen::Index v = 0; v < nv; ++v) {
+    if (!used[static_cast<std::size_t>(v)]) continue;
+    id[static_cast<std::size_t>(v)] = n++;
+    pts->InsertNextPoint(m.vertices_mm(v, 0), m.vertices_mm(v, 1), zmin + g.exaggeration * (m.vertices_mm(v, 2) - zmin));
+    if (coloured) {
+      const double d = (*dev)[v];
+      scalars->InsertNextValue(static_cast<float>(d * 1e3));
+      if (std::isfinite(d)) g.deviation_um.push_back(d * 1e3);
+    }
+  }
+  std::vector<std::int32_t> offsets{0}, conn;
+  conn.reserve(static_cast<std::size_t>(3 * nt));
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    if (!keep[static_cast<std::size_t>(t)]) continue;
+    for (int c = 0; c < 3; ++c) conn.push_back(id[static_cast<std::size_t>(m.triangles(t, c))]);
+    offsets.push_back(static_cast<std::int32_t>(conn.size()));
+  }
+  vtkNew<vtkPolyData> pd;
+  pd->SetPoints(pts);
+  pd->SetPolys(cells_of(offsets, conn));
+  if (coloured) pd->GetPointData()->SetScalars(scalars);
+  // Normals: shared across smooth edges, split across sharp ones (a part's edges), the mesh's own orientation kept.
+  vtkNew<vtkPolyDataNormals> normals;
+  normals->SetInputData(pd);
+  normals->SetFeatureAngle(40);
+  normals->SplittingOn();
+  normals->ConsistencyOff();
+  normals->AutoOrientNormalsOff();
+  normals->ComputeCellNormalsOff();
+  normals->Update();
+  g.surface = normals->GetOutput();
+  update_bounds(g);
+  return g;
+}
+
+// ---- camera -----------------------------------------------------------------------------------------------------
+
+struct CameraFrame {
+  Eigen::Vector3d to_camera, up;  // unit vectors: from the focal point towards the camera; the picture's up
+};
+
+CameraFrame camera_frame(const View& v) {
+  CameraFrame f;
+  switch (v.direction) {
+    case ViewDirection::Top:
+      f.to_camera = {0, 0, 1};
+      f.up = {0, 1, 0};
+      return f;
+    case ViewDirection::Isometric: {
+      const double az = -120 * kDeg, el = 35 * kDeg;
+      f.to_camera = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+      break;
+    }
+    case ViewDirection::AlongPath: {
+      // Behind the cut (against the path direction), 20 deg to its left, 25 deg up.
+      const double az = (v.path_direction_deg + 180 - 20) * kDeg, el = 25 * kDeg;
+      f.to_camera = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+      break;
+    }
+  }
+  f.up = {0, 0, 1};
+  return f;
+}
+
+// Frames the box [bounds] in a viewport of the given aspect (width / height): the focal point and distance at
+// which every corner is inside the view (perspective, vertical view angle `fov_deg`) or the parallel scale.
+void frame_camera(vtkCamera* cam, const CameraFrame& f, const double b[6], double aspect, bool parallel, double fov_deg) {
+  const Eigen::Vector3d centre((b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2);
+  const Eigen::Vector3d dir = f.to_camera;
+  const Eigen::Vector3d right = (-dir).cross(f.up).normalized();
+  const Eigen::Vector3d up = right.cross(-dir);
+  double amin = 1e300, amax = -1e300, bmin = 1e300, bmax = -1e300;
+  std::vector<Eigen::Vector3d> corners;
+  for (int k = 0; k < 8; ++k) corners.emplace_back(b[(k & 1) ? 1 : 0], b[(k & 2) ? 3 : 2], b[(k & 4) ? 5 : 4]);
+  for (const auto& c : corners) {
+    const Eigen::Vector3d r = c - centre;
+    amin = std::min(amin, r.dot(right)), amax = std::max(amax, r.dot(right));
+    bmin = std::min(bmin, r.dot(up)), bmax = std::max(bmax, r.dot(up));
+  }
+  const Eigen::Vector3d focal = centre + right * (amin + amax) / 2 + up * (bmin + bmax) / 2;
+  const double margin = 1.04;
+  double extent = 0;
+  for (const auto& c : corners) extent = std::max(extent, (c - centre).norm());
+  extent = std::max(extent, 1e-6);
+  cam->SetViewUp(up.data());
+  cam->SetFocalPoint(focal.data());
+  if (parallel) {
+    cam->ParallelProjectionOn();
+    const double half_h = (bmax - bmin) / 2, half_w = (amax - amin) / 2;
+    cam->SetParallelScale(margin * std::max({half_h, half_w / aspect, 1e-6}));
+    const Eigen::Vector3d pos = focal + dir * 4 * extent;
+    cam->SetPosition(pos.data());
+  } else {
+    cam->ParallelProjectionOff();
+    cam->SetViewAngle(fov_deg);
+    const double tv = std::tan(fov_deg * kDeg / 2), th = tv * aspect;
+    double d = 0;
+    for (const auto& c : corners) {
+      const Eigen::Vector3d r = c - focal;
+      d = std::max(d, r.dot(dir) + std::max(std::abs(r.dot(right)) / th, std::abs(r.dot(up)) / tv));
+    }
+    const Eigen::Vector3d pos = focal + dir * margin * d;
+    cam->SetPosition(pos.data());
+  }
+  cam->SetClippingRange(1e-3 * extent, 10 * extent);
+}
+
+// ---- lights and materials ---------------------------------------------------------------------------------------
+
+void add_lights(vtkRenderer* ren, const CameraFrame& f, const Lighting& l, const double b[6]) {
+  ren->AutomaticLightCreationOff();
+  ren->RemoveAllLights();
+  // The camera's horizontal viewing direction and its right; straight down (Top) counts as looking towards +Y.
+  Eigen::Vector3d h(-f.to_camera.x(), -f.to_camera.y(), 0);
+  if (h.norm() < 1e-6) h = {0, 1, 0};
+  h.normalize();
+  const Eigen::Vector3d right = h.cross(Eigen::Vector3d::UnitZ());
+  const double a = l.azimuth_deg * kDeg, e = l.elevation_deg * kDeg;
+  const Eigen::Vector3d from = (std::cos(a) * -h + std::sin(a) * right) * std::cos(e) + Eigen::Vector3d::UnitZ() * std::sin(e);
+  const Eigen::Vector3d centre((b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2);
+  const Eigen::Vector3d pos = centre + from * 1000;
+  vtkNew<vtkLight> key;
+  key->SetLightTypeToSceneLight();
+  key->PositionalOff();
+  key->SetPosition(pos.data());
+  key->SetFocalPoint(centre.data());
+  key->SetIntensity(1.4);  // the flat floor mid-grey under a 15 deg light, faces towards it just below white
+  key->SetColor(1.0, 0.98, 0.95);
+  ren->AddLight(key);
+  vtkNew<vtkLight> fill;  // from the camera, weak: faces turned away from the key light stay legible
+  fill->SetLightTypeToHeadlight();
+  fill->SetIntensity(0.22);
+  fill->SetColor(0.9, 0.93, 1.0);
+  ren->AddLight(fill);
+}
+
+void metal(vtkProperty* p, double shade) {
+  p->SetColor(0.80 * shade, 0.81 * shade, 0.83 * shade);
+  p->SetAmbient(0.10);
+  p->SetDiffuse(0.85);
+  p->SetSpecular(0.35);
+  p->SetSpecularPower(40);
+  p->SetSpecularColor(1, 1, 1);
+}
+
+vtkSmartPointer<vtkLookupTable> deviation_table(double limit_um) {
+  auto lut = vtkSmartPointer<vtkLookupTable>::New();
+  lut->SetNumberOfTableValues(kColourTableSize);
+  for (int k = 0; k < kColourTableSize; ++k) {
+    const Rgb c = diverging_colour(-1 + (2.0 * k + 1) / kColourTableSize);
+    lut->SetTableValue(k, c[0], c[1], c[2], 1.0);
+  }
+  lut->SetTableRange(-limit_um, limit_um);
+  lut->SetNanColor(0.55, 0.55, 0.55, 1.0);
+  lut->SetUseBelowRangeColor(false);
+  lut->SetUseAboveRangeColor(false);  // beyond the limits: the end colours
+  return lut;
+}
+
+// Iso-deviation values: multiples of step on each side of zero, within the limits.
+std::vector<double> iso_values(double limit_um, int n) {
+  std::vector<double> v;
+  if (n <= 0) return v;
+  const double step = limit_um / (n + 1);
+  for (int k = -n; k <= n; ++k)
+    if (k != 0) v.push_back(k * step);
+  return v;
+}
+
+// A scale bar of a round length under the scene (Top views: the picture has a true scale).
+void add_scale_bar(vtkRenderer* overlay, double mm_per_px, const double vp[4], int height) {
+  const double target_mm = 0.22 * vp[2] * mm_per_px;
+  double len = nice_ceil(target_mm);
+  if (len > target_mm * 1.3) len = nice_ceil(target_mm / 2.5);
+  const double px = len / mm_per_px;
+  const double x0 = vp[0] + 24, y0 = (height - (vp[1] + vp[3])) + 22;  // display coordinates: y up from the bottom
+  vtkNew<vtkPoints> p;
+  p->InsertNextPoint(x0, y0 + 6, 0);
+  p->InsertNextPoint(x0, y0, 0);
+  p->InsertNextPoint(x0 + px, y0, 0);
+  p->InsertNextPoint(x0 + px, y0 + 6, 0);
+  vtkNew<vtkCellArray> lines;
+  const vtkIdType ids[4] = {0, 1, 2, 3};
+  lines->InsertNextCell(4, ids);
+  vtkNew<vtkPolyData> pd;
+  pd->SetPoints(p);
+  pd->SetLines(lines);
+  vtkNew<vtkPolyDataMapper2D> m;
+  m->SetInputData(pd);
+  vtkNew<vtkActor2D> a;
+  a->SetMapper(m);
+  a->GetProperty()->SetColor(0.95, 0.95, 0.95);
+  a->GetProperty()->SetLineWidth(2.5);
+  overlay->AddActor2D(a);
+  vtkNew<vtkTextActor> t;
+  t->SetInput(fmt::format("{:g} mm", len).c_str());
+  detail::set_font(t->GetTextProperty(), 18, 0.95, 0.95, 0.95);
+  t->GetTextProperty()->SetJustificationToCentered();
+  t->SetDisplayPosition(static_cast<int>(x0 + px / 2), static_cast<int>(y0 + 10));
+  overlay->AddActor2D(t);
+}
+
+PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
+  const int W = pic.width, H = pic.height;
+  const bool coloured = pic.deviation.has_value();
+  vtkRenderWindow* rw = detail::begin_picture(window, W, H);
+  rw->SetNumberOfLayers(2);
+  rw->SetMultiSamples(pic.view.direction == ViewDirection::Top ? 0 : 4);
+
+  // Layout (pixels): caption band on top, colour scale on the right, the scene in the rest.
+  const int n_caption = static_cast<int>(pic.caption.size());
+  const double big = std::clamp(H / 34.0, 14.0, 40.0), small = std::clamp(H / 50.0, 11.0, 28.0);
+  const double top_band = n_caption > 0 ? 14 + big + (n_caption - 1) * (small * 1.35) + 12 : 0;
+  const double right_band = coloured ? std::clamp(W * 0.14, 120.0, 320.0) : 0;
+  const double vp[4] = {0, top_band, W - right_band, H - top_band};  // left, top, width, height in image pixels
+  if (vp[2] < 16 || vp[3] < 16) throw core::Error(fmt::format("render_part: {}x{} pixels leave no room for the part", W, H));
+
+  vtkNew<vtkRenderer> overlay;  // layer 0: background and annotations
+  overlay->SetLayer(0);
+  overlay->GradientBackgroundOn();
+  overlay->SetBackground(0.09, 0.10, 0.12);
+  overlay->SetBackground2(0.27, 0.29, 0.33);
+  vtkNew<vtkRenderer> ren;  // layer 1: the part, drawn over the background
+  ren->SetLayer(1);
+  ren->SetViewport(vp[0] / W, 1 - (vp[1] + vp[3]) / H, (vp[0] + vp[2]) / W, 1 - vp[1] / H);
+  rw->AddRenderer(overlay);
+  rw->AddRenderer(ren);
+
+  PartImage out;
+  vtkSmartPointer<vtkLookupTable> lut;
+  if (coloured) {
+    const DeviationColours& dc = *pic.deviation;
+    if (dc.limit_mm < 0 || !std::isfinite(dc.limit_mm)) throw core::Error("render_part: the colour limit must be >= 0");
+    if (dc.isolines < 0 || dc.isolines > 50) throw core::Error("render_part: isolines must be in 0..50");
+    const double limit_um = dc.limit_mm > 0 ? dc.limit_mm * 1e3 : symmetric_limit(g.deviation_um, 1.0);
+    out.limit_mm = limit_um / 1e3;
+    lut = deviation_table(limit_um);
+  }
+
+  vtkNew<vtkPolyDataMapper> sm;
+  sm->SetInputData(g.surface);
+  vtkNew<vtkActor> surface;
+  surface->SetMapper(sm);
+  if (coloured) {
+    sm->SetLookupTable(lut);
+    sm->SetScalarRange(lut->GetTableRange());
+    sm->SetScalarModeToUsePointData();
+    sm->ScalarVisibilityOn();
+    sm->InterpolateScalarsBeforeMappingOn();  // colours interpolated as values, not as RGB: exact across a triangle
+    sm->SetColorModeToMapScalars();
+    vtkProperty* p = surface->GetProperty();
+    if (pic.deviation->lit) {
+      p->SetAmbient(0.30);
+      p->SetDiffuse(0.75);
+      p->SetSpecular(0.15);
+      p->SetSpecularPower(30);
+    } else {
+      p->LightingOff();  // every pixel its map colour
+    }
+  } else {
+    sm->ScalarVisibilityOff();
+    metal(surface->GetProperty(), 1.0);
+  }
+  ren->AddActor(surface);
+  vtkNew<vtkPolyDataMapper> wm;
+  vtkNew<vtkActor> walls;
+  if (g.walls && g.walls->GetNumberOfCells() > 0) {
+    wm->SetInputData(g.walls);
+    wm->ScalarVisibilityOff();
+    walls->SetMapper(wm);
+    metal(walls->GetProperty(), 0.55);  // cut faces darker than the machined surface
+    ren->AddActor(walls);
+  }
+  vtkNew<vtkContourFilter> iso;
+  vtkNew<vtkPolyDataMapper> im;
+  vtkNew<vtkActor> isolines;
+  if (coloured && pic.deviation->isolines > 0) {
+    const std::vector<double> values = iso_values(out.limit_mm * 1e3, pic.deviation->isolines);
+    iso->SetInputData(g.surface);
+    iso->SetNumberOfContours(static_cast<int>(values.size()));
+    for (std::size_t k = 0; k < values.size(); ++k) iso->SetValue(static_cast<int>(k), values[k]);
+    iso->ComputeScalarsOff();
+    iso->ComputeNormalsOff();
+    im->SetInputConnection(iso->GetOutputPort());
+    im->ScalarVisibilityOff();
+    // Drawn over the coincident surface.
+    im->SetResolveCoincidentTopologyToPolygonOffset();
+    im->SetRelativeCoincidentTopologyLineOffsetParameters(0, -66000);
+    isolines->SetMapper(im);
+    isolines->GetProperty()->SetColor(0.12, 0.12, 0.12);
+    isolines->GetProperty()->SetLineWidth(std::max(1.0, H / 800.0));
+    isolines->GetProperty()->LightingOff();
+    ren->AddActor(isolines);
+  }
+
+  const CameraFrame frame = camera_frame(pic.view);
+  double b[6];
+  std::copy(g.bounds, g.bounds + 6, b);
+  if (pic.view.direction == ViewDirection::Top && pic.view.region) {
+    // A map frames the asked rectangle exactly, not the grid nodes around it.
+    b[0] = pic.view.region->x_min_mm, b[1] = pic.view.region->x_max_mm;
+    b[2] = pic.view.region->y_min_mm, b[3] = pic.view.region->y_max_mm;
+  }
+  const double aspect = vp[2] / vp[3];
+  vtkCamera* cam = ren->GetActiveCamera();
+  frame_camera(cam, frame, b, aspect, pic.view.direction == ViewDirection::Top, 30.0);
+  add_lights(ren, frame, pic.light, b);
+
+  // Annotations.
+  std::vector<vtkSmartPointer<vtkTextActor>> texts;
+  double y = H - 14 - big;
+  for (int k = 0; k < n_caption; ++k) {
+    auto t = vtkSmartPointer<vtkTextActor>::New();
+    t->SetInput(pic.caption[static_cast<std::size_t>(k)].c_str());
+    detail::set_font(t->GetTextProperty(), static_cast<int>(k == 0 ? big : small), 0.96, 0.96, 0.96, k == 0);
+    t->SetDisplayPosition(16, static_cast<int>(y));
+    overlay->AddActor2D(t);
+    texts.push_back(t);
+    y -= (k == 0 ? small * 1.45 : small * 1.35);
+  }
+  vtkNew<vtkScalarBarActor> bar;
+  vtkNew<vtkTextActor> bar_top, bar_bottom;
+  if (coloured) {
+    bar->SetLookupTable(lut);
+    bar->SetTitle("deviation [µm]");
+    bar->SetNumberOfLabels(5);
+    bar->SetLabelFormat("%.3g");
+    bar->SetMaximumNumberOfColors(kColourTableSize);
+    bar->UnconstrainedFontSizeOn();
+    bar->SetBarRatio(0.28);
+    bar->DrawFrameOff();
+    detail::set_font(bar->GetTitleTextProperty(), static_cast<int>(small * 1.05), 0.96, 0.96, 0.96, true);
+    detail::set_font(bar->GetLabelTextProperty(), static_cast<int>(small), 0.92, 0.92, 0.92);
+    bar->GetPositionCoordinate()->SetCoordinateSystemToDisplay();
+    bar->GetPosition2Coordinate()->SetCoordinateSystemToDisplay();
+    const double bx = W - right_band + 10, bh = std::min(0.62 * H, vp[3] - 2 * small - 20);
+    const double by = (H - top_band - bh) / 2 - small;  // display y of the bar's bottom
+    bar->SetPosition(bx, by);
+    bar->SetPosition2(right_band - 20, bh);
+    overlay->AddActor2D(bar);
+    // What the two ends mean.
+    bar_top->SetInput("+ undercut\n  (material left)");
+    bar_bottom->SetInput("− overcut\n  (cut too deep)");
+    for (vtkTextActor* t : {bar_top.Get(), bar_bottom.Get()}) {
+      detail::set_font(t->GetTextProperty(), static_cast<int>(small * 0.8), 0.85, 0.85, 0.85);
+      overlay->AddActor2D(t);
+    }
+    bar_top->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(by + bh + small * 2.4));
+    bar_bottom->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(by - small * 2.6));
+  }
+  if (pic.view.direction == ViewDirection::Top) add_scale_bar(overlay, 2 * cam->GetParallelScale() / vp[3], vp, H);
+
+  out.image = detail::finish_picture(window);
+  vtkMatrix4x4* mtx = cam->GetCompositeProjectionTransformMatrix(aspect, -1, 1);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out.world_to_ndc(r, c) = mtx->GetElement(r, c);
+  std::copy(vp, vp + 4, out.viewport_px);
+  out.exaggeration = g.exaggeration;
+  out.z_base_mm = g.z_base_mm;
+  return out;
+}
+
+void check_picture(const PartPicture& pic) {
+  detail::check_size(pic.width, pic.height, "render_part");
+  check_view(pic.view, "render_part");
+  if (!std::isfinite(pic.light.elevation_deg) || pic.light.elevation_deg <= 0 || pic.light.elevation_deg > 90)
+    throw core::Error("render_part: the light's elevation must be in (0, 90] degrees");
+}
+
+}  // namespace
+
+Eigen::Vector2d PartImage::pixel(const Eigen::Vector3d& p) const {
+  const Eigen::Vector4d w(p.x(), p.y(), z_base_mm + exaggeration * (p.z() - z_base_mm), 1.0);
+  const Eigen::Vector4d c = world_to_ndc * w;
+  const double nx = c.x() / c.w(), ny = c.y() / c.w();
+  return {viewport_px[0] + (nx + 1) / 2 * viewport_px[2], viewport_px[1] + (1 - ny) / 2 * viewport_px[3]};
+}
+
+PartImage render_part(Window& window, const core::HeightGrid& surface, const core::HeightGrid* deviation,
+                      const PartPicture& picture) {
+  check_picture(picture);
+  Geometry g = grid_geometry(surface, deviation, picture.view, picture.deviation.has_value());
+  return draw(window, g, picture);
+}
+
+PartImage render_part(Window& window, const core::TriangleMesh& mesh, const PartPicture& picture,
+                      const std::string& deviation_array) {
+  check_picture(picture);
+  Geometry g = mesh_geometry(mesh, picture.view, picture.deviation.has_value(), deviation_array);
+  return draw(window, g, picture);
+}
+
+Region region_around(double x_mm, double y_mm, double half_extent_mm, const Region& bounds, int width, int height) {
+  const double aspect = static_cast<double>(width) / height;
+  double hx = half_extent_mm, hy = half_extent_mm;
+  if (aspect >= 1) hx = half_extent_mm * aspect;
+  else hy = half_extent_mm / aspect;
+  Region r{x_mm - hx, x_mm + hx, y_mm - hy, y_mm + hy};
+  // Slide it inside the bounds where it fits, clip where it does not.
+  auto fit = [](double& lo, double& hi, double blo, double bhi) {
+    if (hi - lo >= bhi - blo) {
+      lo = blo, hi = bhi;
+      return;
+    }
+    if (lo < blo) hi += blo - lo, lo = blo;
+    if (hi > bhi) lo -= hi - bhi, hi = bhi;
+  };
+  fit(r.x_min_mm, r.x_max_mm, bounds.x_min_mm, bounds.x_max_mm);
+  fit(r.y_min_mm, r.y_max_mm, bounds.y_min_mm, bounds.y_max_mm);
+  return r;
+}
+
+}  // namespace vmsim::render
