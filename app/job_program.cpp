@@ -8,6 +8,7 @@ core::ToolPath read_job_program(const core::Job& job) {
   core::ProgramOptions popt;
   popt.tool_table = job.tool_table_file;
   popt.no_motion_mcodes = job.no_motion_mcodes;
+  if (job.start_mm) popt.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
   core::ToolPath tp = core::read_program(job.program_file, popt);
   if (job.start_mm && !tp.moves.empty()) {
     core::Move& first = tp.moves.front();

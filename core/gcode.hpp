@@ -2,6 +2,7 @@
 // RS274/NGC G-code as LinuxCNC's interpreter reads it.
 #include "core/toolpath.hpp"
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -21,6 +22,10 @@ struct GcodeOptions {
   // are in these units. vmsim's machines are metric; `rs274 -g` standalone treats its tables as inches, so
   // set this to reproduce its tool length offsets. Programs start in G21 either way, as under `rs274 -g`.
   bool inch_machine = false;
+  // Where the controlled point is before the first block (mm, no offsets active). LinuxCNC starts at the origin;
+  // a job's start position (core::Job::start_mm) goes here so that the program's first moves keep the axes
+  // the program does not name (a first `G0 Z40` stays above the start instead of heading for X0 Y0).
+  std::optional<std::array<double, 3>> start_mm;
   // Block delete switch: skip lines that start with '/'. Off, as in LinuxCNC and `rs274 -g` by default.
   bool block_delete = false;
   // Guards against endless programs, so that a runaway loop is an error naming the line ("possible endless

@@ -75,6 +75,8 @@ Interpreter::Interpreter(const ParsedProgram& program, std::string file, const G
     if (name == "_value_returned") value_returned_id_ = static_cast<int>(id);
     if (name == "_value" || name == "_value_returned") globals_[id] = 0.0;
   }
+  if (options.start_mm)
+    for (std::size_t i = 0; i < 3; ++i) pos_[i] = (*options.start_mm)[i];  // programs start in G21: mm
   params_[5220] = 1.0;  // G54 active
   params_[5599] = 1.0;  // (debug, ...) messages on, as in LinuxCNC
   path_.source_path = file_;

@@ -528,6 +528,7 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
   SmoothPathOptions sopt;
   sopt.tolerance_mm = options.tolerance_mm;
   sopt.axis_jerk = lim.j;
+  sopt.axis_accel = lim.a;
   sopt.rapid_speed = lim.v.head<3>().minCoeff();
   sopt.feed_scale = options.feed_scale;
   const SmoothPath sp = build_smooth_path(path, sopt);

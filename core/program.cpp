@@ -17,6 +17,7 @@ ToolPath read_program(const std::filesystem::path& path, const ProgramOptions& o
     GcodeOptions g;
     g.tool_table = options.tool_table;
     g.no_motion_mcodes = options.no_motion_mcodes;
+    g.start_mm = options.start_mm;
     return read_gcode(path, g);
   }
   throw Error(path.string() + ": unknown program type \"" + ext +

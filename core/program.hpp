@@ -3,6 +3,7 @@
 #include "core/toolpath.hpp"
 
 #include <filesystem>
+#include <array>
 #include <optional>
 #include <vector>
 
@@ -11,6 +12,7 @@ namespace vmsim::core {
 struct ProgramOptions {
   std::optional<std::filesystem::path> tool_table;  // LinuxCNC tool table for G43 H / T words
   std::vector<int> no_motion_mcodes;                 // G-code: remapped M codes without motion (see gcode.hpp)
+  std::optional<std::array<double, 3>> start_mm;     // G-code: where the tool starts (see gcode.hpp)
 };
 
 // Chooses the reader by extension: .ngc .nc .gcode .tap .txt -> G-code; .apt .cl .cls .aptsource -> APT CL.

@@ -473,7 +473,12 @@ SmoothPath build_smooth_path(const ToolPath& path, const SmoothPathOptions& opti
       // L^2 |dK| / 24 (a clothoid's shift). Twice that, within the tolerance, is all the rounding it gets: at low
       // feed next to none.
       const Vec6 dk = ja.k - jb.k;
-      const double v = std::min({A.feed_limit, B.feed_limit, options.rapid_speed});
+      double v = std::min({A.feed_limit, B.feed_limit, options.rapid_speed});
+      for (const PathJet* j : {&ja, &jb})
+        for (int i = 0; i < 6; ++i) {
+          if (std::abs(j->k[i]) > 0) v = std::min(v, std::sqrt(options.axis_accel[i] / std::abs(j->k[i])));
+          if (std::abs(j->dk[i]) > 0) v = std::min(v, std::cbrt(options.axis_jerk[i] / std::abs(j->dk[i])));
+        }
       double L = 0;
       for (int i = 0; i < 6; ++i)
         if (std::abs(dk[i]) > 0) L = std::max(L, v * v * v * std::abs(dk[i]) / options.axis_jerk[i]);

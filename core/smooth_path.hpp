@@ -71,6 +71,7 @@ struct SmoothPathOptions {
   // transition must be long enough that v^3 |dK| stays within the axis jerk. These give the jerk per axis in path
   // units (mm/s^3, deg/s^3) and the speed assumed for rapids.
   Vec6 axis_jerk = Vec6::Constant(1e300);
+  Vec6 axis_accel = Vec6::Constant(1e300);
   double rapid_speed = 1e300;
   // Corners sharper than this (angle between the tangents) are not blended: the axes stop there.
   double max_blend_angle_rad = 170.0 * 3.14159265358979323846 / 180.0;
