@@ -1,6 +1,7 @@
 #include "metrology/marks.hpp"
 
 #include "core/error.hpp"
+#include "metrology/register.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +18,7 @@ core::HeightGrid deviation(const core::HeightGrid& a, const core::HeightGrid& b)
   return d;
 }
 
-std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std::size_t max_marks) {
+std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std::size_t max_marks, double path_dir) {
   const Eigen::Index nx = dev.nx(), ny = dev.ny();
   std::vector<int> label(static_cast<std::size_t>(nx * ny), -1);
   std::vector<Mark> marks;
@@ -51,6 +52,9 @@ std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std:
         }
       }
       double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+      double amin = 1e300, amax = -1e300, cmin = 1e300, cmax = -1e300;  // along and across the path
+      const bool dir = std::isfinite(path_dir);
+      const double ux = dir ? std::cos(path_dir) : 1.0, uy = dir ? std::sin(path_dir) : 0.0;
       std::size_t deep = 0;
       for (Eigen::Index c : cells) {
         const Eigen::Index j = c / nx, i = c % nx;
@@ -58,9 +62,19 @@ std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std:
         ++deep;
         xmin = std::min(xmin, dev.x(i)), xmax = std::max(xmax, dev.x(i));
         ymin = std::min(ymin, dev.y(j)), ymax = std::max(ymax, dev.y(j));
+        const double a = ux * dev.x(i) + uy * dev.y(j), b = -uy * dev.x(i) + ux * dev.y(j);
+        amin = std::min(amin, a), amax = std::max(amax, a), cmin = std::min(cmin, b), cmax = std::max(cmax, b);
       }
       m.x_extent_mm = xmax - xmin + dev.dx_mm;
       m.y_extent_mm = ymax - ymin + dev.dy_mm;
+      if (dir) {
+        // One node's footprint along a direction: |u.x| dx + |u.y| dy (exact along the axes).
+        m.along_mm = amax - amin + std::abs(ux) * dev.dx_mm + std::abs(uy) * dev.dy_mm;
+        m.width_mm = cmax - cmin + std::abs(uy) * dev.dx_mm + std::abs(ux) * dev.dy_mm;
+        double d = std::remainder(path_dir, 3.14159265358979323846);
+        if (d <= -1.5707963267948966) d += 3.14159265358979323846;
+        m.direction_rad = d;
+      }
       m.area_mm2 = static_cast<double>(deep) * dev.dx_mm * dev.dy_mm;
       marks.push_back(m);
     }
@@ -68,6 +82,53 @@ std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std:
   std::sort(marks.begin(), marks.end(), [](const Mark& a, const Mark& b) { return a.depth_mm > b.depth_mm; });
   if (marks.size() > max_marks) marks.resize(max_marks);
   return marks;
+}
+
+Lay lay_of(const core::HeightGrid& g) {
+  // Structure tensor J = sum (gx^2, gx gy; gx gy, gy^2) over nodes with both central differences; the marks run
+  // perpendicular to its principal eigenvector (the dominant gradient direction).
+  const Eigen::Index nx = g.nx(), ny = g.ny();
+  std::vector<double> rxx(static_cast<std::size_t>(ny), 0.0), rxy(static_cast<std::size_t>(ny), 0.0), ryy(static_cast<std::size_t>(ny), 0.0);
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index j = 1; j < ny - 1; ++j) {
+    double xx = 0, xy = 0, yy = 0;
+    for (Eigen::Index i = 1; i < nx - 1; ++i) {
+      const double gx = (g.z_mm(j, i + 1) - g.z_mm(j, i - 1)) / (2 * g.dx_mm);
+      const double gy = (g.z_mm(j + 1, i) - g.z_mm(j - 1, i)) / (2 * g.dy_mm);
+      if (!std::isfinite(gx) || !std::isfinite(gy)) continue;
+      xx += gx * gx, xy += gx * gy, yy += gy * gy;
+    }
+    rxx[static_cast<std::size_t>(j)] = xx, rxy[static_cast<std::size_t>(j)] = xy, ryy[static_cast<std::size_t>(j)] = yy;
+  }
+  double xx = 0, xy = 0, yy = 0;
+  for (Eigen::Index j = 0; j < ny; ++j) xx += rxx[static_cast<std::size_t>(j)], xy += rxy[static_cast<std::size_t>(j)], yy += ryy[static_cast<std::size_t>(j)];
+  Lay lay;
+  const double tr = xx + yy;
+  if (!(tr > 0)) return lay;
+  const double gradient_dir = 0.5 * std::atan2(2 * xy, xx - yy);
+  const double root = std::sqrt((xx - yy) * (xx - yy) + 4 * xy * xy);
+  lay.anisotropy = root / tr;  // (l1 - l2) / (l1 + l2)
+  double d = gradient_dir + 1.5707963267948966;
+  d = std::remainder(d, 3.14159265358979323846);
+  if (d <= -1.5707963267948966) d += 3.14159265358979323846;
+  lay.direction_rad = d;
+  return lay;
+}
+
+Profile profile(const core::HeightGrid& g, double x, double y, double dir, double half, double step) {
+  if (!(step > 0) || !(half >= 0) || half / step > 1e6) throw core::Error("profile: the step must be positive and the length finite");
+  const long n = static_cast<long>(std::floor(half / step + 1e-9));
+  Profile p;
+  p.s_mm.resize(2 * n + 1);
+  p.z_mm.resize(2 * n + 1);
+  const double ux = std::cos(dir), uy = std::sin(dir);
+  for (long k = -n; k <= n; ++k) {
+    const double s = static_cast<double>(k) * step;
+    double z;
+    p.s_mm[k + n] = s;
+    p.z_mm[k + n] = sample_bilinear(g, x + s * ux, y + s * uy, z) ? z : std::numeric_limits<double>::quiet_NaN();
+  }
+  return p;
 }
 
 }  // namespace vmsim::metrology

@@ -193,4 +193,41 @@ core::TriangleMesh grid_surface_mesh(const core::HeightGrid& g) {
   return m;
 }
 
+core::HeightGrid rasterize_top(const core::TriangleMesh& m, double h) {
+  if (m.vertices_mm.rows() == 0 || m.triangles.rows() == 0) throw core::Error("rasterize: the mesh is empty");
+  if (!(h > 0)) throw core::Error("rasterize: the spacing must be positive");
+  const Eigen::Vector3d lo = m.vertices_mm.colwise().minCoeff().transpose(), hi = m.vertices_mm.colwise().maxCoeff().transpose();
+  const double nxd = std::floor((hi.x() - lo.x()) / h + 1e-9) + 1, nyd = std::floor((hi.y() - lo.y()) / h + 1e-9) + 1;
+  if (!(nxd * nyd <= static_cast<double>(1LL << 28)))
+    throw core::Error(fmt::format("rasterize: a {:.0f} x {:.0f} grid at {} mm is too large; choose a larger spacing", nxd, nyd, h));
+  core::HeightGrid g;
+  g.x0_mm = lo.x(), g.y0_mm = lo.y(), g.dx_mm = g.dy_mm = h;
+  g.z_mm = core::HeightArray::Constant(static_cast<Eigen::Index>(nyd), static_cast<Eigen::Index>(nxd), -HUGE_VAL);
+  for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
+    const int ia = m.triangles(t, 0), ib = m.triangles(t, 1), ic = m.triangles(t, 2);
+    if (ia < 0 || ib < 0 || ic < 0 || ia >= m.vertices_mm.rows() || ib >= m.vertices_mm.rows() || ic >= m.vertices_mm.rows())
+      throw core::Error(fmt::format("rasterize: triangle {} names a vertex out of range", t));
+    const V3 A = m.vertices_mm.row(ia).transpose(), B = m.vertices_mm.row(ib).transpose(), C = m.vertices_mm.row(ic).transpose();
+    const double area2 = (B.x() - A.x()) * (C.y() - A.y()) - (C.x() - A.x()) * (B.y() - A.y());  // 2 x signed xy area
+    if (!(area2 > 0)) continue;  // facing down, vertical or degenerate
+    const auto i0 = static_cast<Eigen::Index>(std::ceil((std::min({A.x(), B.x(), C.x()}) - g.x0_mm) / h - 1e-9));
+    const auto i1 = static_cast<Eigen::Index>(std::floor((std::max({A.x(), B.x(), C.x()}) - g.x0_mm) / h + 1e-9));
+    const auto j0 = static_cast<Eigen::Index>(std::ceil((std::min({A.y(), B.y(), C.y()}) - g.y0_mm) / h - 1e-9));
+    const auto j1 = static_cast<Eigen::Index>(std::floor((std::max({A.y(), B.y(), C.y()}) - g.y0_mm) / h + 1e-9));
+    for (Eigen::Index j = std::max<Eigen::Index>(j0, 0); j <= std::min<Eigen::Index>(j1, g.ny() - 1); ++j)
+      for (Eigen::Index i = std::max<Eigen::Index>(i0, 0); i <= std::min<Eigen::Index>(i1, g.nx() - 1); ++i) {
+        const double x = g.x(i), y = g.y(j);
+        // Barycentric weights; a small tolerance so nodes on shared edges are covered by one of the triangles.
+        const double wa = ((B.x() - x) * (C.y() - y) - (C.x() - x) * (B.y() - y)) / area2;
+        const double wb = ((C.x() - x) * (A.y() - y) - (A.x() - x) * (C.y() - y)) / area2;
+        const double wc = 1 - wa - wb;
+        if (wa < -1e-9 || wb < -1e-9 || wc < -1e-9) continue;
+        g.z_mm(j, i) = std::max(g.z_mm(j, i), wa * A.z() + wb * B.z() + wc * C.z());
+      }
+  }
+  for (Eigen::Index k = 0; k < g.z_mm.size(); ++k)
+    if (g.z_mm.data()[k] == -HUGE_VAL) g.z_mm.data()[k] = std::numeric_limits<double>::quiet_NaN();
+  return g;
+}
+
 }  // namespace vmsim::metrology

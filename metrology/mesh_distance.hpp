@@ -41,6 +41,11 @@ Eigen::VectorXd signed_distances(const Eigen::Matrix<double, Eigen::Dynamic, 3>&
 // node's point, carried through `scan_to_part`, to the mesh. Same geometry as the scan (its own frame).
 core::HeightGrid mesh_deviation(const core::HeightGrid& scan, const RigidTransform& scan_to_part, const core::TriangleMesh& mesh);
 
+// The mesh's upper surface sampled on a grid of `spacing_mm` over its x/y extent: at each node the highest point
+// of the triangles facing up (normal z > 0) above it; nodes no such triangle covers are invalid. For registering a
+// scan to a predicted mesh (the distances themselves are then taken to the mesh).
+core::HeightGrid rasterize_top(const core::TriangleMesh& mesh, double spacing_mm);
+
 // The top surface of a height grid as a mesh: two triangles per cell whose four corners are valid, normals up.
 core::TriangleMesh grid_surface_mesh(const core::HeightGrid& grid);
 
