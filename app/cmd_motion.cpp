@@ -3,6 +3,7 @@
 #include "app/contour_stats.hpp"
 #include "app/job_program.hpp"
 #include "app/report.hpp"
+#include "app/signals.hpp"
 #include "core/atomic_file.hpp"
 #include "core/contour.hpp"
 #include "core/error.hpp"
@@ -183,6 +184,9 @@ int run_motion(const MotionArgs& args) {
                        resp.current_setpoint_A(k, a));
   }, n);
   files.push_back("currents.csv");
+  // The same signals, binned (min/max) for charts: vmsim render DIR draws them.
+  write_signals(dir / "signals.csv", motion_signals(job, program, sp, resp, ce, iopt.feed_scale));
+  files.push_back("signals.csv");
   if (args.full_rate_trace) {
     for (std::size_t a = 0; a < resp.trace.size(); ++a) {
       const drives::FullRateTrace& tr = resp.trace[a];

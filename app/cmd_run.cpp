@@ -5,6 +5,8 @@
 #include "app/job_program.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
+#include "app/result_images.hpp"
+#include "app/signals.hpp"
 #include "core/atomic_file.hpp"
 #include "core/contour.hpp"
 #include "core/error.hpp"
@@ -333,6 +335,10 @@ Eigen::VectorXd needle_offsets(const Field& f) {
 int run_run(const RunArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
+  // The picture options are checked now, not after the simulation.
+  ImageArgs image_args;
+  image_args.size = args.image_size;
+  const ImageOptions image_opt = args.no_render ? ImageOptions{} : image_options(image_args);
   Progress progress(!args.quiet);
   std::set<std::string> chain;
 
@@ -404,6 +410,7 @@ int run_run(const RunArgs& args) {
   nlohmann::json marks_json = nlohmann::json::array();
   std::vector<metrology::Mark> marks;
   nlohmann::json surface_json;
+  ResultData images;  // what the pictures are drawn from
   if (field.kind != core::RemovalSpec::Field::NBuffer) {
     const core::HeightGrid pred = surface_of(field);
     metrology::write_height_csv(dir / "surface.csv", pred);
@@ -419,6 +426,8 @@ int run_run(const RunArgs& args) {
       files.insert(files.end(), {"reference.csv", "deviation.csv", "deviation.npy", "deviation.npy.json"});
       marks = metrology::find_marks(*dev, 1e-3);  // marks deeper than 1 um
     }
+    images.surface = pred;
+    images.deviation = dev;
     const core::TriangleMesh mesh = removal::heightfield_mesh(pred, field.region.lo.z(), dev ? &*dev : nullptr);
     core::write_stl_binary(dir / "part.stl", mesh);
     render::write_vtp(dir / "part.vtp", mesh);
@@ -472,7 +481,35 @@ int run_run(const RunArgs& args) {
     marks_json.push_back({{"depth_mm", m.depth_mm}, {"kind", m.overcut ? "overcut" : "undercut"}, {"x_mm", m.x_mm},
                           {"y_mm", m.y_mm}, {"x_extent_mm", m.x_extent_mm}, {"y_extent_mm", m.y_extent_mm},
                           {"area_mm2", m.area_mm2}});
+  if (motion.response && motion.contour) {
+    images.signals = motion_signals(job, motion.program, motion.interp.setpoints, *motion.response, *motion.contour,
+                                    feed_scale);
+    write_signals(dir / "signals.csv", *images.signals);
+    files.push_back("signals.csv");
+  }
   const double t_write = seconds_since(t0);
+
+  // Pictures, after every result file: a failure to draw loses no result.
+  std::optional<std::string> render_error;
+  double t_render = 0;
+  std::size_t n_images = 0;
+  if (!args.no_render) {
+    t0 = Clock::now();
+    progress.stage(job.name + ": pictures");
+    images.job = job.name;
+    images.reference = ref_name;
+    images.marks = marks;
+    try {
+      for (const std::string& f : write_result_images(images, dir / "images", image_opt)) {
+        files.push_back("images/" + f);
+        ++n_images;
+      }
+    } catch (const core::Error& e) {
+      render_error = e.what();
+    }
+    progress.done();
+    t_render = seconds_since(t0);
+  }
 
   nlohmann::json report = report_header("run", job);
   report["removal"] = {{"field", field.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
@@ -503,6 +540,8 @@ int run_run(const RunArgs& args) {
   timings["removal"] = t_cut;
   timings["reference"] = t_ref;
   timings["write"] = t_write;
+  if (!args.no_render) timings["render"] = t_render;
+  if (render_error) report["render_error"] = *render_error;
   timings["total"] = seconds_since(t_start);
   report["timings_s"] = timings;
   write_report(dir / "report.json", report);
@@ -520,7 +559,11 @@ int run_run(const RunArgs& args) {
     std::printf("mark %zu: %s %.2f um at x %.3f y %.3f, %.3f x %.3f mm\n", k + 1, m.overcut ? "overcut " : "undercut",
                 m.depth_mm * 1e3, m.x_mm, m.y_mm, m.x_extent_mm, m.y_extent_mm);
   }
+  if (n_images > 0) std::printf("images: %s (%zu PNG files)\n", (dir / "images").string().c_str(), n_images);
   std::printf("wrote %s (%zu files) in %.1f s\n", dir.string().c_str(), files.size(), seconds_since(t_start));
+  if (render_error)
+    throw core::Error("the results are written to " + dir.string() + ", but the pictures could not be drawn "
+                      "(--no-render skips them): " + *render_error);
   return 0;
 }
 

@@ -50,8 +50,29 @@ struct RunArgs {
   std::optional<std::filesystem::path> out_dir;  // default: the current directory
   std::optional<double> feed_scale;
   bool quiet = false;                            // no progress on stderr
+  bool no_render = false;                        // no pictures in DIR/images
+  std::string image_size = "1600x1200";          // WIDTHxHEIGHT of the pictures
 };
-// vmsim run JOB: the whole chain to the machined surface and its marks; report.json, height grids, part mesh.
+// vmsim run JOB: the whole chain to the machined surface and its marks; report.json, height grids, part mesh,
+// signals.csv, and the pictures in DIR/images (app/result_images).
 int run_run(const RunArgs& args);
+
+// Picture options shared by vmsim render (and the defaults vmsim run uses).
+struct ImageArgs {
+  std::string size = "1600x1200";                // WIDTHxHEIGHT
+  double exaggeration = 1.0;                     // vertical exaggeration of the part pictures
+  std::vector<double> region;                    // X_MIN,X_MAX,Y_MIN,Y_MAX (mm): the zoom pictures' region
+  std::optional<double> limit_um;                // colour limits of the deviation maps (default: max |deviation|)
+  int isolines = 3;                              // iso-deviation lines per side of zero
+  std::optional<double> magnification;           // of the mark's relief in part_mark.png (default: from its depth)
+  std::optional<double> path_direction_deg;      // cutting direction in XY for the along-the-path views
+};
+struct RenderArgs {
+  std::filesystem::path dir;                     // a result directory of vmsim run or vmsim motion
+  std::optional<std::filesystem::path> out_dir;  // default: DIR/images
+  ImageArgs images;
+};
+// vmsim render DIR: the part, deviation and chart pictures of a result directory (PNG), their paths on stdout.
+int run_render(const RenderArgs& args);
 
 }  // namespace vmsim::app

@@ -75,6 +75,33 @@ int main(int argc, char** argv) {
   run->add_option("--feed-scale", run_args.feed_scale, "multiply every programmed feed of this job")
       ->check(CLI::PositiveNumber);
   run->add_flag("--quiet,-q", run_args.quiet, "no progress on stderr");
+  run->add_flag("--no-render", run_args.no_render, "draw no pictures (by default: PNG files in OUT/images)");
+  run->add_option("--image-size", run_args.image_size, "size of the pictures, WIDTHxHEIGHT (default 1600x1200)");
+
+  vmsim::app::RenderArgs render_args;
+  auto* render = app.add_subcommand(
+      "render", "Draw the pictures of a result directory of vmsim run or motion: the part under a raking light, "
+                "its deviation maps, charts of the drive signals (PNG, no display needed)");
+  render->add_option("DIR", render_args.dir, "result directory (surface.csv, deviation.csv, signals.csv, report.json)")
+      ->required()->check(CLI::ExistingDirectory);
+  render->add_option("--out,-o", render_args.out_dir, "where the PNG files go (default: DIR/images)");
+  render->add_option("--size", render_args.images.size, "WIDTHxHEIGHT in pixels (default 1600x1200)");
+  render->add_option("--exaggeration", render_args.images.exaggeration, "vertical exaggeration of the part pictures")
+      ->check(CLI::PositiveNumber);
+  render->add_option("--region", render_args.images.region,
+                     "X_MIN,X_MAX,Y_MIN,Y_MAX (mm): zoom on this region instead of the deepest mark")
+      ->delimiter(',')->expected(4);
+  render->add_option("--limit-um", render_args.images.limit_um,
+                     "colour limits of the deviation maps, +-um (default: max |deviation| rounded up)")
+      ->check(CLI::PositiveNumber);
+  render->add_option("--isolines", render_args.images.isolines, "iso-deviation lines per side of zero (default 3)")
+      ->check(CLI::Range(0, 20));
+  render->add_option("--magnification", render_args.images.magnification,
+                     "of the mark's departure from the reference in part_mark.png (default: from its depth)")
+      ->check(CLI::PositiveNumber);
+  render->add_option("--path-direction-deg", render_args.images.path_direction_deg,
+                     "cutting direction in the XY plane for the along-the-path views (default: the axis that travels "
+                     "furthest)");
 
   try {
     app.parse(argc, argv);
@@ -88,6 +115,7 @@ int main(int argc, char** argv) {
     if (*identify) return vmsim::app::run_identify_friction(id_args);
     if (*motion) return vmsim::app::run_motion(motion_args);
     if (*run) return vmsim::app::run_run(run_args);
+    if (*render) return vmsim::app::run_render(render_args);
   } catch (const vmsim::core::Error& e) {
     std::fprintf(stderr, "vmsim: error: %s\n", e.what());
     return 2;

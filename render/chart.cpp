@@ -5,20 +5,25 @@
 #include "core/error.hpp"
 #include "render/detail.hpp"
 
+#include <vtkActor2D.h>
 #include <vtkAxis.h>
-#include <vtkBrush.h>
-#include <vtkChartLegend.h>
+#include <vtkCellArray.h>
 #include <vtkChartXY.h>
 #include <vtkContextActor.h>
 #include <vtkContextScene.h>
 #include <vtkDoubleArray.h>
 #include <vtkNew.h>
 #include <vtkPen.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkPolyDataMapper2D.h>
+#include <vtkProperty2D.h>
 #include <vtkPlot.h>
 #include <vtkRect.h>
 #include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
 #include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
 #include <vtkTable.h>
 #include <vtkTextActor.h>
 #include <vtkTextProperty.h>
@@ -65,6 +70,29 @@ void style_axis(vtkAxis* a, const std::string& title, int font_px) {
   detail::set_font(a->GetLabelProperties(), static_cast<int>(font_px * 0.9), 0.15, 0.15, 0.18);
   a->GetGridPen()->SetColor(222, 222, 226, 255);
   a->GetPen()->SetColor(90, 90, 96, 255);
+}
+
+// Round ticks (1, 2 or 5 x 10^k apart) about every `spacing_px` pixels over [lo, hi], labelled with as many
+// decimals as the step needs. VTK's own ticks on a fixed range crowd a tall axis (one every 20 px).
+void set_ticks(vtkAxis* a, double lo, double hi, double length_px, double spacing_px) {
+  const double want = std::clamp(length_px / spacing_px, 2.0, 12.0);
+  const double raw = (hi - lo) / want;
+  const double p = std::pow(10.0, std::floor(std::log10(raw)));
+  double step = 10 * p;
+  for (double m : {1.0, 2.0, 5.0})
+    if (m * p >= raw) {
+      step = m * p;
+      break;
+    }
+  const int decimals = std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9)));
+  vtkNew<vtkDoubleArray> pos;
+  vtkNew<vtkStringArray> labels;
+  for (double t = std::ceil(lo / step - 1e-9) * step; t <= hi + 1e-9 * step; t += step) {
+    const double v = std::abs(t) < 1e-9 * step ? 0.0 : t;  // no "-0"
+    pos->InsertNextValue(v);
+    labels->InsertNextValue(fmt::format("{:.{}f}", v, decimals));
+  }
+  a->SetCustomTickPositions(pos, labels);
 }
 
 }  // namespace
@@ -127,14 +155,23 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
   }
   const int n = static_cast<int>(pic.charts.size());
   const double band = (H - top_band) / n;
+  // Every chart's plot area at the same place across the bands (AXES_TO_RECT: the rectangle is the axes' box, the
+  // labels, titles and legend go into these margins), so stacked charts line up in x.
+  const bool any_legend = std::any_of(pic.charts.begin(), pic.charts.end(), [](const Chart& c) { return c.legend; });
+  const double m_left = 5.5 * font, m_right = any_legend ? 13.0 * font : 1.5 * font;
+  const double m_top = 2.0 * font, m_bottom = 3.3 * font;
+  if (W - m_left - m_right < 32 || band - m_top - m_bottom < 16)
+    throw core::Error(fmt::format("render_charts: {}x{} pixels are too small for {} chart(s)", W, H, n));
   std::vector<vtkSmartPointer<vtkChartXY>> charts;
   std::vector<vtkSmartPointer<vtkTable>> tables;  // kept alive until the picture is drawn
+  std::vector<vtkSmartPointer<vtkActor2D>> legend;
   for (int ci = 0; ci < n; ++ci) {
     const Chart& c = pic.charts[static_cast<std::size_t>(ci)];
     auto chart = vtkSmartPointer<vtkChartXY>::New();
-    chart->SetAutoSize(false);
-    chart->SetSize(vtkRectf(0.0f, static_cast<float>(H - top_band - (ci + 1) * band), static_cast<float>(W),
-                            static_cast<float>(band)));
+    chart->SetLayoutStrategy(vtkChart::AXES_TO_RECT);
+    const double bottom = H - top_band - (ci + 1) * band + m_bottom;
+    chart->SetSize(vtkRectf(static_cast<float>(m_left), static_cast<float>(bottom), static_cast<float>(W - m_left - m_right),
+                            static_cast<float>(band - m_top - m_bottom)));
     if (!c.title.empty()) {
       chart->SetTitle(c.title);
       detail::set_font(chart->GetTitleProperties(), static_cast<int>(font * 1.05), 0.08, 0.08, 0.10, true);
@@ -160,6 +197,9 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
     }
     chart->GetAxis(vtkAxis::LEFT)->SetBehavior(vtkAxis::FIXED);
     chart->GetAxis(vtkAxis::LEFT)->SetRange(ylo, yhi);
+    set_ticks(chart->GetAxis(vtkAxis::LEFT), ylo, yhi, band - m_top - m_bottom, 3.5 * font);
+    set_ticks(xa, xext[static_cast<std::size_t>(ci)].first, xext[static_cast<std::size_t>(ci)].second,
+              W - m_left - m_right, 7.0 * font);
     const double lw = std::clamp(scale, 0.75, 3.0);  // thinner than 1.5 px, antialiased lines fade
     for (const Series& s : c.series) {
       auto t = xy_table(s.x, s.y);
@@ -184,16 +224,43 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
       if (l.dashed) p->GetPen()->SetLineType(vtkPen::DASH_LINE);
       p->SetLabel(l.name);
     }
-    chart->SetShowLegend(c.legend);
+    // The legend goes into the right margin, beside the plot, drawn here: VTK's own legend sits over the data
+    // (inline) or, with the axes placed on a rectangle, still inside it.
+    chart->SetShowLegend(false);
     if (c.legend) {
-      vtkChartLegend* leg = chart->GetLegend();
-      detail::set_font(leg->GetLabelProperties(), static_cast<int>(font * 0.85), 0.08, 0.08, 0.10);
-      leg->GetBrush()->SetColor(255, 255, 255, 215);
-      leg->GetPen()->SetColor(180, 180, 186, 255);
-      // Beside the plot, not over it: a legend inside would hide the data where it is most often (a corner).
-      leg->SetInline(false);
-      leg->SetHorizontalAlignment(vtkChartLegend::RIGHT);
-      leg->SetVerticalAlignment(vtkChartLegend::TOP);
+      double ly = H - top_band - ci * band - m_top - 0.2 * font;
+      auto entry = [&](const std::string& name, const Rgb& colour, double width, bool dashed) {
+        if (name.empty()) return;
+        const double x0 = W - m_right + 0.8 * font, x1 = x0 + 2.2 * font, yl = ly - 0.35 * font;
+        vtkNew<vtkPoints> p;
+        vtkNew<vtkCellArray> lines;
+        const int pieces = dashed ? 3 : 1;
+        for (int k = 0; k < pieces; ++k) {
+          const double a = x0 + (x1 - x0) * k / pieces, b = a + (x1 - x0) / pieces * (dashed ? 0.6 : 1.0);
+          const vtkIdType ids[2] = {p->InsertNextPoint(a, yl, 0), p->InsertNextPoint(b, yl, 0)};
+          lines->InsertNextCell(2, ids);
+        }
+        vtkNew<vtkPolyData> pd;
+        pd->SetPoints(p);
+        pd->SetLines(lines);
+        vtkNew<vtkPolyDataMapper2D> m;
+        m->SetInputData(pd);
+        auto a = vtkSmartPointer<vtkActor2D>::New();
+        a->SetMapper(m);
+        a->GetProperty()->SetColor(colour[0], colour[1], colour[2]);
+        a->GetProperty()->SetLineWidth(static_cast<float>(std::max(1.5, width * lw)));
+        ren->AddActor2D(a);
+        legend.push_back(a);
+        auto t = vtkSmartPointer<vtkTextActor>::New();
+        t->SetInput(name.c_str());
+        detail::set_font(t->GetTextProperty(), static_cast<int>(font * 0.85), 0.08, 0.08, 0.10);
+        t->SetDisplayPosition(static_cast<int>(x1 + 0.5 * font), static_cast<int>(ly - 0.8 * font));
+        ren->AddActor2D(t);
+        texts.push_back(t);
+        ly -= 1.3 * font;
+      };
+      for (const Series& sr : c.series) entry(sr.name, sr.colour, sr.width, sr.dashed);
+      for (const Level& l : c.levels) entry(l.name, l.colour, 1.6, l.dashed);
     }
     scene->AddItem(chart);
     charts.push_back(chart);

@@ -458,12 +458,12 @@ std::vector<double> iso_values(double limit_um, int n) {
 }
 
 // A scale bar of a round length under the scene (Top views: the picture has a true scale).
-void add_scale_bar(vtkRenderer* overlay, double mm_per_px, const double vp[4], int height) {
+void add_scale_bar(vtkRenderer* overlay, double mm_per_px, const double vp[4], int font_px) {
   const double target_mm = 0.22 * vp[2] * mm_per_px;
   double len = nice_ceil(target_mm);
   if (len > target_mm * 1.3) len = nice_ceil(target_mm / 2.5);
   const double px = len / mm_per_px;
-  const double x0 = vp[0] + 24, y0 = (height - (vp[1] + vp[3])) + 22;  // display coordinates: y up from the bottom
+  const double x0 = vp[0] + 24, y0 = 8;  // display coordinates: y up from the bottom
   vtkNew<vtkPoints> p;
   p->InsertNextPoint(x0, y0 + 6, 0);
   p->InsertNextPoint(x0, y0, 0);
@@ -484,7 +484,7 @@ void add_scale_bar(vtkRenderer* overlay, double mm_per_px, const double vp[4], i
   overlay->AddActor2D(a);
   vtkNew<vtkTextActor> t;
   t->SetInput(fmt::format("{:g} mm", len).c_str());
-  detail::set_font(t->GetTextProperty(), 18, 0.95, 0.95, 0.95);
+  detail::set_font(t->GetTextProperty(), font_px, 0.95, 0.95, 0.95);
   t->GetTextProperty()->SetJustificationToCentered();
   t->SetDisplayPosition(static_cast<int>(x0 + px / 2), static_cast<int>(y0 + 10));
   overlay->AddActor2D(t);
@@ -495,14 +495,17 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   const bool coloured = pic.deviation.has_value();
   vtkRenderWindow* rw = detail::begin_picture(window, W, H);
   rw->SetNumberOfLayers(2);
+  // Maps stay exact (every pixel one colour of the table); 3-D views get smooth silhouettes.
   rw->SetMultiSamples(pic.view.direction == ViewDirection::Top ? 0 : 4);
 
   // Layout (pixels): caption band on top, colour scale on the right, the scene in the rest.
   const int n_caption = static_cast<int>(pic.caption.size());
-  const double big = std::clamp(H / 34.0, 14.0, 40.0), small = std::clamp(H / 50.0, 11.0, 28.0);
+  const double big = std::clamp(H / 40.0, 13.0, 36.0), small = std::clamp(H / 56.0, 11.0, 26.0);
   const double top_band = n_caption > 0 ? 14 + big + (n_caption - 1) * (small * 1.35) + 12 : 0;
   const double right_band = coloured ? std::clamp(W * 0.14, 120.0, 320.0) : 0;
-  const double vp[4] = {0, top_band, W - right_band, H - top_band};  // left, top, width, height in image pixels
+  const bool top = pic.view.direction == ViewDirection::Top;
+  const double bottom_band = top ? small * 1.6 + 22 : 0;  // the scale bar of a map, under it
+  const double vp[4] = {0, top_band, W - right_band, H - top_band - bottom_band};  // left, top, width, height (px)
   if (vp[2] < 16 || vp[3] < 16) throw core::Error(fmt::format("render_part: {}x{} pixels leave no room for the part", W, H));
 
   vtkNew<vtkRenderer> overlay;  // layer 0: background and annotations
@@ -638,7 +641,7 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
     bar_top->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(by + bh + small * 2.4));
     bar_bottom->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(by - small * 2.6));
   }
-  if (pic.view.direction == ViewDirection::Top) add_scale_bar(overlay, 2 * cam->GetParallelScale() / vp[3], vp, H);
+  if (top) add_scale_bar(overlay, 2 * cam->GetParallelScale() / vp[3], vp, static_cast<int>(small));
 
   out.image = detail::finish_picture(window);
   vtkMatrix4x4* mtx = cam->GetCompositeProjectionTransformMatrix(aspect, -1, 1);

@@ -1,0 +1,25 @@
+// vmsim render DIR: the pictures of a result directory written by vmsim run or vmsim motion, into DIR/images.
+#include "app/commands.hpp"
+#include "app/result_images.hpp"
+#include "core/error.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+
+namespace vmsim::app {
+
+int run_render(const RenderArgs& args) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const ImageOptions opt = image_options(args.images);
+  const ResultData data = load_results(args.dir);
+  const std::filesystem::path out = args.out_dir.value_or(args.dir / "images");
+  const std::vector<std::string> files = write_result_images(data, out, opt);
+  for (const std::string& f : files) std::printf("%s\n", (out / f).string().c_str());
+  std::fprintf(stderr, "vmsim render: %zu images (%dx%d) in %.1f s\n", files.size(), opt.width, opt.height,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  return 0;
+}
+
+}  // namespace vmsim::app
