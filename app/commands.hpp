@@ -75,4 +75,50 @@ struct RenderArgs {
 // vmsim render DIR: the part, deviation and chart pictures of a result directory (PNG), their paths on stdout.
 int run_render(const RenderArgs& args);
 
+// ---- surface commands: measured scans against predicted surfaces (metrology) ----
+
+// Processing before areal parameters, shared by stats and compare.
+struct SurfaceOptions {
+  std::string level = "plane";       // form removed first: none | plane | poly:N
+  std::vector<std::string> filters;  // S:<cut-off> and/or L:<cut-off> (Gaussian, ISO 16610-61), in order
+  double outlier_sigma = 0.0;        // mask spikes departing more than this many robust sigmas (0: keep all)
+};
+
+struct StatsArgs {
+  std::filesystem::path surface;     // X3P, SDF, .sur, CSV, ASCII x y z or matrix
+  SurfaceOptions options;
+};
+// vmsim stats SURFACE: size, spacing, invalid points and the ISO 25178-2 areal parameters, as JSON on stdout.
+int run_stats(const StatsArgs& args);
+
+struct CompareArgs {
+  std::filesystem::path measured, predicted;     // scan (any surface format); prediction (a surface, or an STL mesh)
+  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::string align = "auto";                    // auto: robust registration; none: the scan as it lies
+  std::vector<double> align_init;                // X,Y,Z mm, RX,RY,RZ deg: start (auto) or the transform (none)
+  std::vector<std::string> align_regions;        // XMIN,XMAX,YMIN,YMAX (mm, prediction frame): align on these only
+  std::string loss = "tukey";                    // tukey | huber
+  SurfaceOptions options{"plane", {}, 6.0};      // outliers masked in the scan at 6 sigma by default
+  std::string mark_threshold = "1um";            // marks: |deviation| above this
+  std::optional<double> path_direction_deg;      // the path direction for the marks (default: the lay of the prediction)
+  bool no_render = false;                        // no pictures
+};
+// vmsim compare --measured SCAN --predicted PRED: registration, deviation grid (X3P), statistics, marks, areal
+// parameters of both and their differences, report.json, pictures.
+int run_compare(const CompareArgs& args);
+
+struct MeasureArgs {
+  std::filesystem::path predicted;
+  std::optional<std::filesystem::path> reference;  // to see which marks the scan resolves (e.g. vmsim run's reference)
+  std::optional<std::filesystem::path> out_dir;    // default: the current directory
+  std::string step = "5um", spot = "4um", noise = "0.05um";
+  double max_slope_deg = 30.0;
+  double dropout = 0.0;
+  unsigned seed = 1;
+  std::vector<double> area;                        // XMIN,XMAX,YMIN,YMAX mm (default: all of PRED)
+  std::string mark_threshold = "1um";
+};
+// vmsim measure PRED: the scan a confocal sensor would take of the predicted surface (scan.x3p) and what it resolves.
+int run_measure(const MeasureArgs& args);
+
 }  // namespace vmsim::app

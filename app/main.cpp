@@ -103,6 +103,70 @@ int main(int argc, char** argv) {
                      "cutting direction in the XY plane for the along-the-path views (default: the axis that travels "
                      "furthest)");
 
+
+  // Surface commands (metrology): measured scans against predicted surfaces.
+  vmsim::app::StatsArgs stats_args;
+  auto* stats = app.add_subcommand(
+      "stats", "Print a surface file's size, spacing, invalid points and ISO 25178-2 areal parameters as JSON");
+  stats->add_option("SURFACE", stats_args.surface, "X3P, SDF, .sur, CSV, ASCII x y z or matrix grid")
+      ->required()->check(CLI::ExistingFile);
+  stats->add_option("--level", stats_args.options.level, "form removed first: none, plane (default) or poly:N");
+  stats->add_option("--filter", stats_args.options.filters,
+                    "Gaussian filter (ISO 16610-61), repeatable: S:<cut-off> keeps the mean surface, L:<cut-off> "
+                    "removes it (cut-offs with units, e.g. L:0.8mm, S:2.5um)");
+  stats->add_option("--outliers", stats_args.options.outlier_sigma,
+                    "mask spikes beyond this many robust sigmas first (default 0: keep every point)")
+      ->check(CLI::NonNegativeNumber);
+
+  vmsim::app::CompareArgs compare_args;
+  auto* compare = app.add_subcommand(
+      "compare", "Hold a measured scan against a predicted surface: registration, deviation (X3P), marks, areal "
+                 "parameters, report.json, pictures");
+  compare->add_option("--measured,-m", compare_args.measured, "the measured scan (X3P, SDF, .sur, CSV, ASCII grids)")
+      ->required()->check(CLI::ExistingFile);
+  compare->add_option("--predicted,-p", compare_args.predicted,
+                      "the predicted surface (e.g. vmsim run's surface.x3p) or part mesh (.stl)")
+      ->required()->check(CLI::ExistingFile);
+  compare->add_option("--out,-o", compare_args.out_dir, "output directory (created if absent)");
+  compare->add_option("--align", compare_args.align, "auto (robust 6-DoF registration, default) or none");
+  compare->add_option("--align-init", compare_args.align_init,
+                      "X,Y,Z,RX,RY,RZ (mm, deg): start of the registration, or with --align none the transform")
+      ->delimiter(',')->expected(6);
+  compare->add_option("--align-region", compare_args.align_regions,
+                      "XMIN,XMAX,YMIN,YMAX (mm, prediction frame), repeatable: align only on these areas (the "
+                      "unmachined reference faces)");
+  compare->add_option("--loss", compare_args.loss, "robust loss of the registration: tukey (default) or huber");
+  compare->add_option("--level", compare_args.options.level, "form removed before the areal parameters: none, plane, poly:N");
+  compare->add_option("--filter", compare_args.options.filters, "Gaussian filter before the areal parameters: S:<cut-off>, L:<cut-off>");
+  compare->add_option("--outliers", compare_args.options.outlier_sigma,
+                      "mask spikes of the scan beyond this many robust sigmas (default 6; 0: keep every point)")
+      ->check(CLI::NonNegativeNumber);
+  compare->add_option("--mark-threshold", compare_args.mark_threshold, "marks: |deviation| above this (default 1um)");
+  compare->add_option("--path-direction-deg", compare_args.path_direction_deg,
+                      "the tool path's direction in XY for the marks' width and length (default: the prediction's lay)");
+  compare->add_flag("--no-render", compare_args.no_render, "draw no pictures");
+
+  vmsim::app::MeasureArgs measure_args;
+  auto* measure = app.add_subcommand(
+      "measure", "Simulate a confocal point sensor scanning a predicted surface, to plan a scan: what it resolves");
+  measure->add_option("PRED", measure_args.predicted, "the predicted surface (e.g. vmsim run's surface.x3p)")
+      ->required()->check(CLI::ExistingFile);
+  measure->add_option("--step", measure_args.step, "scan grid step (default 5um)");
+  measure->add_option("--spot", measure_args.spot, "spot diameter, full width at half maximum (default 4um)");
+  measure->add_option("--noise", measure_args.noise, "height noise, standard deviation (default 0.05um)");
+  measure->add_option("--max-slope-deg", measure_args.max_slope_deg, "steeper flanks give no signal (default 30)")
+      ->check(CLI::Range(0.1, 90.0));
+  measure->add_option("--dropout", measure_args.dropout, "probability of a random dropout per point (default 0)")
+      ->check(CLI::Range(0.0, 0.99));
+  measure->add_option("--seed", measure_args.seed, "seed of the noise and dropouts (default 1)");
+  measure->add_option("--area", measure_args.area, "XMIN,XMAX,YMIN,YMAX (mm): the scanned area (default: all)")
+      ->delimiter(',')->expected(4);
+  measure->add_option("--reference", measure_args.reference,
+                      "reference surface (e.g. vmsim run's reference.x3p): report which predicted marks the scan resolves")
+      ->check(CLI::ExistingFile);
+  measure->add_option("--mark-threshold", measure_args.mark_threshold, "marks: |deviation| above this (default 1um)");
+  measure->add_option("--out,-o", measure_args.out_dir, "output directory (created if absent)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -116,6 +180,9 @@ int main(int argc, char** argv) {
     if (*motion) return vmsim::app::run_motion(motion_args);
     if (*run) return vmsim::app::run_run(run_args);
     if (*render) return vmsim::app::run_render(render_args);
+    if (*stats) return vmsim::app::run_stats(stats_args);
+    if (*compare) return vmsim::app::run_compare(compare_args);
+    if (*measure) return vmsim::app::run_measure(measure_args);
   } catch (const vmsim::core::Error& e) {
     std::fprintf(stderr, "vmsim: error: %s\n", e.what());
     return 2;

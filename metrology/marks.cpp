@@ -18,7 +18,8 @@ core::HeightGrid deviation(const core::HeightGrid& a, const core::HeightGrid& b)
   return d;
 }
 
-std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std::size_t max_marks, double path_dir) {
+std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std::size_t max_marks, double path_dir,
+                             std::size_t min_nodes) {
   const Eigen::Index nx = dev.nx(), ny = dev.ny();
   std::vector<int> label(static_cast<std::size_t>(nx * ny), -1);
   std::vector<Mark> marks;
@@ -51,6 +52,7 @@ std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std:
           stack.push_back(q[0] * nx + q[1]);
         }
       }
+      if (cells.size() < min_nodes) continue;  // its nodes stay labelled: no later seed restarts it
       double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
       double amin = 1e300, amax = -1e300, cmin = 1e300, cmax = -1e300;  // along and across the path
       const bool dir = std::isfinite(path_dir);

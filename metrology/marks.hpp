@@ -28,9 +28,10 @@ struct Mark {
 
 // Connected regions whose |deviation| exceeds `threshold_mm`, each reported with its deepest point and the extent
 // of the part deeper than half its depth; deepest first, at most `max_marks`. With a path direction (rad, the
-// direction the tool moved at the mark), also the extent along it and the width across it.
+// direction the tool moved at the mark), also the extent along it and the width across it. Regions of fewer than
+// `min_nodes` nodes are left out (on measured deviations, noise lifts isolated nodes over the threshold).
 std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold_mm, std::size_t max_marks = 10,
-                             double path_direction_rad = std::numeric_limits<double>::quiet_NaN());
+                             double path_direction_rad = std::numeric_limits<double>::quiet_NaN(), std::size_t min_nodes = 1);
 
 // The lay of a machined surface: the direction the tool marks run in (rad, in (-pi/2, pi/2], 0 = along +x), from
 // the structure tensor of its gradients (the marks run across the dominant gradient), and how strongly the texture

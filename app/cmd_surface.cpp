@@ -1,0 +1,110 @@
+#include "app/cmd_surface.hpp"
+
+#include "core/error.hpp"
+#include "core/sha256.hpp"
+#include "metrology/filter.hpp"
+#include "metrology/form.hpp"
+#include "metrology/units.hpp"
+
+#include <fmt/format.h>
+
+#include <cctype>
+#include <cmath>
+
+namespace vmsim::app {
+
+double parse_length_mm(const std::string& text, const std::string& option) {
+  std::size_t k = 0;
+  while (k < text.size() && (std::isdigit(static_cast<unsigned char>(text[k])) || text[k] == '.' || text[k] == '+' ||
+                             text[k] == '-' || ((text[k] == 'e' || text[k] == 'E') && k + 1 < text.size() &&
+                                                (std::isdigit(static_cast<unsigned char>(text[k + 1])) || text[k + 1] == '-' || text[k + 1] == '+'))))
+    ++k;
+  const std::string number = text.substr(0, k), unit = text.substr(k);
+  int pow10 = -3;
+  if (unit.find_first_not_of(' ') != std::string::npos) {
+    const auto p = metrology::length_unit_pow10(unit);
+    if (!p) throw core::Error(fmt::format("{}: unknown unit in \"{}\" (write e.g. 5um, 0.005mm or 0.005)", option, text));
+    pow10 = *p;
+  }
+  const auto v = metrology::parse_decimal_scaled(number, pow10 + 3);
+  if (!v || !std::isfinite(*v)) throw core::Error(fmt::format("{}: \"{}\" is not a length (write e.g. 5um, 0.005mm or 0.005)", option, text));
+  return *v;
+}
+
+int parse_level(const std::string& t) {
+  if (t == "none") return 0;
+  if (t == "plane") return 1;
+  if (t.rfind("poly:", 0) == 0) {
+    const std::string n = t.substr(5);
+    if (!n.empty() && n.size() <= 2 && std::isdigit(static_cast<unsigned char>(n[0])) &&
+        (n.size() == 1 || std::isdigit(static_cast<unsigned char>(n[1])))) {
+      const int d = std::stoi(n);
+      if (d >= 1 && d <= 10) return d;
+    }
+  }
+  throw core::Error("--level: expected none, plane or poly:N (N = 1..10), found \"" + t + "\"");
+}
+
+std::vector<FilterSpec> parse_filters(const std::vector<std::string>& texts) {
+  std::vector<FilterSpec> out;
+  for (const std::string& t : texts) {
+    if (t.size() < 3 || (t[0] != 'S' && t[0] != 'L' && t[0] != 's' && t[0] != 'l') || t[1] != ':')
+      throw core::Error("--filter: expected S:<cut-off> or L:<cut-off> (e.g. L:0.8mm, S:2.5um), found \"" + t + "\"");
+    FilterSpec f;
+    f.kind = static_cast<char>(std::toupper(static_cast<unsigned char>(t[0])));
+    f.cutoff_mm = parse_length_mm(t.substr(2), "--filter");
+    if (!(f.cutoff_mm > 0)) throw core::Error("--filter: the cut-off must be positive, found \"" + t + "\"");
+    out.push_back(f);
+  }
+  return out;
+}
+
+core::HeightGrid level_and_filter(const core::HeightGrid& g, int level, const std::vector<FilterSpec>& filters, nlohmann::json& log) {
+  core::HeightGrid s = g;
+  if (level > 0) {
+    metrology::FormFit fit;
+    s = metrology::remove_form(g, level, &fit);
+    log["level"] = {{"form", level == 1 ? std::string("plane") : fmt::format("poly:{}", level)},
+                    {"slope_x", fit.slope_x},
+                    {"slope_y", fit.slope_y},
+                    {"z_centre_mm", fit.z_centre_mm},
+                    {"rms_residual_mm", fit.rms_residual_mm}};
+  } else {
+    log["level"] = {{"form", "none"}};
+  }
+  nlohmann::json fl = nlohmann::json::array();
+  for (const FilterSpec& f : filters) {
+    s = f.kind == 'S' ? metrology::gaussian_lowpass(s, f.cutoff_mm) : metrology::gaussian_highpass(s, f.cutoff_mm);
+    fl.push_back({{"type", f.kind == 'S' ? "S (Gaussian low-pass, ISO 16610-61)" : "L (Gaussian high-pass, ISO 16610-61)"},
+                  {"cutoff_mm", f.cutoff_mm},
+                  {"edges", "weights renormalised over the valid points in the window (ISO 16610-28 zero-order)"}});
+  }
+  log["filters"] = fl;
+  return s;
+}
+
+namespace {
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+}  // namespace
+
+nlohmann::json areal_json(const metrology::ArealParameters& p) {
+  return {{"points", p.points},     {"mean_mm", num(p.mean_mm)}, {"Sa_mm", num(p.Sa_mm)}, {"Sq_mm", num(p.Sq_mm)},
+          {"Sp_mm", num(p.Sp_mm)},   {"Sv_mm", num(p.Sv_mm)},     {"Sz_mm", num(p.Sz_mm)}, {"Ssk", num(p.Ssk)},
+          {"Sku", num(p.Sku)},       {"Sdq", num(p.Sdq)},         {"Sdr_percent", num(p.Sdr_percent)}};
+}
+
+nlohmann::json grid_json(const core::HeightGrid& g) {
+  std::size_t invalid = 0;
+  for (Eigen::Index k = 0; k < g.z_mm.size(); ++k) invalid += std::isfinite(g.z_mm.data()[k]) ? 0 : 1;
+  return {{"nx", g.nx()},       {"ny", g.ny()},       {"dx_mm", g.dx_mm},
+          {"dy_mm", g.dy_mm},   {"x0_mm", g.x0_mm},   {"y0_mm", g.y0_mm},
+          {"points", static_cast<std::size_t>(g.z_mm.size())}, {"invalid_points", invalid}};
+}
+
+nlohmann::json input_json(const std::filesystem::path& file, const std::string& format) {
+  std::error_code ec;
+  const auto abs = std::filesystem::weakly_canonical(file, ec);
+  return {{"path", (ec ? file : abs).string()}, {"sha256", core::sha256_file_hex(file)}, {"format", format}};
+}
+
+}  // namespace vmsim::app

@@ -1,0 +1,39 @@
+#pragma once
+// Helpers shared by the surface commands (vmsim compare, stats, measure): lengths with units on the command line,
+// the form removal and filter options, and their JSON for report.json and stdout.
+#include "core/height_grid.hpp"
+#include "metrology/areal.hpp"
+#include "metrology/surface_io.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace vmsim::app {
+
+// "5um", "0.005", "0.005 mm", "2e-3mm": a length in mm (no unit: mm). Throws core::Error naming `option`.
+double parse_length_mm(const std::string& text, const std::string& option);
+
+// --level none | plane | poly:N -> 0, 1, N.
+int parse_level(const std::string& text);
+
+// --filter S:<cut-off> (S-filter: keeps the mean surface, removes shorter wavelengths) or L:<cut-off> (L-filter:
+// removes the mean surface, keeps the roughness), Gaussian (ISO 16610-61); cut-offs are lengths with units.
+struct FilterSpec {
+  char kind = 'L';
+  double cutoff_mm = 0.8;
+};
+std::vector<FilterSpec> parse_filters(const std::vector<std::string>& texts);
+
+// Form removal (degree 0: none) then the filters, in the order given; `log` receives what was done.
+core::HeightGrid level_and_filter(const core::HeightGrid& grid, int level, const std::vector<FilterSpec>& filters,
+                                  nlohmann::json& log);
+
+nlohmann::json areal_json(const metrology::ArealParameters& p);
+nlohmann::json grid_json(const core::HeightGrid& g);  // size, spacing, origin, valid and invalid points
+// {path, sha256, format}
+nlohmann::json input_json(const std::filesystem::path& file, const std::string& format);
+
+}  // namespace vmsim::app
