@@ -242,15 +242,15 @@ void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
     c.title = "feed";
     c.x_title = "t [s]";
     c.y_title = "feed [mm/min]";
-    c.series.push_back(envelope(s, "t_s", "feed_programmed_mm_per_min", 1, "programmed (x feed scale)", 3, 2.4));
-    c.series.push_back(envelope(s, "t_s", "path_speed_setpoint_mm_per_min", 1, "setpoints (interpolator)", 0));
-    c.series.push_back(envelope(s, "t_s", "path_speed_actual_mm_per_min", 1, "actual tool tip (drives)", 1, 1.2));
+    c.series.push_back(envelope(s, "t_s", "feed_programmed_mm_per_min", 1, "programmed", 3, 2.4));
+    c.series.push_back(envelope(s, "t_s", "path_speed_setpoint_mm_per_min", 1, "setpoints", 0));
+    c.series.push_back(envelope(s, "t_s", "path_speed_actual_mm_per_min", 1, "actual", 1, 1.2));
     std::erase_if(c.series, [](const render::Series& x) { return !has_data(x); });
     if (!c.series.empty()) {
       render::ChartPicture p = base;
       p.caption = {s.job + ": programmed and actual feed",
-                   "programmed on cutting moves (gaps: rapids); path speed of the setpoints and of the actual tool tip" +
-                       decimation};
+                   "programmed: F x the feed scale, on cutting moves (gaps: rapids); setpoints: the interpolator's "
+                   "path speed; actual: the speed of the drives' tool tip" + decimation};
       p.charts.push_back(c);
       w.save("feed.png", render::render_charts(w.window, p).image);
     }

@@ -75,7 +75,7 @@ void style_axis(vtkAxis* a, const std::string& title, int font_px) {
 // Round ticks (1, 2 or 5 x 10^k apart) about every `spacing_px` pixels over [lo, hi], labelled with as many
 // decimals as the step needs. VTK's own ticks on a fixed range crowd a tall axis (one every 20 px).
 void set_ticks(vtkAxis* a, double lo, double hi, double length_px, double spacing_px) {
-  const double want = std::clamp(length_px / spacing_px, 2.0, 12.0);
+  const double want = std::clamp(length_px / spacing_px, 3.0, 14.0);
   const double raw = (hi - lo) / want;
   const double p = std::pow(10.0, std::floor(std::log10(raw)));
   double step = 10 * p;
@@ -157,8 +157,19 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
   const double band = (H - top_band) / n;
   // Every chart's plot area at the same place across the bands (AXES_TO_RECT: the rectangle is the axes' box, the
   // labels, titles and legend go into these margins), so stacked charts line up in x.
-  const bool any_legend = std::any_of(pic.charts.begin(), pic.charts.end(), [](const Chart& c) { return c.legend; });
-  const double m_left = 5.5 * font, m_right = any_legend ? 13.0 * font : 1.5 * font;
+  // The right margin fits the longest legend entry (line sample, gap, text at ~0.5 em per character).
+  std::size_t longest = 0;
+  auto glyphs = [](const std::string& t) {
+    return static_cast<std::size_t>(std::count_if(t.begin(), t.end(), [](char ch) { return (ch & 0xC0) != 0x80; }));
+  };
+  for (const Chart& c : pic.charts) {
+    if (!c.legend) continue;
+    for (const Series& sr : c.series) longest = std::max(longest, glyphs(sr.name));
+    for (const Level& l : c.levels) longest = std::max(longest, glyphs(l.name));
+  }
+  const double m_left = 5.5 * font;
+  const double m_right = longest > 0 ? std::min(0.45 * W, 4.0 * font + 0.52 * font * static_cast<double>(longest))
+                                     : 1.5 * font;
   const double m_top = 2.0 * font, m_bottom = 3.3 * font;
   if (W - m_left - m_right < 32 || band - m_top - m_bottom < 16)
     throw core::Error(fmt::format("render_charts: {}x{} pixels are too small for {} chart(s)", W, H, n));
@@ -197,9 +208,9 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
     }
     chart->GetAxis(vtkAxis::LEFT)->SetBehavior(vtkAxis::FIXED);
     chart->GetAxis(vtkAxis::LEFT)->SetRange(ylo, yhi);
-    set_ticks(chart->GetAxis(vtkAxis::LEFT), ylo, yhi, band - m_top - m_bottom, 3.5 * font);
+    set_ticks(chart->GetAxis(vtkAxis::LEFT), ylo, yhi, band - m_top - m_bottom, 2.6 * font);
     set_ticks(xa, xext[static_cast<std::size_t>(ci)].first, xext[static_cast<std::size_t>(ci)].second,
-              W - m_left - m_right, 7.0 * font);
+              W - m_left - m_right, 5.5 * font);
     const double lw = std::clamp(scale, 0.75, 3.0);  // thinner than 1.5 px, antialiased lines fade
     for (const Series& s : c.series) {
       auto t = xy_table(s.x, s.y);

@@ -543,9 +543,11 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
     sm->SetColorModeToMapScalars();
     vtkProperty* p = surface->GetProperty();
     if (pic.deviation->lit) {
-      p->SetAmbient(0.30);
-      p->SetDiffuse(0.75);
-      p->SetSpecular(0.15);
+      // Brighter in the shadows and duller in the light than metal: the colours must stay readable, a face
+      // towards the light must not wash out to white.
+      p->SetAmbient(0.24);
+      p->SetDiffuse(0.58);
+      p->SetSpecular(0.10);
       p->SetSpecularPower(30);
     } else {
       p->LightingOff();  // every pixel its map colour
