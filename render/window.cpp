@@ -148,7 +148,7 @@ EGLDisplay surfaceless_display() {
   if (!has_extension(client, "EGL_MESA_platform_surfaceless"))
     throw core::Error(std::string("cannot create the headless OpenGL context: the EGL library offers no "
                                   "EGL_MESA_platform_surfaceless platform (client extensions: ") +
-                      (client ? client : "none") + ")" + kEglHelp);
+                      (client && *client ? client : "none") + ")" + kEglHelp);
   auto get_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
   if (!get_display)
     throw core::Error(std::string("cannot create the headless OpenGL context: no eglGetPlatformDisplayEXT") + kEglHelp);
