@@ -87,6 +87,7 @@ OutlierReport mask_outliers(core::HeightGrid& g, const OutlierOptions& o) {
   const Eigen::Index nx = g.nx(), ny = g.ny();
   const int h = o.window / 2;
   core::HeightArray dep = core::HeightArray::Constant(ny, nx, std::numeric_limits<double>::quiet_NaN());
+  core::HeightArray near = dep;
   const auto ok = [&](Eigen::Index b, Eigen::Index a) { return a >= 0 && b >= 0 && a < nx && b < ny && g.valid(b, a); };
 #pragma omp parallel for schedule(static)
   for (Eigen::Index j = 0; j < ny; ++j) {
@@ -94,25 +95,27 @@ OutlierReport mask_outliers(core::HeightGrid& g, const OutlierOptions& o) {
     pred.reserve(static_cast<std::size_t>(o.window * o.window));
     for (Eigen::Index i = 0; i < nx; ++i) {
       if (!g.valid(j, i)) continue;
-      // Predictions of the node's height that are exact on any plane, so slopes and edges bias nothing: the mean
-      // of each pair of valid neighbours symmetric about it, and, where one of a pair is missing (an edge, a
-      // hole), the linear extrapolation 2 z(s) - z(2 s) from the present side s (nearest ring only).
+      // Predictions of the node's height that are exact on any plane, so slopes bias nothing: the mean of each
+      // pair of valid neighbours symmetric about it, nearest ring first; further rings only while fewer than two
+      // pairs were found (at edges and holes), since their curvature bias grows with the square of the distance.
       pred.clear();
-      for (int b = -h; b <= h; ++b)
-        for (int a = -h; a <= h; ++a) {
-          if (b < 0 || (b == 0 && a <= 0)) continue;  // each pair once
-          const bool p = ok(j + b, i + a), m = ok(j - b, i - a);
-          if (p && m) {
-            pred.push_back(0.5 * (g.z_mm(j + b, i + a) + g.z_mm(j - b, i - a)));
-          } else if (std::max(std::abs(a), std::abs(b)) == 1) {
-            if (p && ok(j + 2 * b, i + 2 * a)) pred.push_back(2 * g.z_mm(j + b, i + a) - g.z_mm(j + 2 * b, i + 2 * a));
-            if (m && ok(j - 2 * b, i - 2 * a)) pred.push_back(2 * g.z_mm(j - b, i - a) - g.z_mm(j - 2 * b, i - 2 * a));
+      for (int ring = 1; ring <= h && pred.size() < 2; ++ring)
+        for (int b = 0; b <= ring; ++b)
+          for (int a = -ring; a <= ring; ++a) {
+            if (std::max(std::abs(a), b) != ring || (b == 0 && a <= 0)) continue;  // this ring, each pair once
+            if (ok(j + b, i + a) && ok(j - b, i - a)) pred.push_back(0.5 * (g.z_mm(j + b, i + a) + g.z_mm(j - b, i - a)));
           }
-        }
-      if (pred.size() < 3) continue;  // too few neighbours to judge
-      auto mid = pred.begin() + static_cast<std::ptrdiff_t>(pred.size() / 2);
-      std::nth_element(pred.begin(), mid, pred.end());
-      dep(j, i) = g.z_mm(j, i) - *mid;
+      if (pred.size() < 2) continue;  // a corner or an isolated point: not judged
+      // Departure from the median of the predictions (robust to a spike among the neighbours), and from the
+      // closest prediction: a spike is far from all of them, while a point on a crease (a track's edge, a sharp
+      // corner) departs from the median but agrees with the pair along the crease, and is not a spike.
+      std::sort(pred.begin(), pred.end());
+      const std::size_t m = pred.size();
+      const double median = m % 2 ? pred[m / 2] : 0.5 * (pred[m / 2 - 1] + pred[m / 2]);
+      double close = HUGE_VAL;
+      for (double v : pred) close = std::min(close, std::abs(g.z_mm(j, i) - v));
+      dep(j, i) = g.z_mm(j, i) - median;
+      near(j, i) = close;
     }
   }
   std::vector<double> a;
@@ -123,11 +126,11 @@ OutlierReport mask_outliers(core::HeightGrid& g, const OutlierOptions& o) {
   if (a.empty()) return r;
   auto mid = a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2);
   std::nth_element(a.begin(), mid, a.end());
-  // Departures from a local median scatter around 0, so their MAD is the median of |departure|.
+  // Departures scatter around 0, so their MAD is the median of |departure|.
   r.sigma_mm = std::max(1.4826 * *mid, 1e-7);  // floor 0.1 nm: a perfectly smooth synthetic surface has MAD 0
   r.threshold_mm = o.k_sigma * r.sigma_mm;
   for (Eigen::Index k = 0; k < dep.size(); ++k)
-    if (std::isfinite(dep.data()[k]) && std::abs(dep.data()[k]) > r.threshold_mm) {
+    if (std::isfinite(dep.data()[k]) && std::abs(dep.data()[k]) > r.threshold_mm && near.data()[k] > r.threshold_mm) {
       g.z_mm.data()[k] = std::numeric_limits<double>::quiet_NaN();
       ++r.masked;
     }

@@ -22,7 +22,7 @@ inline core::HeightGrid gaussian_lowpass(const core::HeightGrid& g, double cutof
 core::HeightGrid gaussian_highpass(const core::HeightGrid& grid, double cutoff_mm);
 
 struct OutlierOptions {
-  int window = 5;         // odd window side, nodes
+  int window = 5;         // odd window side, nodes: the farthest ring of neighbours used at edges and holes
   double k_sigma = 6.0;   // threshold in robust standard deviations
 };
 struct OutlierReport {
@@ -30,12 +30,14 @@ struct OutlierReport {
   double sigma_mm = 0;        // robust standard deviation of the departures (1.4826 MAD)
   double threshold_mm = 0;    // k_sigma * sigma_mm
 };
-// Spikes (a confocal sensor's false returns): each valid point is compared with the median of predictions of its
-// height from its window (the means of pairs of neighbours symmetric about it, and at edges and holes linear
-// extrapolations from one side: all exact on a plane, so steep flanks are not taken for spikes). Points that
-// depart from that median by more than k robust standard deviations of all such departures (1.4826 MAD) are made
-// invalid (NaN); points with fewer than 3 predictions are not judged. The report says how many were masked, so
-// nothing is dropped silently.
+// Spikes (a confocal sensor's false returns): each valid point is compared with predictions of its height, the
+// means of pairs of valid neighbours symmetric about it (exact on any plane, so steep flanks are not spikes), from
+// the nearest ring of 8 neighbours, and from the next rings of the window only where the nearest gives fewer than
+// two pairs (edges, holes). A point is a spike when it departs from the median of its predictions by more than k
+// robust standard deviations of all such departures (1.4826 MAD), and from every single prediction by as much: a
+// point on a crease (a track's edge, a sharp corner) departs from the median but agrees with the pair along the
+// crease. Spikes are made invalid (NaN); points without two pairs (corners, isolated points) are not judged. The
+// report says how many were masked: nothing goes silently.
 OutlierReport mask_outliers(core::HeightGrid& grid, const OutlierOptions& options = {});
 
 }  // namespace vmsim::metrology
