@@ -19,6 +19,7 @@
 #include "drives/simulate.hpp"
 #include "metrology/grid_io.hpp"
 #include "metrology/marks.hpp"
+#include "metrology/x3p.hpp"
 #include "removal/fields.hpp"
 #include "removal/mesh_stock.hpp"
 #include "removal/surface.hpp"
@@ -416,6 +417,12 @@ int run_run(const RunArgs& args) {
     metrology::write_height_csv(dir / "surface.csv", pred);
     metrology::write_height_npy(dir / "surface.npy", pred);
     files.insert(files.end(), {"surface.csv", "surface.npy", "surface.npy.json"});
+    // X3P (ISO 5436-2) for metrology tools: MountainsMap, Gwyddion, vmsim compare.
+    metrology::X3pWriteOptions x3p;
+    x3p.version = std::string("vmsim ") + VMSIM_VERSION;
+    x3p.comment = "predicted surface of job " + job.name;
+    metrology::write_x3p(dir / "surface.x3p", pred, x3p);
+    files.push_back("surface.x3p");
     std::optional<core::HeightGrid> dev;
     if (ref) {
       const core::HeightGrid rs = surface_of(*ref);
@@ -424,6 +431,11 @@ int run_run(const RunArgs& args) {
       metrology::write_height_csv(dir / "deviation.csv", *dev);
       metrology::write_height_npy(dir / "deviation.npy", *dev);
       files.insert(files.end(), {"reference.csv", "deviation.csv", "deviation.npy", "deviation.npy.json"});
+      x3p.comment = "reference surface of job " + job.name + " (" + ref_name + ")";
+      metrology::write_x3p(dir / "reference.x3p", rs, x3p);
+      x3p.comment = "deviation of job " + job.name + ": predicted - reference (negative: overcut)";
+      metrology::write_x3p(dir / "deviation.x3p", *dev, x3p);
+      files.insert(files.end(), {"reference.x3p", "deviation.x3p"});
       marks = metrology::find_marks(*dev, 1e-3);  // marks deeper than 1 um
     }
     images.surface = pred;
