@@ -1,0 +1,175 @@
+// Off-screen rendering (render/): a part of about one million triangles to a 1600 x 1200 PNG on the headless
+// Mesa EGL window (llvmpipe, no GPU, no X server).
+//
+// The part: a 708 x 708 height grid over 70.7 x 70.7 mm (0.1 mm spacing), a wavy surface with a groove, as a
+// TriangleMesh of 999 698 triangles (2 per cell, as removal::heightfield_mesh triangulates a grid) with a per-vertex
+// "deviation_mm", and as the HeightGrid itself (the same triangles plus side walls).
+// Each iteration: VTK polydata from the vmsim value type (and normals), render, read the pixels back, encode and
+// write the PNG (to $TMPDIR). One window for all iterations, as vmsim run and render draw all their pictures in one;
+// BM_FirstPicture makes a new window (EGL context, shader compilation) every time.
+// Counters: triangles per second; the time of the PNG step alone is BM_WritePng.
+// Figures: bench/README.md.
+#include "render/chart.hpp"
+#include "render/image.hpp"
+#include "render/scene.hpp"
+#include "render/window.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+
+namespace {
+
+using namespace vmsim;
+
+constexpr int kN = 708;  // nodes per side: 2 * 707^2 = 999 698 triangles
+
+double height(double x, double y) {
+  return 0.5 * std::sin(x / 7) * std::cos(y / 9) + 0.02 * std::sin(x * 3) - 0.05 * std::exp(-std::pow((y - 35) / 1.5, 2));
+}
+
+const core::HeightGrid& grid() {
+  static const core::HeightGrid g = [] {
+    core::HeightGrid h;
+    h.dx_mm = h.dy_mm = 0.1;
+    h.z_mm.resize(kN, kN);
+    for (Eigen::Index j = 0; j < kN; ++j)
+      for (Eigen::Index i = 0; i < kN; ++i) h.z_mm(j, i) = height(h.x(i), h.y(j));
+    return h;
+  }();
+  return g;
+}
+
+const core::HeightGrid& deviation() {
+  static const core::HeightGrid d = [] {
+    core::HeightGrid h = grid();
+    for (Eigen::Index j = 0; j < kN; ++j)
+      for (Eigen::Index i = 0; i < kN; ++i) h.z_mm(j, i) = 0.015 * std::exp(-std::pow((h.x(i) - 40) / 4, 2)) * std::sin(h.y(j) / 5);
+    return h;
+  }();
+  return d;
+}
+
+const core::TriangleMesh& mesh() {
+  static const core::TriangleMesh m = [] {
+    core::TriangleMesh t;
+    const core::HeightGrid& g = grid();
+    t.vertices_mm.resize(kN * kN, 3);
+    Eigen::VectorXd dev(kN * kN);
+    for (int j = 0; j < kN; ++j)
+      for (int i = 0; i < kN; ++i) {
+        t.vertices_mm.row(j * kN + i) << g.x(i), g.y(j), g.z_mm(j, i);
+        dev[j * kN + i] = deviation().z_mm(j, i);
+      }
+    t.triangles.resize(2 * (kN - 1) * (kN - 1), 3);
+    int k = 0;
+    for (int j = 0; j + 1 < kN; ++j)
+      for (int i = 0; i + 1 < kN; ++i) {
+        const int a = j * kN + i;
+        t.triangles.row(k++) << a, a + 1, a + kN + 1;
+        t.triangles.row(k++) << a, a + kN + 1, a + kN;
+      }
+    t.point_data.emplace_back("deviation_mm", dev);
+    return t;
+  }();
+  return m;
+}
+
+render::Window& window() {
+  static std::unique_ptr<render::Window> w = [] {
+    ::unsetenv("DISPLAY");
+    return std::make_unique<render::Window>();
+  }();
+  return *w;
+}
+
+const std::filesystem::path png = std::filesystem::temp_directory_path() / "vmsim_render_bench.png";
+
+render::PartPicture picture(bool coloured, render::ViewDirection dir) {
+  render::PartPicture p;
+  p.width = 1600, p.height = 1200;
+  p.caption = {"render bench", "one million triangles"};
+  p.view.direction = dir;
+  if (coloured) {
+    p.deviation = render::DeviationColours{};
+    p.deviation->isolines = 3;
+    p.deviation->lit = dir != render::ViewDirection::Top;
+  }
+  return p;
+}
+
+void BM_MeshToPng(benchmark::State& state) {
+  const core::TriangleMesh& m = mesh();
+  const auto pic = picture(state.range(0) != 0, render::ViewDirection::Isometric);
+  render::Window& w = window();
+  for (auto _ : state) {
+    const render::PartImage img = render::render_part(w, m, pic);
+    render::write_png(png, img.image);
+  }
+  state.counters["triangles"] = static_cast<double>(m.triangles.rows());
+  state.counters["triangles_per_s"] =
+      benchmark::Counter(static_cast<double>(m.triangles.rows()), benchmark::Counter::kIsIterationInvariantRate);
+  state.SetLabel(state.range(0) ? "deviation colours, lit, iso-lines" : "plain metal");
+}
+BENCHMARK(BM_MeshToPng)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_GridToPng(benchmark::State& state) {
+  const auto dir = static_cast<render::ViewDirection>(state.range(0));
+  const auto pic = picture(state.range(1) != 0, dir);
+  render::Window& w = window();
+  for (auto _ : state) {
+    const render::PartImage img = render::render_part(w, grid(), &deviation(), pic);
+    render::write_png(png, img.image);
+  }
+  state.counters["triangles_per_s"] =
+      benchmark::Counter(2.0 * (kN - 1) * (kN - 1), benchmark::Counter::kIsIterationInvariantRate);
+  state.SetLabel(std::string(dir == render::ViewDirection::Top ? "top map" : "isometric") +
+                 (state.range(1) ? ", deviation colours" : ", plain metal"));
+}
+BENCHMARK(BM_GridToPng)->Args({0, 0})->Args({1, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_WritePng(benchmark::State& state) {
+  const render::PartImage img = render::render_part(window(), grid(), nullptr, picture(false, render::ViewDirection::Isometric));
+  for (auto _ : state) render::write_png(png, img.image);
+}
+BENCHMARK(BM_WritePng)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_ChartToPng(benchmark::State& state) {
+  render::ChartPicture p;
+  p.width = 1600, p.height = 1200;
+  for (int c = 0; c < 3; ++c) {
+    render::Chart ch;
+    ch.x_title = "t [s]";
+    ch.y_title = "v [mm/s]";
+    for (int s = 0; s < 2; ++s) {
+      render::Series se;
+      se.name = s ? "actual" : "setpoint";
+      se.x = Eigen::ArrayXd::LinSpaced(20000, 0, 100);
+      se.y = (se.x * (c + 1 + 0.1 * s)).sin() * 100;
+      se.colour = render::series_colour(s);
+      ch.series.push_back(se);
+    }
+    ch.levels.push_back({"limit", 120});
+    p.charts.push_back(ch);
+  }
+  for (auto _ : state) render::write_png(png, render::render_charts(window(), p).image);
+  state.SetLabel("3 stacked charts, 2 x 20 000 points each, limits");
+}
+BENCHMARK(BM_ChartToPng)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_FirstPicture(benchmark::State& state) {
+  render::PartPicture p = picture(false, render::ViewDirection::Isometric);
+  core::HeightGrid small = grid();
+  small.z_mm = grid().z_mm.topLeftCorner(50, 50);
+  for (auto _ : state) {
+    render::Window w;  // EGL context, VTK window, shader compilation on the first picture
+    benchmark::DoNotOptimize(render::render_part(w, small, nullptr, p).image.rgb.data());
+  }
+  state.SetLabel("new window + one small 1600x1200 picture");
+}
+BENCHMARK(BM_FirstPicture)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
+
+}  // namespace
