@@ -17,5 +17,11 @@ echo
 echo "-- 10 m/min: the middle pass; its mark against the same pass at 0.1 m/min (seed 004: about 0.02 mm)"
 "$vmsim" run "$part/job_fast.toml" --out "$out/fast"
 echo
-echo "Results (report.json, surface/deviation grids, part.stl, part.vtp): $out/reference and $out/fast"
+echo "Results (report.json, surface/deviation grids, part.stl, part.vtp, signals.csv): $out/reference and $out/fast"
+echo
+echo "Pictures (PNG, drawn off-screen with no display; redraw with: $vmsim render DIR [--size WxH]):"
+for f in part part_mark deviation deviation_mark deviation_3d contour_error feed; do
+  if [ -f "$out/fast/images/$f.png" ]; then echo "  $out/fast/images/$f.png"; fi
+done
+echo "  ... and the axis, position and current charts: $out/fast/images/ and $out/reference/images/"
 echo "Setpoints and drive signals of a job: $vmsim motion $part/job_fast.toml --out DIR"
