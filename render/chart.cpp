@@ -125,7 +125,7 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
 
   const int W = pic.width, H = pic.height;
   const double scale = std::min(W / 1600.0, H / 900.0);
-  const int font = std::max(10, static_cast<int>(std::lround(20 * std::clamp(scale, 0.6, 2.5))));
+  const int font = std::max(10, static_cast<int>(std::lround(20 * std::clamp(scale, 0.5, 2.5))));
   vtkRenderWindow* rw = detail::begin_picture(window, W, H);
   rw->SetNumberOfLayers(1);
   rw->SetMultiSamples(4);  // smooth lines
@@ -172,7 +172,10 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
                                      : 1.5 * font;
   const double m_top = 2.0 * font, m_bottom = 3.3 * font;
   if (W - m_left - m_right < 32 || band - m_top - m_bottom < 16)
-    throw core::Error(fmt::format("render_charts: {}x{} pixels are too small for {} chart(s)", W, H, n));
+    throw core::Error(fmt::format("render_charts: {}x{} pixels are too small for {} stacked chart(s) with their "
+                                  "labels (at least {}x{})", W, H, n,
+                                  static_cast<int>(std::ceil(std::max<double>(W, m_left + m_right + 32))),
+                                  static_cast<int>(std::ceil(top_band + n * (m_top + m_bottom + 16)))));
   std::vector<vtkSmartPointer<vtkChartXY>> charts;
   std::vector<vtkSmartPointer<vtkTable>> tables;  // kept alive until the picture is drawn
   std::vector<vtkSmartPointer<vtkActor2D>> legend;
