@@ -403,6 +403,21 @@ std::vector<std::string> write_result_images(const ResultData& d, const fs::path
   }
   if (d.surface) part_pictures(w, d, o, path_deg);
   if (d.signals) chart_pictures(w, d, o);
+  // Pictures of an earlier run into the same directory that this one did not draw (a mark that is gone, an axis
+  // that no longer moves) would contradict its report: they go. Only names this function writes are touched.
+  const auto ours = [](const std::string& n) {
+    if (!n.ends_with(".png")) return false;
+    for (const char* p : {"part.png", "deviation.png", "contour_error.png", "feed.png", "currents.png"})
+      if (n == p) return true;
+    for (const char* p : {"part_", "deviation_", "axis_", "position_"})
+      if (n.starts_with(p)) return true;
+    return false;
+  };
+  for (const auto& e : fs::directory_iterator(image_dir, ec)) {
+    const std::string n = e.path().filename().string();
+    if (e.is_regular_file(ec) && ours(n) && std::find(w.written.begin(), w.written.end(), n) == w.written.end())
+      fs::remove(e.path(), ec);
+  }
   return w.written;
 }
 

@@ -125,8 +125,12 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
   EXPECT_NE(sig.find("# axes=X:mm,Z:mm\n"), std::string::npos);
   EXPECT_NE(sig.find("contour_error_mm.min,contour_error_mm.max"), std::string::npos);
 
-  // vmsim render: the same directory, other size, a given region and colour limits, into another directory.
+  // vmsim render: the same directory, other size, a given region and colour limits, into another directory that
+  // holds a stale picture of an axis that does not move here (removed) and a file of the user's (kept).
   const fs::path again = tmp.path() / "again";
+  fs::create_directories(again);
+  std::ofstream(again / "axis_Y.png") << "stale";
+  std::ofstream(again / "notes.png") << "mine";
   CliRun rr = run_vmsim("render '" + out.string() + "' --size 640x360 --region 78,94,0,10 --limit-um 30 --isolines 2 --out '" +
                         again.string() + "'",
                     tmp);
@@ -142,6 +146,8 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
     ++n;
   }
   EXPECT_EQ(n, 12);
+  EXPECT_FALSE(fs::exists(again / "axis_Y.png"));
+  EXPECT_TRUE(fs::exists(again / "notes.png"));
 }
 
 TEST(RenderCli, MotionWritesSignalsAndRenderDrawsItsCharts) {
