@@ -406,12 +406,11 @@ std::vector<std::string> write_result_images(const ResultData& d, const fs::path
   // Pictures of an earlier run into the same directory that this one did not draw (a mark that is gone, an axis
   // that no longer moves) would contradict its report: they go. Only names this function writes are touched.
   const auto ours = [](const std::string& n) {
-    if (!n.ends_with(".png")) return false;
-    for (const char* p : {"part.png", "deviation.png", "contour_error.png", "feed.png", "currents.png"})
+    for (const char* p : {"part.png", "part_mark.png", "deviation.png", "deviation_mark.png", "deviation_3d.png",
+                          "contour_error.png", "feed.png", "currents.png"})
       if (n == p) return true;
-    for (const char* p : {"part_", "deviation_", "axis_", "position_"})
-      if (n.starts_with(p)) return true;
-    return false;
+    // Per-axis charts: axis_<name>.png, position_<name>.png (axis names are one letter: X Y Z A B C).
+    return n.size() <= 16 && n.ends_with(".png") && (n.starts_with("axis_") || n.starts_with("position_"));
   };
   for (const auto& e : fs::directory_iterator(image_dir, ec)) {
     const std::string n = e.path().filename().string();
