@@ -136,6 +136,11 @@ core::HeightGrid read_sur(const std::filesystem::path& file) {
     std::uint64_t sum = 0;
     for (std::uint32_t s = 0; s < streams; ++s) rawlen[s] = u32("stream sizes"), ziplen[s] = u32("stream sizes"), sum += rawlen[s];
     if (sum != need) fail(file, fmt::format("compressed streams hold {} bytes, {} x {} points need {}", sum, nx, ny, need));
+    std::uint64_t zipped = 0;
+    for (std::uint32_t s = 0; s < streams; ++s) zipped += ziplen[s];
+    // Deflate expands at most ~1032:1: streams that claim more are corrupt (and would make vmsim allocate for them).
+    if (zipped > b.size() || need > 1032 * zipped + 1024)
+      fail(file, fmt::format("compressed streams of {} bytes cannot hold the {} bytes they declare", zipped, need));
     raw.resize(need);
     std::size_t out = 0;
     for (std::uint32_t s = 0; s < streams; ++s) {

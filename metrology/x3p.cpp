@@ -29,9 +29,10 @@ namespace vmsim::metrology {
 namespace {
 
 // Upper bounds that keep a hostile file from making vmsim allocate without limit. 2^28 points (16384 x 16384)
-// is far beyond a confocal scan (a 2000 x 2000 STIL scan has 4 M); main.xml of 1 GiB holds ~40 M points as text.
+// is far beyond a confocal scan (a 2000 x 2000 STIL scan has 4 M); main.xml of 256 MiB holds ~10 M points as text
+// (large scans come as binary data). Nothing is allocated for the points before the data's size is checked.
 constexpr std::uint64_t kMaxPoints = std::uint64_t{1} << 28;
-constexpr std::uint64_t kMaxXmlBytes = std::uint64_t{1} << 30;
+constexpr std::uint64_t kMaxXmlBytes = std::uint64_t{1} << 28;
 
 // The vendor extension (ISO5436_2/VendorSpecificID) vmsim writes: for each point, how many ulps the mm height
 // is from 1000 times the metre value in data.bin (int8, x fastest). See write_x3p.
@@ -373,10 +374,14 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
   std::vector<int> stored;
   for (int k = 0; k < 3; ++k)
     if (ax[k].type == 'A') stored.push_back(k);
-  // Per point: the x, y, z coordinates (mm) of the stored axes, and whether the point is valid.
+  // Per point: the x, y, z coordinates (mm) of the stored axes, and whether the point is valid. Allocated only
+  // once the data are known to hold as many points as the dimensions declare.
   std::vector<double> coord[3];
-  for (int k : stored) coord[k].assign(npoints, 0.0);
-  std::vector<std::uint8_t> valid(npoints, 1);
+  std::vector<std::uint8_t> valid;
+  const auto allocate = [&]() {
+    for (int k : stored) coord[k].assign(npoints, 0.0);
+    valid.assign(npoints, 1);
+  };
 
   const pugi::xml_node link = child(r3, "DataLink");
   const pugi::xml_node list = child(r3, "DataList");
@@ -390,6 +395,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     const auto di = zip.find(data_name);
     if (!di) cx.error(link, "Record3/DataLink/PointDataLink", "\"" + data_name + "\" is not in the zip");
     const std::string data = zip.read(*di, data_name, kMaxPoints * 24, npoints * record);
+    allocate();
     if (options.verify_checksums) {
       const std::string want = hex_lower(text_of(child(link, "MD5ChecksumPointData")));
       if (!want.empty() && want != core::md5_hex(data))
@@ -423,6 +429,12 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
         ax[2].unit_inc && ax[2].zero_off)
       if (const auto ci = zip.find(kVendorEntry)) zcorr = zip.read(*ci, kVendorEntry, kMaxPoints, npoints);
   } else if (list) {
+    std::uint64_t count = 0;
+    for (pugi::xml_node d = list.first_child(); d; d = d.next_sibling())
+      if (d.type() == pugi::node_element) ++count;
+    if (count != npoints)
+      cx.error(list, "Record3/DataList", fmt::format("{} Datum elements, the dimensions declare {}", count, npoints));
+    allocate();
     std::uint64_t i = 0;
     for (pugi::xml_node d = list.first_child(); d; d = d.next_sibling()) {
       if (d.type() != pugi::node_element) continue;
