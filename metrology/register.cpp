@@ -305,8 +305,9 @@ RegistrationResult register_scan(const core::HeightGrid& scan, const core::Heigh
         T = s.T;
         ++res.iterations;
         weak_final = s.weak;
-        // Converged when the step moves no point by more than 1e-9 mm (rotation times radius).
-        done = s.rot * rad + s.trans < 1e-9;
+        // Converged when the step moves no point by more than 0.1 nm (rotation times radius): far below any
+        // scan's noise, and above the jitter of points entering and leaving the overlap from one step to the next.
+        done = s.rot * rad + s.trans < 1e-7;
       }
       res.converged = done;
     }

@@ -612,7 +612,7 @@ class ZipWriter {
   void dir(const char* name) {
     if (zip_dir_add(za_, name, ZIP_FL_ENC_UTF_8) < 0) fail(file_, std::string("zip: ") + zip_strerror(za_));
   }
-  // `data` must live until finish().
+  // `data` must live until finish(). Level 0 stores the entry uncompressed.
   void add(const char* name, const std::string& data, int level) {
     zip_source_t* s = zip_source_buffer(za_, data.data(), data.size(), 0);
     if (!s) fail(file_, std::string("zip: ") + zip_strerror(za_));
@@ -621,7 +621,7 @@ class ZipWriter {
       zip_source_free(s);
       fail(file_, std::string("zip: ") + zip_strerror(za_));
     }
-    if (zip_set_file_compression(za_, static_cast<zip_uint64_t>(i), ZIP_CM_DEFLATE,
+    if (zip_set_file_compression(za_, static_cast<zip_uint64_t>(i), level > 0 ? ZIP_CM_DEFLATE : ZIP_CM_STORE,
                                  static_cast<zip_uint32_t>(std::clamp(level, 1, 9))) != 0)
       fail(file_, std::string("zip: ") + zip_strerror(za_));
   }
@@ -726,15 +726,15 @@ void write_x3p(const std::filesystem::path& file, const core::HeightGrid& g, con
   const std::string sum = core::md5_hex(x) + " *main.xml\n";  // md5sum's binary-mode line, as openGPS writes it
 
   ZipWriter zw(file);
-  zw.add("main.xml", x, o.compression_level);  // first, where readers that sniff the archive look
+  zw.add("main.xml", x, 6);  // first, where readers that sniff the archive look
   zw.dir("bindata");
   zw.add("bindata/data.bin", data, o.compression_level);
-  if (invalid > 0) zw.add("bindata/valid.bin", bits, o.compression_level);
+  if (invalid > 0) zw.add("bindata/valid.bin", bits, 6);
   if (any_corr) {
     zw.dir("vmsim");
     zw.add(kVendorEntry, corr, 9);  // almost all zeros: small at any level
   }
-  zw.add("md5checksum.hex", sum, o.compression_level);
+  zw.add("md5checksum.hex", sum, 6);
   core::write_file_atomic(file, zw.finish());
 }
 
