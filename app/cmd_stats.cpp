@@ -18,7 +18,7 @@ int run_stats(const StatsArgs& args) {
   const int level = parse_level(args.options.level);
   const auto filters = parse_filters(args.options.filters);
   metrology::SurfaceFile f = metrology::read_surface_file(args.surface);
-  nlohmann::json out;
+  nlohmann::ordered_json out;  // in reading order: the file, its grid, what was done, the parameters
   out["file"] = input_json(args.surface, f.format);
   out["grid"] = grid_json(f.grid);
   if (!f.note.empty()) out["note"] = f.note;
