@@ -169,8 +169,13 @@ void ray_swept_disk(const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Ei
     }
   }
   // (c) the axial lines A + B t - delta l = kappa against the quadric, and (d) their crossings with l = 0, 1.
+  //     Each line is written as t(l) or l(t), whichever has a slope of at most 1 in the units t (mm) and x = l |d|
+  //     (mm), so that its quadratic is well conditioned. Solving for t = (kappa - A + delta l) / B when B is tiny (a
+  //     ray almost perpendicular to the axis of a tool moving along it) would amplify the round-off of l by
+  //     delta / B and put the candidate far off the quadric (tens of mm on a ray 1e-9 rad off the disk's plane).
+  const double dl = std::sqrt(d.squaredNorm());
   for (double kappa : {0.0, hgt}) {
-    if (std::abs(B) > 1e-14) {
+    if (std::abs(B) > 1e-14 && std::abs(B) * dl >= std::abs(delta)) {
       // t = (kappa - A + delta l) / B: the quadric in l.
       const Eigen::Vector3d p0 = m + ((kappa - A) / B) * n, p1 = (delta / B) * n - e;
       const int k = quadratic_roots(p1.squaredNorm(), 2 * p0.dot(p1), p0.squaredNorm() - rho * rho, r0, r1);
@@ -183,12 +188,20 @@ void ray_swept_disk(const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Ei
         if (radial_ok(t, l)) hull.add(t);
       }
     } else if (std::abs(delta) > 1e-14) {
-      // The line is l = (A - kappa) / delta, any t: the quadric in t at that l.
-      const double l = (A - kappa) / delta;
-      if (!lambda_ok(l)) continue;
-      const Eigen::Vector3d ml = m - l * e;
-      const int k = quadratic_roots(n.squaredNorm(), 2 * ml.dot(n), ml.squaredNorm() - rho * rho, r0, r1);
-      for (int i = 0; i < k; ++i) hull.add(i == 0 ? r0 : r1);
+      // l = l0 + (B / delta) t: the quadric in t (B = 0: the ray lies in a plane of the disk, l is fixed).
+      const double l0 = (A - kappa) / delta, bd = B / delta;
+      const Eigen::Vector3d p0 = m - l0 * e, p1 = n - bd * e;
+      const int k = quadratic_roots(p1.squaredNorm(), 2 * p0.dot(p1), p0.squaredNorm() - rho * rho, r0, r1);
+      for (int i = 0; i < k; ++i) {
+        const double t = i == 0 ? r0 : r1;
+        if (lambda_ok(l0 + bd * t)) hull.add(t);
+      }
+      if (bd != 0) {
+        for (double l : {0.0, 1.0}) {
+          const double t = (l - l0) / bd;
+          if (radial_ok(t, l)) hull.add(t);
+        }
+      }
     }
   }
 }
@@ -329,7 +342,10 @@ void SweptTool::bounds(Eigen::Vector3d& lo, Eigen::Vector3d& hi) const {
 
 bool ray_interval(const SweptTool& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0, double& t1) {
   const double ua = u.dot(s.axis);
-  if (std::abs(std::abs(ua) - 1) < 1e-12) return ray_interval_axial(s, o, ua > 0 ? 1.0 : -1.0, t0, t1);
+  // The axial closed form treats the ray as parallel to the axis: only when it is, to within 1e-12 rad (a lateral
+  // drift of 1e-10 mm over a 100 mm ray). A test on the cosine, |ua| within 1e-12 of 1, would let rays 1.4e-6 rad off
+  // the axis through (0.14 um over 100 mm); the general solvers below handle such nearly parallel rays.
+  if ((u - ua * s.axis).squaredNorm() < 1e-24) return ray_interval_axial(s, o, ua > 0 ? 1.0 : -1.0, t0, t1);
   const Tool& tl = s.tool;
   const double rc = tl.corner_radius_mm, rho = tl.disk_radius();
   const double hgt = std::max(0.0, tl.length_mm - 2 * rc);
