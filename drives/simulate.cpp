@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@ using Index = Eigen::Index;
 // Everything one axis needs, prepared before the parallel region (nothing in it allocates or throws).
 struct AxisJob {
   std::optional<CascadeAxis> model;  // empty: an axis without a drive that never moves (it holds its position)
+  std::unique_ptr<AxisModel> other;  // instead of the cascade: SimulateOptions::axis_models
   const double* kv = nullptr;        // this axis' column of the gain schedule (setpoint rows), or null
   const double* kf = nullptr;
   std::vector<InnerSample> inner;    // one Te of current-loop samples, for the full-rate trace
@@ -31,15 +33,21 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
               FullRateTrace* trace) {
   const Index n_set = setpoints.rows();
   const double x0 = setpoints(0, axis);
-  if (!job.model) {
+  if (!job.model && !job.other) {
     out.position.col(axis).setConstant(x0);
     return;
   }
-  CascadeAxis& m = *job.model;
+  AxisModel& m = job.other ? *job.other : static_cast<AxisModel&>(*job.model);
+  if (job.other) trace = nullptr;
   std::vector<InnerSample>& inner = job.inner;
-  const Index nin = m.inner_steps();
+  const Index nin = job.model ? job.model->inner_steps() : 0;
 
-  AxisSample s = m.sample();
+  AxisSample s;
+  if (job.model) {
+    s = job.model->sample();
+  } else {
+    s.position = x0;
+  }
   double prev_x = x0, prev_v = 0.0;  // the NC's previous setpoint and velocity (at rest before the first one)
   for (Index k = 0; k < rows; ++k) {
     out.position(k, axis) = s.position;
@@ -61,7 +69,7 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
     if (job.kv) c.kv_per_s = job.kv[ks];
     if (job.kf) c.kf = job.kf[ks];
     if (trace) {
-      s = m.step(c, inner.data());
+      s = job.model->step(c, inner.data());
       for (Index n = 0; n < nin; ++n) {
         const InnerSample& q = inner[static_cast<std::size_t>(n)];
         const Index r = k * nin + n;
@@ -76,7 +84,7 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
     }
   }
   if (trace) {  // the last row's instant closes the trace
-    const InnerSample q = m.inner_sample();
+    const InnerSample q = job.model->inner_sample();
     const Index r = (rows - 1) * nin;
     trace->position[r] = q.position;
     trace->velocity[r] = q.velocity;
@@ -148,6 +156,16 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
     const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(a)];
     AxisJob& job = jobs[static_cast<std::size_t>(a)];
     const bool moves = (setpoints.position.col(a).array() != setpoints.position(0, a)).any();
+    const AxisModel* proto = options.axis_models && static_cast<std::size_t>(a) < options.axis_models->size()
+                                 ? (*options.axis_models)[static_cast<std::size_t>(a)]
+                                 : nullptr;
+    if (proto) {
+      job.other = proto->clone();
+      job.other->reset(setpoints.position(0, a));
+      if (have_kv) job.kv = g->kv_per_s.col(a).data();
+      if (have_kf) job.kf = g->kf.col(a).data();
+      continue;
+    }
     if (!ax.drive) {
       if (moves)
         throw core::Error(core::located(
@@ -180,7 +198,8 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
   const int n = static_cast<int>(n_axes);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int a = 0; a < n; ++a) {
-    FullRateTrace* t = options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model
+    FullRateTrace* t = options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model &&
+                               !jobs[static_cast<std::size_t>(a)].other
                            ? &out.trace[static_cast<std::size_t>(a)]
                            : nullptr;
     run_axis(jobs[static_cast<std::size_t>(a)], setpoints.position, a, te, rows, out, t);

@@ -2,6 +2,7 @@
 // All axes of a job, from the interpolator's setpoints to the positions the machine really reaches.
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
+#include "drives/axis_model.hpp"
 
 #include <Eigen/Core>
 
@@ -20,6 +21,10 @@ struct SimulateOptions {
   const GainSchedule* gains = nullptr;
   bool full_rate_trace = false;   // also keep every current-loop sample of every axis
   double settle_s = 0.2;          // keep simulating this long after the last setpoint (axes come to rest)
+  // Per machine axis (machine-file order), a model to run instead of the cascade of [axes.drive]: a prototype that
+  // is cloned and reset, e.g. an identified transfer function (drives/discrete_tf_axis). Null entries, or no vector:
+  // the cascade. Such an axis has no currents (zero) and no full-rate trace.
+  const std::vector<const AxisModel*>* axis_models = nullptr;
 };
 
 // Inner-loop samples of one axis at its current-loop period: sample n is at t = n * period_s (the state at the start

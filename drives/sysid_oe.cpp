@@ -1,0 +1,82 @@
+// Output error: a Steiglitz-McBride start (ARX fits on data prefiltered by 1/F of the previous pass, Steiglitz &
+// McBride 1965; Ljung section 10.4), then Levenberg-Marquardt on the simulation error eps = y - B/F q^-nk u.
+#include "drives/sysid_detail.hpp"
+
+#include <cmath>
+
+namespace vmsim::drives {
+
+namespace {
+
+Eigen::VectorXd delayed(const Eigen::VectorXd& x, Eigen::Index shift) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(x.size());
+  if (shift < x.size()) out.tail(x.size() - shift) = x.head(x.size() - shift);
+  return out;
+}
+
+Eigen::VectorXd monic(const Eigen::VectorXd& tail) {
+  Eigen::VectorXd p(tail.size() + 1);
+  p << 1.0, tail;
+  return p;
+}
+
+}  // namespace
+
+IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const SearchOptions& options) {
+  const int nf = o.na, nb = o.nb, nk = o.nk;
+  const Eigen::Index k0 = detail::check_problem(data, o, nf + nb, false);
+  const double s = detail::common_scale(data);
+  const Eigen::VectorXd u = data.u * s, y = data.y * s;
+  const Eigen::Index n = y.size();
+  const Eigen::VectorXd one = Eigen::VectorXd::Ones(1);
+
+  // Steiglitz-McBride: F from ARX, then ARX on (u, y) filtered by 1/F until F settles.
+  Eigen::MatrixXd phi;
+  Eigen::VectorXd rhs;
+  detail::arx_regression(u, y, nf, nb, nk, k0, phi, rhs);
+  Eigen::VectorXd theta = detail::least_squares(phi, rhs);  // [f; b]
+  theta.head(nf) = detail::reflect_into_unit_circle(theta.head(nf));
+  for (int pass = 0; pass < 30 && nf > 0; ++pass) {
+    const Eigen::VectorXd fpoly = monic(theta.head(nf));
+    detail::arx_regression(filter_q(one, fpoly, u), filter_q(one, fpoly, y), nf, nb, nk, k0, phi, rhs);
+    Eigen::VectorXd next = detail::least_squares(phi, rhs);
+    next.head(nf) = detail::reflect_into_unit_circle(next.head(nf));
+    const double change = (next - theta).norm() / std::max(theta.norm(), 1e-300);
+    theta = next;
+    if (change < 1e-10) break;
+  }
+
+  const detail::ResidualFn evaluate = [&](const Eigen::VectorXd& th, Eigen::VectorXd& eps, Eigen::MatrixXd* jac) {
+    const Eigen::VectorXd f = th.head(nf);
+    if (nf > 0 && spectral_radius(f) >= 1.0) return false;
+    DiscreteTf g;
+    g.a = f;
+    g.b = th.tail(nb);
+    g.nk = nk;
+    const Eigen::VectorXd yhat = simulate_tf(g, u);
+    eps = y - yhat;
+    if (!eps.allFinite()) return false;
+    if (jac) {
+      const Eigen::VectorXd fpoly = monic(f);
+      const Eigen::VectorXd uf = filter_q(one, fpoly, u), yf = filter_q(one, fpoly, yhat);
+      jac->resize(n, nf + nb);
+      for (int i = 1; i <= nf; ++i) jac->col(i - 1) = delayed(yf, i);         // d eps / d f_i = yhat(k-i)/F
+      for (int j = 1; j <= nb; ++j) jac->col(nf + j - 1) = -delayed(uf, nk + j - 1);
+    }
+    return true;
+  };
+  IdentifiedModel m;
+  m.structure = ModelStructure::Oe;
+  m.orders = o;
+  m.orders.nc = 0;
+  double loss = 0.0;
+  m.iterations = detail::levenberg_marquardt(evaluate, k0, options, theta, loss, m.converged);
+  m.g.a = theta.head(nf);
+  m.g.b = theta.tail(nb);
+  m.g.nk = nk;
+  m.g.period_s = data.period_s;
+  m.loss = loss / (s * s);
+  return m;
+}
+
+}  // namespace vmsim::drives
