@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Dense>
+
 #include <cmath>
 
 namespace vmsim::core {
@@ -120,6 +122,81 @@ MachineAxis read_axis(const TomlTable& t) {
   return ax;
 }
 
+// A unit vector from a 3-number key; a zero (or denormal) vector has no direction.
+Eigen::Vector3d unit_vector(const TomlTable& t, const std::string& key) {
+  const auto v = t.numbers(key, 3);
+  const Eigen::Vector3d d(v[0], v[1], v[2]);
+  const double n = d.norm();
+  if (!(n > 1e-9) || !std::isfinite(n)) t.fail(key, "expected a direction: three numbers, not all zero");
+  return d / n;
+}
+
+// "file:line:col" of a node of the file, for messages that come after loading (the chain's family, its inverse).
+std::string location(const toml::table& root, const std::string& file, const std::string& path) {
+  const toml::node_view<const toml::node> n = root.at_path(path);
+  if (n && n.node()->source().begin.line > 0)
+    return fmt::format("{}:{}:{}", file, n.node()->source().begin.line, n.node()->source().begin.column);
+  return file;
+}
+
+// [kinematics] of a kinematics = "chain" machine: the two chains, their fixed offsets, and the checks a chain
+// needs before any transform can use it (each machine axis in exactly one joint, joint types matching the axes,
+// directions that are directions, linear joints that span space).
+KinematicChain read_chain(const TomlTable& kt, const toml::table& root, const Machine& m) {
+  KinematicChain ch;
+  if (auto o = kt.opt_numbers("workpiece_origin_mm", 3)) ch.workpiece_origin_mm = {(*o)[0], (*o)[1], (*o)[2]};
+  if (auto g = kt.opt_numbers("gauge_point_mm", 3)) ch.gauge_point_mm = {(*g)[0], (*g)[1], (*g)[2]};
+  if (kt.has("tool_direction")) ch.tool_direction = unit_vector(kt, "tool_direction");
+  // Which chain and joint uses each program axis, for "used twice" messages.
+  std::string used_by[6];
+  for (const char* chain_key : {"workpiece", "tool"}) {
+    std::vector<ChainJoint>& joints = std::string(chain_key) == "workpiece" ? ch.workpiece : ch.tool;
+    const std::vector<TomlTable> tables = kt.array_of_tables(chain_key);
+    for (std::size_t i = 0; i < tables.size(); ++i) {
+      const TomlTable& jt = tables[i];
+      ChainJoint j;
+      const std::string name = jt.choice("axis", {"X", "Y", "Z", "A", "B", "C"});
+      j.program_axis = program_axis_of(name);
+      const std::string here = fmt::format("kinematics.{}[{}]", chain_key, i);
+      if (!used_by[j.program_axis].empty())
+        jt.fail("axis", fmt::format("axis {} is already the joint {} (each axis drives one joint)", name,
+                                    used_by[j.program_axis]));
+      used_by[j.program_axis] = here;
+      const int ai = m.axis_index(j.program_axis);
+      if (ai < 0) jt.fail("axis", fmt::format("the machine has no axis {} (expected one of its [[axes]])", name));
+      const std::string type = jt.choice("type", {"linear", "rotary"});
+      j.kind = type == "linear" ? AxisKind::Linear : AxisKind::Rotary;
+      if (j.kind != m.axes[static_cast<std::size_t>(ai)].kind)
+        jt.fail("type", fmt::format("axis {} is a {} axis in [[axes]]", name,
+                                    j.kind == AxisKind::Linear ? "rotary" : "linear"));
+      j.direction = unit_vector(jt, "direction");
+      if (j.kind == AxisKind::Rotary) {
+        const auto p = jt.numbers("point_mm", 3);
+        j.point_mm = {p[0], p[1], p[2]};
+      } else if (jt.has("point_mm")) {
+        jt.fail("point_mm", "a linear joint has no axis point (point_mm is for rotary joints)");
+      }
+      j.where = location(root, jt.file(), here);
+      jt.finish();
+      joints.push_back(std::move(j));
+    }
+  }
+  for (const MachineAxis& ax : m.axes)
+    if (used_by[ax.program_axis].empty())
+      kt.fail("workpiece", fmt::format("axis {} is in neither chain (expected a joint with axis = \"{}\" in "
+                                       "kinematics.workpiece or kinematics.tool)", ax.name, ax.name));
+  // The linear joints must span space with every joint at zero, or no tip position can be reached uniquely.
+  Eigen::Matrix3d lin = Eigen::Matrix3d::Zero();
+  int n = 0;
+  for (const auto* chain : {&ch.workpiece, &ch.tool})
+    for (const ChainJoint& j : *chain)
+      if (j.kind == AxisKind::Linear && n < 3) lin.col(n++) = j.direction;
+  if (n == 3 && std::abs(lin.determinant()) < 1e-6)
+    kt.fail("tool", "the linear joints' directions are (nearly) parallel to one plane: X, Y and Z must span space");
+  kt.finish();
+  return ch;
+}
+
 }  // namespace
 
 Machine load_machine(const std::filesystem::path& path) {
@@ -130,7 +207,7 @@ Machine load_machine(const std::filesystem::path& path) {
   {
     TomlTable mt = top.table("machine");
     m.name = mt.string("name");
-    m.kinematics = mt.opt_choice("kinematics", {"xyz"}).value_or("xyz");
+    m.kinematics = mt.opt_choice("kinematics", {"xyz", "chain"}).value_or("xyz");
     (void)mt.opt_string("source");
     mt.finish();
   }
@@ -143,6 +220,13 @@ Machine load_machine(const std::filesystem::path& path) {
   for (const char* needed : {"X", "Y", "Z"})
     if (m.axis_index(program_axis_of(needed)) < 0)
       top.fail("axes", fmt::format("kinematics \"{}\" needs an axis named {}", m.kinematics, needed));
+  if (m.kinematics == "chain") {
+    if (!top.has("kinematics"))
+      top.fail("machine", "kinematics = \"chain\" needs a [kinematics] table with the workpiece and tool chains");
+    m.chain = read_chain(top.table("kinematics"), root, m);
+  } else if (top.has("kinematics")) {
+    top.fail("kinematics", "a [kinematics] table needs kinematics = \"chain\" in [machine]");
+  }
   top.finish();
   return m;
 }

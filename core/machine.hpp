@@ -1,6 +1,8 @@
 #pragma once
 // The machine as the NC and the simulation see it: its axes, their travel and kinematic limits.
 // Loaded from a machine file (parts/machines/*.toml) in the trade's units and converted once, here.
+#include <Eigen/Core>
+
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -59,11 +61,36 @@ struct MachineAxis {
   std::optional<DriveParams> drive;  // [axes.drive]; absent: the axis cannot be simulated through its drive
 };
 
+// One joint of a kinematic chain ([kinematics] workpiece / tool in the machine file). Every direction and point is
+// given in the machine's base frame with every joint at zero (the "product of exponentials" description of a serial
+// chain: Brockett 1984; Lynch & Park, Modern Robotics, section 4.1): the joint at value q translates everything after
+// it in its chain by q * direction (linear, mm), or turns it by q about the line through point_mm along direction,
+// right-handed (rotary, rad).
+struct ChainJoint {
+  int program_axis = 0;   // the machine axis (ProgramAxis index: X Y Z A B C) whose position is this joint's value
+  AxisKind kind = AxisKind::Linear;
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // unit vector
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();    // rotary joints: a point on the axis
+  std::string where;      // "file:line:col" of the joint in the machine file, for messages
+};
+
+// kinematics = "chain": two serial chains from the machine's base, one carrying the workpiece (the table stack),
+// one carrying the tool (the head stack), documented in parts/README.md.
+struct KinematicChain {
+  std::vector<ChainJoint> workpiece;  // base -> workpiece, in order
+  std::vector<ChainJoint> tool;       // base -> spindle nose, in order
+  Eigen::Vector3d workpiece_origin_mm = Eigen::Vector3d::Zero();  // workpiece zero in the base frame, joints at zero
+  Eigen::Vector3d gauge_point_mm = Eigen::Vector3d::Zero();       // spindle nose (gauge point), joints at zero
+  Eigen::Vector3d tool_direction = Eigen::Vector3d::UnitZ();      // unit, tip -> spindle, joints at zero
+};
+
 struct Machine {
   std::string name;
   std::string source_file;
-  std::string kinematics = "xyz";  // "xyz": Cartesian 3-axis, program X Y Z drive the axes directly
+  // "xyz": Cartesian 3-axis, program X Y Z drive the axes directly; "chain": the chains in `chain`.
+  std::string kinematics = "xyz";
   std::vector<MachineAxis> axes;
+  std::optional<KinematicChain> chain;  // kinematics == "chain"
 
   // Index of the axis driven by program word `program_axis`, or -1 when the machine has no such axis.
   int axis_index(int program_axis) const;
