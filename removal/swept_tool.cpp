@@ -329,6 +329,11 @@ Tool make_tool(const core::ToolSpec& spec) {
   return t;
 }
 
+double Tool::reach() const {
+  const double rc = corner_radius_mm;
+  return std::hypot(length_mm - rc, radius_mm - rc) + rc;
+}
+
 void SweptTool::bounds(Eigen::Vector3d& lo, Eigen::Vector3d& hi) const {
   // Extent of the body about its axis: radius R across, [0, L] along; then the move.
   const Eigen::Vector3d top = tip0 + tool.length_mm * axis;

@@ -21,6 +21,10 @@ struct Tool {
   double corner_radius_mm = 5.0;  // rc
   double length_mm = 50.0;        // L, from the tip
   double disk_radius() const { return radius_mm - corner_radius_mm; }
+  // Largest distance from the tip to a point of the body: hypot(L - rc, R - rc) + rc (a flat end's top rim,
+  // sqrt(L^2 + R^2); a ball end's top, L). Turning the axis by an angle phi about the tip moves no point of the body
+  // by more than reach() * 2 sin(phi / 2) = reach() * |a - a'| (removal/track.hpp's orientation bound).
+  double reach() const;
 };
 
 Tool make_tool(const core::ToolSpec& spec);
