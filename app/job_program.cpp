@@ -10,6 +10,8 @@ core::ToolPath read_job_program(const core::Job& job) {
   popt.no_motion_mcodes = job.no_motion_mcodes;
   if (job.start_mm) popt.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
   core::ToolPath tp = core::read_program(job.program_file, popt);
+  // [job] tcp: the G-code's X Y Z are the tip in the workpiece frame (CL moves carry their tool axis and ignore it).
+  for (core::Move& m : tp.moves) m.tcp = job.tcp;
   if (job.start_mm && !tp.moves.empty()) {
     core::Move& first = tp.moves.front();
     first.start.head<3>() = *job.start_mm;

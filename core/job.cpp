@@ -132,6 +132,7 @@ Job load_job(const std::filesystem::path& path) {
         job.no_motion_mcodes.push_back(static_cast<int>(c));
       }
     }
+    job.tcp = jt.opt_boolean("tcp").value_or(false);
     jt.finish();
   }
   job.machine = load_machine(job.machine_file);

@@ -46,6 +46,21 @@ struct Move {
   // (APT CL GOTO/x,y,z,i,j,k). Empty for programs that move the machine's axes directly.
   std::optional<Eigen::Vector3d> tool_axis_start, tool_axis_end;
 
+  // G-code on a five-axis machine (kinematics = "chain"): true when the program's X Y Z are the tool tip in the
+  // workpiece frame and A B C the rotary axes (tool-centre-point programming: LinuxCNC's M428 on xyzac-trt, Siemens
+  // TRAORI); false when the words are the machine's axis positions themselves. Set from the job ([job] tcp).
+  bool tcp = false;
+
+  // Axis-space moves of chain machines only (core::toolpath_in_axis_space): when the move's image in axis space is
+  // not a straight line (the rotary axes turn while the tip follows the programmed path), the axis positions on the
+  // exact image in between, in order, and their programmed-path parameter s (the fraction of the move's programmed
+  // duration; the point the program asks for at s), non-decreasing in [0, 1). Axis-space straight segments
+  // start -> via -> end keep the tool tip within the conversion's tolerance of the programmed path. Equal s values
+  // (0 included) mark a turn of the rotary axis that is free at a singular pose, the tool pose held: the motion needs
+  // the time the axes take, which the programmed feed does not give. Empty when the move is straight in axis space.
+  std::vector<Vec6> via;
+  std::vector<double> via_s;
+
   int tool_number = 0;               // active tool (T... M6), 0 = none
   double tool_length_offset_mm = 0;  // active tool length offset along the tool axis (G43), 0 under G49
   int source_line = 0;               // 1-based line of the program that made this move

@@ -114,7 +114,7 @@ TEST(Machine, LoadsTheMikronUcp710WithUnitsConverted) {
   const fs::path file = fs::path(VMSIM_SOURCE_DIR) / "parts/machines/mikron_ucp710.toml";
   const Machine m = load_machine(file);
   EXPECT_EQ(m.name, "Mikron UCP 710 (Siemens 840D)");
-  EXPECT_EQ(m.kinematics, "xyz");
+  EXPECT_EQ(m.kinematics, "chain");  // its A/C table chain: tests/core/kinematics_test.cpp
   EXPECT_EQ(m.source_file, file.string());
   ASSERT_EQ(m.axes.size(), 5u);
 
