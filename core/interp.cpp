@@ -57,7 +57,14 @@ constexpr double kSpread = 0.5;
 
 struct Limits6 {
   Vec6 v, a, j;  // path units (mm, deg) per s, s^2, s^3; +inf for axes the machine does not have
+  const FeedCeiling* ceiling = nullptr;  // the feed ceiling along the path (InterpOptions), or none
 };
+
+// Path speed per unit of feed at a point of tangent t: the feed is the X Y Z speed, or the rotary axes' alone.
+double feed_gain(const PathPiece& pc, const Vec6& t) {
+  if (pc.feed_metric == PathPiece::FeedMetric::Abc || t.head<3>().norm() <= kEps) return t.tail<3>().norm();
+  return t.head<3>().norm();
+}
 
 struct NodeGeom {
   double vlim = kInf;       // speed limit from feed, axis velocity, curvature and its rate (path units / s)
@@ -86,6 +93,11 @@ NodeGeom node_geometry_u(const PathPiece& pc, double u, const Limits6& lim) {
     if (t > kEps) v = std::min(v, lim.v[i] * kVelocityMargin / t);
     if (k > kEps) v = std::min(v, std::sqrt(kCurvatureShare * lim.a[i] * kAccelMargin / k));
     if (dk > kEps) v = std::min(v, std::cbrt(kCurvatureRateShare * lim.j[i] * kJerkMargin / dk));
+  }
+  // The feed ceiling at this point (its smallest value between nodes is taken where the nodes are laid out).
+  if (lim.ceiling && !lim.ceiling->empty()) {
+    const double gain = feed_gain(pc, j.t);
+    if (gain > kEps) v = std::min(v, lim.ceiling->at(pc.s_begin + pc.s_at(u)) / gain);
   }
   g.vlim = v;
   return g;
@@ -481,14 +493,8 @@ std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const L
   return out;
 }
 
-}  // namespace
-
-InterpResult interpolate(const ToolPath& path, const Machine& machine, const InterpOptions& options) {
-  if (!(options.period_s > 0) || !(options.tolerance_mm > 0) || !(options.feed_scale > 0))
-    throw Error("interpolator: the period, the tolerance and the feed scale must be > 0");
-  const double te = options.period_s;
-
-  // Axis limits in path space (rotary axes in degrees); axes the machine lacks must not move.
+// Axis limits in path space (rotary axes in degrees); +inf for axes the machine lacks (they must not move).
+Limits6 path_limits(const Machine& machine) {
   Limits6 lim;
   lim.v.setConstant(kInf);
   lim.a.setConstant(kInf);
@@ -499,6 +505,96 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
     lim.a[ax.program_axis] = ax.max_acceleration * f;
     lim.j[ax.program_axis] = ax.max_jerk * f;
   }
+  return lim;
+}
+
+SmoothPathOptions smooth_path_options(const Limits6& lim, const InterpOptions& options) {
+  SmoothPathOptions sopt;
+  sopt.tolerance_mm = options.tolerance_mm;
+  sopt.axis_jerk = lim.j;
+  sopt.axis_accel = lim.a;
+  sopt.rapid_speed = lim.v.head<3>().minCoeff();
+  sopt.feed_scale = options.feed_scale;
+  return sopt;
+}
+
+// A geometry given in the options must be the moves' path: contiguous pieces naming existing moves, from the path's
+// start to its end.
+void check_geometry(const SmoothPath& sp, const ToolPath& path) {
+  const std::string& src = path.source_path;
+  if (path.moves.empty()) {
+    if (!sp.pieces.empty()) throw Error(located(src, 0, "interpolator: a path geometry for a program without moves"));
+    return;
+  }
+  if (sp.pieces.empty()) throw Error(located(src, 0, "interpolator: the path geometry has no pieces"));
+  double s = 0.0;
+  for (const PathPiece& pc : sp.pieces) {
+    if (pc.move_index < 0 || pc.move_index_next < 0 || static_cast<std::size_t>(pc.move_index) >= path.moves.size() ||
+        static_cast<std::size_t>(pc.move_index_next) >= path.moves.size())
+      throw Error(located(src, 0, "interpolator: a piece of the path geometry names a move the program does not have"));
+    if (std::abs(pc.s_begin - s) > 1e-9 * std::max(1.0, s) || !(pc.length > 0))
+      throw Error(located(src, 0, "interpolator: the path geometry's pieces are not contiguous in arc length"));
+    s += pc.length;
+  }
+  const Vec6 a = to_path_space(path.initial_position), b = to_path_space(path.moves.back().end);
+  if ((sp.pieces.front().point_u(sp.pieces.front().u_begin) - a).cwiseAbs().maxCoeff() > 1e-6 ||
+      (sp.pieces.back().point_u(sp.pieces.back().u_end) - b).cwiseAbs().maxCoeff() > 1e-6)
+    throw Error(located(src, 0, "interpolator: the path geometry does not start and end where the moves do"));
+}
+
+}  // namespace
+
+double FeedCeiling::at(double s) const {
+  const std::size_t n = s_mm.size();
+  if (n == 0) return kInf;
+  if (s <= s_mm.front()) return feed_mm_per_s.front();
+  if (s >= s_mm.back()) return feed_mm_per_s.back();
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(s_mm.begin(), s_mm.end(), s) - s_mm.begin()) - 1;
+  const double w = (s - s_mm[k]) / (s_mm[k + 1] - s_mm[k]);
+  const double qa = feed_mm_per_s[k] * feed_mm_per_s[k], qb = feed_mm_per_s[k + 1] * feed_mm_per_s[k + 1];
+  return std::sqrt(qa + w * (qb - qa));
+}
+
+double FeedCeiling::min_over(double s0, double s1) const {
+  if (s_mm.empty()) return kInf;
+  if (s1 < s0) std::swap(s0, s1);
+  double v = std::min(at(s0), at(s1));
+  // Breakpoints strictly inside: v^2 is linear between them, so the smallest value is at one of them or an end.
+  auto it = std::upper_bound(s_mm.begin(), s_mm.end(), s0);
+  for (; it != s_mm.end() && *it < s1; ++it) v = std::min(v, feed_mm_per_s[static_cast<std::size_t>(it - s_mm.begin())]);
+  return v;
+}
+
+void FeedCeiling::check() const {
+  if (s_mm.size() != feed_mm_per_s.size())
+    throw Error(fmt::format("feed ceiling: {} positions for {} feeds", s_mm.size(), feed_mm_per_s.size()));
+  for (std::size_t i = 0; i < s_mm.size(); ++i) {
+    if (!std::isfinite(s_mm[i]) || (i > 0 && !(s_mm[i] > s_mm[i - 1])))
+      throw Error(fmt::format("feed ceiling: position {} ({} mm) does not increase", i, s_mm[i]));
+    if (!(feed_mm_per_s[i] > 0) || !std::isfinite(feed_mm_per_s[i]))
+      throw Error(fmt::format("feed ceiling: feed {} at {} mm (expected > 0: the interpolator starts and stops at "
+                              "rest by itself)",
+                              feed_mm_per_s[i], s_mm[i]));
+  }
+}
+
+SmoothPath smooth_path_for(const ToolPath& path, const Machine& machine, const InterpOptions& options) {
+  if (options.geometry) {
+    check_geometry(*options.geometry, path);
+    return *options.geometry;
+  }
+  return build_smooth_path(path, smooth_path_options(path_limits(machine), options));
+}
+
+InterpResult interpolate(const ToolPath& path, const Machine& machine, const InterpOptions& options) {
+  if (!(options.period_s > 0) || !(options.tolerance_mm > 0) || !(options.feed_scale > 0))
+    throw Error("interpolator: the period, the tolerance and the feed scale must be > 0");
+  const double te = options.period_s;
+  options.feed_ceiling.check();
+
+  // Axis limits in path space (rotary axes in degrees); axes the machine lacks must not move.
+  Limits6 lim = path_limits(machine);
+  if (!options.feed_ceiling.empty()) lim.ceiling = &options.feed_ceiling;
   static const char* axis_names[] = {"X", "Y", "Z", "A", "B", "C"};
   for (const Move& m : path.moves) {
     for (int i = 0; i < 6; ++i) {
@@ -525,13 +621,10 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
     at = m.end;
   }
 
-  SmoothPathOptions sopt;
-  sopt.tolerance_mm = options.tolerance_mm;
-  sopt.axis_jerk = lim.j;
-  sopt.axis_accel = lim.a;
-  sopt.rapid_speed = lim.v.head<3>().minCoeff();
-  sopt.feed_scale = options.feed_scale;
-  const SmoothPath sp = build_smooth_path(path, sopt);
+  SmoothPath built;
+  if (options.geometry) check_geometry(*options.geometry, path);
+  else built = build_smooth_path(path, smooth_path_options(lim, options));
+  const SmoothPath& sp = options.geometry ? *options.geometry : built;
 
   InterpResult result;
   result.stats.moves = static_cast<int>(path.moves.size());
@@ -571,7 +664,13 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
     return result;
   }
 
-  // Planning nodes: 16 per blend, arcs every 5 degrees, and at most 0.5 mm apart.
+  // Planning nodes: 16 per blend, arcs every 5 degrees, and at most 0.5 mm apart (a feed ceiling's mean spacing
+  // where it is finer).
+  double node_spacing = 0.5;
+  if (lim.ceiling) {
+    const FeedCeiling& c = *lim.ceiling;
+    if (c.s_mm.size() > 1) node_spacing = std::clamp((c.s_mm.back() - c.s_mm.front()) / (c.s_mm.size() - 1), 0.01, 0.5);
+  }
   Plan plan;
   std::vector<NodeGeom> geom;
   for (std::size_t pi = 0; pi < sp.pieces.size(); ++pi) {
@@ -580,7 +679,7 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
     if (pc.kind == PathPiece::Kind::Quintic) n = 16;
     if (pc.kind == PathPiece::Kind::Arc)
       n = std::max(4, static_cast<int>(std::ceil(std::abs(pc.dtheta * (pc.u_end - pc.u_begin)) / (units::kPi / 36))));
-    n = std::max(n, static_cast<int>(std::ceil(pc.length / 0.5)));
+    n = std::max(n, static_cast<int>(std::ceil(pc.length / node_spacing)));
     const bool curved = pc.kind != PathPiece::Kind::Line;
     // Nodes evenly spaced in the curve parameter (no arc-length inversion; blends are nearly uniform anyway).
     const double span = pc.u_end - pc.u_begin;
@@ -594,8 +693,20 @@ InterpResult interpolate(const ToolPath& path, const Machine& machine, const Int
         between[k] = min_speed_limit(pc, pc.u_begin + span * k / n, gk[k].vlim, pc.u_begin + span * (k + 1) / n,
                                      gk[k + 1].vlim, lim, 0);
     }
+    std::vector<double> sk(n + 1);
+    for (int k = 0; k <= n; ++k) sk[k] = k == 0 ? 0.0 : (k == n ? pc.length : pc.s_at(pc.u_begin + span * k / n));
+    if (lim.ceiling) {
+      // The ceiling's smallest value between two nodes holds at both (v^2 is linear between nodes, so the profile
+      // then stays under the ceiling everywhere between them).
+      for (int k = 0; k < n; ++k) {
+        const double gain = std::max(feed_gain(pc, pc.jet_at_u(pc.u_begin + span * k / n).t),
+                                     feed_gain(pc, pc.jet_at_u(pc.u_begin + span * (k + 1) / n).t));
+        if (gain > kEps)
+          between[k] = std::min(between[k], lim.ceiling->min_over(pc.s_begin + sk[k], pc.s_begin + sk[k + 1]) / gain);
+      }
+    }
     for (int k = 0; k <= n; ++k) {
-      const double sl = k == 0 ? 0.0 : (k == n ? pc.length : pc.s_at(pc.u_begin + span * k / n));
+      const double sl = sk[k];
       NodeGeom g = gk[k];
       if (k > 0) g.vlim = std::min(g.vlim, between[k - 1]);
       if (k < n) g.vlim = std::min(g.vlim, between[k]);

@@ -2,14 +2,36 @@
 // The NC interpolator: from a ToolPath and the machine's axis limits to axis setpoints every Te.
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
+#include "core/smooth_path.hpp"
 #include "core/toolpath.hpp"
 
+#include <memory>
+#include <vector>
+
 namespace vmsim::core {
+
+// A ceiling on the feed along the path, e.g. seed 003's contour-error-constrained feed plan (drives/feedplan): at
+// arc length s of the smoothed path the interpolator follows (smooth_path_for), the speed of the programmed point
+// (X Y Z, mm/s; the path speed for moves of the rotary axes alone) is at most ceiling(s). The squared ceiling is
+// linear in s between the points, as the plan's squared feed is (seed 003 eq. 21), and constant beyond the ends.
+// s_mm strictly increasing, feeds > 0 (the interpolator starts and stops at rest by itself).
+struct FeedCeiling {
+  std::vector<double> s_mm, feed_mm_per_s;
+  bool empty() const { return s_mm.empty(); }
+  double at(double s) const;
+  double min_over(double s0, double s1) const;  // smallest value on [s0, s1]
+  void check() const;                           // throws core::Error for a malformed ceiling
+};
 
 struct InterpOptions {
   double period_s = 1e-3;        // Te
   double tolerance_mm = 0.020;   // corner tolerance: largest distance of a setpoint from the programmed path
   double feed_scale = 1.0;       // feed override applied to every programmed feed
+  FeedCeiling feed_ceiling;      // empty: none
+  // The path to follow when it is not the moves' lines and arcs (a NURBS made G2 by core/nurbs): its pieces' move
+  // indices name the ToolPath's moves, which then serve for bookkeeping (feeds, start and end, source lines) and
+  // must join the same points. Null: the moves' lines and arcs, blended within the tolerance (core/smooth_path).
+  std::shared_ptr<const SmoothPath> geometry;
 };
 
 struct InterpStats {
@@ -28,5 +50,9 @@ struct InterpResult {
 // `path` is in axis coordinates (core::toolpath_in_axis_space): its moves join end to start. Setpoints start at
 // path.initial_position and end exactly at the last move's end.
 InterpResult interpolate(const ToolPath& path, const Machine& machine, const InterpOptions& options);
+
+// The smoothed path interpolate() follows for these arguments (options.geometry when given): its arc length is the
+// coordinate of a FeedCeiling.
+SmoothPath smooth_path_for(const ToolPath& path, const Machine& machine, const InterpOptions& options);
 
 }  // namespace vmsim::core
