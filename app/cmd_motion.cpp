@@ -12,6 +12,7 @@
 #include "core/kinematics.hpp"
 #include "core/program.hpp"
 #include "core/units.hpp"
+#include "drives/oga_schedule.hpp"
 #include "drives/simulate.hpp"
 
 #include <fmt/format.h>
@@ -81,6 +82,11 @@ int run_motion(const MotionArgs& args) {
   t0 = Clock::now();
   drives::SimulateOptions sopt;
   sopt.full_rate_trace = args.full_rate_trace;
+  drives::GainSchedule schedule;  // [job] gain_schedule (vmsim oga): the drives run its gains
+  if (job.gain_schedule_file) {
+    schedule = drives::read_gain_schedule(*job.gain_schedule_file, sp, machine);
+    sopt.gains = &schedule;
+  }
   const drives::AxisResponse resp = drives::simulate_axes(sp, machine, sopt);
   const double t_drives = seconds_since(t0);
 
@@ -215,6 +221,7 @@ int run_motion(const MotionArgs& args) {
                              {"blends", ir.stats.blends},
                              {"exact_stops", ir.stats.exact_stops}};
   report["axes"] = axes;
+  if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   const ContourStats cutting = cutting_contour_stats(ce, sp, program);
   report["contour_error"] = contour_json(ce, cutting);
   report["limits_held"] = {{"setpoints_velocity_acceleration_jerk", setpoint_limits_held},

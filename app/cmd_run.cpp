@@ -16,6 +16,7 @@
 #include "core/program.hpp"
 #include "core/stl.hpp"
 #include "core/units.hpp"
+#include "drives/oga_schedule.hpp"
 #include "drives/simulate.hpp"
 #include "metrology/grid_io.hpp"
 #include "metrology/marks.hpp"
@@ -80,7 +81,15 @@ Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpe
   if (kind == core::RemovalSpec::Motion::Actual) {
     t0 = Clock::now();
     progress.stage(job.name + ": servo drives");
-    m.response = drives::simulate_axes(m.interp.setpoints, job.machine);
+    // [job] gain_schedule (vmsim oga) holds gains for the job's own feeds; a feed-scaled reference (kind = "feed")
+    // runs the drives' own gains.
+    drives::SimulateOptions sopt;
+    drives::GainSchedule schedule;
+    if (job.gain_schedule_file && feed_scale == 1.0) {
+      schedule = drives::read_gain_schedule(*job.gain_schedule_file, m.interp.setpoints, job.machine);
+      sopt.gains = &schedule;
+    }
+    m.response = drives::simulate_axes(m.interp.setpoints, job.machine, sopt);
     progress.done();
     m.timings["drives"] = seconds_since(t0);
   }
@@ -336,6 +345,9 @@ Eigen::VectorXd needle_offsets(const Field& f) {
 int run_run(const RunArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
+  if (job.gain_schedule_file && args.feed_scale.value_or(1.0) != 1.0)
+    throw core::Error(job.file.string() + ": --feed-scale changes the setpoints its gain_schedule was computed for "
+                      "(run vmsim oga on a job at those feeds instead)");
   // The picture options are checked now, not after the simulation.
   ImageArgs image_args;
   image_args.size = args.image_size;
@@ -535,6 +547,7 @@ int run_run(const RunArgs& args) {
                        {"sweeps", ts.sweeps.size()},
                        {"track_tolerance_mm", job.removal.track_tolerance_mm}};
   report["reference"] = ref_name;
+  if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   report["marks"] = marks_json;
   report["surface"] = surface_json;
   if (job.removal.motion != core::RemovalSpec::Motion::Program)

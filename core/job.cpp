@@ -124,6 +124,7 @@ Job load_job(const std::filesystem::path& path) {
     job.machine_file = jt.existing_path("machine");
     job.program_file = jt.existing_path("program");
     job.tool_table_file = jt.opt_existing_path("tool_table");
+    job.gain_schedule_file = jt.opt_existing_path("gain_schedule");
     if (auto st = jt.opt_numbers("start_mm", 3)) job.start_mm = Eigen::Vector3d((*st)[0], (*st)[1], (*st)[2]);
     if (auto codes = jt.opt_numbers("no_motion_mcodes")) {
       for (double c : *codes) {

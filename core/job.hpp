@@ -68,6 +68,9 @@ struct Job {
   // Where the tool tip is before the program runs (workpiece frame). Without it the program's own start applies
   // (LinuxCNC: the origin, which with a tool length offset puts the tip below the origin).
   std::optional<Eigen::Vector3d> start_mm;
+  // A gain schedule (vmsim oga, seed 000): per-setpoint position-loop gains the drives run with (CSV,
+  // drives/oga_schedule.hpp); vmsim run and vmsim motion apply it to the job's own motion.
+  std::optional<std::filesystem::path> gain_schedule_file;
   // G-code X Y Z are the tool tip in the workpiece frame and A B C the rotary axes (tool-centre-point programming,
   // LinuxCNC's M428 on xyzac-trt); false: the words are the machine's axes. Chain machines only (core/kinematics).
   bool tcp = false;
