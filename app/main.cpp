@@ -1,5 +1,6 @@
 // vmsim command line. CLI11 stays in this one translation unit (STACK.md P11: 9 s to compile).
 #include "app/commands.hpp"
+#include "app/commands_oga.hpp"
 #include "core/error.hpp"
 
 #include <CLI/CLI.hpp>
@@ -66,6 +67,35 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   motion->add_flag("--full-rate-trace", motion_args.full_rate_trace,
                    "also write every current-loop sample of every axis (trace_<axis>.csv, large)");
+
+  // Seed 000: offline gain adjustment of a biaxial profile.
+  vmsim::app::OgaArgs oga_args;
+  auto* oga = app.add_subcommand(
+      "oga", "Offline gain adjustment (seed 000): admissible gains per axis, the best fixed pair (C1), a position-gain "
+             "schedule by receding windows (C2) for [job] gain_schedule, MSE(CE) C1 vs C2, limits, currents, charts");
+  oga->add_option("JOB", oga_args.job, "job file of a biaxial profile (two of X Y Z move)")->required()->check(CLI::ExistingFile);
+  oga->add_option("--out,-o", oga_args.out_dir, "output directory (created if absent)");
+  oga->add_option("--kp-grid", oga_args.kp_grid, "Kv values swept, MIN:STEP:MAX in (m/min)/mm (default 1:0.5:9)");
+  oga->add_option("--kf-grid", oga_args.kf_grid, "KF values swept, MIN:STEP:MAX (default 0:0.1:1.2)");
+  oga->add_option("--range", oga_args.ranges,
+                  "Kv range of the schedule, MIN:MAX for every axis or AXIS=MIN:MAX, repeatable (default: [Kv1 - 1, "
+                  "Kv1 + 0.5] around C1 within the admissible Kv, as seed 000's [5, 6.5] around 6)");
+  oga->add_option("--dk", oga_args.gain_step, "gain step dK of the candidates, (m/min)/mm (default 0.03)");
+  oga->add_option("--frequency-hz", oga_args.frequency_hz, "f of the gain function's sinusoid, eq. 3 (default 10: p = 50 at Te 1 ms)");
+  oga->add_option("--reference", oga_args.reference, "C1: best (the best admissible fixed pair, default) or machine (the machine file's gains)")
+      ->check(CLI::IsMember({"best", "machine"}));
+  oga->add_option("--straight-curvature", oga_args.straight_curvature_per_mm,
+                  "windows: |curvature| below this is straight, 1/mm (default 1e-4)");
+  oga->add_option("--transition-rate", oga_args.transition_rate_per_mm2,
+                  "windows: a transition where the curvature changes faster than this, 1/mm^2 (default 0.01)");
+  oga->add_option("--min-window-rows", oga_args.min_window_rows, "windows: shorter runs join the one before (default 3)");
+  oga->add_option("--lead-in-rows", oga_args.lead_in_rows, "rows before a window in its contour error (default 100)");
+  oga->add_option("--settle-s", oga_args.settle_s, "simulated after the last setpoint, s (default 0.2)");
+  oga->add_flag("--from-start", oga_args.from_start,
+                "simulate every candidate from the first instant, as seed 000 (same answer, slower)");
+  oga->add_option("--threads", oga_args.threads, "OpenMP threads (default: all; the result does not depend on it)");
+  oga->add_flag("--no-render", oga_args.no_render, "draw no charts (by default: PNG files in OUT/images)");
+  oga->add_option("--image-size", oga_args.image_size, "size of the charts, WIDTHxHEIGHT (default 1600x900)");
 
   vmsim::app::RunArgs run_args;
   auto* run = app.add_subcommand(
@@ -178,6 +208,7 @@ int main(int argc, char** argv) {
     if (*interp) return vmsim::app::run_interp(interp_args);
     if (*identify) return vmsim::app::run_identify_friction(id_args);
     if (*motion) return vmsim::app::run_motion(motion_args);
+    if (*oga) return vmsim::app::run_oga(oga_args);
     if (*run) return vmsim::app::run_run(run_args);
     if (*render) return vmsim::app::run_render(render_args);
     if (*stats) return vmsim::app::run_stats(stats_args);

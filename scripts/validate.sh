@@ -37,3 +37,13 @@ fi
 
 echo "== Random-path limits and tolerance (10 000 paths, the interpolator's hard requirement)"
 "$here/build/tests/core_tests" --gtest_filter='Interp.RandomPaths*' | grep -E 'worst|OK|FAILED'
+
+echo
+echo "== OGA on parts/oga_profile (seed 000 Table II: MSE(CE) 0.76 -> 0.25 um^2, -67 %; Fig. 7: 72 X / 108 Z admissible)"
+start=$(date +%s.%N)
+"$vmsim" oga "$here/parts/oga_profile/job.toml" --out "$tmp/oga" --no-render
+end=$(date +%s.%N)
+echo "wall time: $(echo "$end - $start" | bc) s"
+echo "-- the same with C1 = the machine's gains (Kv 6, KF 0.1 = seed 000's C1) and seed 000's range [5, 6.5]"
+"$vmsim" oga "$here/parts/oga_profile/job.toml" --out "$tmp/oga_machine" --no-render --reference machine \
+  --kp-grid 6 --kf-grid 0.1 --range 5:6.5
