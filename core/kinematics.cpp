@@ -266,6 +266,14 @@ class ChainKinematics final : public Kinematics {
     return m;
   }
 
+  // The machine index of program axis `program_axis` (0..5: X Y Z A B C), -1 when the chain has no joint for it.
+  int axis_index(int program_axis) const {
+    for (const auto* chain : {&wp_, &tool_})
+      for (const Joint& j : *chain)
+        if (j.program_axis == program_axis) return j.index;
+    return -1;
+  }
+
   // The machine index of the rotary axis that is free at the singular pose (the tool axis along it), or -1.
   int free_axis() const { return ja_ && family_ != KinematicFamily::ForwardOnly ? ja_->index : -1; }
   // Whether tool axis v (unit, workpiece frame) is within `tol` rad of that singular pose.
@@ -534,6 +542,39 @@ Eigen::Vector3d axis_at(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, do
   return (std::sin((1 - s) * ang) * a0 + std::sin(s * ang) * a1) / std::sin(ang);
 }
 
+// Move::tip_per_mm and tip_per_deg of an axis-space move, from the chain's Jacobian at its start, via points and end
+// (a first-order bound: the interpolator's blends leave the path by micrometres, over which the Jacobian is constant
+// to many digits). Linear part: the largest singular value of the linear axes' map, exactly 1 when it is orthonormal
+// (so chain machines with their rotary axes still blend exactly as "xyz" machines do). Rotary axis i: the larger of
+// the tip's speed per rad of it and 100 mm times the tool axis' (at most 1 rad per rad: each rotary joint turns the
+// tool axis about its own axis), per degree.
+template <class ToQ>
+void set_gains(const ChainKinematics& k, Move& m, const ToQ& to_q) {
+  double lin = 0;
+  Eigen::Vector3d per_deg = Eigen::Vector3d::Zero();
+  auto at = [&](const Vec6& v) {
+    const Eigen::VectorXd q = to_q(v);
+    const Eigen::Matrix3d lm = k.linear_map(q);
+    const double sigma = (lm.transpose() * lm - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-12
+                             ? 1.0
+                             : Eigen::JacobiSVD<Eigen::Matrix3d>(lm).singularValues()[0];
+    lin = std::max(lin, sigma);
+    for (int r = 0; r < 3; ++r) {
+      const int idx = k.axis_index(3 + r);
+      if (idx < 0) continue;
+      Eigen::VectorXd qd = Eigen::VectorXd::Zero(q.size());
+      qd[idx] = 1.0;
+      const double g = std::max(k.tip_velocity(q, qd, m.tool_length_offset_mm).norm(), 100.0) * units::kDegToRad;
+      per_deg[r] = std::max(per_deg[r], g);
+    }
+  };
+  at(m.start);
+  for (const Vec6& v : m.via) at(v);
+  at(m.end);
+  m.tip_per_mm = lin;
+  m.tip_per_deg = per_deg;
+}
+
 ToolPath chain_toolpath(const ToolPath& path, const Machine& machine, const AxisSpaceOptions& opt) {
   if (!(opt.tolerance_mm > 0)) throw Error("toolpath_in_axis_space: the tolerance must be > 0");
   ToolPath out = path;
@@ -573,6 +614,15 @@ ToolPath chain_toolpath(const ToolPath& path, const Machine& machine, const Axis
         if (m.plane == ArcPlane::ZX) m.centre_mm[0] += tlo;
         if (m.plane == ArcPlane::YZ) m.centre_mm[1] += tlo;
       }
+      // Gains for the interpolator's corner tolerance: only where the chain exists (test machines trimmed to a few
+      // axes have none; they keep the 3-axis gains).
+      bool complete = true;
+      try {
+        (void)kin();
+      } catch (const Error&) {
+        complete = false;
+      }
+      if (complete) set_gains(kin(), m, to_q);
       prev_end = m.end;
       continue;
     }
@@ -767,6 +817,7 @@ ToolPath chain_toolpath(const ToolPath& path, const Machine& machine, const Axis
     }
     m.start = to_v6(q0, pm.start);
     m.end = to_v6(q1, pm.end);
+    set_gains(k, m, to_q);
     if (mi == 0) out.initial_position = m.start;
     prev_end = m.end;
   }

@@ -91,6 +91,8 @@ struct AxisSpaceOptions {
 //   before (the inverse's near), so the rotary axes never jump by 2 pi along a path. Chain moves keep their
 //   tool_length_offset_mm (forward() needs the tool's length); on "xyz" it is consumed into Z and set to 0.
 //   The path's initial_position becomes the first move's axis-space start when that move is a CL or TCP move.
+//   Every chain move gets Move::tip_per_mm and tip_per_deg (the chain's Jacobian along it), with which the
+//   interpolator's corner blends keep its tolerance on the tool tip (core/smooth_path).
 //   Errors (unreachable poses, travel, a start that does not join the previous move) name the program file and line.
 ToolPath toolpath_in_axis_space(const ToolPath& path, const Machine& machine, const AxisSpaceOptions& options = {});
 

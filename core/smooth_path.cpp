@@ -432,6 +432,68 @@ PathPiece piece_from_move(const ToolPath& path, std::size_t index, double feed_s
   return p;
 }
 
+// The pieces of a move: one, or for an axis-space move of a chain machine with via points (core/kinematics) the
+// lines start -> via... -> end. A via line covers the programmed-path parameters [s_a, s_b] of the move, so under an
+// inverse-time feed it takes (s_b - s_a) of the move's programmed duration (the tip keeps its programmed speed along
+// the move); a line at one s (the free rotary axis turning at a singular pose, the tool pose held) has no feed limit
+// of its own: the axes' limits give its time.
+void pieces_from_move(const ToolPath& path, std::size_t index, double feed_scale, std::vector<PathPiece>& out) {
+  const Move& m = path.moves[index];
+  if (m.via.empty()) {
+    PathPiece p = piece_from_move(path, index, feed_scale);
+    if (p.length > 1e-9) out.push_back(std::move(p));
+    return;
+  }
+  if (m.kind != MotionKind::Line || m.via_s.size() != m.via.size())
+    throw Error(located(path.source_path, m.source_line, "via points on an arc, or without their path parameters"));
+  ToolPath one;
+  one.source_path = path.source_path;
+  Move part = m;
+  part.via.clear();
+  part.via_s.clear();
+  one.moves.push_back(part);
+  Vec6 from = m.start;
+  double s_from = 0.0;
+  for (std::size_t k = 0; k <= m.via.size(); ++k) {
+    const Vec6& to = k < m.via.size() ? m.via[k] : m.end;
+    const double s_to = k < m.via.size() ? m.via_s[k] : 1.0;
+    if (!(s_to >= s_from) || s_to > 1.0)
+      throw Error(located(path.source_path, m.source_line, "via points whose path parameters decrease"));
+    Move& q = one.moves.front();
+    q.start = from;
+    q.end = to;
+    if (m.feed_mode == FeedMode::InverseTime && !m.rapid) {
+      // The fraction (s_to - s_from) of the move's duration 1 / inverse_time_per_min.
+      q.inverse_time_per_min = s_to > s_from ? m.inverse_time_per_min / (s_to - s_from) : kInf;
+    }
+    PathPiece p = piece_from_move(one, 0, feed_scale);
+    p.move_index = p.move_index_next = static_cast<int>(index);
+    if (m.feed_mode == FeedMode::InverseTime && !m.rapid && !(s_to > s_from)) p.feed_limit = kInf;
+    if (p.length > 1e-9) out.push_back(std::move(p));
+    from = to;
+    s_from = s_to;
+  }
+}
+
+// How far the tool pose moves in the workpiece frame per unit of path-space deviation at the junction of two pieces
+// (Move::tip_per_mm, tip_per_deg; Cauchy-Schwarz on |J_lin d_lin + sum J_r d_r|): the linear axes' gain, and each
+// rotary axis' where either piece turns it (a blend between pieces that hold a rotary axis holds it too).
+double corner_gain(const ToolPath& path, const PathPiece& a, const PathPiece& b) {
+  const Move& ma = path.moves[static_cast<std::size_t>(a.move_index_next)];
+  const Move& mb = path.moves[static_cast<std::size_t>(b.move_index)];
+  const double lin = std::max(ma.tip_per_mm, mb.tip_per_mm);
+  double g2 = lin * lin;
+  for (int r = 0; r < 3; ++r) {
+    bool turns = false;
+    for (const PathPiece* pc : {&a, &b})
+      if (pc->point_u(pc->u_begin)[3 + r] != pc->point_u(pc->u_end)[3 + r]) turns = true;
+    if (!turns) continue;
+    const double g = std::max(ma.tip_per_deg[r], mb.tip_per_deg[r]);
+    g2 += g * g;
+  }
+  return g2 == 1.0 ? 1.0 : std::sqrt(g2);
+}
+
 }  // namespace
 
 SmoothPath build_smooth_path(const ToolPath& path, const SmoothPathOptions& options) {
@@ -440,10 +502,7 @@ SmoothPath build_smooth_path(const ToolPath& path, const SmoothPathOptions& opti
   out.end = out.start;
   std::vector<PathPiece> base;
   base.reserve(path.moves.size());
-  for (std::size_t i = 0; i < path.moves.size(); ++i) {
-    PathPiece p = piece_from_move(path, i, options.feed_scale);
-    if (p.length > 1e-9) base.push_back(std::move(p));
-  }
+  for (std::size_t i = 0; i < path.moves.size(); ++i) pieces_from_move(path, i, options.feed_scale, base);
   if (base.empty()) return out;
   out.start = base.front().point_u(base.front().u_begin);
   out.end = base.back().point_u(base.back().u_end);
@@ -466,7 +525,10 @@ SmoothPath build_smooth_path(const ToolPath& path, const SmoothPathOptions& opti
     const double cosang = std::clamp(ja.t.dot(jb.t), -1.0, 1.0);
     const double angle = std::acos(cosang);
     const bool g1 = angle < 1e-9;
-    double target = corner_target;
+    // The tolerance holds on the tool tip in the workpiece frame: on chain machines a path-space deviation moves it by
+    // up to corner_gain times as much (1 on "xyz" machines and wherever the rotary axes hold still).
+    const double gain = corner_gain(path, A, B);
+    double target = corner_target / gain;
     if (angle < 1e-6) {
       // Tangent junction: a transition of length L bridging the curvature jump dK has a rate |dK| / L, so the axis
       // jerk v^3 |dK_i| / L stays within J_i for L >= v^3 |dK_i| / J_i; it then leaves the path by about
@@ -482,7 +544,7 @@ SmoothPath build_smooth_path(const ToolPath& path, const SmoothPathOptions& opti
       double L = 0;
       for (int i = 0; i < 6; ++i)
         if (std::abs(dk[i]) > 0) L = std::max(L, v * v * v * std::abs(dk[i]) / options.axis_jerk[i]);
-      target = std::min(corner_target, 2 * L * L * dk.norm() / 24);
+      target = std::min(corner_target / gain, 2 * L * L * dk.norm() / 24);
     }
     const bool g2 = g1 && (ja.k - jb.k).norm() < 1e-9;
     if (g2) {  // already curvature-continuous

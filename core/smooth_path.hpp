@@ -65,6 +65,9 @@ struct PathPiece {
 };
 
 struct SmoothPathOptions {
+  // Largest distance of a blend from the programmed path: in path space, divided at each corner by the moves' gains
+  // (Move::tip_per_mm, tip_per_deg) so that on chain machines it holds on the tool tip in the workpiece frame (and on
+  // the tool axis at 100 mm from the tip); moves with via points are followed through them, one line each.
   double tolerance_mm = 0.020;
   // Tangent junctions (a line into a tangent arc: only the curvature jumps) are rounded only as far as the jerk
   // limit needs at the programmed feed, as an NC's tangential-transition rounding does (Sinumerik G645): the

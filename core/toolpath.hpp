@@ -60,6 +60,13 @@ struct Move {
   // the time the axes take, which the programmed feed does not give. Empty when the move is straight in axis space.
   std::vector<Vec6> via;
   std::vector<double> via_s;
+  // Axis-space moves of chain machines only: how far the tool pose in the workpiece frame moves per unit of path
+  // space (core/smooth_path: mm for X Y Z, degrees for A B C) along this move, as bounds the interpolator's corner
+  // blends use to keep its tolerance on the tool tip (and on the tool axis, counted at 100 mm from the tip):
+  // tip_per_mm bounds |d tip| / |d(X Y Z)| (the linear axes' map; exactly 1 when it is orthonormal), tip_per_deg the
+  // tip's (or the tool axis' times 100 mm) motion per degree of A, B, C (0 on machines without chains).
+  double tip_per_mm = 1.0;
+  Eigen::Vector3d tip_per_deg = Eigen::Vector3d::Zero();
 
   int tool_number = 0;               // active tool (T... M6), 0 = none
   double tool_length_offset_mm = 0;  // active tool length offset along the tool axis (G43), 0 under G49

@@ -911,5 +911,161 @@ TEST(KinematicsToolpath, BoatXyzacOnXyzacTrt) {
               curved, vias, secs);
 }
 
+// ---- The interpolator in joint space ------------------------------------------------------------------------------
+
+// The programmed tool pose of a workpiece-frame move at s: the tip along its line, the tool axis along the great
+// circle of its end vectors (CL) or, for tool-centre-point moves, the axis the linearly moving rotary words give
+// (through forward: it depends on the rotary axes only). Written here from the definitions, not from kinematics.cpp.
+ToolPose programmed_pose(const Machine& m, const Kinematics& kin, const Move& w, double s) {
+  ToolPose p;
+  p.tip_mm = w.start.head<3>() + s * (w.end.head<3>() - w.start.head<3>());
+  if (w.tool_axis_start) {
+    const Vector3d a0 = w.tool_axis_start->normalized(), a1 = w.tool_axis_end->normalized();
+    const double ang = angle(a0, a1);
+    p.axis = ang < 1e-12 ? a0 : Vector3d((std::sin((1 - s) * ang) * a0 + std::sin(s * ang) * a1) / std::sin(ang));
+  } else {
+    p.axis = kin.forward(to_axes(m, w.start + s * (w.end - w.start)), 0).axis;
+  }
+  return p;
+}
+
+struct PoseDeviation {
+  double tip_mm = 0, axis_rad = 0;
+};
+
+// The largest distance of the setpoints' tool poses (through forward) from the programmed poses: for each setpoint
+// the programmed pose nearest in max(|tip - tip(s)|, 100 mm x angle(axis, axis(s))) over the setpoint's move and its
+// neighbours (a grid of s, refined by golden sections), then the tip and axis parts of that pose's distance.
+PoseDeviation pose_deviation(const Machine& m, const Kinematics& kin, const ToolPath& wp, const Setpoints& sp) {
+  constexpr int kGrid = 100;
+  std::vector<std::vector<ToolPose>> grid(wp.moves.size());
+  for (std::size_t i = 0; i < wp.moves.size(); ++i)
+    for (int k = 0; k <= kGrid; ++k) grid[i].push_back(programmed_pose(m, kin, wp.moves[i], k / double(kGrid)));
+  PoseDeviation worst;
+  for (Eigen::Index r = 0; r < sp.samples(); ++r) {
+    const ToolPose p = kin.forward(sp.position.row(r).transpose(), wp.moves.front().tool_length_offset_mm);
+    auto dist = [&](const ToolPose& q) { return std::max((p.tip_mm - q.tip_mm).norm(), 100.0 * angle(p.axis, q.axis)); };
+    const int mi = sp.move_index[r];
+    double best = 1e300;
+    PoseDeviation best_parts;
+    for (int j = std::max(0, mi - 1); j <= std::min<int>(static_cast<int>(wp.moves.size()) - 1, mi + 1); ++j) {
+      const auto& g = grid[static_cast<std::size_t>(j)];
+      int kb = 0;
+      for (int k = 0; k <= kGrid; ++k)
+        if (dist(g[static_cast<std::size_t>(k)]) < dist(g[static_cast<std::size_t>(kb)])) kb = k;
+      double lo = std::max(0, kb - 1) / double(kGrid), hi = std::min(kGrid, kb + 1) / double(kGrid);
+      const Move& w = wp.moves[static_cast<std::size_t>(j)];
+      for (int it = 0; it < 60; ++it) {
+        const double a = lo + 0.382 * (hi - lo), b = lo + 0.618 * (hi - lo);
+        if (dist(programmed_pose(m, kin, w, a)) < dist(programmed_pose(m, kin, w, b))) hi = b;
+        else lo = a;
+      }
+      const ToolPose q = programmed_pose(m, kin, w, 0.5 * (lo + hi));
+      if (dist(q) < best) {
+        best = dist(q);
+        best_parts = {(p.tip_mm - q.tip_mm).norm(), angle(p.axis, q.axis)};
+      }
+    }
+    worst.tip_mm = std::max(worst.tip_mm, best_parts.tip_mm);
+    worst.axis_rad = std::max(worst.axis_rad, best_parts.axis_rad);
+  }
+  return worst;
+}
+
+// Largest |finite difference| / limit over every axis and order (the hard requirement: <= 1).
+double limit_ratio(const Machine& m, const Setpoints& sp) {
+  const AxisPeaks pk = finite_difference_peaks(sp);
+  double worst = 0;
+  for (std::size_t i = 0; i < m.axes.size(); ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    worst = std::max({worst, pk.velocity[k] / m.axes[i].max_velocity, pk.acceleration[k] / m.axes[i].max_acceleration,
+                      pk.jerk[k] / m.axes[i].max_jerk});
+  }
+  return worst;
+}
+
+Move cl_move(const Vector3d& p0, const Vector3d& p1, const Vector3d& a0, const Vector3d& a1, double feed, int line) {
+  Move mv;
+  mv.start.head<3>() = p0;
+  mv.end.head<3>() = p1;
+  mv.tool_axis_start = a0;
+  mv.tool_axis_end = a1;
+  mv.feed_mm_per_min = feed;
+  mv.source_line = line;
+  return mv;
+}
+
+// Random five-axis CL paths (tips in a 60 x 60 x 20 mm box, tool axes tilted 15..60 deg at random azimuths, 1 m/min)
+// and tool-centre-point paths (random tips, A in -60..0 deg, C turning up to half a turn per move) on xyzac-trt, through
+// toolpath_in_axis_space and the interpolator at its 20 um tolerance: no axis exceeds its velocity, acceleration or
+// jerk limit (finite differences of the setpoints, as the drives see them), and every setpoint's tool pose is within
+// the tolerance of the programmed pose (tip, and the tool axis at 100 mm from the tip).
+TEST(KinematicsInterp, RandomFiveAxisPathsKeepTheLimitsAndTheTolerance) {
+  const Machine m = xyzac();
+  const auto kin = make_kinematics(m);
+  std::mt19937_64 rng(2024);
+  std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
+  InterpOptions io;
+  io.tolerance_mm = 0.020;
+  for (int trial = 0; trial < 4; ++trial) {
+    SCOPED_TRACE(trial);
+    const bool tcp = trial % 2 == 1;
+    ToolPath wp;
+    wp.source_path = "random.cl";
+    Vector3d p0(30 * u(rng), 30 * u(rng), 10 * u(rng));
+    Vector3d a0 = polar((15 + 45 * u01(rng)) * kDeg, kPi * u(rng));
+    double ra = -60 * kDeg * u01(rng), rc = 2 * kPi * u(rng);
+    for (int k = 0; k < 4; ++k) {
+      const Vector3d p1(30 * u(rng), 30 * u(rng), 10 * u(rng));
+      const Vector3d a1 = polar((15 + 45 * u01(rng)) * kDeg, kPi * u(rng));
+      const double ra1 = -60 * kDeg * u01(rng), rc1 = rc + kPi * u(rng);
+      Move mv = cl_move(p0, p1, a0, a1, 1000, k + 1);
+      if (tcp) {
+        mv.tool_axis_start.reset();
+        mv.tool_axis_end.reset();
+        mv.tcp = true;
+        mv.start[kA] = ra, mv.end[kA] = ra1, mv.start[kC] = rc, mv.end[kC] = rc1;
+      }
+      wp.moves.push_back(mv);
+      p0 = p1, a0 = a1, ra = ra1, rc = rc1;
+    }
+    wp.initial_position = wp.moves.front().start;
+    const ToolPath ax = toolpath_in_axis_space(wp, m);
+    const InterpResult r = interpolate(ax, m, io);
+    // The interpolator keeps the limits in degrees; converted to rad here, the ratio may round to 1 + 1e-15.
+    EXPECT_LE(limit_ratio(m, r.setpoints), 1.0 + 1e-9);
+    const PoseDeviation d = pose_deviation(m, *kin, wp, r.setpoints);
+    EXPECT_LE(d.tip_mm, io.tolerance_mm);
+    EXPECT_LE(100.0 * d.axis_rad, io.tolerance_mm);
+    // The end is exact: the last setpoint is the last move's end.
+    EXPECT_LT((r.setpoints.position.bottomRows(1).transpose() - to_axes(m, ax.moves.back().end)).norm(), 1e-9);
+    std::printf("trial %d (%s): %.2f s, %d blends, tip %.2f um, axis %.2f urad, limits used %.4f\n", trial,
+                tcp ? "tcp" : "cl", r.stats.cycle_time_s, r.stats.blends, d.tip_mm * 1e3, d.axis_rad * 1e6,
+                limit_ratio(m, r.setpoints));
+  }
+}
+
+// Inverse-time moves keep their programmed duration in axis space: a TCP move turning C by 90 deg with the tip still
+// at G93 F6 (10 s: RS274/NGC, an inverse-time move lasts 1/F minutes) takes 10 s when the axes can (C at 9 deg/s, far
+// below its 30 deg/s), plus what starting and stopping cost: each at most v/a + 2 a/j = 0.23 s (300 deg/s^2,
+// 3000 deg/s^3; the jerk ramps and the interpolator's FIR filter of length a/j, core/interp.cpp).
+TEST(KinematicsInterp, InverseTimeDurationIsKept) {
+  const Machine m = xyzac();
+  const ToolPath wp = read_tcp(
+      "G21 G90 G94\n"
+      "G0 X10 Y5 Z2 A-20 C0\n"
+      "G93 G1 C90 F6\n"
+      "M2\n");
+  const ToolPath ax = toolpath_in_axis_space(wp, m);
+  ASSERT_EQ(ax.moves[1].feed_mode, FeedMode::InverseTime);
+  const InterpResult r = interpolate(ax, m, InterpOptions{});
+  double t1 = 0;
+  for (Eigen::Index k = 0; k < r.setpoints.samples(); ++k)
+    if (r.setpoints.move_index[k] == 1) t1 += r.setpoints.period_s;
+  EXPECT_GT(t1, 10.0 - 1e-3);
+  EXPECT_LT(t1, 10.0 + 2 * (9.0 / 300.0 + 2 * 300.0 / 3000.0));
+  EXPECT_LE(limit_ratio(m, r.setpoints), 1.0 + 1e-9);
+}
+
 }  // namespace
 }  // namespace vmsim::core
