@@ -121,4 +121,13 @@ struct MeasureArgs {
 // vmsim measure PRED: the scan a confocal sensor would take of the predicted surface (scan.x3p) and what it resolves.
 int run_measure(const MeasureArgs& args);
 
+struct PlanFeedArgs {
+  std::filesystem::path job;                     // a job with a [feedplan] table
+  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  bool no_render = false;                        // no charts
+};
+// vmsim plan-feed JOB: seed 003's contour-error-constrained feed plan (drives/feedplan), played by the interpolator
+// and simulated through the servo: feed_profile.csv, motion.csv, report.json, charts.
+int run_plan_feed(const PlanFeedArgs& args);
+
 }  // namespace vmsim::app

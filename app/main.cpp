@@ -197,6 +197,14 @@ int main(int argc, char** argv) {
   measure->add_option("--mark-threshold", measure_args.mark_threshold, "marks: |deviation| above this (default 1um)");
   measure->add_option("--out,-o", measure_args.out_dir, "output directory (created if absent)");
 
+  vmsim::app::PlanFeedArgs plan_feed_args;
+  auto* plan_feed = app.add_subcommand(
+      "plan-feed", "Plan the feed along a job's path so the servo's contour error stays within a tolerance (seed "
+                   "003: a linear program on the squared feed), play it through the interpolator and the drives");
+  plan_feed->add_option("JOB", plan_feed_args.job, "job file with a [feedplan] table")->required()->check(CLI::ExistingFile);
+  plan_feed->add_option("--out,-o", plan_feed_args.out_dir, "output directory (created if absent)");
+  plan_feed->add_flag("--no-render", plan_feed_args.no_render, "draw no charts (by default: PNG files in OUT/images)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -214,6 +222,7 @@ int main(int argc, char** argv) {
     if (*stats) return vmsim::app::run_stats(stats_args);
     if (*compare) return vmsim::app::run_compare(compare_args);
     if (*measure) return vmsim::app::run_measure(measure_args);
+    if (*plan_feed) return vmsim::app::run_plan_feed(plan_feed_args);
   } catch (const vmsim::core::Error& e) {
     std::fprintf(stderr, "vmsim: error: %s\n", e.what());
     return 2;

@@ -110,6 +110,60 @@ InterpSpec read_interp(const TomlTable& t) {
   return spec;
 }
 
+FeedPlanSpec read_feedplan(const TomlTable& t) {
+  FeedPlanSpec f;
+  if (auto v = t.opt_positive("chord_error_um")) f.chord_error_mm = *v * 1e-3;
+  if (auto v = t.opt_positive("contour_error_um")) f.contour_error_mm = *v * 1e-3;
+  f.max_feed_mm_per_s = t.opt_positive("max_feed_mm_per_s");
+  if (auto v = t.opt_positive("sample_spacing_mm")) f.sample_spacing_mm = *v;
+  if (auto v = t.opt_integer("window_samples")) {
+    if (*v < 100 || *v > 10000000) t.fail("window_samples", "expected 100 .. 10000000");
+    f.window_samples = static_cast<int>(*v);
+  }
+  f.jerk = t.opt_boolean("jerk").value_or(true);
+  f.verify = t.opt_boolean("verify").value_or(true);
+  if (auto n = t.opt_table("nurbs")) {
+    FeedPlanSpec::Nurbs c;
+    if (auto d = n->opt_integer("degree")) {
+      if (*d < 1 || *d > 9) n->fail("degree", "expected 1 .. 9");
+      c.degree = static_cast<int>(*d);
+    }
+    c.control_points = n->existing_path("control_points");
+    c.knots = n->existing_path("knots");
+    n->finish();
+    f.nurbs = c;
+  }
+  const std::string servo = t.opt_choice("servo", {"machine", "pid", "transfer_function"}).value_or("machine");
+  f.servo = servo == "machine" ? FeedPlanSpec::Servo::Machine
+            : servo == "pid"   ? FeedPlanSpec::Servo::Pid
+                               : FeedPlanSpec::Servo::TransferFunction;
+  for (const TomlTable& a : t.array_of_tables("axis")) {
+    FeedPlanSpec::Axis ax;
+    ax.name = a.choice("name", {"X", "Y", "Z"});
+    for (const auto& other : f.axes)
+      if (other.name == ax.name) a.fail("name", "axis " + ax.name + " is given twice");
+    if (f.servo == FeedPlanSpec::Servo::Pid) {
+      ax.kp = a.positive("kp"), ax.ki = a.positive("ki"), ax.kd = a.positive("kd");
+      ax.ka = a.positive("ka"), ax.kt = a.positive("kt"), ax.inertia = a.positive("inertia_kg_m2");
+      ax.damping = a.opt_nonnegative("damping").value_or(0.0), ax.rg = a.positive("rg_mm_per_rad");
+    } else if (f.servo == FeedPlanSpec::Servo::TransferFunction) {
+      ax.num = a.numbers("num"), ax.den = a.numbers("den");
+      if (ax.den.size() < 2 || ax.den.front() == 0.0 || ax.num.empty() || ax.num.size() > ax.den.size())
+        a.fail("den", "expected a proper transfer function: den of degree >= 1 with a non-zero first coefficient, "
+                      "num no longer than den");
+    } else {
+      a.fail("name", "[[feedplan.axis]] is for servo = \"pid\" or \"transfer_function\" (\"machine\" takes the "
+                     "machine file's drives)");
+    }
+    a.finish();
+    f.axes.push_back(ax);
+  }
+  if (f.servo != FeedPlanSpec::Servo::Machine && f.axes.empty())
+    t.fail("axis", "servo = \"" + servo + "\" needs a [[feedplan.axis]] table per moving axis");
+  t.finish();
+  return f;
+}
+
 }  // namespace
 
 Job load_job(const std::filesystem::path& path) {
@@ -122,7 +176,8 @@ Job load_job(const std::filesystem::path& path) {
     job.name = jt.opt_string("name").value_or(path.stem().string());
     (void)jt.opt_string("description");
     job.machine_file = jt.existing_path("machine");
-    job.program_file = jt.existing_path("program");
+    // A [feedplan.nurbs] curve can stand for the program (checked below).
+    if (auto p = jt.opt_existing_path("program")) job.program_file = *p;
     job.tool_table_file = jt.opt_existing_path("tool_table");
     job.gain_schedule_file = jt.opt_existing_path("gain_schedule");
     if (auto st = jt.opt_numbers("start_mm", 3)) job.start_mm = Eigen::Vector3d((*st)[0], (*st)[1], (*st)[2]);
@@ -142,6 +197,9 @@ Job load_job(const std::filesystem::path& path) {
   if (auto t = top.opt_table("interpolation")) job.interp = read_interp(*t);
   if (auto t = top.opt_table("removal")) job.removal = read_removal(*t);
   if (auto t = top.opt_table("reference")) job.reference = read_reference(*t);
+  if (auto t = top.opt_table("feedplan")) job.feedplan = read_feedplan(*t);
+  if (job.program_file.empty() && !(job.feedplan && job.feedplan->nurbs))
+    top.table("job").fail("program", "missing (expected a file path, or a [feedplan.nurbs] curve as the path)");
   if (job.reference.kind == ReferenceSpec::Kind::Stock && job.stock.kind != StockSpec::Kind::Job)
     top.fail("reference", "kind = \"stock\" needs a stock of type \"job\" (the part another job leaves)");
   top.finish();

@@ -58,6 +58,31 @@ struct InterpSpec {
   double tolerance_mm = 0.020;    // largest distance of a setpoint from the programmed geometry
 };
 
+// [feedplan]: seed 003's contour-error-constrained feed planning (vmsim plan-feed, drives/feedplan).
+struct FeedPlanSpec {
+  double chord_error_mm = 0.0005;           // delta_max (seed 003 eq. 15)
+  double contour_error_mm = 0.020;          // eps0 (eq. 8)
+  std::optional<double> max_feed_mm_per_s;  // f_max (eq. 17); default: the program's highest feed
+  double sample_spacing_mm = 0.05;          // arc length between the plan's samples
+  int window_samples = 4000;                // samples per linear program (longer paths: overlapping windows)
+  bool jerk = true;                         // also keep the axes' jerk limits (beyond the seed)
+  bool verify = true;                       // simulate the plan, tighten it where the simulated error exceeds eps0
+  struct Nurbs {                            // [feedplan.nurbs]: the path, instead of [job] program
+    int degree = 3;
+    std::filesystem::path control_points, knots;  // CSV: index,x,y,z,weight and index,knot
+  };
+  std::optional<Nurbs> nurbs;
+  // The servo of the contour-error model and the simulation: the machine's cascades ([axes.drive], linearised by
+  // drives/linear_model), seed 003's PID servo (eq. 2) or a continuous transfer function, given per moving axis.
+  enum class Servo { Machine, Pid, TransferFunction } servo = Servo::Machine;
+  struct Axis {                             // [[feedplan.axis]]
+    std::string name;                       // X Y Z
+    double kp = 0, ki = 0, kd = 0, ka = 0, kt = 0, inertia = 0, damping = 0, rg = 0;  // pid (seed 003 Table 1 units)
+    std::vector<double> num, den;           // transfer_function: descending powers of s
+  };
+  std::vector<Axis> axes;
+};
+
 struct Job {
   std::string name;
   std::filesystem::path file;          // the job file itself
@@ -80,6 +105,7 @@ struct Job {
   InterpSpec interp;
   RemovalSpec removal;
   ReferenceSpec reference;
+  std::optional<FeedPlanSpec> feedplan;  // [feedplan]
 };
 
 Job load_job(const std::filesystem::path& path);

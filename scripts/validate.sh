@@ -47,3 +47,10 @@ echo "wall time: $(echo "$end - $start" | bc) s"
 echo "-- the same with C1 = the machine's gains (Kv 6, KF 0.1 = seed 000's C1) and seed 000's range [5, 6.5]"
 "$vmsim" oga "$here/parts/oga_profile/job.toml" --out "$tmp/oga_machine" --no-render --reference machine \
   --kp-grid 6 --kf-grid 0.1 --range 5:6.5
+
+echo
+echo "== Feed planning (seed 003 section 4: without the contour constraint 31.6 um peak, with it <= 20 um)"
+for curve in butterfly fan; do
+  echo "-- $curve"
+  "$vmsim" plan-feed "$here/parts/feedplan/job_$curve.toml" --out "$tmp/feedplan_$curve" --no-render
+done
