@@ -1,4 +1,5 @@
 // vmsim motion JOB: program -> interpolator -> servo drives -> kinematics -> contour error.
+#include "app/axis_models.hpp"
 #include "app/commands.hpp"
 #include "app/contour_stats.hpp"
 #include "app/job_program.hpp"
@@ -13,6 +14,7 @@
 #include "core/program.hpp"
 #include "core/units.hpp"
 #include "drives/oga_schedule.hpp"
+#include "drives/position_trace.hpp"
 #include "drives/simulate.hpp"
 
 #include <fmt/format.h>
@@ -87,6 +89,9 @@ int run_motion(const MotionArgs& args) {
     schedule = drives::read_gain_schedule(*job.gain_schedule_file, sp, machine);
     sopt.gains = &schedule;
   }
+  // [job] axis_models (vmsim identify): those axes run as their identified transfer functions.
+  const JobAxisModels models = job_axis_models(job, std::nullopt);
+  if (models.any()) sopt.axis_models = &models.per_axis;
   const drives::AxisResponse resp = drives::simulate_axes(sp, machine, sopt);
   const double t_drives = seconds_since(t0);
 
@@ -190,6 +195,29 @@ int run_motion(const MotionArgs& args) {
                        resp.current_setpoint_A(k, a));
   }, n);
   files.push_back("currents.csv");
+  {
+    // Command and encoder position of every axis the program moves (drives/position_trace.hpp): what vmsim identify
+    // reads, as an NC's trace of the same run would give it.
+    drives::PositionTrace tr;
+    tr.period_s = te;
+    std::vector<Eigen::Index> moved;
+    for (Eigen::Index a = 0; a < na; ++a)
+      if ((sp.position.col(a).array() != sp.position(0, a)).any()) moved.push_back(a);
+    tr.t_s = Eigen::ArrayXd::LinSpaced(n, 0.0, static_cast<double>(n - 1) * te);
+    tr.command.resize(n, static_cast<Eigen::Index>(moved.size()));
+    tr.actual.resize(n, static_cast<Eigen::Index>(moved.size()));
+    for (std::size_t i = 0; i < moved.size(); ++i) {
+      const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(moved[i])];
+      tr.axes.push_back(ax.name);
+      tr.rotary.push_back(ax.kind == core::AxisKind::Rotary);
+      for (Eigen::Index k = 0; k < n; ++k) tr.command(k, static_cast<Eigen::Index>(i)) = setpoint(k, moved[i]);
+      tr.actual.col(static_cast<Eigen::Index>(i)) = resp.position.col(moved[i]);
+    }
+    if (!moved.empty()) {
+      drives::write_position_trace_csv(dir / "trace.csv", tr, {"vmsim motion " + job.file.filename().string()});
+      files.push_back("trace.csv");
+    }
+  }
   // The same signals, binned (min/max) for charts: vmsim render DIR draws them.
   write_signals(dir / "signals.csv", motion_signals(job, program, sp, resp, ce, iopt.feed_scale));
   files.push_back("signals.csv");
@@ -222,6 +250,8 @@ int run_motion(const MotionArgs& args) {
                              {"exact_stops", ir.stats.exact_stops}};
   report["axes"] = axes;
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
+  if (models.any())
+    report["axis_models"] = {{"path", models.file->string()}, {"identified_axes", models.identified_axes}};
   const ContourStats cutting = cutting_contour_stats(ce, sp, program);
   report["contour_error"] = contour_json(ce, cutting);
   report["limits_held"] = {{"setpoints_velocity_acceleration_jerk", setpoint_limits_held},

@@ -1,5 +1,6 @@
 // vmsim run JOB: the whole chain. Program -> interpolator -> drives -> kinematics -> material removal -> surfaces,
 // and the marks: the signed deviation of the predicted surface from the reference surface.
+#include "app/axis_models.hpp"
 #include "app/commands.hpp"
 #include "app/contour_stats.hpp"
 #include "app/job_program.hpp"
@@ -89,6 +90,9 @@ Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpe
       schedule = drives::read_gain_schedule(*job.gain_schedule_file, m.interp.setpoints, job.machine);
       sopt.gains = &schedule;
     }
+    // [job] axis_models (vmsim identify): those axes run as their identified transfer functions, at any feed.
+    const JobAxisModels models = job_axis_models(job, std::nullopt);
+    if (models.any()) sopt.axis_models = &models.per_axis;
     m.response = drives::simulate_axes(m.interp.setpoints, job.machine, sopt);
     progress.done();
     m.timings["drives"] = seconds_since(t0);
@@ -548,6 +552,7 @@ int run_run(const RunArgs& args) {
                        {"track_tolerance_mm", job.removal.track_tolerance_mm}};
   report["reference"] = ref_name;
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
+  if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
   report["marks"] = marks_json;
   report["surface"] = surface_json;
   if (job.removal.motion != core::RemovalSpec::Motion::Program)

@@ -1,5 +1,6 @@
 // vmsim command line. CLI11 stays in this one translation unit (STACK.md P11: 9 s to compile).
 #include "app/commands.hpp"
+#include "app/commands_sysid.hpp"
 #include "app/commands_oga.hpp"
 #include "core/error.hpp"
 
@@ -205,6 +206,46 @@ int main(int argc, char** argv) {
   plan_feed->add_option("--out,-o", plan_feed_args.out_dir, "output directory (created if absent)");
   plan_feed->add_flag("--no-render", plan_feed_args.no_render, "draw no charts (by default: PNG files in OUT/images)");
 
+  // Seed 001: identification signals, transfer-function identification, predictive compensation.
+  vmsim::app::ExciteArgs excite_args;
+  auto* excite = app.add_subcommand(
+      "excite", "Write seed 001's identification signal for one axis (inverse M-sequence or PRBS, eq. 8-15) as a "
+                "G-code program or a setpoint CSV; --simulate also writes the trace the machine file's drive gives");
+  excite->add_option("AXIS", excite_args.axis, "axis name (X Y Z A B C)")->required();
+  excite->add_option("--machine,-m", excite_args.machine, "machine file")->required()->check(CLI::ExistingFile);
+  excite->add_option("--out,-o", excite_args.out, "output: .ngc (G-code) or .csv (t_s and the setpoint every Te)")->required();
+  excite->add_option("--signal", excite_args.signal, "inverse-m (default: no DC, seed 001) or prbs");
+  excite->add_option("--bits", excite_args.bits, "shift-register length n, 2..20 (default: from --resolution-hz)");
+  excite->add_option("--resolution-hz", excite_args.resolution_hz, "lowest frequency resolved, 1 / signal period (default 1)");
+  excite->add_option("--bandwidth-hz", excite_args.bandwidth_hz,
+                     "axis bandwidth the signal covers: Td = q Te with 0.433 / Td >= B (default 100, seed 001)");
+  excite->add_option("--td-ms", excite_args.td_ms, "minimum switching interval Td in ms (overrides --bandwidth-hz)");
+  excite->add_option("--amplitude", excite_args.amplitude, "a: +-a about the ramp, mm or deg (default 0.05)");
+  excite->add_option("--feed", excite_args.feed,
+                     "constant velocity the signal rides on, mm/min or deg/min, so the axis never reverses and Coulomb "
+                     "friction stays constant (default 1200; 0: about a fixed point)");
+  excite->add_option("--periods", excite_args.periods, "signal periods (default 4: identify on 2, validate on 2)");
+  excite->add_option("--start", excite_args.start, "start position, mm or deg (default: centred in the travel)");
+  excite->add_option("--period-ms", excite_args.period_ms, "sampling period Te in ms (default 1)");
+  excite->add_option("--simulate", excite_args.simulate,
+                     "also run the setpoints through the axis's [axes.drive] and write this position trace CSV");
+
+  vmsim::app::SysidArgs sysid_args;
+  auto* sysid = app.add_subcommand(
+      "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; seed 001), "
+                  "validate, rank, and write axis_models.toml for jobs to run on");
+  sysid->add_option("--trace,-t", sysid_args.trace,
+                    "position trace CSV: t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ... (vmsim motion's trace.csv)")
+      ->required();
+  sysid->add_option("--validate", sysid_args.validate, "a separate validation trace (default: the trace's second half)");
+  sysid->add_option("--axis", sysid_args.axes, "axes to identify, repeatable (default: every axis in the trace)");
+  sysid->add_option("--structure,-s", sysid_args.structure, "arx, armax, oe or all (default)");
+  sysid->add_option("--orders", sysid_args.orders, "NB,NA: numerator and denominator orders (default 2,5) or auto (BIC)");
+  sysid->add_option("--nc", sysid_args.nc, "ARMAX noise numerator order (default 2)");
+  sysid->add_option("--delay", sysid_args.delay, "input delay nk in samples, or auto (default)");
+  sysid->add_option("--use", sysid_args.use, "structure written to the model file: best (lowest validation MSE, default), arx, armax or oe");
+  sysid->add_option("--out,-o", sysid_args.out_dir, "output directory for axis_models.toml and report.json");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -217,6 +258,8 @@ int main(int argc, char** argv) {
     if (*identify) return vmsim::app::run_identify_friction(id_args);
     if (*motion) return vmsim::app::run_motion(motion_args);
     if (*oga) return vmsim::app::run_oga(oga_args);
+    if (*excite) return vmsim::app::run_excite(excite_args);
+    if (*sysid) return vmsim::app::run_sysid(sysid_args);
     if (*run) return vmsim::app::run_run(run_args);
     if (*render) return vmsim::app::run_render(render_args);
     if (*stats) return vmsim::app::run_stats(stats_args);

@@ -189,6 +189,8 @@ Job load_job(const std::filesystem::path& path) {
       }
     }
     job.tcp = jt.opt_boolean("tcp").value_or(false);
+    // Identified axis models (vmsim identify) run instead of the drives of the machine file (drives/axis_model_file).
+    job.axis_models_file = jt.opt_existing_path("axis_models");
     jt.finish();
   }
   job.machine = load_machine(job.machine_file);

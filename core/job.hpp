@@ -96,6 +96,9 @@ struct Job {
   // A gain schedule (vmsim oga, seed 000): per-setpoint position-loop gains the drives run with (CSV,
   // drives/oga_schedule.hpp); vmsim run and vmsim motion apply it to the job's own motion.
   std::optional<std::filesystem::path> gain_schedule_file;
+  // Identified axis models (TOML written by `vmsim identify`): these axes run as their identified transfer functions
+  // instead of the machine file's [axes.drive] cascades (parts/README.md).
+  std::optional<std::filesystem::path> axis_models_file;
   // G-code X Y Z are the tool tip in the workpiece frame and A B C the rotary axes (tool-centre-point programming,
   // LinuxCNC's M428 on xyzac-trt); false: the words are the machine's axes. Chain machines only (core/kinematics).
   bool tcp = false;

@@ -122,7 +122,11 @@ std::string excitation_gcode(const ExcitationSpec& s, const std::string& axis, b
   const double f = rotary ? core::units::kRadToDeg : 1.0;
   const double te = s.period_s;
   std::string out;
-  for (const std::string& h : header) out += "(" + h + ")\n";
+  for (std::string h : header) {
+    // G-code comments do not nest: brackets for the parentheses a header line may hold.
+    for (char& ch : h) ch = ch == '(' ? '[' : ch == ')' ? ']' : ch;
+    out += "(" + h + ")\n";
+  }
   out += "G21 G90 G94 G17\n";
   out += fmt::format("G0 {}{:.6f}\n", axis, x[0] * f);
   // A block every Td, on the switching grid of the signal (the level changes at its start), and one to the end; a

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -98,6 +99,23 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
 }
 
 }  // namespace
+
+Eigen::VectorXd simulate_axis(AxisModel& m, const Eigen::VectorXd& setpoints, double te, Eigen::Index rows) {
+  if (setpoints.size() == 0 || rows < 1) throw core::Error("simulate_axis: no setpoints or no rows");
+  Eigen::VectorXd y(rows);
+  y[0] = setpoints[0];
+  double prev_x = setpoints[0], prev_v = 0.0;
+  for (Index k = 0; k + 1 < rows; ++k) {
+    AxisCommand c;
+    c.position = setpoints[std::min<Index>(k, setpoints.size() - 1)];
+    c.velocity = (c.position - prev_x) / te;
+    c.acceleration = (c.velocity - prev_v) / te;
+    prev_x = c.position;
+    prev_v = c.velocity;
+    y[k + 1] = m.step(c).position;
+  }
+  return y;
+}
 
 AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine& machine,
                            const SimulateOptions& options) {

@@ -47,6 +47,11 @@ struct AxisResponse {
   Eigen::Index samples() const { return position.rows(); }
 };
 
+// One axis on its own, as simulate_axes runs each: `model` already reset at setpoints[0]; returns `rows` positions
+// (row k at t = k Te; beyond the last setpoint the NC holds it). The feedforward set points are the backward
+// differences of the setpoints, as in simulate_axes.
+Eigen::VectorXd simulate_axis(AxisModel& model, const Eigen::VectorXd& setpoints, double te, Eigen::Index rows);
+
 // Throws core::Error naming the machine file when an axis the setpoints move has no [axes.drive].
 AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine& machine,
                            const SimulateOptions& options = {});

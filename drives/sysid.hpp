@@ -96,6 +96,8 @@ struct Validation {
   bool white = false;                 // Q <= limit
   Eigen::VectorXd simulated;          // yhat
 };
-Validation validate(const IdentifiedModel& m, const IdData& data, int lags = 25);
+// first_sample: the model runs over the whole record (from the rest it starts at) but the figures count only samples
+// k >= first_sample (held-out data after an estimation part of the same record).
+Validation validate(const IdentifiedModel& m, const IdData& data, int lags = 25, Eigen::Index first_sample = 0);
 
 }  // namespace vmsim::drives

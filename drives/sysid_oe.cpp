@@ -30,21 +30,39 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   const Eigen::Index n = y.size();
   const Eigen::VectorXd one = Eigen::VectorXd::Ones(1);
 
-  // Steiglitz-McBride: F from ARX, then ARX on (u, y) filtered by 1/F until F settles.
+  // Simulation error of a candidate (infinite when F is unstable): the OE criterion itself.
+  auto sim_loss = [&](const Eigen::VectorXd& th) {
+    if (!th.allFinite() || (nf > 0 && spectral_radius(th.head(nf)) >= 1.0)) return HUGE_VAL;
+    DiscreteTf g;
+    g.a = th.head(nf);
+    g.b = th.tail(nb);
+    g.nk = nk;
+    const double l = (y - simulate_tf(g, u)).tail(n - k0).squaredNorm();
+    return std::isfinite(l) ? l : HUGE_VAL;
+  };
+  // Steiglitz-McBride: F from ARX, then ARX on (u, y) filtered by 1/F until F settles. The search starts from the
+  // candidate (the ARX fit or a pass) with the smallest simulation error: on data an ARX fits to rounding (a
+  // noise-free simulation) the passes can drift away from it.
   Eigen::MatrixXd phi;
   Eigen::VectorXd rhs;
   detail::arx_regression(u, y, nf, nb, nk, k0, phi, rhs);
   Eigen::VectorXd theta = detail::least_squares(phi, rhs);  // [f; b]
   theta.head(nf) = detail::reflect_into_unit_circle(theta.head(nf));
+  Eigen::VectorXd best = theta;
+  double best_loss = sim_loss(theta);
   for (int pass = 0; pass < 30 && nf > 0; ++pass) {
     const Eigen::VectorXd fpoly = monic(theta.head(nf));
     detail::arx_regression(filter_q(one, fpoly, u), filter_q(one, fpoly, y), nf, nb, nk, k0, phi, rhs);
     Eigen::VectorXd next = detail::least_squares(phi, rhs);
+    if (!next.allFinite()) break;
     next.head(nf) = detail::reflect_into_unit_circle(next.head(nf));
     const double change = (next - theta).norm() / std::max(theta.norm(), 1e-300);
     theta = next;
+    const double l = sim_loss(theta);
+    if (l < best_loss) best = theta, best_loss = l;
     if (change < 1e-10) break;
   }
+  theta = best;
 
   const detail::ResidualFn evaluate = [&](const Eigen::VectorXd& th, Eigen::VectorXd& eps, Eigen::MatrixXd* jac) {
     const Eigen::VectorXd f = th.head(nf);

@@ -39,24 +39,29 @@ Eigen::VectorXd prediction_errors(const IdentifiedModel& m, const IdData& data) 
   return {};
 }
 
-Validation validate(const IdentifiedModel& m, const IdData& data, int lags) {
-  if (data.u.size() != data.y.size() || data.u.size() < 2 * lags + 10)
-    throw core::Error(fmt::format("validation data: {} samples, at least {} needed", data.u.size(), 2 * lags + 10));
+Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eigen::Index first) {
+  const Eigen::Index total = data.y.size();
+  if (data.u.size() != total || first < 0 || total - first < 2 * lags + 10)
+    throw core::Error(fmt::format("validation data: {} samples, at least {} needed", std::max<Eigen::Index>(total - first, 0),
+                                  2 * lags + 10));
   Validation v;
-  v.simulated = simulate_tf(m.g, data.u);
-  const Eigen::VectorXd err = data.y - v.simulated;
-  const double n = static_cast<double>(data.y.size());
-  v.fit_percent = fit_percent(data.y, v.simulated);
-  const double ss_tot = (data.y.array() - data.y.mean()).square().sum();
+  const Eigen::Index n_val = total - first;
+  const Eigen::VectorXd sim = simulate_tf(m.g, data.u);
+  v.simulated = sim.tail(n_val);
+  const Eigen::VectorXd y = data.y.tail(n_val), u = data.u.tail(n_val);
+  const Eigen::VectorXd err = y - v.simulated;
+  const double n = static_cast<double>(n_val);
+  v.fit_percent = fit_percent(y, v.simulated);
+  const double ss_tot = (y.array() - y.mean()).square().sum();
   v.r2 = ss_tot > 0.0 ? 1.0 - err.squaredNorm() / ss_tot : 0.0;
   v.mse = err.squaredNorm() / n;
   v.max_abs_error = err.cwiseAbs().maxCoeff();
-  v.tracking_fit_percent = fit_percent(data.u - data.y, data.u - v.simulated);
+  v.tracking_fit_percent = fit_percent(u - y, u - v.simulated);
 
   // Whiteness of the one-step errors, past the start-up transient.
-  const Eigen::Index skip = std::max<Eigen::Index>({m.g.na(), m.g.nb() + m.g.nk, m.c.size()});
+  const Eigen::Index skip = std::max<Eigen::Index>({first, m.g.na(), m.g.nb() + m.g.nk, m.c.size()});
   const Eigen::VectorXd eps_all = prediction_errors(m, data);
-  const Eigen::VectorXd eps = eps_all.tail(eps_all.size() - skip).array() - eps_all.tail(eps_all.size() - skip).mean();
+  const Eigen::VectorXd eps = eps_all.tail(total - skip).array() - eps_all.tail(total - skip).mean();
   const double r0 = eps.squaredNorm();
   v.lags = lags;
   v.whiteness_bound = 2.58 / std::sqrt(static_cast<double>(eps.size()));

@@ -1,0 +1,248 @@
+// vmsim identify --trace TRACE.csv: each axis's discrete transfer function from command to encoder position (seed
+// 001 sections 2-3): ARX, ARMAX and OE fitted on the estimation data, validated on separate data, ranked by the
+// validation MSE as seed 001 Table 2, the chosen one written to axis_models.toml for jobs to run on.
+#include "app/commands_sysid.hpp"
+#include "core/atomic_file.hpp"
+#include "core/error.hpp"
+#include "core/sha256.hpp"
+#include "drives/axis_model_file.hpp"
+#include "drives/position_trace.hpp"
+#include "drives/sysid.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace vmsim::app {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+drives::ModelOrders parse_orders(const std::string& s, int nc, bool& automatic) {
+  automatic = s == "auto";
+  drives::ModelOrders o;
+  o.nc = nc;
+  if (automatic) return o;
+  const auto comma = s.find(',');
+  const auto bad = [&] {
+    throw core::Error(fmt::format("--orders '{}': expected NB,NA (numerator and denominator orders, e.g. 2,5 as seed "
+                                  "001 section 2.2) or auto",
+                                  s));
+  };
+  if (comma == std::string::npos) bad();
+  try {
+    std::size_t p1 = 0, p2 = 0;
+    const std::string a = s.substr(0, comma), b = s.substr(comma + 1);
+    o.nb = std::stoi(a, &p1);
+    o.na = std::stoi(b, &p2);
+    if (p1 != a.size() || p2 != b.size()) bad();
+  } catch (const std::logic_error&) {
+    bad();
+  }
+  if (o.nb < 1 || o.nb > 30 || o.na < 0 || o.na > 30)
+    throw core::Error(fmt::format("--orders '{}': NB must be in [1, 30] and NA in [0, 30]", s));
+  return o;
+}
+
+drives::IdData deviations(const drives::PositionTrace& t, int axis) {
+  drives::IdData d;
+  d.u = t.command.col(axis).array() - t.command(0, axis);
+  d.y = t.actual.col(axis).array() - t.actual(0, axis);
+  d.period_s = t.period_s;
+  return d;
+}
+
+nlohmann::json poly_json(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+}  // namespace
+
+int run_sysid(const SysidArgs& args) {
+  const auto t_start = Clock::now();
+  // Options first: a bad option must fail before any reading or writing.
+  std::vector<drives::ModelStructure> structures;
+  if (args.structure == "all") structures = {drives::ModelStructure::Arx, drives::ModelStructure::Armax, drives::ModelStructure::Oe};
+  else if (auto s = drives::parse_structure(args.structure)) structures = {*s};
+  else throw core::Error(fmt::format("--structure '{}': expected arx, armax, oe or all", args.structure));
+  std::optional<drives::ModelStructure> use;
+  if (args.use != "best") {
+    use = drives::parse_structure(args.use);
+    if (!use || std::find(structures.begin(), structures.end(), *use) == structures.end())
+      throw core::Error(fmt::format("--use '{}': expected best or one of the structures identified", args.use));
+  }
+  if (args.nc < 0 || args.nc > 30) throw core::Error(fmt::format("--nc {}: expected 0 to 30", args.nc));
+  bool auto_orders = false;
+  const drives::ModelOrders given = parse_orders(args.orders, args.nc, auto_orders);
+  std::optional<int> delay;
+  if (args.delay != "auto") {
+    try {
+      std::size_t p = 0;
+      delay = std::stoi(args.delay, &p);
+      if (p != args.delay.size()) throw std::invalid_argument("");
+    } catch (const std::logic_error&) {
+      throw core::Error(fmt::format("--delay '{}': expected a number of samples >= 1, or auto", args.delay));
+    }
+    if (*delay < 1 || *delay > 100) throw core::Error(fmt::format("--delay {}: expected 1 to 100 samples", *delay));
+  }
+
+  const drives::PositionTrace trace = drives::read_position_trace_csv(args.trace);
+  std::optional<drives::PositionTrace> vtrace;
+  if (args.validate) {
+    vtrace = drives::read_position_trace_csv(*args.validate);
+    if (std::abs(vtrace->period_s - trace.period_s) > 1e-6 * trace.period_s)
+      throw core::Error(core::located(args.validate->string(), 0,
+                                      fmt::format("sampled every {} s, the trace every {} s", vtrace->period_s, trace.period_s)));
+  }
+  std::vector<std::string> axes = args.axes.empty() ? trace.axes : args.axes;
+  for (const auto& a : axes) {
+    if (trace.axis_index(a) < 0)
+      throw core::Error(core::located(trace.source, 0, fmt::format("--axis {}: the trace has no columns for it", a)));
+    if (vtrace && vtrace->axis_index(a) < 0)
+      throw core::Error(core::located(vtrace->source, 0, fmt::format("--axis {}: the trace has no columns for it", a)));
+  }
+  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
+
+  nlohmann::json report;
+  report["vmsim"] = VMSIM_VERSION;
+  report["command"] = "identify";
+  report["inputs"]["trace"] = {{"path", args.trace.string()}, {"sha256", core::sha256_file_hex(args.trace)}};
+  if (args.validate)
+    report["inputs"]["validation_trace"] = {{"path", args.validate->string()}, {"sha256", core::sha256_file_hex(*args.validate)}};
+  report["period_s"] = trace.period_s;
+  report["conditioning"] =
+      "deviations from the first (rest) sample of command and encoder, one common scale for both; QR least squares";
+  report["orders_from"] = auto_orders ? "BIC over ARX fits (na 1-8, nb 1-4, nk 1-5)" : "given (seed 001 section 2.2: nb 2, na 5)";
+  report["validation"] = vtrace ? "separate trace" : "the trace's second half (model simulated over the whole record)";
+
+  drives::AxisModelFile file;
+  file.period_s = trace.period_s;
+  file.trace = args.trace.filename().string();
+  std::printf("axis  structure  na nb nc nk   fit %%      tracking fit %%  1-R2        MSE (mm2|deg2)  white  rank\n");
+  for (const std::string& name : axes) {
+    const int ai = trace.axis_index(name);
+    const bool rotary = trace.rotary[static_cast<std::size_t>(ai)];
+    const drives::IdData all = deviations(trace, ai);
+    drives::IdData est = all;
+    Eigen::Index first_val = 0;
+    drives::IdData val;
+    if (vtrace) {
+      val = deviations(*vtrace, vtrace->axis_index(name));
+    } else {
+      const Eigen::Index half = all.u.size() / 2;
+      est.u = all.u.head(half);
+      est.y = all.y.head(half);
+      val = all;
+      first_val = half;
+    }
+    if (std::abs(trace.command(0, ai) - trace.actual(0, ai)) > 1e-3 * (rotary ? 3.14159265358979 / 180.0 : 1.0))
+      std::fprintf(stderr, "vmsim: warning: axis %s: the trace does not start at rest (command and encoder differ by "
+                           "%.4g); identification assumes it does\n",
+                   name.c_str(), std::abs(trace.command(0, ai) - trace.actual(0, ai)));
+    drives::ModelOrders o = given;
+    try {
+      if (auto_orders) {
+        o = drives::select_orders_bic(est);
+        o.nc = args.nc;
+      }
+      if (delay) o.nk = *delay;
+      else if (!auto_orders) o.nk = drives::select_delay(est, o.na, o.nb);
+    } catch (const core::Error& e) {
+      throw core::Error(core::located(trace.source, 0, fmt::format("axis {}: {}", name, e.what())));
+    }
+
+    struct Row { drives::IdentifiedModel m; drives::Validation v; double seconds; };
+    std::vector<Row> rows;
+    for (drives::ModelStructure s : structures) {
+      const auto t0 = Clock::now();
+      try {
+        drives::IdentifiedModel m = drives::identify(s, est, o);
+        const drives::Validation v = drives::validate(m, val, 25, first_val);
+        rows.push_back({std::move(m), v, std::chrono::duration<double>(Clock::now() - t0).count()});
+      } catch (const core::Error& e) {
+        throw core::Error(core::located(trace.source, 0, fmt::format("axis {} {}: {}", name, drives::structure_name(s), e.what())));
+      }
+    }
+    std::vector<std::size_t> rank(rows.size());
+    for (std::size_t i = 0; i < rank.size(); ++i) rank[i] = i;
+    // A model whose validation is not finite (a search that failed) ranks last.
+    auto key = [&](std::size_t i) { return std::isfinite(rows[i].v.mse) ? rows[i].v.mse : HUGE_VAL; };
+    std::stable_sort(rank.begin(), rank.end(), [&](std::size_t a, std::size_t b) { return key(a) < key(b); });
+    std::vector<int> place(rows.size());
+    for (std::size_t r = 0; r < rank.size(); ++r) place[rank[r]] = static_cast<int>(r) + 1;
+
+    const double f2 = rotary ? std::pow(180.0 / 3.14159265358979323846, 2) : 1.0;
+    nlohmann::json jaxis;
+    jaxis["unit"] = rotary ? "deg" : "mm";
+    jaxis["orders"] = {{"na", o.na}, {"nb", o.nb}, {"nc", o.nc}, {"nk", o.nk}};
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const Row& r = rows[i];
+      const char* sn = drives::structure_name(r.m.structure);
+      std::printf("%-4s  %-9s  %2d %2d %2s %2d   %9.5f  %9.3f       %.3e   %.3e       %-5s  %d\n", name.c_str(), sn,
+                  r.m.orders.na, r.m.orders.nb,
+                  r.m.structure == drives::ModelStructure::Armax ? std::to_string(r.m.orders.nc).c_str() : "-",
+                  r.m.orders.nk, r.v.fit_percent, r.v.tracking_fit_percent, 1.0 - r.v.r2, r.v.mse * f2,
+                  r.v.white ? "yes" : "no", place[i]);
+      nlohmann::json jm = {
+          {"rank", place[i]},
+          {"b", poly_json(r.m.g.b)},
+          {"a", poly_json(r.m.g.a)},
+          {"nk", r.m.g.nk},
+          {"static_gain", r.m.g.static_gain()},
+          {"largest_pole_magnitude", drives::spectral_radius(r.m.g.a)},
+          {"estimation_loss", r.m.loss * f2},
+          {"iterations", r.m.iterations},
+          {"converged", r.m.converged},
+          {"seconds", r.seconds},
+          {"validation",
+           {{"fit_percent", r.v.fit_percent},
+            {"tracking_fit_percent", r.v.tracking_fit_percent},
+            {"r2", r.v.r2},
+            {"one_minus_r2", 1.0 - r.v.r2},
+            {"mse", r.v.mse * f2},
+            {"max_abs_error", r.v.max_abs_error * std::sqrt(f2)},
+            {"whiteness", {{"portmanteau_q", r.v.portmanteau_q}, {"limit_99", r.v.portmanteau_limit}, {"lags", r.v.lags},
+                           {"max_abs_autocorrelation", r.v.max_abs_autocorrelation},
+                           {"band_99", r.v.whiteness_bound}, {"white", r.v.white}}}}}};
+      if (r.m.c.size() > 0) jm["c"] = poly_json(r.m.c);
+      jaxis["models"][sn] = jm;
+    }
+    const std::size_t chosen = use ? static_cast<std::size_t>(
+                                         std::find_if(rows.begin(), rows.end(), [&](const Row& r) { return r.m.structure == *use; }) -
+                                         rows.begin())
+                                   : rank.front();
+    const Row& c = rows[chosen];
+    jaxis["chosen"] = drives::structure_name(c.m.structure);
+    report["axes"][name] = jaxis;
+    drives::IdentifiedAxis ia;
+    ia.name = name;
+    ia.structure = c.m.structure;
+    ia.tf = c.m.g;
+    ia.c = c.m.c;
+    ia.fit_percent = c.v.fit_percent;
+    ia.tracking_fit_percent = c.v.tracking_fit_percent;
+    file.axes.push_back(ia);
+  }
+
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  std::vector<std::string> comments = {
+      "Identified axis models (seed 001): discrete transfer functions from command to encoder position,",
+      "A(q) y(k) = B(q) u(k - nk), A = 1 + a1 q^-1 + ..., B = b1 + b2 q^-1 + ...; u, y deviations from the rest point.",
+      "Written by vmsim identify from " + args.trace.filename().string() + "; keys in parts/README.md."};
+  drives::save_axis_models(dir / "axis_models.toml", file, comments);
+  report["files"] = {"axis_models.toml", "report.json"};
+  report["timings_s"] = {{"total", std::chrono::duration<double>(Clock::now() - t_start).count()}};
+  core::write_file_atomic(dir / "report.json", report.dump(2) + "\n");
+  std::printf("chosen:");
+  for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), drives::structure_name(a.structure));
+  std::printf(" (lowest validation MSE%s)\nwrote %s (axis_models.toml, report.json)\n", use ? ", overridden by --use" : "",
+              dir.string().c_str());
+  return 0;
+}
+
+}  // namespace vmsim::app

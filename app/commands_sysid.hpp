@@ -1,0 +1,54 @@
+#pragma once
+// The seed 001 subcommands: excite, identify (transfer functions from a position trace), compensate.
+// main.cpp parses the command line; each returns the exit code and throws core::Error for input a user must fix.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vmsim::app {
+
+struct ExciteArgs {
+  std::string axis;                              // X Y Z A B C
+  std::filesystem::path machine;
+  std::filesystem::path out;                     // .ngc (G-code) or .csv (setpoints every Te)
+  std::string signal = "inverse-m";              // inverse-m | prbs
+  std::optional<int> bits;                       // register length n (default: from resolution_hz)
+  double resolution_hz = 1.0;                    // frequency resolution 1 / signal period (eq. 11-12)
+  double bandwidth_hz = 100.0;                   // the axis bandwidth the signal must cover (eq. 14-15)
+  std::optional<double> td_ms;                   // Td, overrides bandwidth_hz
+  double amplitude = 0.05;                       // mm or deg
+  double feed = 1200.0;                          // superimposed constant velocity, mm/min or deg/min (0: none)
+  int periods = 4;
+  std::optional<double> start;                   // mm or deg (default: centred in the travel)
+  double period_ms = 1.0;                        // Te
+  std::optional<std::filesystem::path> simulate; // also run it on the machine's drive: a position trace CSV
+};
+int run_excite(const ExciteArgs& args);
+
+struct SysidArgs {
+  std::filesystem::path trace;                   // position trace CSV (drives/position_trace.hpp)
+  std::optional<std::filesystem::path> validate; // separate validation trace (default: the trace's second half)
+  std::vector<std::string> axes;                 // default: every axis in the trace
+  std::string structure = "all";                 // arx | armax | oe | all
+  std::string orders = "2,5";                    // nb,na (seed 001: 2,5) or auto (BIC)
+  int nc = 2;                                    // ARMAX noise order
+  std::string delay = "auto";                    // nk in samples, or auto (smallest ARX loss over 1..5)
+  std::string use = "best";                      // structure written to the model file: best (validation MSE) or one
+  std::optional<std::filesystem::path> out_dir;  // axis_models.toml, report.json
+};
+// vmsim identify --trace TRACE.csv: ARX / ARMAX / OE per axis, validated, ranked (seed 001 Table 2).
+int run_sysid(const SysidArgs& args);
+
+struct CompensateArgs {
+  std::filesystem::path job;
+  std::optional<std::filesystem::path> out_dir;
+  std::optional<std::filesystem::path> axis_models;  // predict with these identified models (default: the job's)
+  int buffer_samples = 0;                        // m of the foot-point search (0: automatic)
+  int max_iterations = 6;
+};
+// vmsim compensate JOB: predicted contour error added back to the setpoints (seed 001 section 4); compensated
+// setpoints CSV, compensated G-code, report.json with the contour error before and after.
+int run_compensate(const CompensateArgs& args);
+
+}  // namespace vmsim::app

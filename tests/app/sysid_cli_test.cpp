@@ -1,0 +1,243 @@
+// vmsim excite / identify end to end, as a user runs them on a machine: the excitation G-code of seed 001 (inverse
+// M-sequence on a ramp) run as a job through `vmsim motion` (the NC's interpolator and the Mikron X cascade drive of
+// parts/machines/mikron_ucp710.toml), its trace.csv identified by `vmsim identify` (ARX, ARMAX, OE, orders 2/5), and a
+// job on a DIFFERENT trajectory (a circle) run with [job] axis_models = the identified X. References: the cascade
+// itself (the identified X must reproduce its positions on the circle with fit >= 99 %, the issue's criterion, and
+// its tracking error within 5 %); the error conventions of DESIGN.md (exit 2, the file / option named, nothing
+// half-written).
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliResult {
+  int code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+class Dir {
+ public:
+  Dir() {
+    std::random_device rd;
+    dir_ = fs::temp_directory_path() / ("vmsim_sysid_cli_" + std::to_string(rd()) + std::to_string(rd()));
+    fs::create_directories(dir_);
+  }
+  ~Dir() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  const fs::path& path() const { return dir_; }
+
+ private:
+  fs::path dir_;
+};
+
+CliResult run_vmsim(const std::string& args, const Dir& d) {
+  const fs::path out = d.path() / "stdout.txt", err = d.path() / "stderr.txt";
+  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(cmd.c_str());
+  CliResult r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+void write(const fs::path& p, const std::string& s) {
+  std::ofstream f(p, std::ios::binary);
+  f << s;
+}
+
+const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+
+// One column of a CSV with a header row ('#' lines skipped).
+std::vector<double> csv_column(const fs::path& p, const std::string& name) {
+  std::ifstream in(p);
+  std::string line;
+  int col = -1;
+  std::vector<double> v;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    if (col < 0) {
+      for (std::size_t i = 0; i < cells.size(); ++i)
+        if (cells[i] == name) col = static_cast<int>(i);
+      if (col < 0) return v;
+      continue;
+    }
+    v.push_back(std::stod(cells[static_cast<std::size_t>(col)]));
+  }
+  return v;
+}
+
+// 100 (1 - |y - yhat| / |y - mean y|): seed 001's fit, computed here independently of drives/sysid.
+double fit_percent(const std::vector<double>& y, const std::vector<double>& yhat) {
+  double mean = 0;
+  for (double x : y) mean += x;
+  mean /= static_cast<double>(y.size());
+  double e2 = 0, t2 = 0;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    e2 += (y[k] - yhat[k]) * (y[k] - yhat[k]);
+    t2 += (y[k] - mean) * (y[k] - mean);
+  }
+  return 100.0 * (1.0 - std::sqrt(e2 / t2));
+}
+
+std::string job_toml(const std::string& name, const std::string& program, const std::string& start,
+                     const std::string& extra = "") {
+  return "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + program +
+         "\"\nstart_mm = " + start + "\n" + extra + "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n";
+}
+
+TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
+  Dir d;
+  const fs::path p = d.path();
+  // 1. The excitation program for X (Td from a 40 Hz bandwidth: 10 ms; 7 bits; 4 periods on 1.2 m/min).
+  CliResult r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "excite_x.ngc").string() +
+                              "' --bandwidth-hz 40 --bits 7 --amplitude 0.05 --feed 1200 --periods 4",
+                          d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string ngc = slurp(p / "excite_x.ngc");
+  ASSERT_NE(ngc.find("G1 X"), std::string::npos);
+  // Its first move is "G0 X<start>": the job starts there at rest.
+  const auto g0 = ngc.find("G0 X");
+  ASSERT_NE(g0, std::string::npos);
+  const double x0 = std::stod(ngc.substr(g0 + 4));
+  write(p / "excite.toml", job_toml("excite_x", "excite_x.ngc", "[" + std::to_string(x0) + ", 0.0, 0.0]"));
+
+  // 2. Run it: the trace the NC would log.
+  r = run_vmsim("motion '" + (p / "excite.toml").string() + "' --out '" + (p / "m_excite").string() + "'", d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(p / "m_excite" / "trace.csv"));
+
+  // 3. Identify: three structures, ranked; the chosen one in axis_models.toml.
+  r = run_vmsim("identify --trace '" + (p / "m_excite" / "trace.csv").string() +
+                    "' --structure all --orders 2,5 --out '" + (p / "id").string() + "'",
+                d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::printf("%s", r.out.c_str());
+  const nlohmann::json rep = nlohmann::json::parse(slurp(p / "id" / "report.json"));
+  const auto& x = rep["axes"]["X"];
+  std::vector<int> ranks;
+  for (const char* s : {"arx", "armax", "oe"}) {
+    ASSERT_TRUE(x["models"].contains(s)) << s;
+    ranks.push_back(x["models"][s]["rank"].get<int>());
+    EXPECT_GE(x["models"][s]["validation"]["fit_percent"].get<double>(), 99.0) << s;
+    EXPECT_EQ(x["models"][s]["a"].size(), 5u);
+    EXPECT_EQ(x["models"][s]["b"].size(), 2u);
+  }
+  std::sort(ranks.begin(), ranks.end());
+  EXPECT_EQ(ranks, (std::vector<int>{1, 2, 3}));
+  const std::string chosen = x["chosen"].get<std::string>();
+  EXPECT_EQ(x["models"][chosen]["rank"].get<int>(), 1);
+  ASSERT_TRUE(fs::exists(p / "id" / "axis_models.toml"));
+
+  // 4. Another trajectory: a circle of radius 20 mm at 3 m/min, on the cascades and on the identified X.
+  write(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
+  write(p / "circle_cascade.toml", job_toml("circle_cascade", "circle.ngc", "[0.0, 0.0, 0.0]"));
+  write(p / "circle_identified.toml",
+        job_toml("circle_identified", "circle.ngc", "[0.0, 0.0, 0.0]",
+                 "axis_models = \"" + (p / "id" / "axis_models.toml").string() + "\""));
+  r = run_vmsim("motion '" + (p / "circle_cascade.toml").string() + "' --out '" + (p / "m_cascade").string() + "'", d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run_vmsim("motion '" + (p / "circle_identified.toml").string() + "' --out '" + (p / "m_identified").string() + "'",
+                d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json mrep = nlohmann::json::parse(slurp(p / "m_identified" / "report.json"));
+  ASSERT_TRUE(mrep.contains("axis_models"));
+  EXPECT_EQ(mrep["axis_models"]["identified_axes"], nlohmann::json::array({"X"}));
+  const auto cmd = csv_column(p / "m_cascade" / "trace.csv", "X_command_mm");
+  const auto y_cascade = csv_column(p / "m_cascade" / "trace.csv", "X_actual_mm");
+  const auto y_ident = csv_column(p / "m_identified" / "trace.csv", "X_actual_mm");
+  ASSERT_GT(y_cascade.size(), 1000u);
+  ASSERT_EQ(y_cascade.size(), y_ident.size());
+  const double fit = fit_percent(y_cascade, y_ident);
+  std::vector<double> lag_c(cmd.size()), lag_i(cmd.size());
+  for (std::size_t k = 0; k < cmd.size(); ++k) lag_c[k] = cmd[k] - y_cascade[k], lag_i[k] = cmd[k] - y_ident[k];
+  const double tracking_fit = fit_percent(lag_c, lag_i);
+  std::printf("circle, X identified vs cascade: position fit %.5f %%, tracking-error fit %.3f %%\n", fit, tracking_fit);
+  EXPECT_GE(fit, 99.0);
+  EXPECT_GE(tracking_fit, 95.0);
+  // Y has no identified model: it runs its cascade in both jobs, to the same positions.
+  EXPECT_EQ(csv_column(p / "m_cascade" / "trace.csv", "Y_actual_mm"), csv_column(p / "m_identified" / "trace.csv", "Y_actual_mm"));
+}
+
+TEST(SysidCli, ExciteCsvAndSimulatedTraceIdentifyOnTheirOwn) {
+  Dir d;
+  const fs::path p = d.path();
+  CliResult r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "x.csv").string() +
+                              "' --bits 6 --td-ms 5 --periods 4 --simulate '" + (p / "trace.csv").string() + "'",
+                          d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  // Inverse M-sequence of 6 bits: 2 (2^6 - 1) = 126 switching intervals of 5 samples per period, 4 periods, plus the
+  // rests (0.1 s each side), the ramps (0.1 s each) and the final sample.
+  EXPECT_EQ(csv_column(p / "x.csv", "X_mm").size(), static_cast<std::size_t>(126 * 5 * 4 + 400 + 1));
+  r = run_vmsim("identify --trace '" + (p / "trace.csv").string() + "' --structure arx --orders 2,5 --out '" +
+                    (p / "id").string() + "'",
+                d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json rep = nlohmann::json::parse(slurp(p / "id" / "report.json"));
+  EXPECT_EQ(rep["axes"]["X"]["chosen"], "arx");
+  EXPECT_FALSE(rep["axes"]["X"]["models"].contains("oe"));
+}
+
+TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
+  Dir d;
+  const fs::path p = d.path();
+  write(p / "trace.csv", "t_s,X_command_mm,X_actual_mm\n0,0,0\n0.001,0.1,0\n0.002,oops,0.05\n");
+  CliResult r = run_vmsim("identify --trace '" + (p / "trace.csv").string() + "' --out '" + (p / "id").string() + "'", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("trace.csv:4"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p / "id" / "axis_models.toml"));
+
+  r = run_vmsim("identify --trace '" + (p / "trace.csv").string() + "' --structure bj", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--structure 'bj'"), std::string::npos) << r.err;
+  r = run_vmsim("identify --trace '" + (p / "trace.csv").string() + "' --orders 5", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--orders '5'"), std::string::npos) << r.err;
+
+  r = run_vmsim("excite Q --machine '" + kMachine + "' --out '" + (p / "q.ngc").string() + "'", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("no axis Q"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p / "q.ngc"));
+  // An excitation that leaves the travel says so and writes nothing.
+  r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "x.ngc").string() + "' --feed 30000 --periods 50", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("outside axis X's travel"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p / "x.ngc"));
+
+  // A model file at another Te than the job's: the job names the model file.
+  write(p / "models.toml", "[model]\nperiod_ms = 2.0\n\n[[axes]]\nname = \"X\"\nstructure = \"arx\"\na = [-0.5]\nb = [0.5]\nnk = 1\n");
+  write(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
+  write(p / "job.toml", job_toml("j", "circle.ngc", "[0.0, 0.0, 0.0]", "axis_models = \"models.toml\""));
+  r = run_vmsim("motion '" + (p / "job.toml").string() + "' --out '" + (p / "m").string() + "'", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("models.toml"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("period_ms"), std::string::npos) << r.err;
+}
+
+}  // namespace
