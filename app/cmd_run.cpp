@@ -1,5 +1,6 @@
 // vmsim run JOB: the whole chain. Program -> interpolator -> drives -> kinematics -> material removal -> surfaces,
 // and the marks: the signed deviation of the predicted surface from the reference surface.
+#include "app/axis_following.hpp"
 #include "app/axis_models.hpp"
 #include "app/commands.hpp"
 #include "app/contour_stats.hpp"
@@ -8,6 +9,7 @@
 #include "app/report.hpp"
 #include "app/result_images.hpp"
 #include "app/signals.hpp"
+#include "app/tool_poses.hpp"
 #include "core/atomic_file.hpp"
 #include "core/contour.hpp"
 #include "core/error.hpp"
@@ -109,6 +111,13 @@ double tlo_at(const Motion& m, Eigen::Index k) {
 // Tool-tip track of the motion that cuts.
 removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind) {
   removal::PoseTrack tr;
+  if (kind == core::RemovalSpec::Motion::Program && job.machine.kinematics == "chain" && program_turns_tool(m.program)) {
+    // A five-axis program: tool tip and axis along the programmed moves (app/tool_poses.hpp), sampled within a tenth
+    // of the track tolerance as the arcs below are.
+    const auto kin = core::make_kinematics(job.machine);
+    return program_pose_track(m.program, core::toolpath_in_axis_space(m.program, job.machine), *kin, job.machine,
+                              removal::make_tool(job.tool), 0.1 * job.removal.track_tolerance_mm);
+  }
   if (kind == core::RemovalSpec::Motion::Program) {
     // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
     // tenth of the track tolerance (the kernel's sweeps are exact between points).
@@ -157,21 +166,11 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
   const core::Setpoints& sp = m.interp.setpoints;
   const bool actual = kind == core::RemovalSpec::Motion::Actual;
   const Eigen::MatrixXd& axes = actual ? m.response->position : sp.position;
-  const Eigen::Index n = axes.rows();
-  tr.period_s = sp.period_s;
-  tr.tip_mm.resize(n, 3);
-  for (Eigen::Index k = 0; k < n; ++k)
-    tr.tip_mm.row(k) = kin->forward(axes.row(k).transpose(), tlo_at(m, k)).tip_mm.transpose();
-  if (actual) {
-    // Between Te samples the axes move along the cubic through both samples with the drives' velocities
-    // (Cartesian machine: tip velocity = X Y Z velocity).
-    tr.tip_velocity_mm_per_s.resize(n, 3);
-    for (Eigen::Index k = 0; k < n; ++k) {
-      const Eigen::VectorXd v = m.response->velocity.row(k).transpose();
-      for (int c = 0; c < 3; ++c) tr.tip_velocity_mm_per_s(k, c) = v[job.machine.axis_index(c)];
-    }
-  }
-  return tr;
+  // Tool tip and axis per sample through the forward transform (a turning axis on five-axis machines). Between Te
+  // samples of the actual motion the tip follows the cubic through both samples with the drives' velocities through
+  // the chain's Jacobian (Cartesian machine: the X Y Z velocities).
+  return pose_track_from_axes(*kin, job.machine, axes, actual ? &m.response->velocity : nullptr, sp.period_s,
+                              [&](Eigen::Index k) { return tlo_at(m, k); });
 }
 
 // The stock's dexels.
@@ -549,7 +548,10 @@ int run_run(const RunArgs& args) {
                        {"motion", motion_name(job.removal.motion)},
                        {"track_points", ts.points},
                        {"sweeps", ts.sweeps.size()},
-                       {"track_tolerance_mm", job.removal.track_tolerance_mm}};
+                       {"track_tolerance_mm", job.removal.track_tolerance_mm},
+                       {"track_error_bound_mm", ts.error_bound_mm},
+                       {"tool_axis_turns", track.axis_per_sample.rows() > 0},
+                       {"orientation_error_mm", ts.orientation_error_mm}};
   report["reference"] = ref_name;
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
@@ -559,6 +561,13 @@ int run_run(const RunArgs& args) {
     report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
                                {"setpoints", motion.interp.setpoints.samples()},
                                {"period_s", motion.interp.setpoints.period_s}};
+  if (motion.response) {
+    // Follow-up error of every axis (seed 004 section 4 reports the rotary axes' in degrees) and of the tool axis.
+    const auto kin = core::make_kinematics(job.machine);
+    report["axis_following_error"] =
+        axis_following_json(job.machine, motion.interp.setpoints, motion.response->position, kin.get(),
+                            [&](Eigen::Index k) { return tlo_at(motion, k); });
+  }
   std::optional<ContourStats> cutting;
   if (motion.contour) {
     cutting = cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
