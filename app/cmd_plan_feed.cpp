@@ -241,14 +241,22 @@ int run_plan_feed(const PlanFeedArgs& args) {
   drives::FeedPlanOptions opt_free = opt;  // the same plan without the contour-error constraint
   opt_free.limits.contour_error_mm = 0.0;
 
-  // Plans and their play.
+  // Plans and their play (a line per stage on stderr: DESIGN.md, long runs show progress).
+  auto progress = [&](const char* what) {
+    std::fprintf(stderr, "plan-feed: %s (%.1f s)\n", what, seconds_since(t_start));
+    std::fflush(stderr);
+  };
+  progress("path sampled; simulating the programmed feed");
   auto t0 = Clock::now();
   const drives::PlayedPlan no_plan = drives::play_plan(player, samples, nullptr);
+  progress("planning and simulating without the contour-error constraint");
   const drives::FeedPlan free_plan = drives::plan_feed(samples, opt_free);
   const drives::PlayedPlan free_played = drives::play_plan(player, samples, &free_plan);
+  progress("planning with the contour-error constraint, simulating, verifying");
   drives::VerifyOptions vo;
   if (!spec.verify) vo.max_rounds = 1;
   const drives::VerifiedPlan ver = drives::plan_feed_verified(samples, opt, player, vo);
+  progress("writing");
   const double t_plans = seconds_since(t0);
   const drives::FeedPlan& plan = ver.plan;
   const drives::PlayedPlan& played = ver.played;
