@@ -246,6 +246,17 @@ int main(int argc, char** argv) {
   sysid->add_option("--use", sysid_args.use, "structure written to the model file: best (lowest validation MSE, default), arx, armax or oe");
   sysid->add_option("--out,-o", sysid_args.out_dir, "output directory for axis_models.toml and report.json");
 
+  vmsim::app::CompensateArgs comp_args;
+  auto* compensate = app.add_subcommand(
+      "compensate", "Predict a job's contour error and add it back to the setpoints (seed 001): compensated setpoints, "
+                    "a compensated G-code program, contour error before and after");
+  compensate->add_option("JOB", comp_args.job, "job file (job.toml)")->required()->check(CLI::ExistingFile);
+  compensate->add_option("--out,-o", comp_args.out_dir, "output directory (created if absent)");
+  compensate->add_option("--axis-models", comp_args.axis_models,
+                         "predict with these identified models (default: the job's [job] axis_models, else the machine's cascades)");
+  compensate->add_option("--buffer", comp_args.buffer_samples, "foot-point search buffer m, odd (default 0: automatic)");
+  compensate->add_option("--iterations", comp_args.max_iterations, "largest number of corrections (default 6)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -260,6 +271,7 @@ int main(int argc, char** argv) {
     if (*oga) return vmsim::app::run_oga(oga_args);
     if (*excite) return vmsim::app::run_excite(excite_args);
     if (*sysid) return vmsim::app::run_sysid(sysid_args);
+    if (*compensate) return vmsim::app::run_compensate(comp_args);
     if (*run) return vmsim::app::run_run(run_args);
     if (*render) return vmsim::app::run_render(render_args);
     if (*stats) return vmsim::app::run_stats(stats_args);

@@ -240,4 +240,40 @@ TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
   EXPECT_NE(r.err.find("period_ms"), std::string::npos) << r.err;
 }
 
+TEST(SysidCli, CompensateTheStarfishWritesSetpointsProgramAndReport) {
+  // vmsim compensate on parts/starfish (seed 001 section 5) with the machine file's cascades as the prediction:
+  // report.json's figures (reference: seed 001's mean reduction, -61.76 %), the limits, and the compensated program
+  // readable by vmsim's own G-code reader and interpolator.
+  Dir d;
+  const fs::path p = d.path();
+  CliResult r = run_vmsim("compensate '" + std::string(VMSIM_SOURCE_DIR) + "/parts/starfish/job.toml' --out '" +
+                              (p / "c").string() + "'",
+                          d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json rep = nlohmann::json::parse(slurp(p / "c" / "report.json"));
+  const auto& ce = rep["contour_error"]["predicted"];
+  std::printf("starfish: max %.3f -> %.3f um, mean %.3f -> %.3f um\n", ce["before"]["max_mm"].get<double>() * 1e3,
+              ce["after"]["max_mm"].get<double>() * 1e3, ce["before"]["mean_mm"].get<double>() * 1e3,
+              ce["after"]["mean_mm"].get<double>() * 1e3);
+  EXPECT_LT(ce["after"]["max_mm"].get<double>(), ce["before"]["max_mm"].get<double>());
+  EXPECT_LT(ce["after"]["mean_mm"].get<double>(), (1.0 - 0.6176) * ce["before"]["mean_mm"].get<double>());
+  EXPECT_TRUE(rep["limits"]["compensated_within_limits"].get<bool>());
+  for (const char* a : {"X", "Y"})
+    EXPECT_LE(rep["limits"]["compensated"][a]["peak_jerk_mm_per_s3"].get<double>(),
+              rep["limits"]["compensated"][a]["limit_jerk_mm_per_s3"].get<double>() * (1 + 1e-6));
+  ASSERT_TRUE(fs::exists(p / "c" / "compensated_setpoints.csv"));
+  ASSERT_TRUE(fs::exists(p / "c" / "contour_errors.csv"));
+  // The compensated program runs through vmsim's reader and interpolator.
+  write(p / "c" / "job.toml", job_toml("compensated", "compensated.ngc", "[30.0, 0.0, 0.0]"));
+  r = run_vmsim("interp '" + (p / "c" / "job.toml").string() + "' --summary-only", d);
+  EXPECT_EQ(r.code, 0) << r.err;
+  // Bad options name themselves.
+  r = run_vmsim("compensate '" + std::string(VMSIM_SOURCE_DIR) + "/parts/starfish/job.toml' --buffer 10 --out '" +
+                    (p / "bad").string() + "'",
+                d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--buffer 10"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p / "bad" / "report.json"));
+}
+
 }  // namespace

@@ -1,0 +1,170 @@
+// Predictive contour-error compensation (seed 001 section 4, drives/compensate) on the simulated machine: a circle and
+// the starfish of parts/starfish (seed 001 section 5), both on the Mikron UCP 710 of parts/machines (never changed
+// here). The "machine" is the cascade drive model of the machine file; the compensated setpoints are run on it and
+// their contour error measured by core/contour (the exact foot point on the planned tip path, an implementation
+// independent of the compensation's own two-step search) on the cutting moves. References: the same measure on the
+// uncompensated setpoints (seed 001 Fig. 13 compares the same two runs; it measured max 0.0135 -> 0.0078 mm and
+// -61.76 % mean on its starfish), and the axis limits of the machine file checked by core::finite_difference_peaks
+// (the interpolator's own limit check), not by the compensation's check_axis_limits, which must agree with it.
+#include "core/contour.hpp"
+#include "core/interp.hpp"
+#include "core/job.hpp"
+#include "core/kinematics.hpp"
+#include "core/program.hpp"
+#include "drives/compensate.hpp"
+#include "drives/simulate.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+namespace fs = std::filesystem;
+
+namespace vmsim {
+namespace {
+
+struct Stats {
+  double max_abs_mm = 0, mean_abs_mm = 0;
+};
+
+struct Outcome {
+  Stats before, after;
+  core::AxisPeaks peaks_after;
+  std::vector<drives::AxisLimitCheck> checks_after;
+  core::Machine machine;
+  int iterations = 0;
+};
+
+// |CE| over the samples on cutting (feed) moves (settling rows count with the last move), as vmsim motion reports it.
+Stats cutting(const core::ContourError& ce, const core::Setpoints& sp, const core::ToolPath& program) {
+  Stats st;
+  double s = 0;
+  Eigen::Index n = 0;
+  for (Eigen::Index k = 0; k < ce.signed_mm.size(); ++k) {
+    const int mi = sp.move_index[std::min(k, sp.samples() - 1)];
+    if (mi < 0 || program.moves[static_cast<std::size_t>(mi)].rapid) continue;
+    st.max_abs_mm = std::max(st.max_abs_mm, std::abs(ce.signed_mm[k]));
+    s += std::abs(ce.signed_mm[k]);
+    ++n;
+  }
+  st.mean_abs_mm = n ? s / static_cast<double>(n) : 0.0;
+  return st;
+}
+
+// The job's program as vmsim reads it (app/job_program: the tool tip starts at [job] start_mm).
+core::ToolPath job_program(const core::Job& job) {
+  core::ProgramOptions popt;
+  popt.tool_table = job.tool_table_file;
+  popt.no_motion_mcodes = job.no_motion_mcodes;
+  if (job.start_mm) popt.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
+  core::ToolPath tp = core::read_program(job.program_file, popt);
+  if (job.start_mm && !tp.moves.empty()) {
+    core::Move& first = tp.moves.front();
+    first.start.head<3>() = *job.start_mm;
+    tp.initial_position = first.start;
+    tp.initial_position[core::kZ] += first.tool_length_offset_mm;
+  }
+  return tp;
+}
+
+Outcome compensate_job(const fs::path& job_file) {
+  const core::Job job = core::load_job(job_file);
+  const core::ToolPath program = job_program(job);
+  core::InterpOptions io;
+  io.period_s = job.interp.period_s;
+  io.tolerance_mm = job.interp.tolerance_mm;
+  const core::InterpResult ir = core::interpolate(core::toolpath_in_axis_space(program, job.machine), job.machine, io);
+  const core::Setpoints& sp = ir.setpoints;
+  const auto kin = core::make_kinematics(job.machine);
+  Eigen::VectorXd tlo(sp.samples());
+  for (Eigen::Index k = 0; k < sp.samples(); ++k) {
+    const int mi = sp.move_index[k];
+    tlo[k] = mi >= 0 ? program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
+  }
+  auto run = [&](const Eigen::MatrixXd& setpoints) {
+    core::Setpoints s = sp;
+    s.position = setpoints;
+    return drives::simulate_axes(s, job.machine).position;
+  };
+  drives::CompensationProblem p;
+  p.setpoints = &sp;
+  p.kinematics = kin.get();
+  p.tool_length_offset_mm = tlo;
+  p.predict = run;
+  drives::CompensateOptions copt;
+  copt.limits = &job.machine;
+  const drives::CompensationResult res = drives::compensate_contour(p, copt);
+
+  Outcome o;
+  o.machine = job.machine;
+  o.iterations = static_cast<int>(res.iterations.size()) - 1;
+  const Eigen::MatrixXd cmd = drives::tool_tips(*kin, sp.position, tlo);
+  const core::ContourError ce0 = core::contour_error(cmd, drives::tool_tips(*kin, run(sp.position), tlo));
+  const core::ContourError ce1 = core::contour_error(cmd, drives::tool_tips(*kin, run(res.setpoints), tlo));
+  o.before = cutting(ce0, sp, program);
+  o.after = cutting(ce1, sp, program);
+  core::Setpoints comp = sp;
+  comp.position = res.setpoints;
+  o.peaks_after = core::finite_difference_peaks(comp);
+  o.checks_after = drives::check_axis_limits(res.setpoints, sp.period_s, job.machine);
+  std::printf("%s: %lld setpoints, %d iterations; contour error on the machine max %.3f -> %.3f um, mean %.3f -> "
+              "%.3f um (%+.1f %%)\n",
+              job.name.c_str(), static_cast<long long>(sp.samples()), o.iterations, o.before.max_abs_mm * 1e3,
+              o.after.max_abs_mm * 1e3, o.before.mean_abs_mm * 1e3, o.after.mean_abs_mm * 1e3,
+              100.0 * (o.after.mean_abs_mm - o.before.mean_abs_mm) / o.before.mean_abs_mm);
+  return o;
+}
+
+void expect_within_limits(const Outcome& o) {
+  for (std::size_t a = 0; a < o.machine.axes.size(); ++a) {
+    const core::MachineAxis& ax = o.machine.axes[a];
+    const auto i = static_cast<Eigen::Index>(a);
+    std::printf("  %s peaks: v %.1f / %.1f, a %.1f / %.1f, j %.0f / %.0f\n", ax.name.c_str(), o.peaks_after.velocity[i],
+                ax.max_velocity, o.peaks_after.acceleration[i], ax.max_acceleration, o.peaks_after.jerk[i], ax.max_jerk);
+    EXPECT_LE(o.peaks_after.velocity[i], ax.max_velocity * (1 + 1e-6)) << ax.name;
+    EXPECT_LE(o.peaks_after.acceleration[i], ax.max_acceleration * (1 + 1e-6)) << ax.name;
+    EXPECT_LE(o.peaks_after.jerk[i], ax.max_jerk * (1 + 1e-6)) << ax.name;
+    EXPECT_TRUE(o.checks_after[a].within()) << ax.name << ": the compensation's own check disagrees; "
+                                            << o.checks_after[a].samples_over << " samples over, first at "
+                                            << o.checks_after[a].first_over_s << " s";
+  }
+}
+
+TEST(Compensate, CircleContourErrorFallsOnTheSimulatedMachineWithinTheLimits) {
+  std::random_device rd;
+  const fs::path dir = fs::temp_directory_path() / ("vmsim_compensate_" + std::to_string(rd()));
+  fs::create_directories(dir);
+  {
+    std::ofstream(dir / "circle.ngc") << "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nG3 X20 Y0 I-20 J0\nM2\n";
+    std::ofstream(dir / "job.toml") << "[job]\nname = \"circle\"\nmachine = \"" VMSIM_SOURCE_DIR
+                                       "/parts/machines/mikron_ucp710.toml\"\nprogram = \"circle.ngc\"\n"
+                                       "start_mm = [0.0, 0.0, 0.0]\n[interpolation]\nperiod_ms = 1.0\n"
+                                       "tolerance_mm = 0.020\n";
+  }
+  const Outcome o = compensate_job(dir / "job.toml");
+  fs::remove_all(dir);
+  // The circle has an error to compensate: the steady radial lag v^2 (1 - KF^2) / (2 R Kv^2) = 6.2 um at 50 mm/s on
+  // R 20 with Kv 100 1/s, KF 0.1, and the friction's quadrant glitches.
+  EXPECT_GT(o.before.max_abs_mm, 3e-3);
+  EXPECT_LT(o.after.max_abs_mm, o.before.max_abs_mm);
+  EXPECT_LT(o.after.mean_abs_mm, (1.0 - 0.6176) * o.before.mean_abs_mm);  // at least seed 001's mean reduction
+  expect_within_limits(o);
+}
+
+TEST(Compensate, StarfishMeanContourErrorFallsAtLeastAsMuchAsSeed001WithinTheLimits) {
+  const Outcome o = compensate_job(fs::path(VMSIM_SOURCE_DIR) / "parts/starfish/job.toml");
+  EXPECT_GT(o.before.max_abs_mm, 1e-3);
+  // Seed 001: max 0.0135 -> 0.0078 mm (-42 %), mean -61.76 %. The prediction here is the machine itself, so the mean
+  // must fall at least as much; the largest errors sit at the axis reversals (friction), where the jerk limits keep
+  // most of the correction out (parts/starfish/README.md), so the maximum must only fall.
+  EXPECT_LT(o.after.max_abs_mm, o.before.max_abs_mm);
+  EXPECT_LT(o.after.mean_abs_mm, (1.0 - 0.6176) * o.before.mean_abs_mm);
+  expect_within_limits(o);
+}
+
+}  // namespace
+}  // namespace vmsim
