@@ -28,6 +28,7 @@
 #include "removal/mesh_stock.hpp"
 #include "removal/surface.hpp"
 #include "removal/track.hpp"
+#include "removal/vdb_part.hpp"
 #include "render/mesh_io.hpp"
 
 #include <fmt/format.h>
@@ -173,9 +174,12 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
                               [&](Eigen::Index k) { return tlo_at(m, k); });
 }
 
-// The stock's dexels.
+// The stock's dexels, or its level set (method "vdb": `kind` then only says which surfaces are read back).
 struct Field {
   core::RemovalSpec::Field kind = core::RemovalSpec::Field::ZMap;
+  bool vdb = false;
+  removal::VdbPart part;               // vdb
+  double vdb_estimate_bytes = 0;       // vdb: the memory stated before the run
   removal::Box region;
   double spacing_mm = 0.05;
   removal::DexelGrid zmap;
@@ -185,6 +189,7 @@ struct Field {
   double needle_half = 1.0;
 
   std::size_t rays() const {
+    if (vdb) return 0;
     switch (kind) {
       case core::RemovalSpec::Field::ZMap: return static_cast<std::size_t>(zmap.nu()) * zmap.nv();
       case core::RemovalSpec::Field::TriDexel:
@@ -195,6 +200,7 @@ struct Field {
     return 0;
   }
   std::size_t memory_bytes() const {
+    if (vdb) return part.memory_bytes();
     switch (kind) {
       case core::RemovalSpec::Field::ZMap: return zmap.memory_bytes();
       case core::RemovalSpec::Field::TriDexel: return tri.x.memory_bytes() + tri.y.memory_bytes() + tri.z.memory_bytes();
@@ -264,6 +270,10 @@ void fill_stock(Field& f, const core::Job& job, const std::optional<core::Triang
 }
 
 void cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+  if (f.vdb) {
+    f.part.cut(sweeps);
+    return;
+  }
   switch (f.kind) {
     case core::RemovalSpec::Field::ZMap: removal::cut(f.zmap, sweeps); break;
     case core::RemovalSpec::Field::TriDexel:
@@ -296,7 +306,13 @@ Field initial_field(const core::Job& job, double feed_scale, Progress& progress,
   const std::string key = std::filesystem::weakly_canonical(job.file).string();
   if (!chain.insert(key).second) throw core::Error(job.file.string() + ": the stock jobs form a cycle");
   Field f;
-  if (job.stock.kind == core::StockSpec::Kind::Job) return final_field(core::load_job(job.stock.job_file), progress, chain);
+  if (job.stock.kind == core::StockSpec::Kind::Job) {
+    Field prev = final_field(core::load_job(job.stock.job_file), progress, chain);
+    if (prev.vdb != (job.removal.method == core::RemovalSpec::Method::Vdb))
+      throw core::Error(job.file.string() + ": [removal] method differs from that of the stock job " +
+                        job.stock.job_file.string() + " (a part is carried from job to job in one kernel)");
+    return prev;
+  }
   (void)feed_scale;
   std::optional<core::TriangleMesh> mesh;
   removal::Box region;
@@ -312,6 +328,34 @@ Field initial_field(const core::Job& job, double feed_scale, Progress& progress,
   f.kind = job.removal.field;
   f.region = region;
   f.spacing_mm = job.removal.spacing_mm;
+  if (job.removal.method == core::RemovalSpec::Method::Vdb) {
+    f.vdb = true;
+    if (f.kind == core::RemovalSpec::Field::NBuffer) read_needles(job, f);
+    // The memory it will need, stated before the run: the stock's band, plus as much again for the surfaces the cuts
+    // make (removal/vdb_part.hpp's estimate; measured in report.json).
+    double area = 0;
+    if (mesh) {
+      area = removal::mesh_area_mm2(*mesh);
+    } else {
+      const Eigen::Vector3d e = region.hi - region.lo;
+      area = 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
+    }
+    const double h = job.removal.voxel_mm;
+    f.vdb_estimate_bytes = removal::estimate_level_set_bytes(2 * area, h) + removal::estimate_mesh_bytes(2 * area, h);
+    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB (stock surface %.0f mm^2, twice "
+                 "that for the cut surfaces, and the part mesh)\n", job.name.c_str(), h, f.vdb_estimate_bytes / 1e6, area);
+    const double limit = 32e9;
+    if (f.vdb_estimate_bytes > limit)
+      throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {:.1f} GB for the level "
+                                                        "set; choose a larger voxel", h, f.vdb_estimate_bytes / 1e9));
+    progress.stage(job.name + ": stock (level set)");
+    removal::VdbOptions vo;
+    vo.voxel_mm = h;
+    f.part = mesh ? removal::VdbPart::mesh(*mesh, vo, job.stock.mesh_file.string())
+                  : removal::VdbPart::box(region, vo);
+    progress.done();
+    return f;
+  }
   const double rays_limit = 4e8;  // ~3.2 GB of dexels: far beyond this machine's jobs, a typo in spacing_mm
   const Eigen::Vector3d ext = region.hi - region.lo;
   const double estimate = (ext.x() / f.spacing_mm + 1) * (ext.y() / f.spacing_mm + 1) *
@@ -333,12 +377,19 @@ Field initial_field(const core::Job& job, double feed_scale, Progress& progress,
 
 // Surface of a grid field (z-map, or the tri-dexel's Z grid).
 core::HeightGrid surface_of(const Field& f) {
+  // The level set read back along the z-map's rays (same nodes as a z-map at spacing_mm).
+  if (f.vdb) return f.part.height_grid(f.region, f.spacing_mm);
   return removal::height_grid(f.kind == core::RemovalSpec::Field::TriDexel ? f.tri.z : f.zmap);
 }
 
 // Along each needle, the surface's position relative to the nominal point (mm along the normal; NaN if empty).
 Eigen::VectorXd needle_offsets(const Field& f) {
   Eigen::VectorXd o(static_cast<Eigen::Index>(f.needles.size()));
+  if (f.vdb) {
+    const std::vector<double> top = f.part.needle_tops(f.needles);
+    for (std::size_t k = 0; k < top.size(); ++k) o[static_cast<Eigen::Index>(k)] = top[k] - f.needle_half;
+    return o;
+  }
   for (std::size_t k = 0; k < f.needles.size(); ++k) o[static_cast<Eigen::Index>(k)] = f.needles.store().top(k) - f.needle_half;
   return o;
 }
@@ -427,6 +478,29 @@ int run_run(const RunArgs& args) {
   std::vector<metrology::Mark> marks;
   nlohmann::json surface_json;
   ResultData images;  // what the pictures are drawn from
+  // Method "vdb", and tri-dexel fields (converted to a level set, removal/vdb_from_dexels.cpp): the part as a
+  // watertight, manifold mesh of its level set (volumeToMesh), each vertex with its signed distance to the reference
+  // part's level set (positive: material left; NaN beyond the reference's band of 3 voxels), and the level set
+  // itself as part.vdb.
+  nlohmann::json vdb_json;
+  auto write_level_set_part = [&](const removal::VdbPart& part, const removal::VdbPart* ref_part) {
+    core::TriangleMesh mesh = part.mesh(job.removal.mesh_adaptivity);
+    std::size_t beyond = 0;
+    if (ref_part) {
+      Eigen::VectorXd dev = ref_part->signed_distance(mesh.vertices_mm);
+      for (Eigen::Index k = 0; k < dev.size(); ++k) beyond += std::isnan(dev[k]) ? 1 : 0;
+      mesh.point_data.emplace_back("deviation_mm", std::move(dev));
+    }
+    core::write_stl_binary(dir / "part.stl", mesh);
+    render::write_vtp(dir / "part.vtp", mesh);
+    part.write_vdb(dir / "part.vdb");
+    files.insert(files.end(), {"part.stl", "part.vtp", "part.vdb"});
+    vdb_json = {{"voxel_mm", part.voxel_mm()}, {"mesh_triangles", mesh.triangles.rows()},
+                {"mesh_vertices", mesh.vertices_mm.rows()}, {"mesh_adaptivity", job.removal.mesh_adaptivity},
+                {"volume_mm3", part.volume_mm3()}};
+    if (ref_part) vdb_json["vertices_beyond_reference_band"] = beyond;
+  };
+  auto write_vdb_part = [&]() { write_level_set_part(field.part, ref && ref->vdb ? &ref->part : nullptr); };
   if (field.kind != core::RemovalSpec::Field::NBuffer) {
     const core::HeightGrid pred = surface_of(field);
     metrology::write_height_csv(dir / "surface.csv", pred);
@@ -455,13 +529,26 @@ int run_run(const RunArgs& args) {
     }
     images.surface = pred;
     images.deviation = dev;
-    const core::TriangleMesh mesh = removal::heightfield_mesh(pred, field.region.lo.z(), dev ? &*dev : nullptr);
-    core::write_stl_binary(dir / "part.stl", mesh);
-    render::write_vtp(dir / "part.vtp", mesh);
-    files.insert(files.end(), {"part.stl", "part.vtp"});
     surface_json = {{"grid", {{"x0_mm", pred.x0_mm}, {"y0_mm", pred.y0_mm}, {"dx_mm", pred.dx_mm}, {"dy_mm", pred.dy_mm},
-                              {"nx", pred.nx()}, {"ny", pred.ny()}}},
-                    {"mesh_triangles", mesh.triangles.rows()}};
+                              {"nx", pred.nx()}, {"ny", pred.ny()}}}};
+    if (field.vdb) {
+      write_vdb_part();
+      surface_json["mesh_triangles"] = vdb_json["mesh_triangles"];
+    } else if (field.kind == core::RemovalSpec::Field::TriDexel) {
+      // The tri-dexel part in 3-D (walls and undercuts the height grid cannot show), through its level set.
+      const removal::VdbPart lp = removal::VdbPart::from_tridexel(field.tri);
+      std::optional<removal::VdbPart> rl;
+      if (ref && !ref->vdb && ref->kind == core::RemovalSpec::Field::TriDexel) rl = removal::VdbPart::from_tridexel(ref->tri);
+      write_level_set_part(lp, rl ? &*rl : nullptr);
+      surface_json["mesh_triangles"] = vdb_json["mesh_triangles"];
+      surface_json["tridexel_mesh"] = vdb_json;
+    } else {
+      const core::TriangleMesh mesh = removal::heightfield_mesh(pred, field.region.lo.z(), dev ? &*dev : nullptr);
+      core::write_stl_binary(dir / "part.stl", mesh);
+      render::write_vtp(dir / "part.vtp", mesh);
+      files.insert(files.end(), {"part.stl", "part.vtp"});
+      surface_json["mesh_triangles"] = mesh.triangles.rows();
+    }
     if (dev) {
       const double lo = dev->z_mm.isNaN().select(0, dev->z_mm).minCoeff();
       const double hi = dev->z_mm.isNaN().select(0, dev->z_mm).maxCoeff();
@@ -488,6 +575,7 @@ int run_run(const RunArgs& args) {
     }
     out.commit();
     files.push_back("needles.csv");
+    if (field.vdb) write_vdb_part();
     // The needles' summary, as the grid fields give theirs: how many, how many the tool emptied (the surface lies
     // beyond their inner end), and the extremes of the deviation (overcuts negative).
     surface_json = {{"needles", field.needles.size()}, {"empty_needles", empty}};
@@ -539,7 +627,8 @@ int run_run(const RunArgs& args) {
   }
 
   nlohmann::json report = report_header("run", job);
-  report["removal"] = {{"field", field.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
+  report["removal"] = {{"method", field.vdb ? "vdb" : "dexel"},
+                       {"field", field.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
                                  : field.kind == core::RemovalSpec::Field::TriDexel ? "tridexel"
                                                                                      : "nbuffer"},
                        {"spacing_mm", field.spacing_mm},
@@ -552,6 +641,12 @@ int run_run(const RunArgs& args) {
                        {"track_error_bound_mm", ts.error_bound_mm},
                        {"tool_axis_turns", track.axis_per_sample.rows() > 0},
                        {"orientation_error_mm", ts.orientation_error_mm}};
+  if (field.vdb) {
+    report["removal"]["voxel_mm"] = job.removal.voxel_mm;
+    report["removal"]["memory_estimate_bytes"] = field.vdb_estimate_bytes;
+    report["removal"]["active_voxels"] = field.part.active_voxels();
+    report["removal"]["level_set"] = vdb_json;
+  }
   report["reference"] = ref_name;
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
@@ -586,8 +681,13 @@ int run_run(const RunArgs& args) {
   write_report(dir / "report.json", report);
   files.push_back("report.json");
 
-  std::printf("job %s: %s motion, %zu sweeps on %zu rays (%.1f MB)\n", job.name.c_str(), motion_name(job.removal.motion),
-              ts.sweeps.size(), field.rays(), field.memory_bytes() / 1e6);
+  if (field.vdb)
+    std::printf("job %s: %s motion, %zu sweeps on a level set of %zu voxels at %g mm (%.1f MB, estimated %.1f MB)\n",
+                job.name.c_str(), motion_name(job.removal.motion), ts.sweeps.size(), field.part.active_voxels(),
+                job.removal.voxel_mm, field.memory_bytes() / 1e6, field.vdb_estimate_bytes / 1e6);
+  else
+    std::printf("job %s: %s motion, %zu sweeps on %zu rays (%.1f MB)\n", job.name.c_str(),
+                motion_name(job.removal.motion), ts.sweeps.size(), field.rays(), field.memory_bytes() / 1e6);
   if (cutting)
     std::printf("contour error on cutting moves: max %.2f um, rms %.2f um\n", cutting->max_abs_mm * 1e3,
                 cutting->rms_mm * 1e3);

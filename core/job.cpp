@@ -70,6 +70,26 @@ RemovalSpec read_removal(const TomlTable& t) {
              : motion == "setpoints" ? RemovalSpec::Motion::Setpoints
                                      : RemovalSpec::Motion::Program;
   if (auto tol = t.opt_positive("track_tolerance_mm")) r.track_tolerance_mm = *tol;
+  const std::string method = t.opt_choice("method", {"dexel", "vdb"}).value_or("dexel");
+  r.method = method == "vdb" ? RemovalSpec::Method::Vdb : RemovalSpec::Method::Dexel;
+  r.voxel_mm = r.spacing_mm;
+  if (r.method == RemovalSpec::Method::Vdb) {
+    if (auto h = t.opt_positive("voxel_mm")) {
+      if (*h < 1e-3) t.fail("voxel_mm", "expected at least 0.001 mm");
+      r.voxel_mm = *h;
+    }
+  } else if (t.has("voxel_mm")) {
+    t.fail("voxel_mm", "only valid with method = \"vdb\"");
+  }
+  // The part mesh of a level set: method "vdb", or a tri-dexel field (meshed through its level set).
+  if (r.method == RemovalSpec::Method::Vdb || r.field == RemovalSpec::Field::TriDexel) {
+    if (auto a = t.opt_nonnegative("mesh_adaptivity")) {
+      if (*a > 1) t.fail("mesh_adaptivity", "expected a number in [0, 1]");
+      r.mesh_adaptivity = *a;
+    }
+  } else if (t.has("mesh_adaptivity")) {
+    t.fail("mesh_adaptivity", "only valid with method = \"vdb\" or field = \"tridexel\"");
+  }
   if (r.field == RemovalSpec::Field::NBuffer) {
     r.needles_file = t.existing_path("needles_file");
     r.needle_half_length_mm = t.opt_positive("needle_half_length_mm").value_or(1.0);

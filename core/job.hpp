@@ -33,6 +33,11 @@ struct StockSpec {
 
 // How material is removed (seed 004 section 4).
 struct RemovalSpec {
+  // The kernel: dexels (exact along their rays) or an OpenVDB narrow-band level set (removal/vdb_part.hpp: isotropic
+  // to within its voxel, watertight meshes). With "vdb", `field` only chooses the outputs (height grid, or needles).
+  enum class Method { Dexel, Vdb } method = Method::Dexel;
+  double voxel_mm = 0.05;           // vdb: level-set voxel size (default: spacing_mm)
+  double mesh_adaptivity = 0.0;     // vdb and tri-dexel: volumeToMesh adaptivity in [0, 1] of the part mesh
   enum class Field { ZMap, TriDexel, NBuffer } field = Field::ZMap;
   double spacing_mm = 0.05;       // ray spacing of z-map and tri-dexel grids
   // Whose motion cuts: the drives' actual positions (the marks come from the drives), the interpolator's

@@ -94,6 +94,9 @@ VdbPart VdbPart::from_tridexel(const TriDexel& f, double hw) {
   const float bg = static_cast<float>(hw * h);
   const int D = static_cast<int>(std::ceil(std::sqrt(3.0) * hw)) + 1;  // nodes a crossing can be within hw of
   const double cap = (D + 1) * h;
+  // Lattice node (i, j, k) is voxel (i, j, k) + O: the band (down to -D - 8) keeps positive indices, inside one
+  // 4096^3 top-level node instead of straddling index 0 where 8 of them (264 kB each) meet.
+  constexpr int O = 16;
 
   // 1. Leaves holding nodes within D of a crossing along some ray (thread-local masks, then their union).
   const int nthreads = omp_get_max_threads();
@@ -101,11 +104,11 @@ VdbPart VdbPart::from_tridexel(const TriDexel& f, double hw) {
   auto mark = [&](openvdb::MaskTree& m, int axis, int a, int b, double t) {
     // Nodes n along the ray with |n h - t| <= D h; a, b are the ray's other two lattice coordinates.
     const int n0 = static_cast<int>(std::floor(t / h)) - D, n1 = static_cast<int>(std::ceil(t / h)) + D;
-    for (int n = n0 & ~7; n <= n1; n += 8) {
+    for (int n = (n0 + O) & ~7; n <= n1 + O; n += 8) {
       openvdb::Coord c;
       c[axis] = n;
-      c[(axis + 1) % 3] = a;
-      c[(axis + 2) % 3] = b;
+      c[(axis + 1) % 3] = a + O;
+      c[(axis + 2) % 3] = b + O;
       m.setValueOn(c & ~7);
     }
   };
@@ -146,7 +149,7 @@ VdbPart VdbPart::from_tridexel(const TriDexel& f, double hw) {
     bool any = false;
     for (openvdb::Index n = 0; n < Leaf::SIZE; ++n) {
       const openvdb::Coord c = leaf->offsetToGlobalCoord(n);
-      const int i = c.x(), j = c.y(), k = c.z();
+      const int i = c.x() - O, j = c.y() - O, k = c.z() - O;
       double inv2 = 0;  // sum of 1 / d^2
       bool on_surface = false;
       int votes = 0;
@@ -164,6 +167,12 @@ VdbPart VdbPart::from_tridexel(const TriDexel& f, double hw) {
       ray(ez, f.z, i, j, NX, NY, k);
       if (!on_surface && inv2 == 0) continue;
       const bool inside = in_lattice(i, j, k) && votes >= 2;
+      // A node exactly on the surface gets 0, which volumeToMesh (inside: phi < 0) counts as outside. Faces at round
+      // coordinates fall on the nodes of a field whose region is the stock's box; edges through such nodes are then
+      // bevelled by up to h/2, and 3-face corners by up to 2h/3 (tests/removal/vdb_test.cpp measures it). Calling
+      // such nodes inside (a tiny negative value) would keep those edges, but the surface nodes that float offsets
+      // put a few ulps off the node then flip, and grazing rays (closed intervals along a face) make outside nodes
+      // look inside: tried, and the meshes got worse.
       const double phi = on_surface ? 0.0 : (inside ? -1.0 : 1.0) / std::sqrt(inv2);
       if (std::abs(phi) >= bg) {
         leaf->setValueOnly(n, inside ? -bg : bg);
@@ -176,7 +185,7 @@ VdbPart VdbPart::from_tridexel(const TriDexel& f, double hw) {
   }
 
   auto grid = Grid::create(bg);
-  grid->setTransform(vdb_transform(h, f.z.origin()));
+  grid->setTransform(vdb_transform(h, f.z.origin() - Eigen::Vector3d::Constant(O * h)));
   for (Leaf* l : leaves)
     if (l) grid->tree().addLeaf(l);
   openvdb::tools::signedFloodFill(grid->tree());
