@@ -30,6 +30,11 @@
 #include <string>
 #include <vector>
 
+#include "tests/app/cli_util.hpp"
+
+using vmsim_test::slurp;
+using vmsim_test::TempDir;
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -37,30 +42,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRs = 30.0, kR = 5.0;  // sphere and ball radii (parts/five_axis/generate.py)
 const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_5ax_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 int run_job(const fs::path& job, const fs::path& out, std::string& err) {
   const fs::path log = job.parent_path() / "stderr.txt";

@@ -22,35 +22,16 @@
 #include <string>
 #include <vector>
 
+#include "tests/app/cli_util.hpp"
+
+using vmsim_test::slurp;
+using vmsim_test::TempDir;
+
 namespace fs = std::filesystem;
 
 namespace {
 
 const fs::path kData = fs::path(VMSIM_SHARED_DIR) / "data" / "gcode";
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_5ax_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 std::vector<std::string> lines_of(const fs::path& p) {
   std::ifstream in(p);

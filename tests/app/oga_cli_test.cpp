@@ -16,6 +16,11 @@
 #include <string>
 #include <vector>
 
+#include "tests/app/cli_util.hpp"
+
+using vmsim_test::slurp;
+using vmsim_test::TempDir;
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -24,30 +29,6 @@ struct CliRun {
   int code = -1;
   std::string out, err;
 };
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_oga_cli_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 CliRun cli(const std::string& args, const TempDir& tmp) {
   const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";

@@ -13,6 +13,11 @@
 #include <sstream>
 #include <string>
 
+#include "tests/app/cli_util.hpp"
+
+using vmsim_test::slurp;
+using vmsim_test::TempDir;
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -21,30 +26,6 @@ struct CliRun {
   int code = -1;
   std::string out, err;
 };
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_planfeed_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 CliRun vmsim(const std::string& args, const TempDir& tmp) {
   const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";

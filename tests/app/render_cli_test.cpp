@@ -18,6 +18,11 @@
 #include <string>
 #include <vector>
 
+#include "tests/app/cli_util.hpp"
+
+using vmsim_test::slurp;
+using vmsim_test::TempDir;
+
 namespace fs = std::filesystem;
 using vmsim::render::Image;
 using vmsim::render::read_png;
@@ -28,30 +33,6 @@ struct CliRun {
   int code = -1;
   std::string out, err;
 };
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_render_cli_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 // Runs vmsim with no DISPLAY (as on a server), `env` prepended to the command (e.g. "VAR=value").
 CliRun run_vmsim(const std::string& args, const TempDir& tmp, const std::string& env = "") {

@@ -23,36 +23,17 @@
 #include <string>
 #include <vector>
 
+#include "tests/app/cli_util.hpp"
+
+using vmsim_test::slurp;
+using vmsim_test::TempDir;
+
 namespace fs = std::filesystem;
 using vmsim::removal::VdbPart;
 
 namespace {
 
 const std::string kSource = VMSIM_SOURCE_DIR;
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_vdb_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 int run(const std::string& args, const TempDir& tmp, std::string& out, std::string& err) {
   const fs::path o = tmp.path() / "stdout.txt", e = tmp.path() / "stderr.txt";

@@ -1,4 +1,4 @@
-// vmsim's ARX against GNU Octave's `arx` (octave-control 3.4, /work/shared/peers/README.md section 3) on the same data:
+// vmsim's ARX against GNU Octave's `arx` (octave-control 3.4, ../shared/peers/README.md section 3) on the same data:
 // the reference is the peer's own estimate, read back from its printout at 17 significant digits. Octave's arx
 // builds B with the one-sample delay included (B = b1 q^-1 + ... + b_nb q^-nb, and nb <= na), i.e. vmsim's nk = 1;
 // its 'nk', k adds k MORE samples (vmsim's nk = k + 1). tfdata gives num and den in descending powers of z, leading
