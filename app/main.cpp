@@ -2,6 +2,7 @@
 #include "app/commands.hpp"
 #include "app/commands_sysid.hpp"
 #include "app/commands_oga.hpp"
+#include "app/mpi_session.hpp"
 #include "core/error.hpp"
 
 #include <CLI/CLI.hpp>
@@ -9,7 +10,21 @@
 #include <cstdio>
 #include <iostream>
 
+namespace {
+int run_command(int argc, char** argv);
+}  // namespace
+
+// MPI (when launched by mpirun) wraps the whole command; an error on one rank ends all ranks (no hang).
 int main(int argc, char** argv) {
+  vmsim::app::mpi_start(&argc, &argv);
+  const int code = run_command(argc, argv);
+  if (code != 0) vmsim::app::mpi_abort_all(code);
+  vmsim::app::mpi_finish();
+  return code;
+}
+
+namespace {
+int run_command(int argc, char** argv) {
   CLI::App app{
       "vmsim - virtual machining: predicts the surface a CNC milling machine really cuts, from the program\n"
       "through the NC interpolator, the servo drives and the kinematics to material removal and metrology."};
@@ -287,3 +302,4 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+}  // namespace

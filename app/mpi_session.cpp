@@ -1,0 +1,46 @@
+#include "app/mpi_session.hpp"
+
+#include <mpi.h>
+
+#include <cstdlib>
+
+namespace vmsim::app {
+namespace {
+bool g_started = false;
+int g_rank = 0;
+int g_size = 1;
+
+// The launchers' own markers: Open MPI's mpirun, PMI-1/2 (MPICH's hydra, Slurm's srun) and PMIx.
+bool launched_by_mpi() {
+  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
+    if (std::getenv(v) != nullptr) return true;
+  return false;
+}
+}  // namespace
+
+void mpi_start(int* argc, char*** argv) {
+  if (g_started || !launched_by_mpi()) return;
+  int provided = 0;
+  MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
+  g_started = true;
+  MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+}
+
+void mpi_finish() {
+  if (!g_started) return;
+  int finalized = 0;
+  MPI_Finalized(&finalized);
+  if (!finalized) MPI_Finalize();
+  g_started = false;
+}
+
+void mpi_abort_all(int exit_code) {
+  if (g_started && g_size > 1) MPI_Abort(MPI_COMM_WORLD, exit_code);
+}
+
+bool mpi_active() { return g_started && g_size > 1; }
+int mpi_rank() { return g_rank; }
+int mpi_size() { return g_size; }
+
+}  // namespace vmsim::app

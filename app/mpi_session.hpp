@@ -1,0 +1,23 @@
+#pragma once
+// MPI for vmsim's scale-out commands (tiled `vmsim run`, `vmsim study`). MPI is initialised only when the
+// process was started by an MPI launcher (mpirun/mpiexec/srun), so a plain `vmsim ...` never pays MPI's start-up
+// nor needs a launcher; every other command behaves as one process (rank 0 of 1).
+
+namespace vmsim::app {
+
+// Call first in main. Initialises MPI (MPI_THREAD_FUNNELED: OpenMP threads never call MPI) when a launcher's
+// environment is present; otherwise does nothing.
+void mpi_start(int* argc, char*** argv);
+
+// Call once at exit (MPI_Finalize when started). Safe when MPI was never started.
+void mpi_finish();
+
+// Ends every rank at once with this exit code (MPI_Abort) when running on more than one rank, so an error on one
+// rank can never leave the others waiting in a collective; otherwise returns and the caller exits normally.
+void mpi_abort_all(int exit_code);
+
+bool mpi_active();   // MPI was started and the world has more than one rank
+int mpi_rank();      // 0 without MPI
+int mpi_size();      // 1 without MPI
+
+}  // namespace vmsim::app
