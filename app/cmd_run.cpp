@@ -179,7 +179,8 @@ struct Field {
   core::RemovalSpec::Field kind = core::RemovalSpec::Field::ZMap;
   bool vdb = false;
   removal::VdbPart part;               // vdb
-  double vdb_estimate_bytes = 0;       // vdb: the memory stated before the run
+  double vdb_estimate_bytes = 0;       // vdb: the level set's memory stated before the run
+  double vdb_mesh_estimate_bytes = 0;  // vdb: the part mesh's
   removal::Box region;
   double spacing_mm = 0.05;
   removal::DexelGrid zmap;
@@ -331,23 +332,23 @@ Field initial_field(const core::Job& job, double feed_scale, Progress& progress,
   if (job.removal.method == core::RemovalSpec::Method::Vdb) {
     f.vdb = true;
     if (f.kind == core::RemovalSpec::Field::NBuffer) read_needles(job, f);
-    // The memory it will need, stated before the run: the stock's band, plus as much again for the surfaces the cuts
-    // make (removal/vdb_part.hpp's estimate; measured in report.json).
-    double area = 0;
-    if (mesh) {
-      area = removal::mesh_area_mm2(*mesh);
-    } else {
-      const Eigen::Vector3d e = region.hi - region.lo;
-      area = 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
-    }
+    // The memory it will need, stated before the run (removal/vdb_part.hpp's model): the narrow band of the stock's
+    // surface, which cuts that finish a part replace by their own (deep cuts add their new walls and floors), and
+    // the part mesh written at the end. report.json holds both beside the level set's measured memory.
+    const removal::SurfaceArea sa = mesh ? removal::surface_area(*mesh) : removal::surface_area(region);
     const double h = job.removal.voxel_mm;
-    f.vdb_estimate_bytes = removal::estimate_level_set_bytes(2 * area, h) + removal::estimate_mesh_bytes(2 * area, h);
-    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB (stock surface %.0f mm^2, twice "
-                 "that for the cut surfaces, and the part mesh)\n", job.name.c_str(), h, f.vdb_estimate_bytes / 1e6, area);
+    f.vdb_estimate_bytes = removal::estimate_level_set_bytes(sa, h);
+    f.vdb_mesh_estimate_bytes = removal::estimate_mesh_bytes(sa.area_mm2, h);
+    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB: %.1f MB for the band of the stock's "
+                 "%.0f mm^2 (%.1f MB per 1000 mm^2 of surface the cuts add) and %.1f MB for the part mesh\n",
+                 job.name.c_str(), h, (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e6,
+                 f.vdb_estimate_bytes / 1e6, sa.area_mm2, f.vdb_estimate_bytes / sa.area_mm2 * 1e3 / 1e6,
+                 f.vdb_mesh_estimate_bytes / 1e6);
     const double limit = 32e9;
-    if (f.vdb_estimate_bytes > limit)
+    if (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes > limit)
       throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {:.1f} GB for the level "
-                                                        "set; choose a larger voxel", h, f.vdb_estimate_bytes / 1e9));
+                                                        "set and its mesh; choose a larger voxel", h,
+                                                        (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e9));
     progress.stage(job.name + ": stock (level set)");
     removal::VdbOptions vo;
     vo.voxel_mm = h;
@@ -643,7 +644,8 @@ int run_run(const RunArgs& args) {
                        {"orientation_error_mm", ts.orientation_error_mm}};
   if (field.vdb) {
     report["removal"]["voxel_mm"] = job.removal.voxel_mm;
-    report["removal"]["memory_estimate_bytes"] = field.vdb_estimate_bytes;
+    report["removal"]["memory_estimate_bytes"] = field.vdb_estimate_bytes;  // the level set's, vs memory_bytes
+    report["removal"]["mesh_memory_estimate_bytes"] = field.vdb_mesh_estimate_bytes;
     report["removal"]["active_voxels"] = field.part.active_voxels();
     report["removal"]["level_set"] = vdb_json;
   }
