@@ -109,6 +109,22 @@ double tlo_at(const Motion& m, Eigen::Index k) {
   return mi >= 0 ? m.program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
 }
 
+// The track tolerance a job cuts at: its own, or when it gives none and a level set cuts a turning tool, voxel / 10
+// (core/job.hpp: the orientation sub-steps are exact sweeps the level set pays for one by one, and it shows no finer
+// detail than about a tenth of its voxel; 3-axis tracks keep the default, which costs no extra sweeps there).
+double track_tolerance(const core::Job& job, bool tool_turns) {
+  if (job.removal.track_tolerance_given || job.removal.method != core::RemovalSpec::Method::Vdb || !tool_turns)
+    return job.removal.track_tolerance_mm;
+  return job.removal.voxel_mm / 10;
+}
+
+bool track_turns(const removal::PoseTrack& tr) {
+  const Eigen::MatrixXd& a = tr.axis_per_sample;
+  for (Eigen::Index k = 1; k < a.rows(); ++k)
+    if ((a.row(k).normalized() - a.row(0).normalized()).norm() > 1e-12) return true;
+  return false;
+}
+
 // Tool-tip track of the motion that cuts.
 removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind) {
   removal::PoseTrack tr;
@@ -117,7 +133,7 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
     // of the track tolerance as the arcs below are.
     const auto kin = core::make_kinematics(job.machine);
     return program_pose_track(m.program, core::toolpath_in_axis_space(m.program, job.machine), *kin, job.machine,
-                              removal::make_tool(job.tool), 0.1 * job.removal.track_tolerance_mm);
+                              removal::make_tool(job.tool), 0.1 * track_tolerance(job, true));
   }
   if (kind == core::RemovalSpec::Motion::Program) {
     // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
@@ -286,7 +302,7 @@ void cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
 
 std::vector<removal::SweptTool> sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
   removal::TrackOptions topt;
-  topt.tolerance_mm = job.removal.track_tolerance_mm;
+  topt.tolerance_mm = track_tolerance(job, track_turns(tr));
   return removal::sweeps_from_track(removal::make_tool(job.tool), tr, topt).sweeps;
 }
 
@@ -434,7 +450,7 @@ int run_run(const RunArgs& args) {
   progress.stage(job.name + ": material removal");
   const removal::PoseTrack track = track_of(motion, job, job.removal.motion);
   removal::TrackOptions topt;
-  topt.tolerance_mm = job.removal.track_tolerance_mm;
+  topt.tolerance_mm = track_tolerance(job, track_turns(track));
   const removal::TrackSweeps ts = removal::sweeps_from_track(removal::make_tool(job.tool), track, topt);
   cut_field(field, ts.sweeps);
   progress.done();
@@ -638,7 +654,7 @@ int run_run(const RunArgs& args) {
                        {"motion", motion_name(job.removal.motion)},
                        {"track_points", ts.points},
                        {"sweeps", ts.sweeps.size()},
-                       {"track_tolerance_mm", job.removal.track_tolerance_mm},
+                       {"track_tolerance_mm", topt.tolerance_mm},
                        {"track_error_bound_mm", ts.error_bound_mm},
                        {"tool_axis_turns", track.axis_per_sample.rows() > 0},
                        {"orientation_error_mm", ts.orientation_error_mm}};
