@@ -245,9 +245,16 @@ int run_compensate(const CompensateArgs& args) {
   files.push_back(cprog_name);
   std::optional<CompensatedProgram> tcp_prog;
   if (five && cprog.extension == "cl") {
+    // The G-code form for a controller with a five-axis transformation, and the original in the same form (zero
+    // correction), so the two can be timed alike.
     tcp_prog = write_compensated_tcp_gcode(pin);
     core::write_file_atomic(dir / "compensated_tcp.ngc", tcp_prog->text);
     files.push_back("compensated_tcp.ngc");
+    CompensatedProgramInput orig = pin;
+    orig.compensated = &sp.position;
+    orig.title = job.name + ", original, no correction: the reference for compensated_tcp.ngc";
+    core::write_file_atomic(dir / "original_tcp.ngc", write_compensated_tcp_gcode(orig).text);
+    files.push_back("original_tcp.ngc");
   }
   if (args.dense_program) {
     // The compensated setpoints themselves as a program: the tool tip (and rotary words) of every setpoint, one block
@@ -318,6 +325,22 @@ int run_compensate(const CompensateArgs& args) {
   bool program_within = true;
   for (const auto& c : limits_program) program_within = program_within && c.within();
   const double cycle_orig = sp.duration_s(), cycle_prog = cir.setpoints.duration_s();
+  // The tool-centre-point forms through vmsim's interpreter of such programs ([job] tcp, the tool starting at the
+  // program's first pose): original and compensated timed alike.
+  std::optional<std::pair<double, double>> tcp_cycles;
+  if (tcp_prog) {
+    auto cycle_of = [&](const std::filesystem::path& file) {
+      core::Job tj = job;
+      tj.program_file = file;
+      tj.tcp = true;
+      Eigen::VectorXd q0(na);
+      for (Eigen::Index a = 0; a < na; ++a) q0[a] = path.initial_position[machine.axes[static_cast<std::size_t>(a)].program_axis];
+      tj.start_mm = kin->forward(q0, tlo[0]).tip_mm;
+      const core::ToolPath tp = read_job_program(tj);
+      return core::interpolate(core::toolpath_in_axis_space(tp, machine), machine, iopt).setpoints.duration_s();
+    };
+    tcp_cycles = std::make_pair(cycle_of(dir / "original_tcp.ngc"), cycle_of(dir / "compensated_tcp.ngc"));
+  }
   const double t_check = seconds_since(t0);
 
   nlohmann::json report = report_header("compensate", job);
@@ -362,6 +385,11 @@ int run_compensate(const CompensateArgs& args) {
       {"cycle_time_compensated_program_s", cycle_prog},
       {"cycle_time_change_percent", cycle_orig > 0 ? 100.0 * (cycle_prog - cycle_orig) / cycle_orig : 0.0},
       {"within_limits", program_within},
+      {"tcp_form", tcp_cycles ? nlohmann::json{{"file", "compensated_tcp.ngc"},
+                                               {"reference", "original_tcp.ngc"},
+                                               {"cycle_time_original_s", tcp_cycles->first},
+                                               {"cycle_time_compensated_s", tcp_cycles->second}}
+                              : nlohmann::json(nullptr)},
       {"what", "the program read back, re-timed by vmsim's interpolator and run on the machine file's cascades; "
                "contour error against the original plan"}};
   report["limits"] = {{"compensated_within_limits", within},
@@ -391,6 +419,9 @@ int run_compensate(const CompensateArgs& args) {
   std::printf("compensated program: %d blocks for %zu moves, cycle time %.3f s (original %.3f s, %+.2f %%)\n",
               cprog.blocks, program.moves.size(), cycle_prog, cycle_orig,
               cycle_orig > 0 ? 100.0 * (cycle_prog - cycle_orig) / cycle_orig : 0.0);
+  if (tcp_cycles)
+    std::printf("tool-centre-point G-code: compensated_tcp.ngc %.3f s, original_tcp.ngc %.3f s ([job] tcp = true)\n",
+                tcp_cycles->second, tcp_cycles->first);
   for (const auto& c : limits_after)
     if (!c.within())
       std::printf("axis %s: compensated setpoints exceed a limit at %d samples, first at t = %.3f s\n", c.axis.c_str(),

@@ -23,7 +23,7 @@ using core::Vec6;
 // The points a move is written with, in axis coordinates (Vec6 by program axis): its end, or for arcs the ends of
 // chords whose sag stays within tol (the radius and the normal coordinate, and any rotary axis, interpolated linearly
 // with the swept angle, as core/interp's arcs do).
-std::vector<Vec6> move_points(const core::Move& m, double tol) {
+std::vector<Vec6> move_points(const core::Move& m, double tol, double max_angle = 0.0) {
   if (m.kind != core::MotionKind::Arc) return {m.end};
   int f = 0, s = 1, n = 2;
   if (m.plane == core::ArcPlane::ZX) f = 2, s = 0, n = 1;
@@ -41,7 +41,7 @@ std::vector<Vec6> move_points(const core::Move& m, double tol) {
     a1 -= two_pi * std::max(0, -m.rotation - 1);
   }
   const double sweep = a1 - a0, r = std::max(r0, r1);
-  const double step = r > tol ? 2.0 * std::acos(1.0 - tol / r) : two_pi;
+  const double step = max_angle > 0.0 ? max_angle : r > tol ? 2.0 * std::acos(1.0 - tol / r) : two_pi;
   const int chords = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / step)));
   std::vector<Vec6> pts;
   pts.reserve(static_cast<std::size_t>(chords));
@@ -58,6 +58,17 @@ std::vector<Vec6> move_points(const core::Move& m, double tol) {
     p[n] = m.start[n] + t * (m.end[n] - m.start[n]);
     pts.push_back(p);
   }
+  return pts;
+}
+
+// Points of a move of a five-axis chain program written in the workpiece frame (CL or tool-centre-point): its end, or
+// for an arc the axis-space image's own points (core::toolpath_in_axis_space: via points on the exact image within
+// its tolerance, or chords of the axis-space arc).
+std::vector<Vec6> chain_move_points(const core::Move& am, bool arc, double tol) {
+  if (!arc) return {am.end};
+  if (am.kind == core::MotionKind::Arc) return move_points(am, tol);
+  std::vector<Vec6> pts = am.via;
+  pts.push_back(am.end);
   return pts;
 }
 
@@ -104,6 +115,13 @@ struct Context {
     };
     take(mi);
     if (end) take(mi + 1);
+    if (end && mi + 1 < first.size() && first[mi] >= 0 && first[mi + 1] >= 0) {
+      // A programmed vertex lies where one move's samples give way to the next's: search around that place only (a
+      // closed contour passes its first vertex again at the end, at rest, where the correction is nil).
+      const Index w = std::max<Index>(5, std::min<Index>({500, (last[mi] - first[mi]) / 4, (last[mi + 1] - first[mi + 1]) / 4}));
+      lo = std::max(lo, last[mi] - w);
+      hi = std::min(hi, first[mi + 1] + w);
+    }
     if (lo < 0) {
       // A move without samples of its own (no length): the samples around where the path is then.
       for (std::size_t m = mi; m-- > 0 && lo < 0;) take(m);
@@ -200,18 +218,20 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
     double feed = -1.0;
     for (std::size_t mi = 0; mi < prog.moves.size(); ++mi) {
       const core::Move& m = prog.moves[mi];
-      if (m.kind == core::MotionKind::Arc)
-        throw core::Error(fmt::format("{}:{}: compensated program: CL arcs are not written move by move (use "
-                                      "--dense-program)",
-                                      prog.source_path, m.source_line));
-      if (m.rapid) {
-        s += "RAPID\n";
-      } else if (m.feed_mm_per_min != feed) {
-        s += fmt::format("FEDRAT/MMPM,{:.6g}\n", m.feed_mm_per_min);
-        feed = m.feed_mm_per_min;
+      // Arcs (CIRCLE/) as GOTOs through their image's points.
+      const std::vector<Vec6> pts =
+          chain_move_points(ap.moves[mi], m.kind == core::MotionKind::Arc, in.chord_tolerance_mm);
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        if (m.rapid) {
+          s += "RAPID\n";
+        } else if (m.feed_mm_per_min != feed) {
+          s += fmt::format("FEDRAT/MMPM,{:.6g}\n", m.feed_mm_per_min);
+          feed = m.feed_mm_per_min;
+        }
+        s += goto_words(c.corrected(pts[i], mi, i + 1 == pts.size(), m.tool_length_offset_mm, out),
+                        m.tool_length_offset_mm);
+        ++out.blocks;
       }
-      s += goto_words(c.corrected(ap.moves[mi].end, mi, true, m.tool_length_offset_mm, out), m.tool_length_offset_mm);
-      ++out.blocks;
     }
     s += "FINI\n";
     out.text = std::move(s);
@@ -223,33 +243,54 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
   s += "(X Y Z: the programmed point as the original program gives it, without tool length compensation)\n";
   s += "G21 G90 G17\n";
   FeedState fs;
+  // Where the last block left the programmed point, in the words' coordinates (arcs' I J K are relative to it).
+  Eigen::Vector3d last = prog.moves.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(prog.moves.front().start.head<3>());
   for (std::size_t mi = 0; mi < prog.moves.size(); ++mi) {
     const core::Move& m = prog.moves[mi];
     const core::Move& am = ap.moves[mi];
     const bool tcp = chain && (m.tcp || is_cl(m));
-    if (tcp && m.kind == core::MotionKind::Arc)
-      throw core::Error(fmt::format("{}:{}: compensated program: tool-centre-point arcs are not written move by move "
-                                    "(use --dense-program)",
-                                    prog.source_path, m.source_line));
-    const std::vector<Vec6> pts = move_points(am, in.chord_tolerance_mm);
+    // Arcs of 3-axis and joint programs stay arcs (G2/G3 about the programmed centre, to the corrected end: the radial
+    // part of the correction at the ends, a steady radial lag whole; a spiral where the ends' corrections differ) so
+    // the interpolator times them as the original's arcs; chords would slow it at every joint.
+    const bool keep_arc = !tcp && m.kind == core::MotionKind::Arc;
+    // (Arcs in pieces of at most 90 deg: a full circle's corrected end is not its corrected start.)
+    const std::vector<Vec6> pts = tcp        ? chain_move_points(am, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm)
+                                  : keep_arc ? move_points(am, in.chord_tolerance_mm, 0.5 * core::units::kPi)
+                                             : move_points(am, in.chord_tolerance_mm);
     for (std::size_t i = 0; i < pts.size(); ++i) {
       const double tlo = m.tool_length_offset_mm;
       const Eigen::VectorXd q = c.corrected(pts[i], mi, i + 1 == pts.size(), tlo, out);
       std::string w;
+      Eigen::Vector3d xyz;
       if (chain && !tcp) {
         // Joint programming: the words are the axes (the reader adds the tool length offset to Z again).
+        xyz = last;
         for (Index a = 0; a < c.na; ++a) {
           const core::MachineAxis& ax = in.machine->axes[static_cast<std::size_t>(a)];
           const double v = ax.kind == core::AxisKind::Rotary ? q[a] * core::units::kRadToDeg
                                                              : q[a] - (ax.program_axis == core::kZ ? tlo : 0.0);
+          if (ax.kind == core::AxisKind::Linear && ax.program_axis <= core::kZ) xyz[ax.program_axis] = v;
           w += fmt::format("{}{}{:.6f}", w.empty() ? "" : " ", ax.name, v);
         }
       } else {
         const core::ToolPose p = in.kinematics->forward(q, tlo);
+        xyz = p.tip_mm;
         w = fmt::format("X{:.6f} Y{:.6f} Z{:.6f}", p.tip_mm.x(), p.tip_mm.y(), p.tip_mm.z());
         w += rotary_words(c, q);
       }
-      s += (m.rapid ? "G0 " + w : fs.block(m, static_cast<int>(pts.size()), "G1 " + w)) + "\n";
+      if (keep_arc) {
+        // I J K: the programmed centre relative to where this arc starts (the last block's corrected point).
+        static constexpr char kWord[3] = {'I', 'J', 'K'};
+        int f = 0, g = 1;
+        if (m.plane == core::ArcPlane::ZX) f = 2, g = 0;
+        if (m.plane == core::ArcPlane::YZ) f = 1, g = 2;
+        w += fmt::format(" {}{:.6f} {}{:.6f}", kWord[f], m.centre_mm[0] - last[f], kWord[g], m.centre_mm[1] - last[g]);
+        const char* plane = m.plane == core::ArcPlane::XY ? "G17 " : m.plane == core::ArcPlane::ZX ? "G18 " : "G19 ";
+        s += fs.block(m, static_cast<int>(pts.size()), plane + std::string(m.rotation < 0 ? "G2 " : "G3 ") + w) + "\n";
+      } else {
+        s += (m.rapid ? "G0 " + w : fs.block(m, static_cast<int>(pts.size()), "G1 " + w)) + "\n";
+      }
+      last = xyz;
       ++out.blocks;
     }
   }
@@ -281,14 +322,15 @@ CompensatedProgram write_compensated_tcp_gcode(const CompensatedProgramInput& in
   FeedState fs;
   for (std::size_t mi = 0; mi < prog.moves.size(); ++mi) {
     const core::Move& m = prog.moves[mi];
-    if (m.kind == core::MotionKind::Arc)
-      throw core::Error(fmt::format("{}:{}: compensated program: tool-centre-point arcs are not written move by move",
-                                    prog.source_path, m.source_line));
-    const std::string motion =
-        (m.rapid ? "G0 " : "G1 ") + words(c.corrected(ap.moves[mi].end, mi, true, m.tool_length_offset_mm, out),
-                                           m.tool_length_offset_mm);
-    s += (m.rapid ? motion : fs.block(m, 1, motion)) + "\n";
-    ++out.blocks;
+    const std::vector<Vec6> pts =
+        chain_move_points(ap.moves[mi], m.kind == core::MotionKind::Arc, in.chord_tolerance_mm);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const std::string motion =
+          (m.rapid ? "G0 " : "G1 ") + words(c.corrected(pts[i], mi, i + 1 == pts.size(), m.tool_length_offset_mm, out),
+                                             m.tool_length_offset_mm);
+      s += (m.rapid ? motion : fs.block(m, static_cast<int>(pts.size()), motion)) + "\n";
+      ++out.blocks;
+    }
   }
   s += "G94\nM2\n";
   out.text = std::move(s);

@@ -2,7 +2,10 @@
 // The compensated NC program of `vmsim compensate`: the original program's own moves, in order, with the same feeds
 // and feed modes, each programmed point (move end) moved by the correction the compensation found at the setpoint
 // nearest to it, so that an NC's interpolator re-times it as it times the original (seed 001 section 5 sends its
-// compensated points to the CNC). Arcs become chords within a tolerance (a constant correction cannot follow an arc).
+// compensated points to the CNC). Arcs stay arcs about their programmed centre, to the corrected end point (the
+// correction at the arc's ends; a steady radial lag is corrected whole); on five-axis chains an arc of a CL or
+// tool-centre-point program becomes the points of its axis-space image (in inverse-time feed, each piece gets an
+// equal share of the move's time).
 #include "core/kinematics.hpp"
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
@@ -36,8 +39,7 @@ struct CompensatedProgram {
 
 // G-code programs: G-code (G0/G1, G93/G94 as the original; on five-axis chains the words of the original's own
 // convention: tool-centre-point X Y Z with the rotary words, or joint words). APT CL programs: CL (GOTO/ tip and tool
-// axis, FEDRAT, RAPID as the original). Throws core::Error for arcs of CL or tool-centre-point programs (no chords
-// there: use the dense form).
+// axis, FEDRAT, RAPID as the original).
 CompensatedProgram write_compensated_program(const CompensatedProgramInput& in);
 
 // The same correction written as G-code in tool-centre-point form with the rotary words (X Y Z: tool tip in the

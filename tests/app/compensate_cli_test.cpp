@@ -92,4 +92,48 @@ TEST(CompensateCli, FiveAxisBladeTipAndOrientationErrorsFallAndTheCompensatedPro
   ASSERT_GT(t_orig, 0.0);
   EXPECT_NEAR(t_comp, t_orig, 0.01 * t_orig);
   EXPECT_NEAR(cp["cycle_time_compensated_program_s"].get<double>(), t_comp, 1e-9);
+  // The G-code form with the A and C words (tool-centre-point, [job] tcp) against the original in the same form.
+  ASSERT_TRUE(cp["tcp_form"].is_object());
+  const double t_tcp0 = cp["tcp_form"]["cycle_time_original_s"].get<double>();
+  const double t_tcp1 = cp["tcp_form"]["cycle_time_compensated_s"].get<double>();
+  std::printf("blade, tool-centre-point G-code: original %.3f s, compensated %.3f s\n", t_tcp0, t_tcp1);
+  EXPECT_NEAR(t_tcp1, t_tcp0, 0.01 * t_tcp0);
+}
+
+TEST(CompensateCli, CircleArcsStayArcsInTheCompensatedProgramAndKeepTheTime) {
+  // A G3 circle (R 20 mm at 3 m/min, twice round) on the Mikron. The compensated program keeps each arc a G3 about the
+  // programmed centre, in pieces of at most 90 deg (a full circle's corrected end is not its corrected start), each
+  // to its corrected end point, at the original feed; re-timed by `vmsim interp` within 5 % of the original (as G1
+  // chords of 0.5 um sag the same circle took the interpolator twice as long: a blend at every chord). What the arcs'
+  // end-point correction does to the contour error is printed, not asserted: at this commit it does not reduce it
+  // (parts/starfish/README.md, "Arcs").
+  TempDir d("vmsim_compensate_cli_");
+  const fs::path p = d.path();
+  const std::string machine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+  std::ofstream(p / "circle.ngc") << "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nG3 X20 Y0 I-20 J0\nM2\n";
+  std::ofstream(p / "job.toml") << "[job]\nname = \"circle\"\nmachine = \"" << machine
+                                << "\"\nprogram = \"circle.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n[interpolation]\n"
+                                   "period_ms = 1.0\ntolerance_mm = 0.020\n";
+  CliResult r = run_vmsim("compensate '" + (p / "job.toml").string() + "' --out '" + (p / "c").string() + "'", d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::printf("%s", r.out.c_str());
+  const nlohmann::json rep = nlohmann::json::parse(slurp(p / "c" / "report.json"));
+  const auto& cp = rep["compensated_program"];
+  EXPECT_EQ(cp["blocks"].get<int>(), 1 + 2 * 4);  // the G1, then each full circle in four quarter arcs
+  const std::string ngc = slurp(p / "c" / "compensated.ngc");
+  EXPECT_NE(ngc.find("G3 X"), std::string::npos);
+  EXPECT_EQ(ngc.find("G1 X19"), std::string::npos) << "arcs written as chords";
+  EXPECT_TRUE(cp["within_limits"].get<bool>());
+  r = run_vmsim("interp '" + (p / "job.toml").string() + "' --summary-only", d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const double t_orig = cycle_time(r.out);
+  std::ofstream(p / "c" / "job.toml") << "[job]\nname = \"circle_c\"\nmachine = \"" << machine
+                                      << "\"\nprogram = \"compensated.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n"
+                                         "[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n";
+  r = run_vmsim("interp '" + (p / "c" / "job.toml").string() + "' --summary-only", d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const double t_comp = cycle_time(r.out);
+  std::printf("circle cycle time: original %.3f s, compensated program %.3f s\n", t_orig, t_comp);
+  ASSERT_GT(t_orig, 0.0);
+  EXPECT_NEAR(t_comp, t_orig, 0.05 * t_orig);
 }
