@@ -1,7 +1,8 @@
 // Tiled `vmsim run` under MPI (app/tiled_run.hpp): `mpirun -np 2` and `-np 3 --oversubscribe` split the stock into
 // bands of dexel rows, one per rank. Reference: the same job run as one plain process by the same binary; the
 // gathered outputs (height grids, the part mesh, the marks) must be identical byte for byte, for a z-map job (the
-// plane-cylinder part's fast pass, coarse) and a five-axis tri-dexel job (one turn of parts/five_axis' spiral).
+// plane-cylinder part's fast pass, coarse), a five-axis tri-dexel job (one turn of parts/five_axis' spiral) and an
+// N-buffer job (parts/corner, needles on the part another job leaves).
 // --tiles-out: the tiles' X3P files, stitched by the manifest's rows, give the one-process grid exactly. Errors: a
 // rank that fails alone ends every rank with its message and a non-zero exit (no hang: a time limit here), bad
 // input names its key. --plan: its rays and field bytes against the field the run actually made (report.json).
@@ -145,6 +146,13 @@ TEST(TiledRunCli, FiveAxisTridexelTilesGiveTheOneProcessResult) {
   TempDir tmp("vmsim_tiled_");
   expect_tiled_equals_one_process(five_axis_job(tmp.path()), tmp.path(),
                                   {"surface.npy", "deviation.npy", "part.stl", "part.vtp"});  // part.vdb: OpenVDB writes a random file UUID
+}
+
+// N-buffer needles (blocks of 64 per tile) on a stock another job leaves (the tiles run that job too): the corner
+// part's fast pass (parts/corner) as it is.
+TEST(TiledRunCli, CornerNeedleTilesGiveTheOneProcessResult) {
+  TempDir tmp("vmsim_tiled_");
+  expect_tiled_equals_one_process(kParts + "/corner/job_fast.toml", tmp.path(), {"needles.csv"});
 }
 
 TEST(TiledRunCli, TilesOutStitchToTheOneProcessGrid) {
