@@ -107,12 +107,13 @@ int run_run(const RunArgs& args) {
   add_contour_error(motion, job);
 
   t0 = Clock::now();
+  const double cpu0 = process_cpu_s();
   progress.stage(job.name + ": material removal");
   const removal::PoseTrack track = track_of(motion, job, job.removal.motion);
   const removal::TrackSweeps ts = sweeps_of(job, track);
   const std::size_t sweeps_in_tile = cut_field(field, ts.sweeps);
   progress.done();
-  const double t_cut = seconds_since(t0);
+  const double t_cut = seconds_since(t0), cpu_cut = process_cpu_s() - cpu0;
 
   // The reference surface.
   t0 = Clock::now();
@@ -131,6 +132,7 @@ int run_run(const RunArgs& args) {
     mine.sweeps = static_cast<double>(sweeps_in_tile);
     mine.memory_bytes = static_cast<double>(field.memory_bytes() + (reference.field ? reference.field->memory_bytes() : 0));
     mine.removal_s = t_cut;
+    mine.removal_cpu_s = cpu_cut;
     std::optional<TileFiles> files;
     if (args.tiles_out) {
       std::error_code ec;
@@ -141,6 +143,8 @@ int run_run(const RunArgs& args) {
       progress.done();
     }
     mine.peak_rss_bytes = peak_rss_bytes();
+    mine.cpu_s = process_cpu_s();
+    quiet_barrier();  // ranks that finished early sleep rather than spin in the gathers
     const std::vector<TileFigures> all = gather_tile_figures(mine);
     tiles_json = {{"ranks", tile.count},
                   {"split", "each dexel grid's rows (needles: blocks of 64) in equal bands, one per rank"},
@@ -149,18 +153,23 @@ int run_run(const RunArgs& args) {
     for (std::size_t r = 0; r < all.size(); ++r)
       tiles_json["per_rank"].push_back({{"rank", r}, {"rows", all[r].rows}, {"rays", all[r].rays},
                                         {"sweeps", all[r].sweeps}, {"field_memory_bytes", all[r].memory_bytes},
-                                        {"peak_rss_bytes", all[r].peak_rss_bytes}, {"removal_s", all[r].removal_s}});
+                                        {"peak_rss_bytes", all[r].peak_rss_bytes}, {"removal_s", all[r].removal_s},
+                                        {"removal_cpu_s", all[r].removal_cpu_s}, {"cpu_s", all[r].cpu_s}});
     if (args.tiles_out) {
       write_tile_manifest(dir, job.name, field, *files);
-      if (!root) return 0;
-      return write_tiles_report(job, args, dir, field, reference, motion, ts, tiles_json, t_start);
+      if (root) write_tiles_report(job, args, dir, field, reference, motion, ts, tiles_json, t_start);
+      quiet_barrier();
+      return 0;
     }
     progress.stage(job.name + ": gathering the tiles to rank 0");
     std::optional<Field> whole = gather_field(field);
     std::optional<Field> whole_ref;
     if (reference.field) whole_ref = gather_field(*reference.field);
     progress.done();
-    if (!root) return 0;
+    if (!root) {
+      quiet_barrier();  // while rank 0 writes the outputs (an error there aborts every rank)
+      return 0;
+    }
     field = std::move(*whole);
     if (reference.field) reference.field = std::move(*whole_ref);
   }
@@ -372,6 +381,7 @@ int run_run(const RunArgs& args) {
   nlohmann::json timings = motion.timings;
   timings["stock"] = t_stock;
   timings["removal"] = t_cut;
+  timings["removal_cpu"] = cpu_cut;  // every thread's CPU time (the machine may be loaded: wall time stretches)
   timings["reference"] = t_ref;
   timings["write"] = t_write;
   if (!args.no_render) timings["render"] = t_render;
@@ -403,6 +413,7 @@ int run_run(const RunArgs& args) {
   if (render_error)
     throw core::Error("the results are written to " + dir.string() + ", but the pictures could not be drawn "
                       "(--no-render skips them): " + *render_error);
+  if (!tile.whole()) quiet_barrier();
   return 0;
 }
 

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <climits>
+#include <ctime>
 #include <cstdint>
 #include <fstream>
 #include <string>
@@ -28,6 +29,25 @@ double peak_rss_bytes() {
   while (std::getline(in, line))
     if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;  // "VmHWM:  1234 kB"
   return 0;
+}
+
+void quiet_barrier() {
+  if (!mpi_active()) return;
+  MPI_Request req;
+  MPI_Ibarrier(MPI_COMM_WORLD, &req);
+  int done = 0;
+  while (true) {
+    MPI_Test(&req, &done, MPI_STATUS_IGNORE);
+    if (done) return;
+    const timespec pause{0, 1000000};
+    nanosleep(&pause, nullptr);
+  }
+}
+
+double process_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 namespace {
@@ -163,13 +183,14 @@ std::optional<Field> gather_field(const Field& tile) {
 }
 
 std::vector<TileFigures> gather_tile_figures(const TileFigures& mine) {
-  static_assert(sizeof(TileFigures) == 6 * sizeof(double));
+  constexpr int kN = sizeof(TileFigures) / sizeof(double);
+  static_assert(sizeof(TileFigures) == kN * sizeof(double));
   std::vector<TileFigures> all(static_cast<std::size_t>(mpi_size()));
   if (!mpi_active()) {
     all[0] = mine;
     return all;
   }
-  MPI_Gather(&mine, 6, MPI_DOUBLE, all.data(), 6, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  MPI_Gather(&mine, kN, MPI_DOUBLE, all.data(), kN, MPI_DOUBLE, 0, MPI_COMM_WORLD);
   return all;
 }
 

@@ -34,6 +34,8 @@ struct TileFigures {
   double memory_bytes = 0;     // the tile's field
   double peak_rss_bytes = 0;   // the process's peak resident memory so far (VmHWM)
   double removal_s = 0;        // wall time of the tile's removal
+  double removal_cpu_s = 0;    // CPU time of the tile's removal (every thread of the process)
+  double cpu_s = 0;            // CPU time of the process so far (motion, stock, removal, reference)
 };
 std::vector<TileFigures> gather_tile_figures(const TileFigures& mine);
 
@@ -51,7 +53,13 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
 void write_tile_manifest(const std::filesystem::path& dir, const std::string& job_name, const Field& field,
                          const TileFiles& mine);
 
+// A barrier that sleeps (1 ms polls of MPI_Ibarrier) instead of spinning: a rank that finished its tile early, or
+// waits while rank 0 writes the outputs, leaves its core to the others (oversubscribed or loaded machines).
+void quiet_barrier();
+
 // This process's peak resident memory (bytes; /proc/self/status VmHWM, 0 where unavailable).
 double peak_rss_bytes();
+// CPU time of this process so far, every thread (s).
+double process_cpu_s();
 
 }  // namespace vmsim::app
