@@ -388,10 +388,16 @@ Field initial_field(const core::Job& job, Progress& progress, std::set<std::stri
                                                       f.spacing_mm, estimate, estimate * 8 / 1e9,
                                                       tile.whole() ? "" : " per process",
                                                       " or more processes (vmsim run --plan JOB says how many)"));
-  switch (f.kind) {
-    case core::RemovalSpec::Field::ZMap: f.zmap = removal::make_zmap(region, f.spacing_mm, tile); break;
-    case core::RemovalSpec::Field::TriDexel: f.tri = removal::make_tridexel(region, f.spacing_mm, tile); break;
-    case core::RemovalSpec::Field::NBuffer: read_needles(job, f); break;
+  try {
+    switch (f.kind) {
+      case core::RemovalSpec::Field::ZMap: f.zmap = removal::make_zmap(region, f.spacing_mm, tile); break;
+      case core::RemovalSpec::Field::TriDexel: f.tri = removal::make_tridexel(region, f.spacing_mm, tile); break;
+      case core::RemovalSpec::Field::NBuffer: read_needles(job, f); break;
+    }
+  } catch (const core::Error& e) {
+    if (tile.whole()) throw;
+    throw core::Error(job.file.string() + ": [removal] the stock's rays split into " + std::to_string(tile.count) +
+                      " tiles: " + e.what());
   }
   progress.stage(job.name + ": stock");
   fill_stock(f, job, mesh);
