@@ -1,34 +1,24 @@
 // vmsim run JOB: the whole chain. Program -> interpolator -> drives -> kinematics -> material removal -> surfaces,
 // and the marks: the signed deviation of the predicted surface from the reference surface.
 #include "app/axis_following.hpp"
-#include "app/axis_models.hpp"
 #include "app/commands.hpp"
 #include "app/contour_stats.hpp"
-#include "app/job_program.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "app/result_images.hpp"
+#include "app/run_pipeline.hpp"
 #include "app/signals.hpp"
-#include "app/tool_poses.hpp"
+#include "app/run_plan.hpp"
+#include "app/tiled_run.hpp"
+#include "app/mpi_session.hpp"
 #include "core/atomic_file.hpp"
-#include "core/contour.hpp"
 #include "core/error.hpp"
-#include "core/interp.hpp"
-#include "core/job.hpp"
 #include "core/kinematics.hpp"
-#include "core/program.hpp"
 #include "core/stl.hpp"
-#include "core/units.hpp"
-#include "drives/oga_schedule.hpp"
-#include "drives/simulate.hpp"
 #include "metrology/grid_io.hpp"
 #include "metrology/marks.hpp"
 #include "metrology/x3p.hpp"
-#include "removal/fields.hpp"
-#include "removal/mesh_stock.hpp"
 #include "removal/surface.hpp"
-#include "removal/track.hpp"
-#include "removal/vdb_part.hpp"
 #include "render/mesh_io.hpp"
 
 #include <fmt/format.h>
@@ -37,378 +27,50 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <optional>
 #include <set>
-#include <sstream>
 
 namespace vmsim::app {
 
 namespace {
-
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-const char* motion_name(core::RemovalSpec::Motion m) {
-  switch (m) {
-    case core::RemovalSpec::Motion::Actual: return "actual";
-    case core::RemovalSpec::Motion::Setpoints: return "setpoints";
-    case core::RemovalSpec::Motion::Program: return "program";
+// --tiles-out, rank 0: report.json without the whole-part results (marks, meshes, pictures need the whole grid):
+// the motion's figures, the removal's, and every rank's tile.
+int write_tiles_report(const core::Job& job, const RunArgs& args, const std::filesystem::path& dir, const Field& field,
+                       const Reference& reference, const Motion& motion, const removal::TrackSweeps& ts,
+                       const nlohmann::json& tiles_json, Clock::time_point t_start) {
+  nlohmann::json report = report_header("run", job);
+  double rays = 0;
+  for (const auto& r : tiles_json["per_rank"]) rays += r["rays"].get<double>();
+  report["removal"] = {{"method", "dexel"},
+                       {"field", field.kind == core::RemovalSpec::Field::ZMap ? "zmap" : "tridexel"},
+                       {"spacing_mm", field.spacing_mm},
+                       {"rays", rays},
+                       {"motion", motion_name(job.removal.motion)},
+                       {"sweeps", ts.sweeps.size()},
+                       {"track_tolerance_mm", job.removal.track_tolerance_mm},
+                       {"track_error_bound_mm", ts.error_bound_mm}};
+  report["tiles"] = tiles_json;
+  report["tiles"]["manifest"] = "tiles.json";
+  report["reference"] = reference.name;
+  if (motion.contour) {
+    const ContourStats cutting = cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
+    report["contour_error"] = contour_json(*motion.contour, cutting);
   }
-  return "?";
-}
-
-// One job's motion through the chain, as far as its removal needs it.
-struct Motion {
-  core::ToolPath program;  // tool tip, workpiece frame
-  core::InterpResult interp;
-  std::optional<drives::AxisResponse> response;
-  std::optional<core::ContourError> contour;
-  nlohmann::json timings = nlohmann::json::object();
-};
-
-Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, Progress& progress) {
-  Motion m;
-  auto t0 = Clock::now();
-  m.program = read_job_program(job);
-  m.timings["read_program"] = seconds_since(t0);
-  if (kind == core::RemovalSpec::Motion::Program) return m;
-  t0 = Clock::now();
-  progress.stage(job.name + ": interpolation");
-  core::InterpOptions iopt;
-  iopt.period_s = job.interp.period_s;
-  iopt.tolerance_mm = job.interp.tolerance_mm;
-  iopt.feed_scale = feed_scale;
-  m.interp = core::interpolate(core::toolpath_in_axis_space(m.program, job.machine), job.machine, iopt);
-  progress.done();
-  m.timings["interpolate"] = seconds_since(t0);
-  if (kind == core::RemovalSpec::Motion::Actual) {
-    t0 = Clock::now();
-    progress.stage(job.name + ": servo drives");
-    // [job] gain_schedule (vmsim oga) holds gains for the job's own feeds; a feed-scaled reference (kind = "feed")
-    // runs the drives' own gains.
-    drives::SimulateOptions sopt;
-    drives::GainSchedule schedule;
-    if (job.gain_schedule_file && feed_scale == 1.0) {
-      schedule = drives::read_gain_schedule(*job.gain_schedule_file, m.interp.setpoints, job.machine);
-      sopt.gains = &schedule;
-    }
-    // [job] axis_models (vmsim identify): those axes run as their identified transfer functions, at any feed.
-    const JobAxisModels models = job_axis_models(job, std::nullopt);
-    if (models.any()) sopt.axis_models = &models.per_axis;
-    m.response = drives::simulate_axes(m.interp.setpoints, job.machine, sopt);
-    progress.done();
-    m.timings["drives"] = seconds_since(t0);
-  }
-  return m;
-}
-
-double tlo_at(const Motion& m, Eigen::Index k) {
-  const core::Setpoints& sp = m.interp.setpoints;
-  const int mi = sp.move_index[std::min(k, sp.samples() - 1)];
-  return mi >= 0 ? m.program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
-}
-
-// The track tolerance a job cuts at: its own, or when it gives none and a level set cuts a turning tool, voxel / 10
-// (core/job.hpp: the orientation sub-steps are exact sweeps the level set pays for one by one, and it shows no finer
-// detail than about a tenth of its voxel; 3-axis tracks keep the default, which costs no extra sweeps there).
-double track_tolerance(const core::Job& job, bool tool_turns) {
-  if (job.removal.track_tolerance_given || job.removal.method != core::RemovalSpec::Method::Vdb || !tool_turns)
-    return job.removal.track_tolerance_mm;
-  return job.removal.voxel_mm / 10;
-}
-
-bool track_turns(const removal::PoseTrack& tr) {
-  const Eigen::MatrixXd& a = tr.axis_per_sample;
-  for (Eigen::Index k = 1; k < a.rows(); ++k)
-    if ((a.row(k).normalized() - a.row(0).normalized()).norm() > 1e-12) return true;
-  return false;
-}
-
-// Tool-tip track of the motion that cuts.
-removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind) {
-  removal::PoseTrack tr;
-  if (kind == core::RemovalSpec::Motion::Program && job.machine.kinematics == "chain" && program_turns_tool(m.program)) {
-    // A five-axis program: tool tip and axis along the programmed moves (app/tool_poses.hpp), sampled within a tenth
-    // of the track tolerance as the arcs below are.
-    const auto kin = core::make_kinematics(job.machine);
-    return program_pose_track(m.program, core::toolpath_in_axis_space(m.program, job.machine), *kin, job.machine,
-                              removal::make_tool(job.tool), 0.1 * track_tolerance(job, true));
-  }
-  if (kind == core::RemovalSpec::Motion::Program) {
-    // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
-    // tenth of the track tolerance (the kernel's sweeps are exact between points).
-    std::vector<Eigen::Vector3d> pts;
-    if (!m.program.moves.empty()) pts.push_back(m.program.moves.front().start.head<3>());
-    for (const core::Move& mv : m.program.moves) {
-      if (mv.kind == core::MotionKind::Line) {
-        pts.push_back(mv.end.head<3>());
-        continue;
-      }
-      int i1 = 0, i2 = 1, iw = 2;
-      if (mv.plane == core::ArcPlane::ZX) i1 = 2, i2 = 0, iw = 1;
-      if (mv.plane == core::ArcPlane::YZ) i1 = 1, i2 = 2, iw = 0;
-      const double c1 = mv.centre_mm[0], c2 = mv.centre_mm[1];
-      const double r0 = std::hypot(mv.start[i1] - c1, mv.start[i2] - c2), r1 = std::hypot(mv.end[i1] - c1, mv.end[i2] - c2);
-      const double t0 = std::atan2(mv.start[i2] - c2, mv.start[i1] - c1), te = std::atan2(mv.end[i2] - c2, mv.end[i1] - c1);
-      const int turns = std::abs(mv.rotation) - 1;
-      double sweep;
-      const bool full = std::hypot(mv.end[i1] - mv.start[i1], mv.end[i2] - mv.start[i2]) < 1e-9;
-      if (mv.rotation > 0) {
-        sweep = std::fmod(te - t0 + 4 * core::units::kPi, 2 * core::units::kPi);
-        if (full) sweep = 2 * core::units::kPi;
-        sweep += 2 * core::units::kPi * turns;
-      } else {
-        sweep = std::fmod(t0 - te + 4 * core::units::kPi, 2 * core::units::kPi);
-        if (full) sweep = 2 * core::units::kPi;
-        sweep = -(sweep + 2 * core::units::kPi * turns);
-      }
-      const double tol = 0.1 * job.removal.track_tolerance_mm, r = std::max(r0, r1);
-      const double dphi = 2 * std::acos(std::max(0.0, 1 - tol / std::max(r, 1e-9)));
-      const int n = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / std::max(dphi, 1e-6))));
-      for (int k = 1; k <= n; ++k) {
-        const double f = double(k) / n, th = t0 + f * sweep, rr = r0 + f * (r1 - r0);
-        Eigen::Vector3d p = (mv.start.head<3>() + f * (mv.end.head<3>() - mv.start.head<3>())).eval();
-        p[i1] = c1 + rr * std::cos(th);
-        p[i2] = c2 + rr * std::sin(th);
-        p[iw] = mv.start[iw] + f * (mv.end[iw] - mv.start[iw]);
-        pts.push_back(k == n ? Eigen::Vector3d(mv.end.head<3>()) : p);
-      }
-    }
-    tr.tip_mm.resize(static_cast<Eigen::Index>(pts.size()), 3);
-    for (std::size_t k = 0; k < pts.size(); ++k) tr.tip_mm.row(static_cast<Eigen::Index>(k)) = pts[k].transpose();
-    return tr;
-  }
-  const auto kin = core::make_kinematics(job.machine);
-  const core::Setpoints& sp = m.interp.setpoints;
-  const bool actual = kind == core::RemovalSpec::Motion::Actual;
-  const Eigen::MatrixXd& axes = actual ? m.response->position : sp.position;
-  // Tool tip and axis per sample through the forward transform (a turning axis on five-axis machines). Between Te
-  // samples of the actual motion the tip follows the cubic through both samples with the drives' velocities through
-  // the chain's Jacobian (Cartesian machine: the X Y Z velocities).
-  return pose_track_from_axes(*kin, job.machine, axes, actual ? &m.response->velocity : nullptr, sp.period_s,
-                              [&](Eigen::Index k) { return tlo_at(m, k); });
-}
-
-// The stock's dexels, or its level set (method "vdb": `kind` then only says which surfaces are read back).
-struct Field {
-  core::RemovalSpec::Field kind = core::RemovalSpec::Field::ZMap;
-  bool vdb = false;
-  removal::VdbPart part;               // vdb
-  double vdb_estimate_bytes = 0;       // vdb: the level set's memory stated before the run
-  double vdb_mesh_estimate_bytes = 0;  // vdb: the part mesh's
-  removal::Box region;
-  double spacing_mm = 0.05;
-  removal::DexelGrid zmap;
-  removal::TriDexel tri;
-  removal::NeedleSet needles;
-  std::vector<Eigen::Vector3d> needle_point, needle_normal;  // nominal points and normals (N-buffer)
-  double needle_half = 1.0;
-
-  std::size_t rays() const {
-    if (vdb) return 0;
-    switch (kind) {
-      case core::RemovalSpec::Field::ZMap: return static_cast<std::size_t>(zmap.nu()) * zmap.nv();
-      case core::RemovalSpec::Field::TriDexel:
-        return static_cast<std::size_t>(tri.x.nu()) * tri.x.nv() + static_cast<std::size_t>(tri.y.nu()) * tri.y.nv() +
-               static_cast<std::size_t>(tri.z.nu()) * tri.z.nv();
-      case core::RemovalSpec::Field::NBuffer: return needles.size();
-    }
-    return 0;
-  }
-  std::size_t memory_bytes() const {
-    if (vdb) return part.memory_bytes();
-    switch (kind) {
-      case core::RemovalSpec::Field::ZMap: return zmap.memory_bytes();
-      case core::RemovalSpec::Field::TriDexel: return tri.x.memory_bytes() + tri.y.memory_bytes() + tri.z.memory_bytes();
-      case core::RemovalSpec::Field::NBuffer: return needles.store().memory_bytes();
-    }
-    return 0;
-  }
-};
-
-void read_needles(const core::Job& job, Field& f) {
-  const auto& file = job.removal.needles_file;
-  std::ifstream in(file);
-  if (!in) throw core::Error(file.string() + ": cannot open file");
-  std::string line;
-  int lineno = 0;
-  std::vector<Eigen::Vector3d> o, d;
-  std::vector<double> len;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;
-    double v[6];
-    std::stringstream ss(line);
-    std::string cell;
-    int c = 0;
-    while (c < 6 && std::getline(ss, cell, ',')) {
-      char* end = nullptr;
-      v[c] = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str() || !std::isfinite(v[c]))
-        throw core::Error(core::located(file.string(), lineno, "expected x,y,z,nx,ny,nz numbers (mm)"));
-      ++c;
-    }
-    if (c != 6) throw core::Error(core::located(file.string(), lineno, "expected 6 values x,y,z,nx,ny,nz"));
-    const Eigen::Vector3d p(v[0], v[1], v[2]), n(v[3], v[4], v[5]);
-    if (n.norm() < 1e-9) throw core::Error(core::located(file.string(), lineno, "the normal has zero length"));
-    f.needle_point.push_back(p);
-    f.needle_normal.push_back(n.normalized());
-    o.push_back(p - job.removal.needle_half_length_mm * n.normalized());
-    d.push_back(n.normalized());
-    len.push_back(2 * job.removal.needle_half_length_mm);
-  }
-  if (o.empty()) throw core::Error(file.string() + ": no needles");
-  f.needles = removal::NeedleSet(std::move(o), std::move(d), std::move(len));
-  f.needle_half = job.removal.needle_half_length_mm;
-}
-
-void fill_stock(Field& f, const core::Job& job, const std::optional<core::TriangleMesh>& mesh) {
-  if (mesh) {
-    // One dexelizer: the closedness check and Embree's tree once for every grid.
-    const removal::MeshDexelizer dex(*mesh, job.stock.mesh_file.string());
-    switch (f.kind) {
-      case core::RemovalSpec::Field::ZMap: dex.fill(f.zmap); break;
-      case core::RemovalSpec::Field::TriDexel:
-        for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) dex.fill(*g);
-        break;
-      case core::RemovalSpec::Field::NBuffer: dex.fill(f.needles); break;
-    }
-    return;
-  }
-  const removal::Box b{job.stock.min_mm, job.stock.max_mm};
-  switch (f.kind) {
-    case core::RemovalSpec::Field::ZMap: removal::fill_box(f.zmap, b); break;
-    case core::RemovalSpec::Field::TriDexel:
-      for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::fill_box(*g, b);
-      break;
-    case core::RemovalSpec::Field::NBuffer: removal::fill_box(f.needles, b); break;
-  }
-}
-
-void cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
-  if (f.vdb) {
-    f.part.cut(sweeps);
-    return;
-  }
-  switch (f.kind) {
-    case core::RemovalSpec::Field::ZMap: removal::cut(f.zmap, sweeps); break;
-    case core::RemovalSpec::Field::TriDexel:
-      for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::cut(*g, sweeps);
-      break;
-    case core::RemovalSpec::Field::NBuffer: removal::cut(f.needles, sweeps); break;
-  }
-}
-
-std::vector<removal::SweptTool> sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
-  removal::TrackOptions topt;
-  topt.tolerance_mm = track_tolerance(job, track_turns(tr));
-  return removal::sweeps_from_track(removal::make_tool(job.tool), tr, topt).sweeps;
-}
-
-Field initial_field(const core::Job& job, double feed_scale, Progress& progress, std::set<std::string>& chain);
-
-// The part a job leaves: its stock, cut by its own motion.
-Field final_field(const core::Job& job, Progress& progress, std::set<std::string>& chain) {
-  Field f = initial_field(job, 1.0, progress, chain);
-  const Motion m = simulate_motion(job, 1.0, job.removal.motion, progress);
-  progress.stage(job.name + ": material removal");
-  cut_field(f, sweeps_of(job, track_of(m, job, job.removal.motion)));
-  progress.done();
-  return f;
-}
-
-// A job's starting field: a box or mesh stock, or the part another job leaves (run here, recursively).
-Field initial_field(const core::Job& job, double feed_scale, Progress& progress, std::set<std::string>& chain) {
-  const std::string key = std::filesystem::weakly_canonical(job.file).string();
-  if (!chain.insert(key).second) throw core::Error(job.file.string() + ": the stock jobs form a cycle");
-  Field f;
-  if (job.stock.kind == core::StockSpec::Kind::Job) {
-    Field prev = final_field(core::load_job(job.stock.job_file), progress, chain);
-    if (prev.vdb != (job.removal.method == core::RemovalSpec::Method::Vdb))
-      throw core::Error(job.file.string() + ": [removal] method differs from that of the stock job " +
-                        job.stock.job_file.string() + " (a part is carried from job to job in one kernel)");
-    return prev;
-  }
-  (void)feed_scale;
-  std::optional<core::TriangleMesh> mesh;
-  removal::Box region;
-  if (job.stock.kind == core::StockSpec::Kind::Box) {
-    region = removal::Box{job.stock.min_mm, job.stock.max_mm};
-  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
-    mesh = core::read_stl(job.stock.mesh_file);
-    region.lo = mesh->vertices_mm.colwise().minCoeff().transpose();
-    region.hi = mesh->vertices_mm.colwise().maxCoeff().transpose();
-  } else {
-    throw core::Error(job.file.string() + ": [stock] is required to remove material (box, stl or job)");
-  }
-  f.kind = job.removal.field;
-  f.region = region;
-  f.spacing_mm = job.removal.spacing_mm;
-  if (job.removal.method == core::RemovalSpec::Method::Vdb) {
-    f.vdb = true;
-    if (f.kind == core::RemovalSpec::Field::NBuffer) read_needles(job, f);
-    // The memory it will need, stated before the run (removal/vdb_part.hpp's model): the narrow band of the stock's
-    // surface, which cuts that finish a part replace by their own (deep cuts add their new walls and floors), and
-    // the part mesh written at the end. report.json holds both beside the level set's measured memory.
-    const removal::SurfaceArea sa = mesh ? removal::surface_area(*mesh) : removal::surface_area(region);
-    const double h = job.removal.voxel_mm;
-    f.vdb_estimate_bytes = removal::estimate_level_set_bytes(sa, h);
-    f.vdb_mesh_estimate_bytes = removal::estimate_mesh_bytes(sa.area_mm2, h);
-    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB: %.1f MB for the band of the stock's "
-                 "%.0f mm^2 (%.1f MB per 1000 mm^2 of surface the cuts add) and %.1f MB for the part mesh\n",
-                 job.name.c_str(), h, (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e6,
-                 f.vdb_estimate_bytes / 1e6, sa.area_mm2, f.vdb_estimate_bytes / sa.area_mm2 * 1e3 / 1e6,
-                 f.vdb_mesh_estimate_bytes / 1e6);
-    const double limit = 32e9;
-    if (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes > limit)
-      throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {:.1f} GB for the level "
-                                                        "set and its mesh; choose a larger voxel", h,
-                                                        (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e9));
-    progress.stage(job.name + ": stock (level set)");
-    removal::VdbOptions vo;
-    vo.voxel_mm = h;
-    f.part = mesh ? removal::VdbPart::mesh(*mesh, vo, job.stock.mesh_file.string())
-                  : removal::VdbPart::box(region, vo);
-    progress.done();
-    return f;
-  }
-  const double rays_limit = 4e8;  // ~3.2 GB of dexels: far beyond this machine's jobs, a typo in spacing_mm
-  const Eigen::Vector3d ext = region.hi - region.lo;
-  const double estimate = (ext.x() / f.spacing_mm + 1) * (ext.y() / f.spacing_mm + 1) *
-                          (f.kind == core::RemovalSpec::Field::TriDexel ? 3 : 1);
-  if (f.kind != core::RemovalSpec::Field::NBuffer && estimate > rays_limit)
-    throw core::Error(job.file.string() + fmt::format(": [removal] spacing_mm = {} gives {:.3g} rays ({:.1f} GB); "
-                                                      "choose a larger spacing",
-                                                      f.spacing_mm, estimate, estimate * 8 / 1e9));
-  switch (f.kind) {
-    case core::RemovalSpec::Field::ZMap: f.zmap = removal::make_zmap(region, f.spacing_mm); break;
-    case core::RemovalSpec::Field::TriDexel: f.tri = removal::make_tridexel(region, f.spacing_mm); break;
-    case core::RemovalSpec::Field::NBuffer: read_needles(job, f); break;
-  }
-  progress.stage(job.name + ": stock");
-  fill_stock(f, job, mesh);
-  progress.done();
-  return f;
-}
-
-// Surface of a grid field (z-map, or the tri-dexel's Z grid).
-core::HeightGrid surface_of(const Field& f) {
-  // The level set read back along the z-map's rays (same nodes as a z-map at spacing_mm).
-  if (f.vdb) return f.part.height_grid(f.region, f.spacing_mm);
-  return removal::height_grid(f.kind == core::RemovalSpec::Field::TriDexel ? f.tri.z : f.zmap);
-}
-
-// Along each needle, the surface's position relative to the nominal point (mm along the normal; NaN if empty).
-Eigen::VectorXd needle_offsets(const Field& f) {
-  Eigen::VectorXd o(static_cast<Eigen::Index>(f.needles.size()));
-  if (f.vdb) {
-    const std::vector<double> top = f.part.needle_tops(f.needles);
-    for (std::size_t k = 0; k < top.size(); ++k) o[static_cast<Eigen::Index>(k)] = top[k] - f.needle_half;
-    return o;
-  }
-  for (std::size_t k = 0; k < f.needles.size(); ++k) o[static_cast<Eigen::Index>(k)] = f.needles.store().top(k) - f.needle_half;
-  return o;
+  if (job.removal.motion != core::RemovalSpec::Motion::Program)
+    report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
+                               {"setpoints", motion.interp.setpoints.samples()},
+                               {"period_s", motion.interp.setpoints.period_s}};
+  report["files"] = {"tiles.json", "report.json"};
+  report["timings_s"] = {{"total", seconds_since(t_start)}};
+  write_report(dir / "report.json", report);
+  std::printf("job %s: %s motion, %zu sweeps on %.0f rays in %d tiles\n", job.name.c_str(),
+              motion_name(job.removal.motion), ts.sweeps.size(), rays, tiles_json["ranks"].get<int>());
+  std::printf("wrote %s: tiles.json, report.json and tiles/ (one X3P per rank%s) in %.1f s\n", dir.string().c_str(),
+              reference.field ? ", surface and deviation" : "", seconds_since(t_start));
+  (void)args;
+  return 0;
 }
 
 }  // namespace
@@ -423,70 +85,99 @@ int run_run(const RunArgs& args) {
   ImageArgs image_args;
   image_args.size = args.image_size;
   const ImageOptions image_opt = args.no_render ? ImageOptions{} : image_options(image_args);
-  Progress progress(!args.quiet);
+  if (args.plan) return run_plan(job, args);
+  // Under mpirun: this rank's tile of the stock (app/tiled_run.hpp); otherwise the whole stock.
+  const Tile tile = process_tile();
+  const bool root = mpi_rank() == 0;
+  if (args.tiles_out && tile.whole())
+    throw core::Error("--tiles-out: writes one file per MPI rank; run under mpirun -np N (N > 1)");
+  if (args.tiles_out && job.removal.field == core::RemovalSpec::Field::NBuffer)
+    throw core::Error(job.file.string() + ": --tiles-out writes each tile's height grid; [removal] field = \"nbuffer\" "
+                      "has none (run without --tiles-out: the needles are gathered)");
+  Progress progress(!args.quiet && root);
   std::set<std::string> chain;
 
   auto t0 = Clock::now();
-  Field field = initial_field(job, 1.0, progress, chain);
+  Field field = initial_field(job, progress, chain, tile);
   const double t_stock = seconds_since(t0);
   const Field start = field;  // the stock this job starts from (reference "stock")
 
   const double feed_scale = args.feed_scale.value_or(1.0);
   Motion motion = simulate_motion(job, feed_scale, job.removal.motion, progress);
-  if (motion.response) {
-    t0 = Clock::now();
-    const auto kin = core::make_kinematics(job.machine);
-    const core::Setpoints& sp = motion.interp.setpoints;
-    Eigen::MatrixXd cmd(motion.response->samples(), 3), act(motion.response->samples(), 3);
-    for (Eigen::Index k = 0; k < cmd.rows(); ++k) {
-      cmd.row(k) = kin->forward(sp.position.row(std::min(k, sp.samples() - 1)).transpose(), tlo_at(motion, k)).tip_mm.transpose();
-      act.row(k) = kin->forward(motion.response->position.row(k).transpose(), tlo_at(motion, k)).tip_mm.transpose();
-    }
-    motion.contour = core::contour_error(cmd, act);
-    motion.timings["contour_error"] = seconds_since(t0);
-  }
+  add_contour_error(motion, job);
 
   t0 = Clock::now();
+  const double cpu0 = process_cpu_s();
   progress.stage(job.name + ": material removal");
   const removal::PoseTrack track = track_of(motion, job, job.removal.motion);
-  removal::TrackOptions topt;
-  topt.tolerance_mm = track_tolerance(job, track_turns(track));
-  const removal::TrackSweeps ts = removal::sweeps_from_track(removal::make_tool(job.tool), track, topt);
-  cut_field(field, ts.sweeps);
+  const removal::TrackSweeps ts = sweeps_of(job, track);
+  const std::size_t sweeps_in_tile = cut_field(field, ts.sweeps);
   progress.done();
-  const double t_cut = seconds_since(t0);
+  const double t_cut = seconds_since(t0), cpu_cut = process_cpu_s() - cpu0;
 
   // The reference surface.
   t0 = Clock::now();
-  std::optional<Field> ref;
-  std::string ref_name = "none";
-  if (job.reference.kind == core::ReferenceSpec::Kind::Job) {
-    std::set<std::string> ref_chain = {std::filesystem::weakly_canonical(job.file).string()};
-    ref = final_field(core::load_job(job.reference.job_file), progress, ref_chain);
-    ref_name = "job: the part " + job.reference.job_file.filename().string() + " leaves";
-  } else if (job.reference.kind == core::ReferenceSpec::Kind::Feed) {
-    ref = start;
-    const Motion rm = simulate_motion(job, feed_scale * job.reference.feed_scale, job.removal.motion, progress);
-    progress.stage(job.name + ": reference (feeds x " + fmt::format("{:g}", job.reference.feed_scale) + ")");
-    cut_field(*ref, sweeps_of(job, track_of(rm, job, job.removal.motion)));
-    progress.done();
-    ref_name = fmt::format("feed: the same program through the same chain at {:g} x its feeds", job.reference.feed_scale);
-  } else if (job.reference.kind == core::ReferenceSpec::Kind::Stock) {
-    ref = start;
-    ref_name = "stock: the part " + job.stock.job_file.filename().string() + " leaves";
-  } else if (job.reference.kind == core::ReferenceSpec::Kind::Program) {
-    progress.stage(job.name + ": reference (programmed path)");
-    ref = start;
-    const Motion pm = simulate_motion(job, feed_scale, core::RemovalSpec::Motion::Program, progress);
-    cut_field(*ref, sweeps_of(job, track_of(pm, job, core::RemovalSpec::Motion::Program)));
-    progress.done();
-    ref_name = "program: the same program cut exactly along its programmed path";
-  }
+  Reference reference = reference_field(job, start, feed_scale, progress);
   const double t_ref = seconds_since(t0);
+
+  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
+  nlohmann::json tiles_json;
+  if (!tile.whole()) {
+    // Every rank's tile figures to rank 0, then the tiles themselves: gathered into the whole field (rank 0 then
+    // writes what a one-process run writes), or written by each rank (--tiles-out).
+    TileFigures mine;
+    const removal::DexelGrid* g0 = field.grids().empty() ? nullptr : field.grids().front();
+    mine.rows = g0 ? g0->nv() : static_cast<double>(field.needles.size());
+    mine.rays = static_cast<double>(field.rays());
+    mine.sweeps = static_cast<double>(sweeps_in_tile);
+    mine.memory_bytes = static_cast<double>(field.memory_bytes() + (reference.field ? reference.field->memory_bytes() : 0));
+    mine.removal_s = t_cut;
+    mine.removal_cpu_s = cpu_cut;
+    std::optional<TileFiles> files;
+    if (args.tiles_out) {
+      std::error_code ec;
+      std::filesystem::create_directories(dir, ec);
+      if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+      progress.stage(job.name + ": writing the tiles");
+      files = write_tile(dir, job.name, field, reference.field ? &*reference.field : nullptr);
+      progress.done();
+    }
+    mine.peak_rss_bytes = peak_rss_bytes();
+    mine.cpu_s = process_cpu_s();
+    quiet_barrier();  // ranks that finished early sleep rather than spin in the gathers
+    const std::vector<TileFigures> all = gather_tile_figures(mine);
+    tiles_json = {{"ranks", tile.count},
+                  {"split", "each dexel grid's rows (needles: blocks of 64) in equal bands, one per rank"},
+                  {"gathered", !args.tiles_out},
+                  {"per_rank", nlohmann::json::array()}};
+    for (std::size_t r = 0; r < all.size(); ++r)
+      tiles_json["per_rank"].push_back({{"rank", r}, {"rows", all[r].rows}, {"rays", all[r].rays},
+                                        {"sweeps", all[r].sweeps}, {"field_memory_bytes", all[r].memory_bytes},
+                                        {"peak_rss_bytes", all[r].peak_rss_bytes}, {"removal_s", all[r].removal_s},
+                                        {"removal_cpu_s", all[r].removal_cpu_s}, {"cpu_s", all[r].cpu_s}});
+    if (args.tiles_out) {
+      write_tile_manifest(dir, job.name, field, *files);
+      if (root) write_tiles_report(job, args, dir, field, reference, motion, ts, tiles_json, t_start);
+      quiet_barrier();
+      return 0;
+    }
+    progress.stage(job.name + ": gathering the tiles to rank 0");
+    std::optional<Field> whole = gather_field(field);
+    std::optional<Field> whole_ref;
+    if (reference.field) whole_ref = gather_field(*reference.field);
+    progress.done();
+    if (!root) {
+      quiet_barrier();  // while rank 0 writes the outputs (an error there aborts every rank)
+      return 0;
+    }
+    field = std::move(*whole);
+    if (reference.field) reference.field = std::move(*whole_ref);
+  }
+  const std::optional<Field>& ref = reference.field;
+  const std::string& ref_name = reference.name;
 
   // Outputs.
   t0 = Clock::now();
-  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
@@ -654,7 +345,7 @@ int run_run(const RunArgs& args) {
                        {"motion", motion_name(job.removal.motion)},
                        {"track_points", ts.points},
                        {"sweeps", ts.sweeps.size()},
-                       {"track_tolerance_mm", topt.tolerance_mm},
+                       {"track_tolerance_mm", track_tolerance(job, track_turns(track))},
                        {"track_error_bound_mm", ts.error_bound_mm},
                        {"tool_axis_turns", track.axis_per_sample.rows() > 0},
                        {"orientation_error_mm", ts.orientation_error_mm}};
@@ -665,6 +356,7 @@ int run_run(const RunArgs& args) {
     report["removal"]["active_voxels"] = field.part.active_voxels();
     report["removal"]["level_set"] = vdb_json;
   }
+  if (!tiles_json.is_null()) report["tiles"] = tiles_json;
   report["reference"] = ref_name;
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
@@ -690,6 +382,7 @@ int run_run(const RunArgs& args) {
   nlohmann::json timings = motion.timings;
   timings["stock"] = t_stock;
   timings["removal"] = t_cut;
+  timings["removal_cpu"] = cpu_cut;  // every thread's CPU time (the machine may be loaded: wall time stretches)
   timings["reference"] = t_ref;
   timings["write"] = t_write;
   if (!args.no_render) timings["render"] = t_render;
@@ -721,6 +414,7 @@ int run_run(const RunArgs& args) {
   if (render_error)
     throw core::Error("the results are written to " + dir.string() + ", but the pictures could not be drawn "
                       "(--no-render skips them): " + *render_error);
+  if (!tile.whole()) quiet_barrier();
   return 0;
 }
 

@@ -52,6 +52,13 @@ struct RunArgs {
   bool quiet = false;                            // no progress on stderr
   bool no_render = false;                        // no pictures in DIR/images
   std::string image_size = "1600x1200";          // WIDTHxHEIGHT of the pictures
+  // Under mpirun: each rank writes its tile (DIR/tiles/*.x3p) and rank 0 the manifest DIR/tiles.json, instead of
+  // gathering the whole field to rank 0 (app/tiled_run.hpp).
+  bool tiles_out = false;
+  // --plan: no run; the memory the job needs (whole and per rank) and advice (app/run_plan.hpp).
+  bool plan = false;
+  std::optional<int> ranks;                      // --ranks N for the plan (default: the MPI world size)
+  std::optional<double> memory_per_rank_gb;      // --memory-per-rank-gb for the plan's advice
 };
 // vmsim run JOB: the whole chain to the machined surface and its marks; report.json, height grids, part mesh,
 // signals.csv, and the pictures in DIR/images (app/result_images).

@@ -123,6 +123,18 @@ int run_command(int argc, char** argv) {
   run->add_flag("--quiet,-q", run_args.quiet, "no progress on stderr");
   run->add_flag("--no-render", run_args.no_render, "draw no pictures (by default: PNG files in OUT/images)");
   run->add_option("--image-size", run_args.image_size, "size of the pictures, WIDTHxHEIGHT (default 1600x1200)");
+  // Under mpirun -np N the stock is split into N tiles (app/tiled_run.hpp); results are gathered to rank 0.
+  run->add_flag("--tiles-out", run_args.tiles_out,
+                "under mpirun: each rank writes its tile (OUT/tiles/*.x3p) and rank 0 a manifest (OUT/tiles.json), "
+                "instead of gathering the whole part to rank 0");
+  run->add_flag("--plan", run_args.plan,
+                "dry run: the memory the job needs (field, motion, sweeps, outputs) for one process and per rank, "
+                "written to OUT/plan.json with --out");
+  run->add_option("--ranks", run_args.ranks, "--plan: ranks of the tiled run (default: the MPI world size)")
+      ->check(CLI::PositiveNumber);
+  run->add_option("--memory-per-rank-gb", run_args.memory_per_rank_gb,
+                  "--plan: memory per rank (GB) to advise how many ranks or which spacing the job needs")
+      ->check(CLI::PositiveNumber);
 
   vmsim::app::RenderArgs render_args;
   auto* render = app.add_subcommand(

@@ -55,7 +55,7 @@ bool use_avx2() {
 }
 
 std::size_t cut_row_axial_ball(DexelGrid& g, const AxialBall& b, int j, int i0, int i1) {
-  const double qv = j * g.dv() - b.cv, Rel = b.R * b.el;
+  const double qv = g.v_of(j) - b.cv, Rel = b.R * b.el;
   // Columns whose distance to the centre's segment line is within R, and whose projection falls within R of it.
   double lo = i0 * g.du() - b.cu, hi = i1 * g.du() - b.cu;  // q_u range
   if (std::abs(b.ev) > 1e-15) {
@@ -162,7 +162,7 @@ void stadium_row(double pu0, double pv0, double pu1, double pv1, double R, doubl
 
 // Columns [ia, ib] of row j (empty when ia > ib), within [i0, i1].
 void general_row_range(const DexelGrid& g, const GeneralRows& r, int j, int i0, int i1, int& ia, int& ib) {
-  const double v = j * g.dv();
+  const double v = g.v_of(j);
   double lo = 1e300, hi = -1e300;
   for (int k = 0; k < 4; ++k) {
     const int n = (k + 1) % 4;
@@ -178,35 +178,56 @@ void general_row_range(const DexelGrid& g, const GeneralRows& r, int j, int i0, 
 
 }  // namespace
 
+Footprint footprint(const DexelGrid& grid, const SweptTool& sweep) {
+  Eigen::Vector3d lo, hi;
+  sweep.bounds(lo, hi);
+  double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
+    const Eigen::Vector3d q = p - grid.origin();
+    umin = std::min(umin, q.dot(grid.U())), umax = std::max(umax, q.dot(grid.U()));
+    vmin = std::min(vmin, q.dot(grid.V())), vmax = std::max(vmax, q.dot(grid.V()));
+  }
+  // Lattice rows first (a window's rows are the lattice's from v_first on), clamped in double so far-away sweeps
+  // cannot overflow an int.
+  const double lattice_j0 = std::ceil(vmin / grid.dv()), lattice_j1 = std::floor(vmax / grid.dv());
+  Footprint f;
+  f.i0 = std::max(0, static_cast<int>(std::ceil(umin / grid.du())));
+  f.i1 = std::min(grid.nu() - 1, static_cast<int>(std::floor(umax / grid.du())));
+  f.j0 = static_cast<int>(std::clamp(lattice_j0 - grid.v_first(), 0.0, double(grid.nv())));
+  f.j1 = static_cast<int>(std::clamp(lattice_j1 - grid.v_first(), -1.0, double(grid.nv() - 1)));
+  return f;
+}
+
+std::vector<SweptTool> sweeps_reaching(const DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
+  std::vector<SweptTool> out;
+  for (const SweptTool& s : sweeps)
+    if (!footprint(grid, s).empty()) out.push_back(s);
+  return out;
+}
+
 CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
   constexpr int kBlock = 8;  // rows per work item
   const int nblocks = (grid.nv() + kBlock - 1) / kBlock;
   // Each sweep's footprint on the grid (the rays whose line can meet its bounding box), binned by row block.
-  struct Footprint {
-    int i0, i1, j0, j1;
-    double w0, w1;  // the sweep's extent along the rays (ray parameter), widened well beyond round-off
-  };
   std::vector<Footprint> fp(sweeps.size());
+  // Each sweep's extent along the rays (ray parameter), widened well beyond round-off: rays whose material lies wholly
+  // outside it are left alone below.
+  std::vector<std::pair<double, double>> wext(sweeps.size());
   std::vector<std::vector<int>> bins(static_cast<std::size_t>(nblocks));
   for (std::size_t k = 0; k < sweeps.size(); ++k) {
+    const Footprint f = footprint(grid, sweeps[k]);
     Eigen::Vector3d lo, hi;
     sweeps[k].bounds(lo, hi);
-    double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300, wmin = 1e300, wmax = -1e300;
+    double wmin = 1e300, wmax = -1e300;
     for (int c = 0; c < 8; ++c) {
       const Eigen::Vector3d p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
-      const Eigen::Vector3d q = p - grid.origin();
-      umin = std::min(umin, q.dot(grid.U())), umax = std::max(umax, q.dot(grid.U()));
-      vmin = std::min(vmin, q.dot(grid.V())), vmax = std::max(vmax, q.dot(grid.V()));
-      wmin = std::min(wmin, q.dot(grid.W())), wmax = std::max(wmax, q.dot(grid.W()));
+      const double w = (p - grid.origin()).dot(grid.W());
+      wmin = std::min(wmin, w), wmax = std::max(wmax, w);
     }
-    Footprint f;
-    f.w0 = wmin - 1e-6 * (1 + std::abs(wmin)), f.w1 = wmax + 1e-6 * (1 + std::abs(wmax));
-    f.i0 = std::max(0, static_cast<int>(std::ceil(umin / grid.du())));
-    f.i1 = std::min(grid.nu() - 1, static_cast<int>(std::floor(umax / grid.du())));
-    f.j0 = std::max(0, static_cast<int>(std::ceil(vmin / grid.dv())));
-    f.j1 = std::min(grid.nv() - 1, static_cast<int>(std::floor(vmax / grid.dv())));
+    wext[k] = {wmin - 1e-6 * (1 + std::abs(wmin)), wmax + 1e-6 * (1 + std::abs(wmax))};
     fp[k] = f;
-    if (f.i0 > f.i1 || f.j0 > f.j1) continue;
+    if (f.empty()) continue;
     for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b) bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
   }
   std::size_t tests = 0, cuts = 0;
@@ -231,7 +252,8 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
           // A ray whose material lies wholly before or after the sweep's extent along it is left as it is (subtract
           // would not change it): no exact test. Most rays across a tool's shank run through air.
           const Interval h = head[i];
-          if (!std::isnan(h.lo) && (!(h.lo <= h.hi) || f.w1 <= h.lo || f.w0 >= h.hi)) continue;
+          const auto [w0, w1] = wext[static_cast<std::size_t>(k)];
+          if (!std::isnan(h.lo) && (!(h.lo <= h.hi) || w1 <= h.lo || w0 >= h.hi)) continue;
           double t0, t1;
           ++tests;
           if (!ray_interval(sw, grid.ray_origin(i, j), W, t0, t1)) continue;

@@ -17,4 +17,17 @@ struct CutStats {
 // for any thread count.
 CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps);
 
+// The rays [i0, i1] x [j0, j1] (the grid's own row indices) whose lines can meet a sweep's bounding box: the only
+// rays cut() lets the sweep touch. Empty when the sweep misses the grid (or the grid's window of rows).
+struct Footprint {
+  int i0 = 0, i1 = -1, j0 = 0, j1 = -1;
+  bool empty() const { return i0 > i1 || j0 > j1; }
+};
+Footprint footprint(const DexelGrid& grid, const SweptTool& sweep);
+
+// The sweeps whose footprint on the grid is not empty, in their order: cutting a grid (or a window of rows of a
+// larger grid, a tile) with these alone leaves every ray bit-identical to cutting it with all of them, since each
+// ray sees the same sweeps in the same order.
+std::vector<SweptTool> sweeps_reaching(const DexelGrid& grid, const std::vector<SweptTool>& sweeps);
+
 }  // namespace vmsim::removal

@@ -105,6 +105,11 @@ std::size_t IntervalStore::memory_bytes() const {
   return b;
 }
 
+std::size_t IntervalStore::initial_bytes(std::size_t rays, std::size_t rays_per_row) {
+  const std::size_t per_row = std::max<std::size_t>(1, rays_per_row);
+  return rays * sizeof(Interval) + ((rays + per_row - 1) / per_row + 1) * sizeof(overflow_[0]);
+}
+
 std::size_t IntervalStore::interval_count() const {
   std::size_t n = 0;
   for (const Interval& h : head_) n += !std::isnan(h.lo) && !is_empty(h);
@@ -114,10 +119,10 @@ std::size_t IntervalStore::interval_count() const {
 }
 
 DexelGrid::DexelGrid(const Eigen::Vector3d& origin, const Eigen::Vector3d& U, const Eigen::Vector3d& V, double du,
-                     double dv, int nu, int nv, double length)
+                     double dv, int nu, int nv, double length, int v_first)
     : origin_(origin), U_(U.normalized()), V_(V.normalized()), W_(U.normalized().cross(V.normalized())), du_(du),
-      dv_(dv), length_(length), nu_(nu), nv_(nv) {
-  if (nu <= 0 || nv <= 0 || !(du > 0) || !(dv > 0) || !(length > 0))
+      dv_(dv), length_(length), nu_(nu), nv_(nv), v_first_(v_first) {
+  if (nu <= 0 || nv <= 0 || !(du > 0) || !(dv > 0) || !(length > 0) || v_first < 0)
     throw core::Error("dexel grid: expected positive sizes and spacings");
   store_ = IntervalStore(static_cast<std::size_t>(nu) * static_cast<std::size_t>(nv), static_cast<std::size_t>(nu));
 }

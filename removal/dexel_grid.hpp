@@ -38,6 +38,8 @@ class IntervalStore {
   void subtract(std::size_t ray, double t0, double t1);
   std::size_t memory_bytes() const;
   std::size_t interval_count() const;
+  // memory_bytes() of a store of this size before any cut splits a ray (memory plans, app/run_plan.hpp).
+  static std::size_t initial_bytes(std::size_t rays, std::size_t rays_per_row);
 
  private:
   static bool is_empty(const Interval& h) { return !(h.lo <= h.hi); }
@@ -54,20 +56,24 @@ class IntervalStore {
 class DexelGrid {
  public:
   DexelGrid() = default;
-  // Rays start at origin + i du U + j dv V, i < nu, j < nv, and run along W = U x V over [0, length_mm].
+  // Rays start at origin + i du U + (v_first + j) dv V, i < nu, j < nv, and run along W = U x V over [0, length_mm].
+  // v_first > 0 makes the grid a window of rows of a larger one (a tile of a tiled run): same origin, same lattice,
+  // so every ray's position, and every cut computed from it, is bit-identical to the larger grid's.
   DexelGrid(const Eigen::Vector3d& origin, const Eigen::Vector3d& U, const Eigen::Vector3d& V, double du_mm,
-            double dv_mm, int nu, int nv, double length_mm);
+            double dv_mm, int nu, int nv, double length_mm, int v_first = 0);
 
   int nu() const { return nu_; }
   int nv() const { return nv_; }
   double du() const { return du_; }
   double dv() const { return dv_; }
   double length() const { return length_; }
+  int v_first() const { return v_first_; }                  // lattice row of row 0
+  double v_of(int j) const { return (v_first_ + j) * dv_; }  // row j's offset along V from the origin
   const Eigen::Vector3d& origin() const { return origin_; }
   const Eigen::Vector3d& U() const { return U_; }
   const Eigen::Vector3d& V() const { return V_; }
   const Eigen::Vector3d& W() const { return W_; }
-  Eigen::Vector3d ray_origin(int i, int j) const { return origin_ + (i * du_) * U_ + (j * dv_) * V_; }
+  Eigen::Vector3d ray_origin(int i, int j) const { return origin_ + (i * du_) * U_ + ((v_first_ + j) * dv_) * V_; }
   std::size_t ray(int i, int j) const { return static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_) + i; }
 
   // Every ray full over [lo, hi] (ray parameters).
@@ -86,7 +92,7 @@ class DexelGrid {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero(), U_ = Eigen::Vector3d::UnitX(), V_ = Eigen::Vector3d::UnitY(),
                   W_ = Eigen::Vector3d::UnitZ();
   double du_ = 1, dv_ = 1, length_ = 0;
-  int nu_ = 0, nv_ = 0;
+  int nu_ = 0, nv_ = 0, v_first_ = 0;
   IntervalStore store_;
 };
 

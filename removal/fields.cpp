@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace vmsim::removal {
 
@@ -28,21 +29,47 @@ bool ray_box(const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Box& b, d
 }
 }  // namespace
 
-DexelGrid make_zmap(const Box& r, double h) {
-  if (!(h > 0)) throw core::Error("z-map: the spacing must be > 0");
-  const Eigen::Vector3d ext = r.hi - r.lo;
-  return DexelGrid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, h, count(ext.x(), h), count(ext.y(), h),
-                   ext.z());
+std::pair<int, int> tile_rows(int rows, const Tile& t) {
+  if (t.count < 1 || t.index < 0 || t.index >= t.count) throw core::Error("tile: expected 0 <= index < count");
+  const auto first = static_cast<int>(static_cast<long long>(rows) * t.index / t.count);
+  const auto end = static_cast<int>(static_cast<long long>(rows) * (t.index + 1) / t.count);
+  if (end <= first)
+    throw core::Error("tiles: " + std::to_string(t.count) + " tiles for a grid of " + std::to_string(rows) +
+                      " rows leave a tile empty; use at most " + std::to_string(rows) + " processes");
+  return {first, end};
 }
 
-TriDexel make_tridexel(const Box& r, double h) {
+namespace {
+// The rows of a grid of nu x nv rays that a tile holds, as a window of the lattice.
+DexelGrid tile_grid(const Eigen::Vector3d& o, const Eigen::Vector3d& U, const Eigen::Vector3d& V, double h, int nu,
+                    int nv, double length, const Tile& tile) {
+  const auto [first, end] = tile_rows(nv, tile);
+  return DexelGrid(o, U, V, h, h, nu, end - first, length, first);
+}
+}  // namespace
+
+DexelGrid make_zmap(const Box& r, double h, const Tile& tile) {
+  if (!(h > 0)) throw core::Error("z-map: the spacing must be > 0");
+  const Eigen::Vector3d ext = r.hi - r.lo;
+  return tile_grid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, count(ext.x(), h), count(ext.y(), h),
+                   ext.z(), tile);
+}
+
+TriDexel make_tridexel(const Box& r, double h, const Tile& tile) {
   if (!(h > 0)) throw core::Error("tri-dexel: the spacing must be > 0");
   const Eigen::Vector3d e = r.hi - r.lo;
   TriDexel t;
-  t.x = DexelGrid(r.lo, Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(), h, h, count(e.y(), h), count(e.z(), h), e.x());
-  t.y = DexelGrid(r.lo, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), h, h, count(e.z(), h), count(e.x(), h), e.y());
-  t.z = DexelGrid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, h, count(e.x(), h), count(e.y(), h), e.z());
+  t.x = tile_grid(r.lo, Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(), h, count(e.y(), h), count(e.z(), h), e.x(), tile);
+  t.y = tile_grid(r.lo, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), h, count(e.z(), h), count(e.x(), h), e.y(), tile);
+  t.z = tile_grid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, count(e.x(), h), count(e.y(), h), e.z(), tile);
   return t;
+}
+
+std::vector<GridShape> field_shape(const Box& r, double h, bool tridexel) {
+  if (!(h > 0)) throw core::Error("field: the spacing must be > 0");
+  const Eigen::Vector3d e = r.hi - r.lo;
+  if (!tridexel) return {{count(e.x(), h), count(e.y(), h)}};
+  return {{count(e.y(), h), count(e.z(), h)}, {count(e.z(), h), count(e.x(), h)}, {count(e.x(), h), count(e.y(), h)}};
 }
 
 void fill_box(DexelGrid& g, const Box& stock) {
@@ -126,7 +153,7 @@ core::HeightGrid height_grid(const DexelGrid& g) {
   if ((g.W() - Eigen::Vector3d::UnitZ()).norm() > 1e-12) throw core::Error("height grid: the dexel grid is not along +Z");
   core::HeightGrid h;
   h.x0_mm = g.origin().x();
-  h.y0_mm = g.origin().y();
+  h.y0_mm = g.v_first() == 0 ? g.origin().y() : g.origin().y() + g.v_of(0);  // a window: its first row
   h.dx_mm = g.du();
   h.dy_mm = g.dv();
   h.z_mm.resize(g.nv(), g.nu());

@@ -1,0 +1,263 @@
+#include "app/tiled_run.hpp"
+
+#include "app/mpi_session.hpp"
+#include "app/report.hpp"
+#include "core/error.hpp"
+#include "metrology/marks.hpp"
+#include "metrology/x3p.hpp"
+
+#include <fmt/format.h>
+#include <mpi.h>
+#include <nlohmann/json.hpp>
+
+#include <climits>
+#include <ctime>
+#include <cstdint>
+#include <fstream>
+#include <string>
+
+namespace vmsim::app {
+
+Tile process_tile() {
+  if (!mpi_active()) return {};
+  return Tile{mpi_rank(), mpi_size()};
+}
+
+double peak_rss_bytes() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;  // "VmHWM:  1234 kB"
+  return 0;
+}
+
+void quiet_barrier() {
+  if (!mpi_active()) return;
+  MPI_Request req;
+  MPI_Ibarrier(MPI_COMM_WORLD, &req);
+  int done = 0;
+  while (true) {
+    MPI_Test(&req, &done, MPI_STATUS_IGNORE);
+    if (done) return;
+    const timespec pause{0, 1000000};
+    nanosleep(&pause, nullptr);
+  }
+}
+
+double process_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+namespace {
+
+// A tile's rays packed for one message: per ray its number of intervals, then every interval (lo, hi) in ray order.
+struct Packed {
+  std::vector<std::uint32_t> counts;
+  std::vector<float> values;  // 2 per interval
+};
+
+template <class Get>
+Packed pack(std::size_t rays, Get&& get) {
+  Packed p;
+  p.counts.reserve(rays);
+  std::vector<removal::Interval> iv;
+  for (std::size_t r = 0; r < rays; ++r) {
+    get(r, iv);
+    p.counts.push_back(static_cast<std::uint32_t>(iv.size()));
+    for (const removal::Interval& x : iv) p.values.insert(p.values.end(), {x.lo, x.hi});
+  }
+  return p;
+}
+
+int checked_int(std::size_t n, const char* what) {
+  if (n > static_cast<std::size_t>(INT_MAX))
+    throw core::Error(fmt::format("tiled run: the whole field has {} {}, too many to gather to rank 0 in one MPI "
+                                  "message; write the tiles instead (vmsim run --tiles-out)", n, what));
+  return static_cast<int>(n);
+}
+
+// Every rank's packed rays, concatenated in rank order on rank 0 (tiles are consecutive bands, so this is the
+// whole list in ray order). Other ranks get empty vectors.
+Packed gather_packed(const Packed& mine) {
+  const int size = mpi_size(), rank = mpi_rank();
+  unsigned long long n[2] = {mine.counts.size(), mine.values.size()};
+  std::vector<unsigned long long> all(2 * static_cast<std::size_t>(size));
+  MPI_Gather(n, 2, MPI_UNSIGNED_LONG_LONG, all.data(), 2, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+  Packed out;
+  std::vector<int> cc(static_cast<std::size_t>(size)), cv(cc.size()), dc(cc.size()), dv(cc.size());
+  int bad = 0;
+  std::string error;
+  if (rank == 0) {
+    std::size_t tc = 0, tv = 0;
+    for (int r = 0; r < size; ++r) {
+      dc[r] = static_cast<int>(std::min<std::size_t>(tc, INT_MAX)), dv[r] = static_cast<int>(std::min<std::size_t>(tv, INT_MAX));
+      cc[r] = static_cast<int>(std::min<unsigned long long>(all[2 * r], INT_MAX));
+      cv[r] = static_cast<int>(std::min<unsigned long long>(all[2 * r + 1], INT_MAX));
+      tc += all[2 * r], tv += all[2 * r + 1];
+    }
+    try {
+      checked_int(tc, "rays");
+      checked_int(tv, "interval ends");
+    } catch (const core::Error& e) {
+      bad = 1, error = e.what();
+    }
+    if (!bad) out.counts.resize(tc), out.values.resize(tv);
+  }
+  // Every rank learns whether rank 0 can take the message, so no rank is left in a collective.
+  MPI_Bcast(&bad, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  if (bad) throw core::Error(rank == 0 ? error : "tiled run: rank 0 cannot gather the field (see its message)");
+  MPI_Gatherv(mine.counts.data(), static_cast<int>(mine.counts.size()), MPI_UINT32_T, out.counts.data(), cc.data(),
+              dc.data(), MPI_UINT32_T, 0, MPI_COMM_WORLD);
+  MPI_Gatherv(mine.values.data(), static_cast<int>(mine.values.size()), MPI_FLOAT, out.values.data(), cv.data(),
+              dv.data(), MPI_FLOAT, 0, MPI_COMM_WORLD);
+  return out;
+}
+
+template <class Set>
+void unpack(const Packed& p, Set&& set) {
+  std::vector<removal::Interval> iv;
+  std::size_t v = 0;
+  for (std::size_t r = 0; r < p.counts.size(); ++r) {
+    iv.resize(p.counts[r]);
+    for (auto& x : iv) x = removal::Interval{p.values[v], p.values[v + 1]}, v += 2;
+    set(r, iv);
+  }
+}
+
+}  // namespace
+
+std::optional<Field> gather_field(const Field& tile) {
+  if (tile.vdb) throw core::Error("tiled run: a level set (method \"vdb\") is not tiled");
+  const bool root = mpi_rank() == 0;
+  std::optional<Field> whole;
+  if (root) {
+    // The whole field's geometry, made as a one-process run makes it; its rays come from the tiles.
+    whole.emplace();
+    Field& w = *whole;
+    w.kind = tile.kind, w.region = tile.region, w.spacing_mm = tile.spacing_mm;
+    w.needle_point = tile.needle_point, w.needle_normal = tile.needle_normal, w.needle_half = tile.needle_half;
+    switch (tile.kind) {
+      case core::RemovalSpec::Field::ZMap: w.zmap = removal::make_zmap(tile.region, tile.spacing_mm); break;
+      case core::RemovalSpec::Field::TriDexel: w.tri = removal::make_tridexel(tile.region, tile.spacing_mm); break;
+      case core::RemovalSpec::Field::NBuffer: {
+        std::vector<Eigen::Vector3d> o, d;
+        std::vector<double> len;
+        for (std::size_t k = 0; k < w.needle_point.size(); ++k) {
+          o.push_back(w.needle_point[k] - w.needle_half * w.needle_normal[k]);  // as read_needles makes them
+          d.push_back(w.needle_normal[k]);
+          len.push_back(2 * w.needle_half);
+        }
+        w.needles = removal::NeedleSet(std::move(o), std::move(d), std::move(len));
+        break;
+      }
+    }
+  }
+  if (tile.kind == core::RemovalSpec::Field::NBuffer) {
+    const Packed all = gather_packed(
+        pack(tile.needles.size(), [&](std::size_t k, std::vector<removal::Interval>& iv) { tile.needles.store().get(k, iv); }));
+    if (root) {
+      if (all.counts.size() != whole->needles.size()) throw core::Error("tiled run: the gathered needles differ in number");
+      unpack(all, [&](std::size_t k, const std::vector<removal::Interval>& iv) { whole->needles.store().set(k, iv); });
+    }
+    return whole;
+  }
+  const std::vector<const removal::DexelGrid*> mine = tile.grids();
+  std::vector<removal::DexelGrid*> dst;
+  if (root) dst = whole->grids();
+  for (std::size_t g = 0; g < mine.size(); ++g) {
+    const removal::DexelGrid& t = *mine[g];
+    const Packed all = gather_packed(pack(static_cast<std::size_t>(t.nu()) * t.nv(), [&](std::size_t r, std::vector<removal::Interval>& iv) {
+      t.intervals(static_cast<int>(r % t.nu()), static_cast<int>(r / t.nu()), iv);
+    }));
+    if (!root) continue;
+    removal::DexelGrid& w = *dst[g];
+    if (all.counts.size() != static_cast<std::size_t>(w.nu()) * w.nv())
+      throw core::Error("tiled run: the gathered rays differ in number from the whole grid's");
+    unpack(all, [&](std::size_t r, const std::vector<removal::Interval>& iv) {
+      w.set_intervals(static_cast<int>(r % w.nu()), static_cast<int>(r / w.nu()), iv);
+    });
+  }
+  return whole;
+}
+
+std::vector<TileFigures> gather_tile_figures(const TileFigures& mine) {
+  constexpr int kN = sizeof(TileFigures) / sizeof(double);
+  static_assert(sizeof(TileFigures) == kN * sizeof(double));
+  std::vector<TileFigures> all(static_cast<std::size_t>(mpi_size()));
+  if (!mpi_active()) {
+    all[0] = mine;
+    return all;
+  }
+  MPI_Gather(&mine, kN, MPI_DOUBLE, all.data(), kN, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  return all;
+}
+
+TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_name, const Field& field,
+                     const Field* reference) {
+  if (field.vdb || field.kind == core::RemovalSpec::Field::NBuffer)
+    throw core::Error("--tiles-out writes each tile's height grid: it needs a z-map or tri-dexel field");
+  const core::HeightGrid s = surface_of(field);
+  const removal::DexelGrid& g = field.kind == core::RemovalSpec::Field::TriDexel ? field.tri.z : field.zmap;
+  TileFiles t;
+  const int rank = mpi_rank();
+  t.surface = fmt::format("tiles/surface_{:04d}.x3p", rank);
+  t.first_row = g.v_first(), t.rows = g.nv(), t.nx = g.nu();
+  t.x0_mm = s.x0_mm, t.y0_mm = s.y0_mm, t.x1_mm = s.x(s.nx() - 1), t.y1_mm = s.y(s.ny() - 1);
+  std::error_code ec;
+  std::filesystem::create_directories(dir / "tiles", ec);
+  if (ec) throw core::Error((dir / "tiles").string() + ": cannot create the directory: " + ec.message());
+  metrology::X3pWriteOptions x3p;
+  x3p.version = std::string("vmsim ") + VMSIM_VERSION;
+  x3p.comment = fmt::format("predicted surface of job {}, tile {} of {} (rows {} to {})", job_name, rank, mpi_size(),
+                            t.first_row, t.first_row + t.rows - 1);
+  metrology::write_x3p(dir / t.surface, s, x3p);
+  if (reference) {
+    const core::HeightGrid dev = metrology::deviation(s, surface_of(*reference));
+    t.deviation = fmt::format("tiles/deviation_{:04d}.x3p", rank);
+    x3p.comment = fmt::format("deviation of job {}, tile {} of {}: predicted - reference (negative: overcut)", job_name,
+                              rank, mpi_size());
+    metrology::write_x3p(dir / t.deviation, dev, x3p);
+  }
+  return t;
+}
+
+void write_tile_manifest(const std::filesystem::path& dir, const std::string& job_name, const Field& field,
+                         const TileFiles& mine) {
+  // Every rank's entry to rank 0: the numbers in one message, the names rebuilt from the rank (same format).
+  const double nums[7] = {double(mine.first_row), double(mine.rows), double(mine.nx), mine.x0_mm, mine.y0_mm,
+                          mine.x1_mm, mine.y1_mm};
+  const int size = mpi_size();
+  std::vector<double> all(7 * static_cast<std::size_t>(size));
+  if (mpi_active())
+    MPI_Gather(nums, 7, MPI_DOUBLE, all.data(), 7, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  else
+    std::copy(nums, nums + 7, all.begin());
+  if (mpi_rank() != 0) return;
+  const removal::DexelGrid& g = field.kind == core::RemovalSpec::Field::TriDexel ? field.tri.z : field.zmap;
+  nlohmann::json tiles = nlohmann::json::array();
+  for (int r = 0; r < size; ++r) {
+    const double* n = &all[7 * static_cast<std::size_t>(r)];
+    nlohmann::json t = {{"rank", r},
+                        {"surface", fmt::format("tiles/surface_{:04d}.x3p", r)},
+                        {"first_row", static_cast<int>(n[0])},
+                        {"nx", static_cast<int>(n[2])},
+                        {"ny", static_cast<int>(n[1])},
+                        {"x_min_mm", n[3]},
+                        {"y_min_mm", n[4]},
+                        {"x_max_mm", n[5]},
+                        {"y_max_mm", n[6]}};
+    if (!mine.deviation.empty()) t["deviation"] = fmt::format("tiles/deviation_{:04d}.x3p", r);
+    tiles.push_back(t);
+  }
+  const int ny_total = static_cast<int>(all[7 * static_cast<std::size_t>(size - 1)] + all[7 * static_cast<std::size_t>(size - 1) + 1]);
+  nlohmann::json m = {{"job", job_name},
+                      {"split", "rows: bands in y, each tile a whole number of dexel rows along x"},
+                      {"grid", {{"x0_mm", g.origin().x()}, {"y0_mm", g.origin().y()}, {"dx_mm", g.du()}, {"dy_mm", g.dv()},
+                                {"nx", g.nu()}, {"ny", ny_total}}},
+                      {"tiles", tiles}};
+  write_report(dir / "tiles.json", m);
+}
+
+}  // namespace vmsim::app
