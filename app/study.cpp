@@ -258,6 +258,28 @@ Study load_study(const fs::path& path) {
       add_varied(axes[a].key);
     }
     if (count > 1e6) fail_at(file, *grid, "grid", fmt::format("{:.3g} variations; expected at most 1000000", count));
+    // Names: each key by its shortest tail that no other grid key ends with (kv_1000_per_min, or X.drive.kv_1000_per_min
+    // and Z.drive.kv_1000_per_min when both vary).
+    std::vector<std::string> short_key(axes.size());
+    for (std::size_t a = 0; a < axes.size(); ++a) {
+      const std::vector<std::string> segs = split_key(axes[a].key);
+      for (std::size_t k = 1; k <= segs.size(); ++k) {
+        std::string tail;
+        for (std::size_t j = segs.size() - k; j < segs.size(); ++j) {
+          if (!tail.empty()) tail += '.';
+          tail += segs[j];
+        }
+        bool unique = true;
+        for (std::size_t b = 0; b < axes.size(); ++b) {
+          const std::string& other = axes[b].key;  // ends with the tail at a key boundary
+          const bool ends = other.size() >= tail.size() && other.compare(other.size() - tail.size(), tail.size(), tail) == 0 &&
+                            (other.size() == tail.size() || other[other.size() - tail.size() - 1] == '.');
+          if (b != a && ends) unique = false;
+        }
+        short_key[a] = tail;
+        if (unique) break;
+      }
+    }
     // Cartesian product; the first key varies slowest (nested loops in the file's order).
     const auto n = static_cast<std::size_t>(count);
     for (std::size_t k = 0; k < n; ++k) {
@@ -270,7 +292,7 @@ Study load_study(const fs::path& path) {
       for (std::size_t a = axes.size(); a-- > 0;) {
         own[a] = values[a][rest % values[a].size()];
         rest /= values[a].size();
-        parts[a] = split_key(own[a].key).back() + "=" + own[a].value_cell;
+        parts[a] = short_key[a] + "=" + own[a].value_cell;
       }
       v.overrides.insert(v.overrides.end(), own.begin(), own.end());
       v.name = fmt::format("{}", fmt::join(parts, " "));
@@ -441,8 +463,13 @@ StudyResult result_from_json(const nlohmann::json& j) {
 }
 
 std::string results_csv(const Study& study, const std::vector<StudyResult>& results) {
+  // Cells appended one by one (GCC 12 warns, wrongly, about "," + std::string: -Wrestrict).
   std::string out = "variation,name,status";
-  for (const std::string& k : study.varied_keys) out += "," + csv_cell(k);
+  auto cell = [&out](const std::string& c) {
+    out += ',';
+    out += c;
+  };
+  for (const std::string& k : study.varied_keys) cell(csv_cell(k));
   out += ",marks,mark_depth_um,mark_kind,deviation_min_um,deviation_max_um,contour_error_max_um,contour_error_rms_um,"
          "cycle_time_s,cpu_time_s,error\n";
   for (std::size_t i = 0; i < study.variations.size(); ++i) {
@@ -450,20 +477,23 @@ std::string results_csv(const Study& study, const std::vector<StudyResult>& resu
     const StudyResult& r = results[i];
     out += fmt::format("{},{},{}", v.index, csv_cell(v.name), status_name(r.status));
     for (const std::string& k : study.varied_keys) {
-      std::string cell;
+      std::string value;
       for (const StudyOverride& o : v.overrides)
-        if (o.key == k) cell = o.value_cell;  // the last one wins, as in the run
-      out += "," + csv_cell(cell);
+        if (o.key == k) value = o.value_cell;  // the last one wins, as in the run
+      cell(csv_cell(value));
     }
     const StudyFigures& f = r.figures;
-    const bool ok = r.status == StudyResult::Status::Ok;
-    out += ok ? fmt::format(",{}", f.marks) : std::string(",");
-    out += "," + num(f.mark_depth_mm, 1e3) + "," + (f.mark_kind ? *f.mark_kind : std::string());
-    out += "," + num(f.deviation_min_mm, 1e3) + "," + num(f.deviation_max_mm, 1e3);
-    out += "," + num(f.contour_error_max_mm, 1e3) + "," + num(f.contour_error_rms_mm, 1e3);
-    out += "," + num(f.cycle_time_s, 1.0);
-    out += r.status == StudyResult::Status::Pending ? std::string(",") : fmt::format(",{:.3f}", r.cpu_s);
-    out += "," + csv_cell(r.error) + "\n";
+    cell(r.status == StudyResult::Status::Ok ? std::to_string(f.marks) : std::string());
+    cell(num(f.mark_depth_mm, 1e3));
+    cell(f.mark_kind ? *f.mark_kind : std::string());
+    cell(num(f.deviation_min_mm, 1e3));
+    cell(num(f.deviation_max_mm, 1e3));
+    cell(num(f.contour_error_max_mm, 1e3));
+    cell(num(f.contour_error_rms_mm, 1e3));
+    cell(num(f.cycle_time_s, 1.0));
+    cell(r.status == StudyResult::Status::Pending ? std::string() : fmt::format("{:.3f}", r.cpu_s));
+    cell(csv_cell(r.error));
+    out += '\n';
   }
   return out;
 }

@@ -404,6 +404,11 @@ feed_scale = [0.5, 1, 2]
   EXPECT_EQ(s.varied_keys, (std::vector<std::string>{"interpolation.tolerance_mm", "feed_scale"}));
   EXPECT_EQ(s.variations[0].name, "tolerance_mm=0.03 feed_scale=0.5");
   EXPECT_EQ(s.variations[4].name, "tolerance_mm=0.04 feed_scale=1");
+  // Keys with the same last part are named by as much of their tail as tells them apart.
+  write(root / "studies" / "xz.toml", "[study]\njob = \"../part/job.toml\"\n[grid]\n"
+                                      "machine.axes.X.drive.kv_1000_per_min = [3.0]\nmachine.axes.Z.drive.kv_1000_per_min = [4.5]\n");
+  EXPECT_EQ(vmsim::app::load_study(root / "studies" / "xz.toml").variations[0].name,
+            "X.drive.kv_1000_per_min=3 Z.drive.kv_1000_per_min=4.5");
   const vmsim::app::PreparedVariation p = vmsim::app::prepare_variation(s, s.variations[5]);
   EXPECT_EQ(p.feed_scale, 2.0);
   const toml::table job = toml::parse(p.job_toml);
