@@ -54,3 +54,27 @@ for curve in butterfly fan; do
   echo "-- $curve"
   "$vmsim" plan-feed "$here/parts/feedplan/job_$curve.toml" --out "$tmp/feedplan_$curve" --no-render
 done
+
+echo
+echo "== Five-axis (issue 7): the dome part (seed 004 3rd case: axis follow-up ~0.001 deg, no large mark) and boat-xyzac"
+for part in five_axis boat_xyzac; do
+  echo "-- parts/$part"
+  start=$(date +%s.%N)
+  "$vmsim" run "$here/parts/$part/job.toml" --out "$tmp/$part" --no-render > "$tmp/$part.log"
+  end=$(date +%s.%N)
+  python3 - "$tmp/$part/report.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+f = r["axis_following_error"]
+print("follow-up largest: " + ", ".join(
+    f"{a} {v['max_abs_deg']:.4f} deg" if "max_abs_deg" in v else f"{a} {v['max_abs_mm'] * 1000:.2f} um"
+    for a, v in f.items() if a != "tool_axis") + f"; tool axis {f['tool_axis']['max_angle_deg']:.3f} deg")
+c = r["contour_error"]["cutting_moves"]
+print(f"tip contour error on cutting moves: max {c['max_abs_mm'] * 1000:.2f} um, RMS {c['rms_mm'] * 1000:.2f} um")
+s = r.get("surface", {})
+if "deviation_min_mm" in s:
+    print(f"surface deviation from the reference: {s['deviation_min_mm'] * 1000:.2f} .. {s['deviation_max_mm'] * 1000:.2f} um")
+print(f"sweeps {r['removal']['sweeps']}, removal bound {r['removal']['track_error_bound_mm'] * 1000:.2f} um")
+PY
+  echo "wall time: $(echo "$end - $start" | bc) s"
+done
