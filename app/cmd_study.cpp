@@ -17,6 +17,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -228,10 +229,13 @@ int run_study(const StudyArgs& args) {
       try {
         return make_task(study, study.variations[i], prepare_variation(study, study.variations[i]), args.out_dir,
                          args.keep);
-      } catch (const core::Error& e) {
+      } catch (const std::exception& e) {  // core::Error names the study file, the variation and the key
         StudyResult r;
         r.status = StudyResult::Status::Failed;
-        r.error = e.what();
+        r.error = dynamic_cast<const core::Error*>(&e)
+                      ? std::string(e.what())
+                      : fmt::format("{}: variation {} ({}): {}", study.file.string(), study.variations[i].index,
+                                    study.variations[i].name, e.what());
         store(i, r);
       }
     }
@@ -264,6 +268,7 @@ int run_study(const StudyArgs& args) {
   };
   std::size_t reported = 0, written = 0;
   auto last_write = Clock::now();
+  double write_s = 0;
   int remote_active = size - 1;
   try {
     while (true) {
@@ -311,9 +316,12 @@ int run_study(const StudyArgs& args) {
           say(fmt::format("[{}/{}] variation {} ({}): FAILED: {}", shown, n, v.index, v.name, r.error));
         }
       }
-      // The table so far, now and then: a study cut short (a killed job) keeps what it had.
-      if (reported > written && seconds_since(last_write) > 2.0) {
+      // The table so far, now and then: a study cut short (a killed job) keeps what it had. Every 2 s at most, and
+      // never more than 5 % of the time (a study of many variations has long tables).
+      if (reported > written && seconds_since(last_write) > std::max(2.0, 20 * write_s)) {
+        const auto w0 = Clock::now();
         write_tables();
+        write_s = seconds_since(w0);
         written = reported;
         last_write = Clock::now();
       }
