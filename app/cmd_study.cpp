@@ -134,6 +134,7 @@ StudyResult run_variation(const nlohmann::json& task, int rank) {
     int code = 0;
     {
       OutputToFile log(dir / "run.log");
+      const MpiSingleProcess alone;  // the variation is one process's run, not a run tiled over the study's ranks
       code = run_run(ra);
     }
     if (code != 0) throw core::Error(fmt::format("vmsim run ended with exit code {} (see {})", code, (dir / "run.log").string()));
