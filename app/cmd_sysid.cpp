@@ -89,18 +89,31 @@ int run_sysid(const SysidArgs& args) {
     if (*delay < 1 || *delay > 100) throw core::Error(fmt::format("--delay {}: expected 1 to 100 samples", *delay));
   }
 
-  const drives::PositionTrace trace = drives::read_position_trace_csv(args.trace);
+  if (args.traces.empty()) throw core::Error("--trace: at least one position trace is needed");
+  std::vector<drives::PositionTrace> traces;
+  for (const auto& p : args.traces) traces.push_back(drives::read_position_trace_csv(p));
+  const drives::PositionTrace& trace = traces.front();
+  for (std::size_t i = 1; i < traces.size(); ++i)
+    if (std::abs(traces[i].period_s - trace.period_s) > 1e-6 * trace.period_s)
+      throw core::Error(core::located(args.traces[i].string(), 0,
+                                      fmt::format("sampled every {} s, {} every {} s", traces[i].period_s,
+                                                  args.traces.front().string(), trace.period_s)));
   std::optional<drives::PositionTrace> vtrace;
+  std::size_t n_est = traces.size();  // traces the estimation uses (the rest: the last one, held out)
   if (args.validate) {
     vtrace = drives::read_position_trace_csv(*args.validate);
     if (std::abs(vtrace->period_s - trace.period_s) > 1e-6 * trace.period_s)
       throw core::Error(core::located(args.validate->string(), 0,
                                       fmt::format("sampled every {} s, the trace every {} s", vtrace->period_s, trace.period_s)));
+  } else if (traces.size() > 1) {
+    vtrace = traces.back();
+    n_est = traces.size() - 1;
   }
   std::vector<std::string> axes = args.axes.empty() ? trace.axes : args.axes;
   for (const auto& a : axes) {
-    if (trace.axis_index(a) < 0)
-      throw core::Error(core::located(trace.source, 0, fmt::format("--axis {}: the trace has no columns for it", a)));
+    for (const auto& t : traces)
+      if (t.axis_index(a) < 0)
+        throw core::Error(core::located(t.source, 0, fmt::format("--axis {}: the trace has no columns for it", a)));
     if (vtrace && vtrace->axis_index(a) < 0)
       throw core::Error(core::located(vtrace->source, 0, fmt::format("--axis {}: the trace has no columns for it", a)));
   }
@@ -109,18 +122,30 @@ int run_sysid(const SysidArgs& args) {
   nlohmann::json report;
   report["vmsim"] = VMSIM_VERSION;
   report["command"] = "identify";
-  report["inputs"]["trace"] = {{"path", args.trace.string()}, {"sha256", core::sha256_file_hex(args.trace)}};
+  report["inputs"]["trace"] = {{"path", args.traces.front().string()}, {"sha256", core::sha256_file_hex(args.traces.front())}};
+  report["inputs"]["traces"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < args.traces.size(); ++i)
+    report["inputs"]["traces"].push_back({{"path", args.traces[i].string()},
+                                          {"sha256", core::sha256_file_hex(args.traces[i])},
+                                          {"use", i < n_est ? "estimation" : "validation"}});
   if (args.validate)
     report["inputs"]["validation_trace"] = {{"path", args.validate->string()}, {"sha256", core::sha256_file_hex(*args.validate)}};
   report["period_s"] = trace.period_s;
   report["conditioning"] =
       "deviations from the first (rest) sample of command and encoder, one common scale for both; QR least squares";
   report["orders_from"] = auto_orders ? "BIC over ARX fits (na 1-8, nb 1-4, nk 1-5)" : "given (seed 001 section 2.2: nb 2, na 5)";
-  report["validation"] = vtrace ? "separate trace" : "the trace's second half (model simulated over the whole record)";
+  report["validation"] = args.validate ? "separate trace"
+                         : vtrace    ? "the last trace, held out"
+                                     : "the trace's second half (model simulated over the whole record)";
+  report["estimation"] = n_est > 1 ? fmt::format("{} traces as separate experiments (no regressor, filter or simulation "
+                                                 "crosses a trace boundary)",
+                                                 n_est)
+                                   : std::string("one trace");
 
   drives::AxisModelFile file;
   file.period_s = trace.period_s;
-  file.trace = args.trace.filename().string();
+  file.trace = args.traces.front().filename().string();
+  for (std::size_t i = 1; i < n_est; ++i) file.trace += ", " + args.traces[i].filename().string();
   std::printf("axis  structure  na nb nc nk   fit %%      tracking fit %%  1-R2        MSE (mm2|deg2)  white  rank\n");
   for (const std::string& name : axes) {
     const int ai = trace.axis_index(name);
@@ -129,6 +154,12 @@ int run_sysid(const SysidArgs& args) {
     drives::IdData est = all;
     Eigen::Index first_val = 0;
     drives::IdData val;
+    if (n_est > 1) {
+      // Each trace its own experiment, as deviations from its own rest point.
+      std::vector<drives::IdData> parts;
+      for (std::size_t i = 0; i < n_est; ++i) parts.push_back(deviations(traces[i], traces[i].axis_index(name)));
+      est = drives::concatenate(parts);
+    }
     if (vtrace) {
       val = deviations(*vtrace, vtrace->axis_index(name));
     } else {
@@ -233,7 +264,7 @@ int run_sysid(const SysidArgs& args) {
   std::vector<std::string> comments = {
       "Identified axis models (seed 001): discrete transfer functions from command to encoder position,",
       "A(q) y(k) = B(q) u(k - nk), A = 1 + a1 q^-1 + ..., B = b1 + b2 q^-1 + ...; u, y deviations from the rest point.",
-      "Written by vmsim identify from " + args.trace.filename().string() + "; keys in parts/README.md."};
+      "Written by vmsim identify from " + file.trace + "; keys in parts/README.md."};
   drives::save_axis_models(dir / "axis_models.toml", file, comments);
   report["files"] = {"axis_models.toml", "report.json"};
   report["timings_s"] = {{"total", std::chrono::duration<double>(Clock::now() - t_start).count()}};

@@ -27,8 +27,10 @@ struct ExciteArgs {
 int run_excite(const ExciteArgs& args);
 
 struct SysidArgs {
-  std::filesystem::path trace;                   // position trace CSV (drives/position_trace.hpp)
-  std::optional<std::filesystem::path> validate; // separate validation trace (default: the trace's second half)
+  // Position trace CSVs (drives/position_trace.hpp); several: estimation on all of them as separate experiments.
+  std::vector<std::filesystem::path> traces;
+  // Separate validation trace (default: with one trace its second half, with several the last one, held out).
+  std::optional<std::filesystem::path> validate;
   std::vector<std::string> axes;                 // default: every axis in the trace
   std::string structure = "all";                 // arx | armax | oe | all
   std::string orders = "2,5";                    // nb,na (seed 001: 2,5) or auto (BIC)
@@ -46,6 +48,9 @@ struct CompensateArgs {
   std::optional<std::filesystem::path> axis_models;  // predict with these identified models (default: the job's)
   int buffer_samples = 0;                        // m of the foot-point search (0: automatic)
   int max_iterations = 6;
+  double smoothing_samples = 4.0;                // Gaussian smoothing of the correction along the setpoints (sigma)
+  bool tip_only = false;                         // five-axis: correct the tool tip only, not the tool axis
+  bool dense_program = false;                    // also write compensated_dense.ngc (one G93 block per setpoint)
 };
 // vmsim compensate JOB: predicted contour error added back to the setpoints (seed 001 section 4); compensated
 // setpoints CSV, compensated G-code, report.json with the contour error before and after.

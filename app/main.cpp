@@ -264,10 +264,12 @@ int run_command(int argc, char** argv) {
   auto* sysid = app.add_subcommand(
       "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; seed 001), "
                   "validate, rank, and write axis_models.toml for jobs to run on");
-  sysid->add_option("--trace,-t", sysid_args.trace,
-                    "position trace CSV: t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ... (vmsim motion's trace.csv)")
+  sysid->add_option("--trace,-t", sysid_args.traces,
+                    "position trace CSV: t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ... (vmsim motion's trace.csv); repeat it for "
+                    "several experiments, identified together")
       ->required();
-  sysid->add_option("--validate", sysid_args.validate, "a separate validation trace (default: the trace's second half)");
+  sysid->add_option("--validate", sysid_args.validate, "a separate validation trace (default: one trace's second half, or "
+                    "with several traces the last one)");
   sysid->add_option("--axis", sysid_args.axes, "axes to identify, repeatable (default: every axis in the trace)");
   sysid->add_option("--structure,-s", sysid_args.structure, "arx, armax, oe or all (default)");
   sysid->add_option("--orders", sysid_args.orders, "NB,NA: numerator and denominator orders (default 2,5) or auto (BIC)");
@@ -286,6 +288,12 @@ int run_command(int argc, char** argv) {
                          "predict with these identified models (default: the job's [job] axis_models, else the machine's cascades)");
   compensate->add_option("--buffer", comp_args.buffer_samples, "foot-point search buffer m, odd (default 0: automatic)");
   compensate->add_option("--iterations", comp_args.max_iterations, "largest number of corrections (default 6)");
+  compensate->add_option("--smoothing", comp_args.smoothing_samples,
+                         "standard deviation of the correction's Gaussian smoothing along the setpoints, in samples (default 4)");
+  compensate->add_flag("--tip-only", comp_args.tip_only,
+                       "five-axis machines: correct the tool tip only (default: the tool axis' orientation error too)");
+  compensate->add_flag("--dense-program", comp_args.dense_program,
+                       "also write compensated_dense.ngc: the compensated setpoints as one G93 block per period Te");
 
   try {
     app.parse(argc, argv);

@@ -2,6 +2,8 @@
 
 #include "core/error.hpp"
 
+#include <Eigen/Geometry>
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -21,6 +23,41 @@ Eigen::MatrixXd tool_tips(const core::Kinematics& kin, const Eigen::MatrixXd& ax
     tips.row(k) = kin.forward(q, tlo).tip_mm.transpose();
   }
   return tips;
+}
+
+Eigen::MatrixXd tool_axes(const core::Kinematics& kin, const Eigen::MatrixXd& axes, const Eigen::VectorXd& tlo_mm) {
+  Eigen::MatrixXd u(axes.rows(), 3);
+  Eigen::VectorXd q(axes.cols());
+  for (Index k = 0; k < axes.rows(); ++k) {
+    q = axes.row(k).transpose();
+    const double tlo = tlo_mm.size() > 0 ? tlo_mm[std::min(k, tlo_mm.size() - 1)] : 0.0;
+    u.row(k) = kin.forward(q, tlo).axis.transpose();
+  }
+  return u;
+}
+
+Eigen::MatrixXd axes_at(const Eigen::MatrixXd& cu, const Eigen::VectorXd& parameter) {
+  const Index ns = cu.rows();
+  Eigen::MatrixXd u(parameter.size(), 3);
+  for (Index i = 0; i < parameter.size(); ++i) {
+    const double s = std::clamp(parameter[i], 0.0, static_cast<double>(ns - 1));
+    const Index j = std::min<Index>(static_cast<Index>(std::floor(s)), ns - 2 >= 0 ? ns - 2 : 0);
+    const double t = ns > 1 ? s - static_cast<double>(j) : 0.0;
+    const Eigen::RowVector3d v = ns > 1 ? Eigen::RowVector3d((1.0 - t) * cu.row(j) + t * cu.row(j + 1)) : Eigen::RowVector3d(cu.row(0));
+    const double n = v.norm();
+    u.row(i) = n > 0.0 ? Eigen::RowVector3d(v / n) : Eigen::RowVector3d(cu.row(j));
+  }
+  return u;
+}
+
+Eigen::VectorXd axis_angles(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  Eigen::VectorXd out(a.rows());
+  for (Index i = 0; i < a.rows(); ++i) {
+    // atan2 of |a x b| and a . b: accurate for the micro-radian angles acos loses.
+    const Eigen::Vector3d x = a.row(i).transpose(), y = b.row(i).transpose();
+    out[i] = std::atan2(x.cross(y).norm(), x.dot(y));
+  }
+  return out;
 }
 
 FootPoints find_foot_points(const Eigen::MatrixXd& pc, const Eigen::MatrixXd& pe, int buffer_samples) {
@@ -96,17 +133,17 @@ namespace {
 // Eq. 23's "interpolation point at the corresponding position": the error vectors, known at the feet's places on the
 // path, carried to each command sample by linear interpolation along the path parameter; samples no foot passes
 // (stops) take the nearest assigned value.
-Eigen::MatrixXd correction_at_commands(const FootPoints& fp, Index ns) {
-  Eigen::MatrixXd delta = Eigen::MatrixXd::Zero(ns, 3);
+Eigen::MatrixXd correction_at_commands(const Eigen::MatrixXd& error, const Eigen::VectorXd& parameter, Index ns) {
+  Eigen::MatrixXd delta = Eigen::MatrixXd::Zero(ns, error.cols());
   std::vector<char> set(static_cast<std::size_t>(ns), 0);
-  const Index rows = fp.parameter.size();
+  const Index rows = parameter.size();
   for (Index i = 0; i + 1 < rows; ++i) {
-    const double s0 = fp.parameter[i], s1 = fp.parameter[i + 1];
+    const double s0 = parameter[i], s1 = parameter[i + 1];
     if (!(s1 > s0)) continue;
     const Index j0 = static_cast<Index>(std::ceil(s0)), j1 = std::min<Index>(static_cast<Index>(std::floor(s1)), ns - 1);
     for (Index j = std::max<Index>(j0, 0); j <= j1; ++j) {
       const double w = (static_cast<double>(j) - s0) / (s1 - s0);
-      delta.row(j) = (1.0 - w) * fp.error.row(i) + w * fp.error.row(i + 1);
+      delta.row(j) = (1.0 - w) * error.row(i) + w * error.row(i + 1);
       set[static_cast<std::size_t>(j)] = 1;
     }
   }
@@ -182,40 +219,77 @@ CompensationResult compensate_contour(const CompensationProblem& p, const Compen
   if (ns < 2) throw core::Error("compensation: fewer than 2 setpoints");
   const Eigen::VectorXd tlo = p.tool_length_offset_mm.size() > 0 ? p.tool_length_offset_mm : Eigen::VectorXd::Zero(1);
   const core::Kinematics& kin = *p.kinematics;
+  const bool orient = options.orientation && kin.family() != core::KinematicFamily::Cartesian;
 
   CompensationResult out;
+  out.orientation = orient;
   out.command_tip = tool_tips(kin, c0, tlo);
+  out.command_axis = tool_axes(kin, c0, tlo);
   Eigen::MatrixXd c = c0;
   Eigen::MatrixXd pred = checked_prediction(p, c);
-  FootPoints fp = find_foot_points(out.command_tip, tool_tips(kin, pred, tlo), options.buffer_samples);
-  out.buffer_samples = fp.buffer_samples;
+
+  // One prediction's errors: the tip's contour error (seed 001's two-step search) and, on five-axis chains, the tool
+  // axis' error against the commanded axis at the same foot point (commanded minus actual: the correction's sign).
+  struct Errors {
+    FootPoints fp;
+    Eigen::MatrixXd axis_error;   // rows x 3 (empty without orientation)
+    Eigen::VectorXd angle_rad;    // rows
+    CompensationIteration rec;
+  };
+  auto errors_of = [&](const Eigen::MatrixXd& predicted, int buffer) {
+    Errors e;
+    e.fp = find_foot_points(out.command_tip, tool_tips(kin, predicted, tlo), buffer);
+    e.rec.max_mm = e.fp.norm_mm.maxCoeff();
+    e.rec.mean_mm = e.fp.norm_mm.mean();
+    if (orient) {
+      const Eigen::MatrixXd ua = tool_axes(kin, predicted, tlo);
+      const Eigen::MatrixXd uc = axes_at(out.command_axis, e.fp.parameter);
+      e.axis_error = uc - ua;
+      e.angle_rad = axis_angles(uc, ua);
+      e.rec.orientation_max_rad = e.angle_rad.maxCoeff();
+      e.rec.orientation_mean_rad = e.angle_rad.mean();
+    }
+    return e;
+  };
+  Errors err = errors_of(pred, options.buffer_samples);
+  out.buffer_samples = err.fp.buffer_samples;
   out.predicted_before = pred;
-  out.iterations.push_back({fp.norm_mm.maxCoeff(), fp.norm_mm.mean(), true});
+  err.rec.accepted = true;
+  out.iterations.push_back(err.rec);
   out.setpoints = c;
   out.predicted_after = pred;
 
-  Eigen::VectorXd q(c0.cols());
-  // Setpoints c moved by w(j) delta(j) at the tool tip, through the inverse kinematics.
+  // Setpoints c moved by w(j) delta(j): the tool tip by delta's first three columns, and on five-axis chains the tool
+  // axis by the last three (renormalised), through the chain's inverse of the corrected pose near the original joints.
+  const Index dc = orient ? 6 : 3;
   auto corrected = [&](const Eigen::MatrixXd& c_now, const Eigen::MatrixXd& delta, const Eigen::VectorXd& w) {
     Eigen::MatrixXd next(ns, c_now.cols());
+    Eigen::VectorXd q(c_now.cols());
     for (Index j = 0; j < ns; ++j) {
       q = c_now.row(j).transpose();
       const double l = tlo[std::min(j, tlo.size() - 1)];
       core::ToolPose pose = kin.forward(q, l);
-      pose.tip_mm += w[j] * delta.row(j).transpose();
+      pose.tip_mm += w[j] * delta.row(j).head<3>().transpose();
+      if (orient) pose.axis = (pose.axis + w[j] * delta.row(j).tail<3>().transpose()).normalized();
       next.row(j) = kin.inverse(pose, l, q).transpose();
     }
     return next;
   };
+  auto wanted_now = [&](const Errors& e) {
+    Eigen::MatrixXd err_rows(e.fp.error.rows(), dc);
+    err_rows.leftCols(3) = e.fp.error;
+    if (orient) err_rows.rightCols(3) = e.axis_error;
+    return smooth_rows(correction_at_commands(err_rows, e.fp.parameter, ns), options.smoothing_samples);
+  };
   // Limits the original setpoints already break are not the compensation's to keep.
   const std::vector<char> broken_before =
       options.limits ? limit_breaks(c0, p.setpoints->period_s, *options.limits) : std::vector<char>();
-  // The correction is kept whole, as the tool-tip offset of the original setpoints (eq. 23's Pc -> Pn): each
-  // iteration adds the error its prediction still shows, and the limits fade the whole offset back towards the
-  // original setpoints, which keep them.
-  Eigen::MatrixXd total = Eigen::MatrixXd::Zero(ns, 3);
+  // The correction is kept whole, as the pose offset of the original setpoints (eq. 23's Pc -> Pn): each iteration
+  // adds the error its prediction still shows, and the limits fade the whole offset back towards the original
+  // setpoints, which keep them.
+  Eigen::MatrixXd total = Eigen::MatrixXd::Zero(ns, dc);
   for (int it = 0; it < options.max_iterations; ++it) {
-    const Eigen::MatrixXd wanted = total + smooth_rows(correction_at_commands(fp, ns), options.smoothing_samples);
+    const Eigen::MatrixXd wanted = total + wanted_now(err);
     Eigen::VectorXd w = Eigen::VectorXd::Ones(ns);
     Eigen::MatrixXd next = corrected(c0, wanted, w);
     int faded = 0;
@@ -243,19 +317,22 @@ CompensationResult compensate_contour(const CompensationProblem& p, const Compen
       for (Index j = 0; j < ns; ++j) faded += w[j] < 1.0 - 1e-12 ? 1 : 0;
     }
     const Eigen::MatrixXd next_pred = checked_prediction(p, next);
-    const FootPoints next_fp = find_foot_points(out.command_tip, tool_tips(kin, next_pred, tlo), out.buffer_samples);
-    CompensationIteration rec{next_fp.norm_mm.maxCoeff(), next_fp.norm_mm.mean(), false, faded};
+    Errors next_err = errors_of(next_pred, out.buffer_samples);
+    CompensationIteration rec = next_err.rec;
+    rec.faded_samples = faded;
     const CompensationIteration& best = out.iterations[static_cast<std::size_t>(it)].accepted
                                             ? out.iterations[static_cast<std::size_t>(it)]
                                             : out.iterations.front();
-    // Accepted when the mean falls and the maximum does not grow (seed 001 reports both).
-    rec.accepted = rec.mean_mm < best.mean_mm && rec.max_mm <= best.max_mm;
+    // Accepted when the mean falls and the maximum does not grow (seed 001 reports both), and on five-axis chains
+    // when the mean orientation error does not grow either.
+    rec.accepted = rec.mean_mm < best.mean_mm && rec.max_mm <= best.max_mm &&
+                   (!orient || rec.orientation_mean_rad <= best.orientation_mean_rad);
     out.iterations.push_back(rec);
     if (!rec.accepted) break;
     const double gain = (best.mean_mm - rec.mean_mm) / std::max(best.mean_mm, 1e-300);
     total = w.asDiagonal() * wanted;
     c = next;
-    fp = next_fp;
+    err = std::move(next_err);
     out.setpoints = c;
     out.predicted_after = next_pred;
     if (gain < options.min_improvement) break;

@@ -5,6 +5,12 @@
 // (nearest command point in a buffer of length m, then the adjacent segment, eq. 18-22), and move each setpoint by
 // the predicted contour error found at its place on the path (eq. 23). Repeated on the compensated setpoints while
 // the predicted error still falls: the contour error stays measured against the planned (original) path.
+// Five-axis machines (chains with rotary joints): the tool axis too. The predicted tool axis is compared with the
+// commanded tool axis at the same foot point (the orientation part of the five-axis contour error), and the corrected
+// pose (tip + tip error, axis + orientation error) goes back to the joints through the chain's closed-form inverse,
+// not its Jacobian: the inverse is exact for any size of correction (the rotary axes lag by degrees where the tables
+// turn fast, far beyond a first-order step), keeps the rotary angles continuous through its `near` argument, and
+// needs no pseudo-inverse of the 6 x 5 pose Jacobian (the tool axis has two degrees of freedom, not three).
 #include "core/kinematics.hpp"
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
@@ -28,6 +34,13 @@ struct FootPoints {
 };
 FootPoints find_foot_points(const Eigen::MatrixXd& command_tip, const Eigen::MatrixXd& actual_tip, int buffer_samples);
 
+// The commanded tool axis at places on the command polyline (segment index + fraction, as FootPoints::parameter):
+// normalised linear interpolation between the two setpoints' axes (they differ by far less than a degree per Te).
+Eigen::MatrixXd axes_at(const Eigen::MatrixXd& command_axis, const Eigen::VectorXd& parameter);
+
+// Angle (rad) between unit tool axes, row by row.
+Eigen::VectorXd axis_angles(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
+
 struct CompensateOptions {
   int buffer_samples = 0;      // m of the foot-point search (<= 0: automatic, see FootPoints)
   int max_iterations = 6;      // predictions of compensated setpoints after the first
@@ -43,6 +56,10 @@ struct CompensateOptions {
   const core::Machine* limits = nullptr;
   int limit_window_samples = 25;
   int limit_passes = 12;
+  // Five-axis machines: correct the tool axis as well (its predicted orientation error at the foot point); a
+  // correction is accepted only when the mean orientation error does not grow either. Ignored on machines whose tool
+  // axis never turns (KinematicFamily::Cartesian).
+  bool orientation = true;
 };
 
 // The problem in the machine's terms: setpoints (axis units), the kinematics and each setpoint's tool length offset
@@ -57,6 +74,7 @@ struct CompensationProblem {
 
 struct CompensationIteration {
   double max_mm = 0.0, mean_mm = 0.0;  // predicted contour error over every row (seed 001's search)
+  double orientation_max_rad = 0.0, orientation_mean_rad = 0.0;  // tool axis vs the commanded one at the foot point
   bool accepted = false;
   int faded_samples = 0;               // setpoints where the axis limits held the correction below its full value
 };
@@ -66,6 +84,8 @@ struct CompensationResult {
   Eigen::MatrixXd predicted_before;    // actual axes for the original setpoints
   Eigen::MatrixXd predicted_after;     // actual axes for the compensated ones
   Eigen::MatrixXd command_tip;         // the planned tool-tip path (workpiece frame), ns x 3
+  Eigen::MatrixXd command_axis;        // the planned tool axis (workpiece frame, unit), ns x 3
+  bool orientation = false;            // the tool axis was corrected too (a five-axis chain with the option on)
   std::vector<CompensationIteration> iterations;  // [0]: the original setpoints
   int buffer_samples = 0;
 };
@@ -75,6 +95,8 @@ CompensationResult compensate_contour(const CompensationProblem& problem, const 
 
 // Tool tips of axis rows (rows beyond the offsets take the last offset).
 Eigen::MatrixXd tool_tips(const core::Kinematics& kin, const Eigen::MatrixXd& axes, const Eigen::VectorXd& tlo_mm);
+// Tool axes (unit, workpiece frame) of axis rows.
+Eigen::MatrixXd tool_axes(const core::Kinematics& kin, const Eigen::MatrixXd& axes, const Eigen::VectorXd& tlo_mm);
 
 // Where setpoints exceed an axis's velocity, acceleration or jerk limit (backward differences as the drives receive
 // them, at rest before and after, as core::finite_difference_peaks), per axis.

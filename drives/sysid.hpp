@@ -20,6 +20,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace vmsim::drives {
 
@@ -34,11 +35,17 @@ struct ModelOrders {
   int nk = 1;  // input delay, samples (>= 1)
 };
 
-// One experiment, already as deviations from its rest point (see above), sampled every period_s.
+// One experiment, already as deviations from its rest point (see above), sampled every period_s; or several
+// experiments one after the other (starts: the first sample of each, beginning with 0; empty: one experiment). The
+// estimators never mix samples across an experiment's boundary: regressors, filters and simulations restart from
+// rest at each start, and the criteria sum only the rows whose every regressor lies within one experiment.
 struct IdData {
   Eigen::VectorXd u, y;
   double period_s = 1e-3;
+  std::vector<Eigen::Index> starts;
 };
+// Experiments appended one after the other (each its own deviations from rest), with their starts.
+IdData concatenate(const std::vector<IdData>& experiments);
 
 struct SearchOptions {
   int max_iterations = 200;

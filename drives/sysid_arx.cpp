@@ -9,7 +9,7 @@ IdentifiedModel identify_arx(const IdData& data, const ModelOrders& orders) {
   const Eigen::VectorXd u = data.u * s, y = data.y * s;
   Eigen::MatrixXd phi;
   Eigen::VectorXd rhs;
-  detail::arx_regression(u, y, orders.na, orders.nb, orders.nk, k0, phi, rhs);
+  detail::arx_regression(u, y, orders.na, orders.nb, orders.nk, detail::Segments(data, k0), phi, rhs);
   const Eigen::VectorXd theta = detail::least_squares(phi, rhs);
 
   IdentifiedModel m;

@@ -37,6 +37,26 @@ IdentifiedModel identify(ModelStructure s, const IdData& data, const ModelOrders
   throw core::Error("identify: unknown model structure");
 }
 
+IdData concatenate(const std::vector<IdData>& experiments) {
+  IdData out;
+  if (experiments.empty()) return out;
+  Eigen::Index n = 0;
+  for (const auto& e : experiments) n += e.u.size();
+  out.u.resize(n);
+  out.y.resize(n);
+  out.period_s = experiments.front().period_s;
+  Eigen::Index at = 0;
+  for (const auto& e : experiments) {
+    if (e.u.size() != e.y.size())
+      throw core::Error(fmt::format("identification data: {} inputs but {} outputs", e.u.size(), e.y.size()));
+    out.starts.push_back(at);
+    out.u.segment(at, e.u.size()) = e.u;
+    out.y.segment(at, e.y.size()) = e.y;
+    at += e.u.size();
+  }
+  return out;
+}
+
 namespace detail {
 
 Eigen::Index check_problem(const IdData& data, const ModelOrders& o, int parameters, bool use_nc) {
@@ -49,7 +69,19 @@ Eigen::Index check_problem(const IdData& data, const ModelOrders& o, int paramet
     throw core::Error(fmt::format("identification data: {} inputs but {} outputs", data.u.size(), data.y.size()));
   if (!data.u.allFinite() || !data.y.allFinite()) throw core::Error("identification data: a value is not finite");
   const Eigen::Index k0 = std::max<Eigen::Index>({o.na, o.nb + o.nk - 1, use_nc ? o.nc : 0});
-  const Eigen::Index rows = data.u.size() - k0;
+  Eigen::Index rows = data.u.size() - k0;
+  if (!data.starts.empty()) {
+    if (data.starts.front() != 0) throw core::Error("identification data: the first experiment must start at sample 0");
+    rows = 0;
+    for (std::size_t i = 0; i < data.starts.size(); ++i) {
+      const Eigen::Index b = i + 1 < data.starts.size() ? data.starts[i + 1] : data.u.size();
+      if (b <= data.starts[i] + k0)
+        throw core::Error(fmt::format("identification data: experiment {} has {} samples, fewer than the {} the orders "
+                                      "need before a row can be formed",
+                                      i + 1, b - data.starts[i], k0 + 1));
+      rows += b - data.starts[i] - k0;
+    }
+  }
   if (rows < 10 * parameters)
     throw core::Error(fmt::format("identification data: {} samples cannot carry {} parameters (at least {} needed)",
                                   data.u.size(), parameters, k0 + 10 * parameters));
@@ -72,13 +104,66 @@ Eigen::VectorXd least_squares(const Eigen::MatrixXd& phi, const Eigen::VectorXd&
   return qr.solve(rhs).cwiseQuotient(norms);
 }
 
-void arx_regression(const Eigen::VectorXd& u, const Eigen::VectorXd& y, int na, int nb, int nk, Eigen::Index k0,
+Segments::Segments(const IdData& data, Eigen::Index k0) : n_(data.u.size()) {
+  bounds_ = data.starts.empty() ? std::vector<Eigen::Index>{0} : data.starts;
+  bounds_.push_back(n_);
+  is_valid_.assign(static_cast<std::size_t>(n_), 0);
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s)
+    for (Eigen::Index k = bounds_[s] + k0; k < bounds_[s + 1]; ++k) {
+      valid_.push_back(k);
+      is_valid_[static_cast<std::size_t>(k)] = 1;
+    }
+}
+
+Eigen::VectorXd Segments::delayed(const Eigen::VectorXd& x, Eigen::Index shift) const {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(x.size());
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    const Eigen::Index a = bounds_[s], len = bounds_[s + 1] - a;
+    if (shift < len) out.segment(a + shift, len - shift) = x.segment(a, len - shift);
+  }
+  return out;
+}
+
+Eigen::VectorXd Segments::filter(const Eigen::VectorXd& num, const Eigen::VectorXd& den, const Eigen::VectorXd& x) const {
+  if (bounds_.size() == 2) return filter_q(num, den, x);
+  Eigen::VectorXd out(x.size());
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    const Eigen::Index a = bounds_[s], len = bounds_[s + 1] - a;
+    out.segment(a, len) = filter_q(num, den, Eigen::VectorXd(x.segment(a, len)));
+  }
+  return out;
+}
+
+Eigen::VectorXd Segments::simulate(const DiscreteTf& g, const Eigen::VectorXd& u) const {
+  if (bounds_.size() == 2) return simulate_tf(g, u);
+  Eigen::VectorXd out(u.size());
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    const Eigen::Index a = bounds_[s], len = bounds_[s + 1] - a;
+    out.segment(a, len) = simulate_tf(g, Eigen::VectorXd(u.segment(a, len)));
+  }
+  return out;
+}
+
+Eigen::VectorXd Segments::gather(const Eigen::VectorXd& x) const {
+  Eigen::VectorXd out(rows());
+  for (Eigen::Index i = 0; i < rows(); ++i) out[i] = x[valid_[static_cast<std::size_t>(i)]];
+  return out;
+}
+
+void Segments::mask(Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const {
+  for (Eigen::Index k = 0; k < eps.size(); ++k)
+    if (!is_valid_[static_cast<std::size_t>(k)]) {
+      eps[k] = 0.0;
+      if (jac) jac->row(k).setZero();
+    }
+}
+
+void arx_regression(const Eigen::VectorXd& u, const Eigen::VectorXd& y, int na, int nb, int nk, const Segments& seg,
                     Eigen::MatrixXd& phi, Eigen::VectorXd& rhs) {
-  const Eigen::Index n = y.size(), rows = n - k0;
-  phi.resize(rows, na + nb);
-  rhs = y.segment(k0, rows);
-  for (int i = 1; i <= na; ++i) phi.col(i - 1) = -y.segment(k0 - i, rows);
-  for (int j = 1; j <= nb; ++j) phi.col(na + j - 1) = u.segment(k0 - nk - j + 1, rows);
+  phi.resize(seg.rows(), na + nb);
+  rhs = seg.gather(y);
+  for (int i = 1; i <= na; ++i) phi.col(i - 1) = -seg.gather(seg.delayed(y, i));
+  for (int j = 1; j <= nb; ++j) phi.col(na + j - 1) = seg.gather(seg.delayed(u, nk + j - 1));
 }
 
 Eigen::VectorXd reflect_into_unit_circle(const Eigen::VectorXd& p) {

@@ -8,12 +8,6 @@ namespace vmsim::drives {
 
 namespace {
 
-Eigen::VectorXd delayed(const Eigen::VectorXd& x, Eigen::Index shift) {
-  Eigen::VectorXd out = Eigen::VectorXd::Zero(x.size());
-  if (shift < x.size()) out.tail(x.size() - shift) = x.head(x.size() - shift);
-  return out;
-}
-
 Eigen::VectorXd monic(const Eigen::VectorXd& tail) {
   Eigen::VectorXd p(tail.size() + 1);
   p << 1.0, tail;
@@ -29,6 +23,7 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   const Eigen::VectorXd u = data.u * s, y = data.y * s;
   const Eigen::Index n = y.size();
   const Eigen::VectorXd one = Eigen::VectorXd::Ones(1);
+  const detail::Segments seg(data, k0);
 
   // Simulation error of a candidate (infinite when F is unstable): the OE criterion itself.
   auto sim_loss = [&](const Eigen::VectorXd& th) {
@@ -37,7 +32,7 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
     g.a = th.head(nf);
     g.b = th.tail(nb);
     g.nk = nk;
-    const double l = (y - simulate_tf(g, u)).tail(n - k0).squaredNorm();
+    const double l = seg.gather(y - seg.simulate(g, u)).squaredNorm();
     return std::isfinite(l) ? l : HUGE_VAL;
   };
   // Steiglitz-McBride: F from ARX, then ARX on (u, y) filtered by 1/F until F settles. The search starts from the
@@ -45,14 +40,14 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   // noise-free simulation) the passes can drift away from it.
   Eigen::MatrixXd phi;
   Eigen::VectorXd rhs;
-  detail::arx_regression(u, y, nf, nb, nk, k0, phi, rhs);
+  detail::arx_regression(u, y, nf, nb, nk, seg, phi, rhs);
   Eigen::VectorXd theta = detail::least_squares(phi, rhs);  // [f; b]
   theta.head(nf) = detail::reflect_into_unit_circle(theta.head(nf));
   Eigen::VectorXd best = theta;
   double best_loss = sim_loss(theta);
   for (int pass = 0; pass < 30 && nf > 0; ++pass) {
     const Eigen::VectorXd fpoly = monic(theta.head(nf));
-    detail::arx_regression(filter_q(one, fpoly, u), filter_q(one, fpoly, y), nf, nb, nk, k0, phi, rhs);
+    detail::arx_regression(seg.filter(one, fpoly, u), seg.filter(one, fpoly, y), nf, nb, nk, seg, phi, rhs);
     Eigen::VectorXd next = detail::least_squares(phi, rhs);
     if (!next.allFinite()) break;
     next.head(nf) = detail::reflect_into_unit_circle(next.head(nf));
@@ -71,16 +66,17 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
     g.a = f;
     g.b = th.tail(nb);
     g.nk = nk;
-    const Eigen::VectorXd yhat = simulate_tf(g, u);
+    const Eigen::VectorXd yhat = seg.simulate(g, u);
     eps = y - yhat;
     if (!eps.allFinite()) return false;
     if (jac) {
       const Eigen::VectorXd fpoly = monic(f);
-      const Eigen::VectorXd uf = filter_q(one, fpoly, u), yf = filter_q(one, fpoly, yhat);
+      const Eigen::VectorXd uf = seg.filter(one, fpoly, u), yf = seg.filter(one, fpoly, yhat);
       jac->resize(n, nf + nb);
-      for (int i = 1; i <= nf; ++i) jac->col(i - 1) = delayed(yf, i);         // d eps / d f_i = yhat(k-i)/F
-      for (int j = 1; j <= nb; ++j) jac->col(nf + j - 1) = -delayed(uf, nk + j - 1);
+      for (int i = 1; i <= nf; ++i) jac->col(i - 1) = seg.delayed(yf, i);         // d eps / d f_i = yhat(k-i)/F
+      for (int j = 1; j <= nb; ++j) jac->col(nf + j - 1) = -seg.delayed(uf, nk + j - 1);
     }
+    seg.mask(eps, jac);
     return true;
   };
   IdentifiedModel m;
@@ -88,7 +84,8 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   m.orders = o;
   m.orders.nc = 0;
   double loss = 0.0;
-  m.iterations = detail::levenberg_marquardt(evaluate, k0, options, theta, loss, m.converged);
+  m.iterations = detail::levenberg_marquardt(evaluate, 0, options, theta, loss, m.converged);
+  loss *= static_cast<double>(n) / static_cast<double>(seg.rows());  // the mean over the summed rows only
   m.g.a = theta.head(nf);
   m.g.b = theta.tail(nb);
   m.g.nk = nk;
