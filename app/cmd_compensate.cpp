@@ -416,6 +416,17 @@ int run_compensate(const CompensateArgs& args) {
   line(models.any() ? "contour error, identified model" : "contour error, predicted", pred_before, pred_after);
   if (mach_before) line("contour error, machine cascades", *mach_before, *mach_after);
   line("compensated program on the machine", orig_machine, prog_machine);
+  // The program form moves only the programmed points (arcs keep their shape between corrected ends), so it can cut
+  // worse than the original where the correction varies along a move: say so rather than let it go to a machine.
+  // Worse: a larger mean, or a largest error grown by more than 5 % (the max sits at friction glitches that move by
+  // a fraction of a per cent from run to run of a correction).
+  if (prog_machine.max_mm > 1.05 * orig_machine.max_mm || prog_machine.mean_mm > orig_machine.mean_mm)
+    std::fprintf(stderr,
+                 "vmsim: warning: the compensated program cuts worse than the original on the machine model (max "
+                 "%.3f -> %.3f um, mean %.3f -> %.3f um); send the dense form (--dense-program) or the compensated "
+                 "setpoints instead\n",
+                 orig_machine.max_mm * 1e3, prog_machine.max_mm * 1e3, orig_machine.mean_mm * 1e3,
+                 prog_machine.mean_mm * 1e3);
   std::printf("compensated program: %d blocks for %zu moves, cycle time %.3f s (original %.3f s, %+.2f %%)\n",
               cprog.blocks, program.moves.size(), cycle_prog, cycle_orig,
               cycle_orig > 0 ? 100.0 * (cycle_prog - cycle_orig) / cycle_orig : 0.0);

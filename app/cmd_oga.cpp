@@ -3,6 +3,7 @@
 // accept through [job] gain_schedule (drives/oga_schedule.hpp checks every setpoint).
 #include "app/commands_oga.hpp"
 #include "app/job_program.hpp"
+#include "app/mpi_session.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "app/result_images.hpp"
@@ -19,6 +20,7 @@
 #include "render/window.hpp"
 
 #include <fmt/format.h>
+#include <mpi.h>
 #include <nlohmann/json.hpp>
 #include <omp.h>
 
@@ -208,7 +210,16 @@ int run_oga(const OgaArgs& args) {
   if (!(o.row_weight.sum() > 0))
     throw core::Error(job.file.string() + ": the program has no feed move: no contour to adjust the gains on");
 
-  Progress progress;
+  // Under mpirun: the best-fixed-pair search (most of a whole run's CPU, bench/README.md) is spread over the ranks;
+  // every rank then holds the same values and reaches the same result, which rank 0 alone verifies and writes.
+  if (mpi_active()) {
+    o.share.index = mpi_rank();
+    o.share.count = mpi_size();
+    o.share.combine = [](std::vector<double>& v) {
+      MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+    };
+  }
+  Progress progress(mpi_rank() == 0);
   bool staged = false;
   o.progress = [&](const std::string& s) {
     if (staged) progress.done();
@@ -223,6 +234,7 @@ int run_oga(const OgaArgs& args) {
     }
   }
   const drives::OgaResult r = drives::offline_gain_adjustment(sp, machine, o);
+  if (mpi_rank() != 0) return 0;
   o.progress("verification on the whole path (nonlinear model)");
   const auto t_verify0 = Clock::now();
   const drives::OgaVerification v = drives::verify_oga(sp, machine, r, o);
@@ -536,6 +548,7 @@ int run_oga(const OgaArgs& args) {
   if (!args.no_render) timings["render"] = t_render;
   timings["total"] = seconds_since(t_start);
   report["timings_s"] = timings;
+  report["mpi_ranks"] = mpi_active() ? mpi_size() : 1;  // the pair search's processes (the result does not depend on it)
   write_report(dir / "report.json", report);
 
   // ---- summary ----

@@ -2,6 +2,7 @@
 #include "app/commands.hpp"
 #include "app/commands_sysid.hpp"
 #include "app/commands_oga.hpp"
+#include "app/commands_study.hpp"
 #include "app/mpi_session.hpp"
 #include "core/error.hpp"
 
@@ -135,6 +136,20 @@ int run_command(int argc, char** argv) {
   run->add_option("--memory-per-rank-gb", run_args.memory_per_rank_gb,
                   "--plan: memory per rank (GB) to advise how many ranks or which spacing the job needs")
       ->check(CLI::PositiveNumber);
+
+  vmsim::app::StudyArgs study_args;
+  auto* study = app.add_subcommand(
+      "study", "Run a job's variations (feeds, gains, tolerances, machine keys) through vmsim run and write one table "
+               "of their marks, contour errors and cycle times; under mpirun the variations are spread over the ranks");
+  study->add_option("STUDY", study_args.study, "study file (parts/README.md: Study file)")
+      ->required()->check(CLI::ExistingFile);
+  study->add_option("--out,-o", study_args.out_dir, "output directory: results.csv, study.json, variations/NNN/")
+      ->required();
+  study->add_option("--keep", study_args.keep,
+                    "each variation's files: all (default: vmsim run's outputs) or summary (job, machine, report.json, "
+                    "run.log)")
+      ->check(CLI::IsMember({"all", "summary"}));
+  study->add_flag("--quiet,-q", study_args.quiet, "no line per finished variation");
 
   vmsim::app::RenderArgs render_args;
   auto* render = app.add_subcommand(
@@ -308,6 +323,7 @@ int run_command(int argc, char** argv) {
     if (*sysid) return vmsim::app::run_sysid(sysid_args);
     if (*compensate) return vmsim::app::run_compensate(comp_args);
     if (*run) return vmsim::app::run_run(run_args);
+    if (*study) return vmsim::app::run_study(study_args);
     if (*render) return vmsim::app::run_render(render_args);
     if (*stats) return vmsim::app::run_stats(stats_args);
     if (*compare) return vmsim::app::run_compare(compare_args);

@@ -9,6 +9,7 @@ namespace {
 bool g_started = false;
 int g_rank = 0;
 int g_size = 1;
+thread_local bool t_single = false;  // inside an MpiSingleProcess on this thread
 
 // The launchers' own markers: Open MPI's mpirun, PMI-1/2 (MPICH's hydra, Slurm's srun) and PMIx.
 bool launched_by_mpi() {
@@ -39,8 +40,11 @@ void mpi_abort_all(int exit_code) {
   if (g_started && g_size > 1) MPI_Abort(MPI_COMM_WORLD, exit_code);
 }
 
-bool mpi_active() { return g_started && g_size > 1; }
-int mpi_rank() { return g_rank; }
-int mpi_size() { return g_size; }
+bool mpi_active() { return !t_single && g_started && g_size > 1; }
+int mpi_rank() { return t_single ? 0 : g_rank; }
+int mpi_size() { return t_single ? 1 : g_size; }
+
+MpiSingleProcess::MpiSingleProcess() : previous_(t_single) { t_single = true; }
+MpiSingleProcess::~MpiSingleProcess() { t_single = previous_; }
 
 }  // namespace vmsim::app

@@ -20,4 +20,18 @@ bool mpi_active();   // MPI was started and the world has more than one rank
 int mpi_rank();      // 0 without MPI
 int mpi_size();      // 1 without MPI
 
+// While one lives, on its thread, mpi_active() is false, mpi_rank() 0 and mpi_size() 1: a command run inside it (vmsim
+// study runs each variation through vmsim run on one rank, rank 0's on a second thread) behaves as one process and
+// never enters a collective the other ranks are not in.
+class MpiSingleProcess {
+ public:
+  MpiSingleProcess();
+  ~MpiSingleProcess();
+  MpiSingleProcess(const MpiSingleProcess&) = delete;
+  MpiSingleProcess& operator=(const MpiSingleProcess&) = delete;
+
+ private:
+  bool previous_;
+};
+
 }  // namespace vmsim::app

@@ -527,14 +527,24 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
   if (res.pairs_evaluated > 0) {
     std::vector<double> mse(static_cast<std::size_t>(res.pairs_evaluated), kInf);
     const Index n1 = static_cast<Index>(adm[1].size());
+    // This process's share of the pairs (all of them in one process); the others' come through o.share.combine.
+    const Index share_count = std::max(1, o.share.count);
+    if (o.share.index < 0 || o.share.index >= share_count)
+      throw core::Error(fmt::format("OGA: process {} of {}", o.share.index, share_count));
+    const Index i_begin = res.pairs_evaluated * o.share.index / share_count;
+    const Index i_end = res.pairs_evaluated * (o.share.index + 1) / share_count;
 #pragma omp parallel for schedule(dynamic, 4)
-    for (Index i = 0; i < res.pairs_evaluated; ++i) {
+    for (Index i = i_begin; i < i_end; ++i) {
       try {
         mse[static_cast<std::size_t>(i)] = whole_path_mse(path[0][adm[0][static_cast<std::size_t>(i / n1)]],
                                                           path[1][adm[1][static_cast<std::size_t>(i % n1)]]);
       } catch (const core::Error&) {
         // a diverging motion: never the best
       }
+    }
+    if (share_count > 1) {
+      if (!o.share.combine) throw core::Error("OGA: a pair search spread over processes needs their combine step");
+      o.share.combine(mse);
     }
     const auto it = std::min_element(mse.begin(), mse.end());  // the first of equal values: deterministic
     const Index i = it - mse.begin();

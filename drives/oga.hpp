@@ -172,6 +172,14 @@ struct OgaOptions {
   // (e.g. rapids). Empty: every row counts.
   Eigen::ArrayXd row_weight;
   std::function<void(const std::string&)> progress;  // a line per stage
+  // The best-fixed-pair search spread over processes (vmsim oga under mpirun, app/cmd_oga.cpp; drives knows no MPI):
+  // process `index` of `count` evaluates its contiguous share of the pairs, the others' entries left +inf, then
+  // `combine` must give every process every value (an element-wise minimum over the processes: each entry is
+  // finite on one process at most). Every process then holds the same values and goes on to the same result.
+  struct ProcessShare {
+    int index = 0, count = 1;
+    std::function<void(std::vector<double>&)> combine;
+  } share;
 };
 
 struct OgaWindowResult {

@@ -53,6 +53,7 @@ TEST(CompensateCli, FiveAxisBladeTipAndOrientationErrorsFallAndTheCompensatedPro
   const fs::path p = d.path();
   CliResult r = run_vmsim("compensate '" + kBlade + "/job.toml' --out '" + (p / "c").string() + "'", d);
   ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("compensated program cuts worse"), std::string::npos) << r.err;
   std::printf("%s", r.out.c_str());
   const nlohmann::json rep = nlohmann::json::parse(slurp(p / "c" / "report.json"));
   // The prediction (the cascades themselves here): tip and tool axis both fall, the maximum does not grow.
@@ -124,6 +125,12 @@ TEST(CompensateCli, CircleArcsStayArcsInTheCompensatedProgramAndKeepTheTime) {
   EXPECT_NE(ngc.find("G3 X"), std::string::npos);
   EXPECT_EQ(ngc.find("G1 X19"), std::string::npos) << "arcs written as chords";
   EXPECT_TRUE(cp["within_limits"].get<bool>());
+  // Where the program form cuts worse on the machine model than the original (the arcs' correction varies between
+  // their corrected ends), the user is warned on stderr; where it cuts better, not.
+  const auto& on_machine = rep["contour_error"]["compensated_program_on_machine"];
+  const bool worse = on_machine["after"]["max_mm"].get<double>() > 1.05 * on_machine["before"]["max_mm"].get<double>() ||
+                     on_machine["after"]["mean_mm"].get<double>() > on_machine["before"]["mean_mm"].get<double>();
+  EXPECT_EQ(r.err.find("compensated program cuts worse") != std::string::npos, worse) << r.err;
   r = run_vmsim("interp '" + (p / "job.toml").string() + "' --summary-only", d);
   ASSERT_EQ(r.code, 0) << r.err;
   const double t_orig = cycle_time(r.out);

@@ -1,0 +1,352 @@
+// vmsim study STUDY --out DIR: a job's variations through vmsim run's pipeline, one by one, or spread over MPI ranks
+// with dynamic load balancing (mpirun -np N vmsim study ...). Rank 0 reads the study, keeps the queue and the table;
+// every rank (rank 0 too, on a second thread) runs variations. Variations go out one at a time to whichever rank
+// asks, so a slow variation never holds up the rest; the table is in the study's order whoever ran what.
+#include "app/commands.hpp"
+#include "app/commands_study.hpp"
+#include "app/mpi_session.hpp"
+#include "app/study.hpp"
+#include "core/atomic_file.hpp"
+#include "core/error.hpp"
+
+#include <fmt/format.h>
+#include <mpi.h>
+#include <nlohmann/json.hpp>
+
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+namespace vmsim::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kTagToCoordinator = 7101;  // worker -> rank 0: "ready", with the result of its last variation
+constexpr int kTagToWorker = 7102;       // rank 0 -> worker: the next variation, or stop
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+double process_cpu_s() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
+
+// While a variation runs, this process's stdout and stderr go to its run.log: vmsim run's pipeline prints its
+// summary with printf, and a study of many variations on several ranks would otherwise interleave them all.
+class OutputToFile {
+ public:
+  explicit OutputToFile(const fs::path& log) {
+    std::fflush(stdout);
+    std::fflush(stderr);
+    std::cout.flush();
+    fd_ = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) return;
+    saved_out_ = ::dup(1);
+    saved_err_ = ::dup(2);
+    ::dup2(fd_, 1);
+    ::dup2(fd_, 2);
+  }
+  ~OutputToFile() {
+    if (fd_ < 0) return;
+    std::fflush(stdout);
+    std::fflush(stderr);
+    std::cout.flush();
+    ::dup2(saved_out_, 1);
+    ::dup2(saved_err_, 2);
+    ::close(saved_out_);
+    ::close(saved_err_);
+    ::close(fd_);
+  }
+  OutputToFile(const OutputToFile&) = delete;
+  OutputToFile& operator=(const OutputToFile&) = delete;
+
+ private:
+  int fd_ = -1, saved_out_ = -1, saved_err_ = -1;
+};
+
+// One variation, as rank 0 hands it out: everything a rank needs, so workers never read the study file.
+nlohmann::json make_task(const Study& study, const StudyVariation& v, const PreparedVariation& p, const fs::path& out,
+                         const std::string& keep) {
+  nlohmann::json t = {{"index", v.index},
+                      {"label", fmt::format("{}: variation {} ({})", study.file.string(), v.index, v.name)},
+                      {"dir", fs::absolute(variation_dir(out, study, v)).string()},
+                      {"job_toml", p.job_toml},
+                      {"feed_scale", p.feed_scale},
+                      {"keep", keep}};
+  if (p.machine_toml) t["machine_toml"] = *p.machine_toml;
+  nlohmann::json ov = nlohmann::json::array();
+  for (const StudyOverride& o : v.overrides) ov.push_back({{"key", o.key}, {"where", o.where}});
+  t["overrides"] = ov;
+  return t;
+}
+
+// A run's error names the variation's generated job or machine file; this adds where the study sets the key it
+// names (the override whose last part the message quotes).
+std::string with_study_key(const std::string& message, const nlohmann::json& task) {
+  std::string out = message;
+  if (!task.contains("overrides")) return out;
+  for (const auto& o : task["overrides"]) {
+    const std::string key = o.at("key").get<std::string>();
+    const std::string last = key.substr(key.rfind('.') + 1);
+    if (message.find("." + last + "'") != std::string::npos || message.find("'" + last + "'") != std::string::npos)
+      out += fmt::format(" [{} sets {}]", o.at("where").get<std::string>(), key);
+  }
+  return out;
+}
+
+// Runs one variation in its own directory through vmsim run (no pictures); every error stays in its row.
+StudyResult run_variation(const nlohmann::json& task, int rank) {
+  StudyResult r;
+  r.rank = rank;
+  const auto t0 = Clock::now();
+  const double c0 = process_cpu_s();
+  const std::string label = task.at("label").get<std::string>();
+  try {
+    const fs::path dir = task.at("dir").get<std::string>();
+    std::error_code ec;
+    fs::remove_all(dir, ec);  // a previous study's files in this variation's directory would pass for its own
+    fs::create_directories(dir, ec);
+    if (ec) throw core::Error(dir.string() + ": cannot create the variation's directory: " + ec.message());
+    core::write_file_atomic(dir / "job.toml", task.at("job_toml").get<std::string>());
+    if (task.contains("machine_toml")) core::write_file_atomic(dir / "machine.toml", task["machine_toml"].get<std::string>());
+    RunArgs ra;
+    ra.job = dir / "job.toml";
+    ra.out_dir = dir;
+    ra.feed_scale = task.at("feed_scale").get<double>();
+    ra.quiet = true;
+    ra.no_render = true;
+    int code = 0;
+    {
+      OutputToFile log(dir / "run.log");
+      const MpiSingleProcess alone;  // the variation is one process's run, not a run tiled over the study's ranks
+      code = run_run(ra);
+    }
+    if (code != 0) throw core::Error(fmt::format("vmsim run ended with exit code {} (see {})", code, (dir / "run.log").string()));
+    std::ifstream in(dir / "report.json");
+    if (!in) throw core::Error((dir / "report.json").string() + ": the run wrote no report");
+    r.figures = figures_from_report(nlohmann::json::parse(in));
+    r.status = StudyResult::Status::Ok;
+    if (task.value("keep", std::string("all")) == "summary") {
+      for (const auto& e : fs::directory_iterator(dir)) {
+        const std::string n = e.path().filename().string();
+        if (n != "job.toml" && n != "machine.toml" && n != "report.json" && n != "run.log") fs::remove_all(e.path(), ec);
+      }
+    }
+  } catch (const core::Error& e) {
+    r.status = StudyResult::Status::Failed;
+    r.error = with_study_key(label + ": " + e.what(), task);
+  } catch (const std::exception& e) {
+    r.status = StudyResult::Status::Failed;
+    r.error = label + ": internal error: " + e.what();
+  } catch (...) {
+    r.status = StudyResult::Status::Failed;
+    r.error = label + ": internal error";
+  }
+  r.cpu_s = process_cpu_s() - c0;
+  r.wall_s = seconds_since(t0);
+  return r;
+}
+
+void send_json(const nlohmann::json& j, int dest, int tag) {
+  const std::string s = j.dump();
+  MPI_Send(s.data(), static_cast<int>(s.size()), MPI_CHAR, dest, tag, MPI_COMM_WORLD);
+}
+
+nlohmann::json recv_json(int source, int tag) {
+  MPI_Status st;
+  MPI_Probe(source, tag, MPI_COMM_WORLD, &st);
+  int n = 0;
+  MPI_Get_count(&st, MPI_CHAR, &n);
+  std::string s(static_cast<std::size_t>(n), '\0');
+  MPI_Recv(s.data(), n, MPI_CHAR, st.MPI_SOURCE, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  return nlohmann::json::parse(s);
+}
+
+// Ranks 1..N-1: ask rank 0 for a variation, run it, send its result with the next request, until told to stop.
+int worker_loop(int rank) {
+  nlohmann::json msg = {{"rank", rank}};
+  while (true) {
+    send_json(msg, 0, kTagToCoordinator);
+    const nlohmann::json task = recv_json(0, kTagToWorker);
+    if (task.contains("stop")) return 0;
+    const StudyResult r = run_variation(task, rank);
+    msg = {{"rank", rank}, {"index", task.at("index")}, {"result", result_to_json(r)}};
+  }
+}
+
+}  // namespace
+
+int run_study(const StudyArgs& args) {
+  if (args.keep != "all" && args.keep != "summary")
+    throw core::Error("--keep: expected \"all\" or \"summary\", found \"" + args.keep + "\"");
+  const int rank = mpi_rank(), size = mpi_active() ? mpi_size() : 1;
+  if (rank != 0) return worker_loop(rank);
+
+  const auto t_start = Clock::now();
+  const Study study = load_study(args.study);
+  std::error_code ec;
+  fs::create_directories(args.out_dir, ec);
+  if (ec) throw core::Error(args.out_dir.string() + ": cannot create the output directory: " + ec.message());
+  const std::size_t n = study.variations.size();
+
+  // The queue and the table, shared by this rank's two threads: the main thread (MPI, the only one that calls it:
+  // MPI_THREAD_FUNNELED) and the local worker.
+  std::mutex mu;
+  std::deque<std::size_t> queue;
+  for (std::size_t i = 0; i < n; ++i) queue.push_back(i);
+  std::vector<StudyResult> results(n);
+  std::vector<std::size_t> finished;  // in the order they finished, for the progress lines
+  auto store = [&](std::size_t i, const StudyResult& r) {
+    std::lock_guard<std::mutex> lock(mu);
+    results[i] = r;
+    finished.push_back(i);
+  };
+  // The next variation ready to run; one whose overrides cannot be applied is a failed row at once.
+  auto next_task = [&]() -> std::optional<nlohmann::json> {
+    while (true) {
+      std::size_t i;
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        if (queue.empty()) return std::nullopt;
+        i = queue.front();
+        queue.pop_front();
+      }
+      try {
+        return make_task(study, study.variations[i], prepare_variation(study, study.variations[i]), args.out_dir,
+                         args.keep);
+      } catch (const std::exception& e) {  // core::Error names the study file, the variation and the key
+        StudyResult r;
+        r.status = StudyResult::Status::Failed;
+        r.error = dynamic_cast<const core::Error*>(&e)
+                      ? std::string(e.what())
+                      : fmt::format("{}: variation {} ({}): {}", study.file.string(), study.variations[i].index,
+                                    study.variations[i].name, e.what());
+        store(i, r);
+      }
+    }
+  };
+
+  // Progress lines go to the terminal through a copy of stdout taken now: the local worker points stdout at its
+  // variation's run.log while it runs.
+  FILE* console = fdopen(::dup(1), "w");
+  if (console) std::setvbuf(console, nullptr, _IOLBF, 0);
+  auto say = [&](const std::string& line) {
+    if (console && !args.quiet) std::fputs((line + "\n").c_str(), console);
+  };
+  say(fmt::format("study {}: {} variations of {} on {} rank{}", study.name, n, study.base_job.string(), size,
+                  size > 1 ? "s" : ""));
+
+  std::atomic<bool> local_done{false};
+  std::thread local([&] {
+    while (auto task = next_task()) store(task->at("index").get<std::size_t>() - 1, run_variation(*task, 0));
+    local_done = true;
+  });
+
+  auto write_tables = [&]() {
+    std::vector<StudyResult> copy;
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      copy = results;
+    }
+    core::write_file_atomic(args.out_dir / "results.csv", results_csv(study, copy));
+    core::write_file_atomic(args.out_dir / "study.json", study_json(study, copy, size, seconds_since(t_start)).dump(2) + "\n");
+  };
+  std::size_t reported = 0, written = 0;
+  auto last_write = Clock::now();
+  double write_s = 0;
+  int remote_active = size - 1;
+  try {
+    while (true) {
+      bool busy = false;
+      if (remote_active > 0) {
+        int flag = 0;
+        MPI_Status st;
+        MPI_Iprobe(MPI_ANY_SOURCE, kTagToCoordinator, MPI_COMM_WORLD, &flag, &st);
+        if (flag) {
+          busy = true;
+          const int src = st.MPI_SOURCE;
+          const nlohmann::json msg = recv_json(src, kTagToCoordinator);
+          if (msg.contains("index")) {
+            const auto idx = msg["index"].get<std::size_t>();
+            if (idx < 1 || idx > n) throw core::Error(fmt::format("rank {} sent a result for variation {}", src, idx));
+            store(idx - 1, result_from_json(msg["result"]));
+          }
+          if (auto task = next_task()) {
+            send_json(*task, src, kTagToWorker);
+          } else {
+            send_json({{"stop", true}}, src, kTagToWorker);
+            --remote_active;
+          }
+        }
+      }
+      std::vector<std::size_t> fresh;
+      std::size_t shown = reported;
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        fresh.assign(finished.begin() + static_cast<std::ptrdiff_t>(reported), finished.end());
+        reported = finished.size();
+      }
+      for (std::size_t i : fresh) {
+        ++shown;
+        const StudyResult& r = results[i];  // written once, before it was listed as finished
+        const StudyVariation& v = study.variations[i];
+        if (r.status == StudyResult::Status::Ok) {
+          const StudyFigures& f = r.figures;
+          say(fmt::format("[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}",
+                          shown, n, v.index, v.name,
+                          f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
+                          f.contour_error_max_mm ? fmt::format("{:.2f} um", *f.contour_error_max_mm * 1e3) : std::string("-"),
+                          r.cpu_s, r.rank));
+        } else {
+          say(fmt::format("[{}/{}] variation {} ({}): FAILED: {}", shown, n, v.index, v.name, r.error));
+        }
+      }
+      // The table so far, now and then: a study cut short (a killed job) keeps what it had. Every 2 s at most, and
+      // never more than 5 % of the time (a study of many variations has long tables).
+      if (reported > written && seconds_since(last_write) > std::max(2.0, 20 * write_s)) {
+        const auto w0 = Clock::now();
+        write_tables();
+        write_s = seconds_since(w0);
+        written = reported;
+        last_write = Clock::now();
+      }
+      if (remote_active == 0 && local_done) break;
+      if (!busy) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+  } catch (...) {
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      queue.clear();
+    }
+    local.join();
+    if (console) std::fclose(console);
+    throw;
+  }
+  local.join();
+  write_tables();
+  int ok = 0;
+  for (const StudyResult& r : results) ok += r.status == StudyResult::Status::Ok;
+  say(fmt::format("study {}: {} ok, {} failed of {} variations on {} rank{} in {:.1f} s; wrote {} and {}", study.name,
+                  ok, static_cast<int>(n) - ok, n, size, size > 1 ? "s" : "", seconds_since(t_start),
+                  (args.out_dir / "results.csv").string(), (args.out_dir / "study.json").string()));
+  if (console) std::fclose(console);
+  return 0;
+}
+
+}  // namespace vmsim::app
