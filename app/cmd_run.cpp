@@ -345,13 +345,14 @@ int run_run(const RunArgs& args) {
                        {"motion", motion_name(job.removal.motion)},
                        {"track_points", ts.points},
                        {"sweeps", ts.sweeps.size()},
-                       {"track_tolerance_mm", job.removal.track_tolerance_mm},
+                       {"track_tolerance_mm", track_tolerance(job, track_turns(track))},
                        {"track_error_bound_mm", ts.error_bound_mm},
                        {"tool_axis_turns", track.axis_per_sample.rows() > 0},
                        {"orientation_error_mm", ts.orientation_error_mm}};
   if (field.vdb) {
     report["removal"]["voxel_mm"] = job.removal.voxel_mm;
-    report["removal"]["memory_estimate_bytes"] = field.vdb_estimate_bytes;
+    report["removal"]["memory_estimate_bytes"] = field.vdb_estimate_bytes;  // the level set's, vs memory_bytes
+    report["removal"]["mesh_memory_estimate_bytes"] = field.vdb_mesh_estimate_bytes;
     report["removal"]["active_voxels"] = field.part.active_voxels();
     report["removal"]["level_set"] = vdb_json;
   }

@@ -95,6 +95,19 @@ double tlo_at(const Motion& m, Eigen::Index k) {
   return mi >= 0 ? m.program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
 }
 
+double track_tolerance(const core::Job& job, bool tool_turns) {
+  if (job.removal.track_tolerance_given || job.removal.method != core::RemovalSpec::Method::Vdb || !tool_turns)
+    return job.removal.track_tolerance_mm;
+  return job.removal.voxel_mm / 10;
+}
+
+bool track_turns(const removal::PoseTrack& tr) {
+  const Eigen::MatrixXd& a = tr.axis_per_sample;
+  for (Eigen::Index k = 1; k < a.rows(); ++k)
+    if ((a.row(k).normalized() - a.row(0).normalized()).norm() > 1e-12) return true;
+  return false;
+}
+
 removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind) {
   removal::PoseTrack tr;
   if (kind == core::RemovalSpec::Motion::Program && job.machine.kinematics == "chain" && program_turns_tool(m.program)) {
@@ -102,7 +115,7 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
     // of the track tolerance as the arcs below are.
     const auto kin = core::make_kinematics(job.machine);
     return program_pose_track(m.program, core::toolpath_in_axis_space(m.program, job.machine), *kin, job.machine,
-                              removal::make_tool(job.tool), 0.1 * job.removal.track_tolerance_mm);
+                              removal::make_tool(job.tool), 0.1 * track_tolerance(job, true));
   }
   if (kind == core::RemovalSpec::Motion::Program) {
     // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
@@ -306,7 +319,7 @@ std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
 
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
   removal::TrackOptions topt;
-  topt.tolerance_mm = job.removal.track_tolerance_mm;
+  topt.tolerance_mm = track_tolerance(job, track_turns(tr));
   return removal::sweeps_from_track(removal::make_tool(job.tool), tr, topt);
 }
 
@@ -352,23 +365,23 @@ Field initial_field(const core::Job& job, Progress& progress, std::set<std::stri
                         "method = \"dexel\"");
     f.vdb = true;
     if (f.kind == core::RemovalSpec::Field::NBuffer) read_needles(job, f);
-    // The memory it will need, stated before the run: the stock's band, plus as much again for the surfaces the cuts
-    // make (removal/vdb_part.hpp's estimate; measured in report.json).
-    double area = 0;
-    if (mesh) {
-      area = removal::mesh_area_mm2(*mesh);
-    } else {
-      const Eigen::Vector3d e = region.hi - region.lo;
-      area = 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
-    }
+    // The memory it will need, stated before the run (removal/vdb_part.hpp's model): the narrow band of the stock's
+    // surface, which cuts that finish a part replace by their own (deep cuts add their new walls and floors), and
+    // the part mesh written at the end. report.json holds both beside the level set's measured memory.
+    const removal::SurfaceArea sa = mesh ? removal::surface_area(*mesh) : removal::surface_area(region);
     const double h = job.removal.voxel_mm;
-    f.vdb_estimate_bytes = removal::estimate_level_set_bytes(2 * area, h) + removal::estimate_mesh_bytes(2 * area, h);
-    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB (stock surface %.0f mm^2, twice "
-                 "that for the cut surfaces, and the part mesh)\n", job.name.c_str(), h, f.vdb_estimate_bytes / 1e6, area);
+    f.vdb_estimate_bytes = removal::estimate_level_set_bytes(sa, h);
+    f.vdb_mesh_estimate_bytes = removal::estimate_mesh_bytes(sa.area_mm2, h);
+    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB: %.1f MB for the band of the stock's "
+                 "%.0f mm^2 (%.1f MB per 1000 mm^2 of surface the cuts add) and %.1f MB for the part mesh\n",
+                 job.name.c_str(), h, (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e6,
+                 f.vdb_estimate_bytes / 1e6, sa.area_mm2, f.vdb_estimate_bytes / sa.area_mm2 * 1e3 / 1e6,
+                 f.vdb_mesh_estimate_bytes / 1e6);
     const double limit = 32e9;
-    if (f.vdb_estimate_bytes > limit)
+    if (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes > limit)
       throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {:.1f} GB for the level "
-                                                        "set; choose a larger voxel", h, f.vdb_estimate_bytes / 1e9));
+                                                        "set and its mesh; choose a larger voxel", h,
+                                                        (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e9));
     progress.stage(job.name + ": stock (level set)");
     removal::VdbOptions vo;
     vo.voxel_mm = h;

@@ -41,6 +41,12 @@ void add_contour_error(Motion& m, const core::Job& job);
 double tlo_at(const Motion& m, Eigen::Index k);
 
 // Tool-tip track (and tool axis on five-axis work) of the motion that cuts.
+// The track tolerance a job cuts at: its own, or, when it gives none and a level set cuts a turning tool, voxel / 10
+// (core/job.hpp: each orientation sub-step is an exact sweep the level set pays for; 3-axis tracks keep the default,
+// which costs no extra sweeps there).
+double track_tolerance(const core::Job& job, bool tool_turns);
+// Whether a track's tool axis turns anywhere (a 5-axis track).
+bool track_turns(const removal::PoseTrack& track);
 removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind);
 // The track as the tool's swept volumes, within the job's track tolerance.
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& track);
@@ -55,7 +61,8 @@ struct Field {
   core::RemovalSpec::Field kind = core::RemovalSpec::Field::ZMap;
   bool vdb = false;
   removal::VdbPart part;               // vdb
-  double vdb_estimate_bytes = 0;       // vdb: the memory stated before the run
+  double vdb_estimate_bytes = 0;       // vdb: the level set's memory stated before the run
+  double vdb_mesh_estimate_bytes = 0;  // vdb: the part mesh's
   removal::Box region;
   double spacing_mm = 0.05;
   removal::DexelGrid zmap;

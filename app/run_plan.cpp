@@ -170,8 +170,9 @@ int run_plan(const core::Job& job, const RunArgs& args) {
   double b_outputs_whole = 0;
   if (shape.vdb || shape.kind == core::RemovalSpec::Field::TriDexel) {
     const double h = shape.vdb ? shape.voxel_mm : shape.spacing_mm;
-    b_outputs_whole = 2 * (removal::estimate_level_set_bytes(2 * shape.stock_area_mm2, h) +
-                           removal::estimate_mesh_bytes(2 * shape.stock_area_mm2, h));
+    // Twice the stock's area at the worst orientation (projections sqrt(3) times the area): the plan's upper bound.
+    const removal::SurfaceArea sa{2 * shape.stock_area_mm2, 2 * std::sqrt(3.0) * shape.stock_area_mm2};
+    b_outputs_whole = 2 * (removal::estimate_level_set_bytes(sa, h) + removal::estimate_mesh_bytes(2 * shape.stock_area_mm2, h));
   }
   if (shape.kind != core::RemovalSpec::Field::NBuffer && !shape.vdb)
     b_outputs_whole += kZmapOutputBytesPerNode * surface_nodes(shape, shape.grids.back().nv);

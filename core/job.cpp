@@ -69,7 +69,7 @@ RemovalSpec read_removal(const TomlTable& t) {
   r.motion = motion == "actual" ? RemovalSpec::Motion::Actual
              : motion == "setpoints" ? RemovalSpec::Motion::Setpoints
                                      : RemovalSpec::Motion::Program;
-  if (auto tol = t.opt_positive("track_tolerance_mm")) r.track_tolerance_mm = *tol;
+  if (auto tol = t.opt_positive("track_tolerance_mm")) r.track_tolerance_mm = *tol, r.track_tolerance_given = true;
   const std::string method = t.opt_choice("method", {"dexel", "vdb"}).value_or("dexel");
   r.method = method == "vdb" ? RemovalSpec::Method::Vdb : RemovalSpec::Method::Dexel;
   r.voxel_mm = r.spacing_mm;

@@ -44,6 +44,10 @@ struct RemovalSpec {
   // setpoints, or the programmed path itself (seed 004 section 1: to separate interpolator and drive effects).
   enum class Motion { Actual, Setpoints, Program } motion = Motion::Actual;
   double track_tolerance_mm = 1e-4;  // largest distance between the removed motion and the sampled poses
+  // Whether the job gave track_tolerance_mm. If not, method "vdb" cuts a turning tool (5-axis) at voxel_mm / 10
+  // (app/cmd_run.cpp, parts/README.md): its sub-steps are exact sweeps, each evaluated at every band voxel it
+  // reaches, and at 1e-4 mm a tool of 6 mm reach needs about 1000 of them per degree of rotation.
+  bool track_tolerance_given = false;
   std::filesystem::path needles_file;  // NBuffer: CSV x,y,z,nx,ny,nz (mm): needles through points along normals
   double needle_half_length_mm = 1.0;  // each needle runs from point - L n to point + L n
 };

@@ -112,6 +112,70 @@ std::size_t cut_row_axial_ball(DexelGrid& g, const AxialBall& b, int j, int i0, 
   return static_cast<std::size_t>(ib - ia + 1);
 }
 
+// The columns of row j (v = j dv) whose rays can meet a sweep whose axis is not the rays' direction. The body lies
+// within distance R of its axis segment [tip, tip + L a] (swept_tool.hpp: radius R, [0, L] along the axis), so the
+// sweep lies within R of the parallelogram {tip0 + s L a + l d}; a ray along W meets it only where its (u, v) is
+// within R of the parallelogram's projection on the grid plane, a convex set whose cross-section with the row is one
+// interval: the hull of the row's crossings of the stadia round the four projected edges. The bounding box alone
+// took every ray of it (a 60 mm oblique pass on the rays across it: most of 50 mm x 60 mm for a band 10 mm wide).
+struct GeneralRows {
+  double pu[4], pv[4];  // projected parallelogram corners (grid frame, mm), in order round it
+  double R;             // radius plus a margin well beyond round-off: the range is a superset of the hit rays
+};
+
+GeneralRows general_rows(const DexelGrid& g, const SweptTool& s) {
+  GeneralRows r;
+  const Eigen::Vector3d p0 = s.tip0 - g.origin(), la = s.tool.length_mm * s.axis;
+  const Eigen::Vector3d c[4] = {p0, p0 + la, p0 + la + s.d, p0 + s.d};
+  for (int k = 0; k < 4; ++k) r.pu[k] = c[k].dot(g.U()), r.pv[k] = c[k].dot(g.V());
+  r.R = s.tool.radius_mm * (1 + 1e-9) + 1e-6;
+  return r;
+}
+
+// The u-range [lo, hi] of the row v within R of the segment (pu0, pv0)-(pu1, pv1), widened into [lo, hi].
+void stadium_row(double pu0, double pv0, double pu1, double pv1, double R, double v, double& lo, double& hi) {
+  for (int e = 0; e < 2; ++e) {  // the end disks
+    const double dv = v - (e ? pv1 : pv0), pu = e ? pu1 : pu0;
+    if (std::abs(dv) <= R) {
+      const double w = std::sqrt(R * R - dv * dv);
+      lo = std::min(lo, pu - w), hi = std::max(hi, pu + w);
+    }
+  }
+  const double eu = pu1 - pu0, ev = pv1 - pv0, ee = eu * eu + ev * ev;
+  if (ee < 1e-24) return;
+  // The strip: 0 <= (x - p0).e <= ee and |e x (x - p0)| <= R |e|, both linear in u on the row.
+  double a = -1e300, b = 1e300;
+  auto clip = [&](double k, double c0, double cmin, double cmax) {  // cmin <= k u + c0 <= cmax
+    if (std::abs(k) < 1e-300) {
+      if (c0 < cmin || c0 > cmax) a = 1, b = 0;
+      return;
+    }
+    double x0 = (cmin - c0) / k, x1 = (cmax - c0) / k;
+    if (x0 > x1) std::swap(x0, x1);
+    a = std::max(a, x0), b = std::min(b, x1);
+  };
+  const double dv = v - pv0, el = std::sqrt(ee);
+  clip(eu, -pu0 * eu + dv * ev, 0, ee);
+  clip(-ev, pu0 * ev + eu * dv, -R * el, R * el);
+  if (a <= b) lo = std::min(lo, a), hi = std::max(hi, b);
+}
+
+// Columns [ia, ib] of row j (empty when ia > ib), within [i0, i1].
+void general_row_range(const DexelGrid& g, const GeneralRows& r, int j, int i0, int i1, int& ia, int& ib) {
+  const double v = g.v_of(j);
+  double lo = 1e300, hi = -1e300;
+  for (int k = 0; k < 4; ++k) {
+    const int n = (k + 1) % 4;
+    stadium_row(r.pu[k], r.pv[k], r.pu[n], r.pv[n], r.R, v, lo, hi);
+  }
+  if (lo > hi) {
+    ia = 1, ib = 0;
+    return;
+  }
+  ia = std::max(i0, static_cast<int>(std::floor(lo / g.du())));
+  ib = std::min(i1, static_cast<int>(std::ceil(hi / g.du())));
+}
+
 }  // namespace
 
 Footprint footprint(const DexelGrid& grid, const SweptTool& sweep) {
@@ -147,9 +211,21 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
   const int nblocks = (grid.nv() + kBlock - 1) / kBlock;
   // Each sweep's footprint on the grid (the rays whose line can meet its bounding box), binned by row block.
   std::vector<Footprint> fp(sweeps.size());
+  // Each sweep's extent along the rays (ray parameter), widened well beyond round-off: rays whose material lies wholly
+  // outside it are left alone below.
+  std::vector<std::pair<double, double>> wext(sweeps.size());
   std::vector<std::vector<int>> bins(static_cast<std::size_t>(nblocks));
   for (std::size_t k = 0; k < sweeps.size(); ++k) {
     const Footprint f = footprint(grid, sweeps[k]);
+    Eigen::Vector3d lo, hi;
+    sweeps[k].bounds(lo, hi);
+    double wmin = 1e300, wmax = -1e300;
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
+      const double w = (p - grid.origin()).dot(grid.W());
+      wmin = std::min(wmin, w), wmax = std::max(wmax, w);
+    }
+    wext[k] = {wmin - 1e-6 * (1 + std::abs(wmin)), wmax + 1e-6 * (1 + std::abs(wmax))};
     fp[k] = f;
     if (f.empty()) continue;
     for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b) bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
@@ -167,8 +243,17 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
         for (int j = std::max(jb0, f.j0); j <= std::min(jb1, f.j1); ++j) tests += cut_row_axial_ball(grid, ab, j, f.i0, f.i1);
         continue;
       }
+      const GeneralRows rows = general_rows(grid, sw);
       for (int j = std::max(jb0, f.j0); j <= std::min(jb1, f.j1); ++j) {
-        for (int i = f.i0; i <= f.i1; ++i) {
+        int ia, ib;
+        general_row_range(grid, rows, j, f.i0, f.i1, ia, ib);
+        const Interval* head = grid.head_row(j);
+        for (int i = ia; i <= ib; ++i) {
+          // A ray whose material lies wholly before or after the sweep's extent along it is left as it is (subtract
+          // would not change it): no exact test. Most rays across a tool's shank run through air.
+          const Interval h = head[i];
+          const auto [w0, w1] = wext[static_cast<std::size_t>(k)];
+          if (!std::isnan(h.lo) && (!(h.lo <= h.hi) || w1 <= h.lo || w0 >= h.hi)) continue;
           double t0, t1;
           ++tests;
           if (!ray_interval(sw, grid.ray_origin(i, j), W, t0, t1)) continue;

@@ -302,16 +302,33 @@ VdbPart VdbPart::read_vdb(const std::filesystem::path& path) {
   throw core::Error(path.string() + ": no float level-set grid in the file");
 }
 
-double estimate_level_set_bytes(double area, double h, double hw) {
+double estimate_level_set_bytes(const SurfaceArea& s, double h, double hw) {
   using Node1 = Grid::TreeType::RootNodeType::ChildNodeType::ChildNodeType;
   using Node2 = Grid::TreeType::RootNodeType::ChildNodeType;
-  // A leaf: its 8^3 floats plus the node (masks, origin, buffer header).
   const double leaf_bytes = Grid::TreeType::LeafNodeType::SIZE * sizeof(float) + sizeof(Grid::TreeType::LeafNodeType);
-  const double leaves = area / (64.0 * h * h) * (2 * hw + 8 * std::sqrt(3.0)) / 8.0;
-  // 128^3 and 4096^3 internal nodes (child/tile tables of 16^3 and 32^3 entries): a surface meets about 1.5 per
-  // face-sized patch of their cross section (sides oblique to the node grid cross more), and at least one of each.
-  const double n1 = std::max(1.0, 1.5 * area / std::pow(128.0 * h, 2)), n2 = std::max(1.0, 1.5 * area / std::pow(4096.0 * h, 2));
-  return leaves * leaf_bytes + n1 * sizeof(Node1) + n2 * sizeof(Node2);
+  // Nodes of side n voxels a surface meets: (T A + n P) / (n^3 h^2) (vdb_part.hpp).
+  const double T = 2 * hw;
+  auto nodes = [&](double n) { return (T * s.area_mm2 + n * s.projected_mm2) / (n * n * n * h * h); };
+  return nodes(8) * leaf_bytes + std::max(1.0, nodes(128)) * sizeof(Node1) + std::max(1.0, nodes(4096)) * sizeof(Node2);
+}
+
+SurfaceArea surface_area(const core::TriangleMesh& m) {
+  SurfaceArea s;
+  for (Eigen::Index k = 0; k < m.triangles.rows(); ++k) {
+    const Eigen::Vector3d p0 = m.vertices_mm.row(m.triangles(k, 0)).transpose(), p1 = m.vertices_mm.row(m.triangles(k, 1)).transpose(),
+                          p2 = m.vertices_mm.row(m.triangles(k, 2)).transpose();
+    const Eigen::Vector3d n2 = (p1 - p0).cross(p2 - p0);  // twice the area along the normal
+    s.area_mm2 += 0.5 * n2.norm();
+    s.projected_mm2 += 0.5 * n2.cwiseAbs().sum();
+  }
+  return s;
+}
+
+SurfaceArea surface_area(const Box& b) {
+  const Eigen::Vector3d e = b.hi - b.lo;
+  SurfaceArea s;
+  s.area_mm2 = s.projected_mm2 = 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
+  return s;
 }
 
 double estimate_mesh_bytes(double area, double h) {

@@ -102,11 +102,24 @@ class VdbPart {
   std::unique_ptr<Impl> impl_;
 };
 
-// Memory (bytes) of a narrow-band level set of a surface of `area_mm2` at `voxel_mm`: the 8^3-voxel leaves a band of
-// 2 x half_width voxels meets (up to (2 hw + 8 sqrt 3) / 8 leaf layers, a surface oblique to every axis), 2.1 kB
-// each, plus the 128^3 (33 kB) and 4096^3 (264 kB) internal nodes the surface crosses (at least one of each). The
-// cut surface adds its own area; callers add a margin. tests/removal/vdb_test.cpp checks it within a factor 2.
-double estimate_level_set_bytes(double area_mm2, double voxel_mm, double half_width_voxels = 3.0);
+// What the memory estimate needs of a surface: its area, and the sum of its projections on the three axis planes
+// (sum over facets of area x (|nx| + |ny| + |nz|): equal to the area for faces along the axes, up to sqrt(3) times it).
+struct SurfaceArea {
+  double area_mm2 = 0;
+  double projected_mm2 = 0;
+};
+SurfaceArea surface_area(const core::TriangleMesh& mesh);
+SurfaceArea surface_area(const Box& box);
+
+// Memory (bytes) of a narrow-band level set of a surface at `voxel_mm`: its active voxels are those within half_width
+// voxels of it (a slab T = 2 half_width voxels thick), and a node of side n voxels holds some of them when its centre
+// lies within (T + n (|nx| + |ny| + |nz|)) / 2 of the surface (the node's width across the slab), so per unit area a
+// surface meets (T + n |n|_1) / n^3 nodes per voxel^2: leaves (n = 8, 8^3 floats and the node, 2.1 kB), 128^3
+// internal nodes (16^3 tables, 33 kB) and 4096^3 ones (32^3 tables, 264 kB; at least one of each). Exact in the mean
+// for planar pieces larger than a node; curvature and edges add a few percent. The narrow band of a cut part is its
+// final surface's: for finishing cuts, about the stock's (the cut surface replaces the surface it cuts through);
+// pockets, slots and steps add their new walls and floors. tests/removal/vdb_test.cpp checks it against memUsage.
+double estimate_level_set_bytes(const SurfaceArea& surface, double voxel_mm, double half_width_voxels = 3.0);
 // Memory (bytes) of the part mesh of such a surface: about one vertex and two triangles per surface voxel, in
 // OpenVDB's float output and in core::TriangleMesh.
 double estimate_mesh_bytes(double area_mm2, double voxel_mm);
