@@ -16,33 +16,15 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
+using vmsim_test::write_file;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-CliRun vmsim(const std::string& args, const TempDir& tmp) {
-  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
-
-void write(const fs::path& p, const std::string& text) {
-  std::ofstream f(p, std::ios::binary);
-  f << text;
-}
 
 std::vector<double> row(const std::string& line) {
   std::vector<double> v;
@@ -58,23 +40,23 @@ const std::string kSource = VMSIM_SOURCE_DIR;
 
 TEST(Cli, VersionAndHelp) {
   TempDir tmp;
-  CliRun v = vmsim("--version", tmp);
+  CliRun v = run_vmsim("--version", tmp);
   EXPECT_EQ(v.code, 0);
   EXPECT_NE(v.out.find("vmsim 0."), std::string::npos) << v.out;
-  CliRun h = vmsim("--help", tmp);
+  CliRun h = run_vmsim("--help", tmp);
   EXPECT_EQ(h.code, 0);
   for (const char* sub : {"canon", "interp"}) EXPECT_NE(h.out.find(sub), std::string::npos) << h.out;
-  CliRun hi = vmsim("interp --help", tmp);
+  CliRun hi = run_vmsim("interp --help", tmp);
   EXPECT_EQ(hi.code, 0);
   EXPECT_NE(hi.out.find("--summary-only"), std::string::npos) << hi.out;
-  CliRun none = vmsim("", tmp);
+  CliRun none = run_vmsim("", tmp);
   EXPECT_NE(none.code, 0);
 }
 
 TEST(Cli, InterpWritesSetpointsFromStartToProgramEnd) {
   TempDir tmp;
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
-  CliRun r = vmsim("interp '" + job + "' --out '" + (tmp.path() / "out").string() + "'", tmp);
+  CliRun r = run_vmsim("interp '" + job + "' --out '" + (tmp.path() / "out").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("cycle time:"), std::string::npos);
   EXPECT_NE(r.out.find("reached up to 10000 mm/min"), std::string::npos) << r.out;
@@ -106,9 +88,9 @@ TEST(Cli, InterpWritesSetpointsFromStartToProgramEnd) {
 TEST(Cli, UnknownJobKeyIsAnErrorNamingFileLineAndKey) {
   TempDir tmp;
   const fs::path job = tmp.path() / "job.toml";
-  write(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"" + kSource +
+  write_file(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"" + kSource +
                  "/parts/plane_cylinder/plane_cylinder_fast.ngc\"\n[interpolation]\nperiod_ms = 1\ntolerence_mm = 0.01\n");
-  CliRun r = vmsim("interp '" + job.string() + "' --summary-only", tmp);
+  CliRun r = run_vmsim("interp '" + job.string() + "' --summary-only", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find(job.string() + ":6:"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("interpolation.tolerence_mm"), std::string::npos) << r.err;
@@ -117,11 +99,11 @@ TEST(Cli, UnknownJobKeyIsAnErrorNamingFileLineAndKey) {
 TEST(Cli, ProgramErrorNamesTheLineAndWritesNothing) {
   TempDir tmp;
   const fs::path prog = tmp.path() / "bad.ngc";
-  write(prog, "G21 G90\nG1 X10 F100\nG1 X20 Q7 F100\nM2\n");  // Q is not a word of G1
+  write_file(prog, "G21 G90\nG1 X10 F100\nG1 X20 Q7 F100\nM2\n");  // Q is not a word of G1
   const fs::path job = tmp.path() / "job.toml";
-  write(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"bad.ngc\"\n");
+  write_file(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"bad.ngc\"\n");
   const fs::path out = tmp.path() / "out";
-  CliRun r = vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
+  CliRun r = run_vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("bad.ngc:3"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out / "setpoints.csv"));
@@ -130,12 +112,12 @@ TEST(Cli, ProgramErrorNamesTheLineAndWritesNothing) {
 TEST(Cli, TravelErrorLeavesNoOutputFile) {
   TempDir tmp;
   const fs::path prog = tmp.path() / "far.ngc";
-  write(prog, "G21 G90\nG1 X100 F1000\nG1 X500\nM2\n");  // X travel of the Mikron is +-355 mm
+  write_file(prog, "G21 G90\nG1 X100 F1000\nG1 X500\nM2\n");  // X travel of the Mikron is +-355 mm
   const fs::path job = tmp.path() / "job.toml";
-  write(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"far.ngc\"\n");
+  write_file(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"far.ngc\"\n");
   const fs::path out = tmp.path() / "out";
   fs::create_directories(out);
-  CliRun r = vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
+  CliRun r = run_vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("far.ngc:3"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("travel"), std::string::npos) << r.err;
@@ -145,8 +127,8 @@ TEST(Cli, TravelErrorLeavesNoOutputFile) {
 TEST(Cli, CanonPrintsLinuxCncCalls) {
   TempDir tmp;
   const fs::path prog = tmp.path() / "arc.ngc";
-  write(prog, "G21 G90 F300\nG1 X10\nG2 X20 Y0 I5 J0\nM2\n");
-  CliRun r = vmsim("canon '" + prog.string() + "'", tmp);
+  write_file(prog, "G21 G90 F300\nG1 X10\nG2 X20 Y0 I5 J0\nM2\n");
+  CliRun r = run_vmsim("canon '" + prog.string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("STRAIGHT_FEED(10.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)"), std::string::npos) << r.out;
   // LinuxCNC's ARC_FEED(first_end, second_end, first_axis, second_axis, rotation, axis_end, a, b, c): clockwise.
@@ -170,7 +152,7 @@ double json_number_after(const std::string& text, const std::string& key, std::s
 TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
   TempDir tmp;
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
-  CliRun r = vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
+  CliRun r = run_vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string rep = slurp(tmp.path() / "out" / "report.json");
   ASSERT_NE(rep.find("\"marks\""), std::string::npos) << rep;
@@ -187,7 +169,7 @@ TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
 TEST(Cli, RunPlaneCylinderLowFeedMarksAreNegligible) {
   TempDir tmp;
   const std::string job = kSource + "/parts/plane_cylinder/job_reference.toml";
-  CliRun r = vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
+  CliRun r = run_vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string rep = slurp(tmp.path() / "out" / "report.json");
   const double lo = json_number_after(rep, "deviation_min_mm"), hi = json_number_after(rep, "deviation_max_mm");

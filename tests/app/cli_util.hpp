@@ -1,10 +1,19 @@
 #pragma once
-// Shared by the command-line tests: a scratch directory removed at the end of the test, and a whole file as a string.
+// Shared by the command-line tests: a scratch directory removed at the end of the test, vmsim run as a user runs it
+// (stdout and stderr captured), and small file helpers (a whole file as a string, a file written, JSON and CSV read).
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace vmsim_test {
 
@@ -32,6 +41,72 @@ inline std::string slurp(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+inline void write_file(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream f(p, std::ios::binary);
+  f << text;
+}
+
+inline nlohmann::json read_json(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+struct CliRun {
+  int code = -1;  // the exit status; -1 when vmsim did not exit normally (a signal)
+  std::string out, err;
+};
+
+#ifdef VMSIM_EXE
+// `PREFIX 'vmsim' ARGS` through the shell (prefix: e.g. "env -u DISPLAY "), stdout and stderr captured in the
+// scratch directory's stdout.txt and stderr.txt.
+inline CliRun run_vmsim(const std::string& args, const TempDir& tmp, const std::string& prefix = "") {
+  const std::filesystem::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
+  const std::string cmd =
+      prefix + "'" + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(cmd.c_str());
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+#endif
+
+// A CSV without its '#' lines: header names and rows of numbers (cells that are not numbers read as NaN).
+struct Csv {
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> rows;
+  int col(const std::string& n) const {  // a missing column fails the test
+    for (std::size_t i = 0; i < names.size(); ++i)
+      if (names[i] == n) return static_cast<int>(i);
+    ADD_FAILURE() << "no column " << n;
+    return 0;
+  }
+};
+
+inline Csv read_csv(const std::filesystem::path& p) {
+  Csv c;
+  std::ifstream in(p);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::stringstream ss(line);
+    std::string cell;
+    if (c.names.empty()) {
+      while (std::getline(ss, cell, ',')) c.names.push_back(cell);
+      continue;
+    }
+    std::vector<double> r;
+    while (std::getline(ss, cell, ',')) {
+      char* end = nullptr;
+      const double v = std::strtod(cell.c_str(), &end);
+      r.push_back(end == cell.c_str() ? NAN : v);
+    }
+    c.rows.push_back(r);
+  }
+  return c;
 }
 
 }  // namespace vmsim_test

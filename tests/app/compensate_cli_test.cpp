@@ -17,26 +17,12 @@
 #include "tests/app/cli_util.hpp"
 
 namespace fs = std::filesystem;
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
 namespace {
-
-struct CliResult {
-  int code = -1;
-  std::string out, err;
-};
-
-CliResult run_vmsim(const std::string& args, const TempDir& d) {
-  const fs::path out = d.path() / "stdout.txt", err = d.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliResult r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
 
 double cycle_time(const std::string& interp_stdout) {
   const auto at = interp_stdout.find("cycle time: ");
@@ -51,7 +37,7 @@ const std::string kBlade = std::string(VMSIM_SOURCE_DIR) + "/parts/blade";
 TEST(CompensateCli, FiveAxisBladeTipAndOrientationErrorsFallAndTheCompensatedProgramCutsBetter) {
   TempDir d("vmsim_compensate_cli_");
   const fs::path p = d.path();
-  CliResult r = run_vmsim("compensate '" + kBlade + "/job.toml' --out '" + (p / "c").string() + "'", d);
+  CliRun r = run_vmsim("compensate '" + kBlade + "/job.toml' --out '" + (p / "c").string() + "'", d);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.err.find("compensated program cuts worse"), std::string::npos) << r.err;
   std::printf("%s", r.out.c_str());
@@ -115,7 +101,7 @@ TEST(CompensateCli, CircleArcsStayArcsInTheCompensatedProgramAndKeepTheTime) {
   std::ofstream(p / "job.toml") << "[job]\nname = \"circle\"\nmachine = \"" << machine
                                 << "\"\nprogram = \"circle.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n[interpolation]\n"
                                    "period_ms = 1.0\ntolerance_mm = 0.020\n";
-  CliResult r = run_vmsim("compensate '" + (p / "job.toml").string() + "' --out '" + (p / "c").string() + "'", d);
+  CliRun r = run_vmsim("compensate '" + (p / "job.toml").string() + "' --out '" + (p / "c").string() + "'", d);
   ASSERT_EQ(r.code, 0) << r.err;
   std::printf("%s", r.out.c_str());
   const nlohmann::json rep = nlohmann::json::parse(slurp(p / "c" / "report.json"));

@@ -22,72 +22,18 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
+using vmsim_test::write_file;
+using vmsim_test::read_json;
+using vmsim_test::Csv;
+using vmsim_test::read_csv;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-CliRun cli(const std::string& args, const TempDir& tmp) {
-  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
-
-void write(const fs::path& p, const std::string& text) {
-  std::ofstream f(p, std::ios::binary);
-  f << text;
-}
-
-nlohmann::json json_of(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
-// A CSV without its '#' lines: header names and rows of numbers (quoted text cells are skipped to NaN).
-struct Csv {
-  std::vector<std::string> names;
-  std::vector<std::vector<double>> rows;
-  int col(const std::string& n) const {
-    for (std::size_t i = 0; i < names.size(); ++i)
-      if (names[i] == n) return static_cast<int>(i);
-    ADD_FAILURE() << "no column " << n;
-    return 0;
-  }
-};
-Csv read_csv(const fs::path& p) {
-  Csv c;
-  std::ifstream in(p);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::stringstream ss(line);
-    std::string cell;
-    if (c.names.empty()) {
-      while (std::getline(ss, cell, ',')) c.names.push_back(cell);
-      continue;
-    }
-    std::vector<double> r;
-    while (std::getline(ss, cell, ',')) {
-      char* end = nullptr;
-      const double v = std::strtod(cell.c_str(), &end);
-      r.push_back(end == cell.c_str() ? NAN : v);
-    }
-    c.rows.push_back(r);
-  }
-  return c;
-}
 
 const std::string kSource = VMSIM_SOURCE_DIR;
 const std::string kMachine = kSource + "/parts/machines/mikron_ucp710.toml";
@@ -96,11 +42,11 @@ const std::string kMachine = kSource + "/parts/machines/mikron_ucp710.toml";
 // 6 mm straight; `feed` in mm/min.
 void write_short_job(const fs::path& dir, const std::string& name, int feed = 3000, const std::string& extra = "",
                      const std::string& tables = "") {
-  write(dir / (name + ".ngc"), "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F" + std::to_string(feed) +
+  write_file(dir / (name + ".ngc"), "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F" + std::to_string(feed) +
                                    "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
                                    "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
                                    "G1 X33.065263 Z1.983980\nM30\n");
-  write(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + name +
+  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + name +
                                     ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
                                     "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n" + tables);
 }
@@ -120,7 +66,7 @@ void write_schedule(const fs::path& file, const fs::path& setpoints_csv, double 
                   kv_x, kf_x, sp.rows[k][z], kv_z, kf_z);
     s << buf;
   }
-  write(file, s.str());
+  write_file(file, s.str());
 }
 
 double max_abs_col(const Csv& c, const std::string& n) {
@@ -138,7 +84,7 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
   TempDir tmp;
   const fs::path d = tmp.path();
   write_short_job(d, "plain");
-  const CliRun plain = cli("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp);
+  const CliRun plain = run_vmsim("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp);
   ASSERT_EQ(plain.code, 0) << plain.err;
 
   const vmsim::core::Machine m = vmsim::core::load_machine(kMachine);
@@ -149,15 +95,15 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
 
   write_schedule(d / "same.csv", d / "plain" / "setpoints.csv", kv_x, dx.kf, kv_z, dz.kf);
   write_short_job(d, "same", 3000, "gain_schedule = \"same.csv\"");
-  const CliRun same = cli("motion '" + (d / "same.toml").string() + "' --out '" + (d / "same").string() + "'", tmp);
+  const CliRun same = run_vmsim("motion '" + (d / "same.toml").string() + "' --out '" + (d / "same").string() + "'", tmp);
   ASSERT_EQ(same.code, 0) << same.err;
   EXPECT_EQ(slurp(d / "same" / "actual.csv"), slurp(d / "plain" / "actual.csv"));
   EXPECT_EQ(slurp(d / "same" / "currents.csv"), slurp(d / "plain" / "currents.csv"));
-  EXPECT_NE(json_of(d / "same" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"), std::string::npos);
+  EXPECT_NE(read_json(d / "same" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"), std::string::npos);
 
   write_schedule(d / "half.csv", d / "plain" / "setpoints.csv", kv_x / 2, dx.kf, kv_z, dz.kf);
   write_short_job(d, "half", 3000, "gain_schedule = \"half.csv\"");
-  const CliRun half = cli("motion '" + (d / "half.toml").string() + "' --out '" + (d / "half").string() + "'", tmp);
+  const CliRun half = run_vmsim("motion '" + (d / "half.toml").string() + "' --out '" + (d / "half").string() + "'", tmp);
   ASSERT_EQ(half.code, 0) << half.err;
   const double e_plain = max_abs_col(read_csv(d / "plain" / "errors.csv"), "X_tracking_mm");
   const double e_half = max_abs_col(read_csv(d / "half" / "errors.csv"), "X_tracking_mm");
@@ -171,10 +117,10 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
   write_short_job(d, "same", 3000, "gain_schedule = \"same.csv\"",
                   "[stock]\ntype = \"box\"\nmin_mm = [-25.0, -6.0, -5.0]\nmax_mm = [40.0, 6.0, 2.0]\n"
                   "[removal]\nspacing_mm = 0.2\n");
-  const CliRun run = cli("run '" + (d / "same.toml").string() + "' --out '" + (d / "run").string() + "' --no-render -q", tmp);
+  const CliRun run = run_vmsim("run '" + (d / "same.toml").string() + "' --out '" + (d / "run").string() + "' --no-render -q", tmp);
   ASSERT_EQ(run.code, 0) << run.err;
-  EXPECT_NE(json_of(d / "run" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"), std::string::npos);
-  const CliRun scaled = cli("run '" + (d / "same.toml").string() + "' --out '" + (d / "scaled").string() +
+  EXPECT_NE(read_json(d / "run" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"), std::string::npos);
+  const CliRun scaled = run_vmsim("run '" + (d / "same.toml").string() + "' --out '" + (d / "scaled").string() +
                                   "' --feed-scale 0.5 --no-render -q", tmp);
   EXPECT_EQ(scaled.code, 2);
   EXPECT_NE(scaled.err.find("gain_schedule"), std::string::npos) << scaled.err;
@@ -186,18 +132,18 @@ TEST(GainScheduleCli, GainScheduleForAnotherPathIsRefusedNamingTheFile) {
   TempDir tmp;
   const fs::path d = tmp.path();
   write_short_job(d, "plain");
-  ASSERT_EQ(cli("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp).code, 0);
+  ASSERT_EQ(run_vmsim("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp).code, 0);
   write_schedule(d / "for_3000.csv", d / "plain" / "setpoints.csv", 6, 0.1, 6, 0.1);
   // The same program at 2 m/min: other setpoints.
   write_short_job(d, "slower", 2000, "gain_schedule = \"for_3000.csv\"");
-  const CliRun r = cli("motion '" + (d / "slower.toml").string() + "' --out '" + (d / "slower").string() + "'", tmp);
+  const CliRun r = run_vmsim("motion '" + (d / "slower.toml").string() + "' --out '" + (d / "slower").string() + "'", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("for_3000.csv"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("vmsim oga"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d / "slower" / "report.json"));
   // A missing file is an error naming the key.
   write_short_job(d, "missing", 3000, "gain_schedule = \"nowhere.csv\"");
-  const CliRun miss = cli("motion '" + (d / "missing.toml").string() + "' --out '" + (d / "missing").string() + "'", tmp);
+  const CliRun miss = run_vmsim("motion '" + (d / "missing.toml").string() + "' --out '" + (d / "missing").string() + "'", tmp);
   EXPECT_EQ(miss.code, 2);
   EXPECT_NE(miss.err.find("gain_schedule"), std::string::npos) << miss.err;
   EXPECT_NE(miss.err.find("nowhere.csv"), std::string::npos) << miss.err;

@@ -21,44 +21,14 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
+using vmsim_test::TempDir;
 using vmsim_test::slurp;
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliResult {
-  int code = -1;
-  std::string out, err;
-};
-
-class Dir {
- public:
-  Dir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_identify_cli_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~Dir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-CliResult run_vmsim(const std::string& args, const Dir& d) {
-  const fs::path out = d.path() / "stdout.txt", err = d.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliResult r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
 
 const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
 
@@ -135,14 +105,14 @@ double rel(const std::string& got, double want) { return std::abs(std::stod(got)
 }  // namespace
 
 TEST(IdentifyCli, RecoversTheSimulatedDriveAndWritesItsKeys) {
-  Dir d;
+  TempDir d("vmsim_identify_cli_");
   const fs::path trace = d.path() / "x_trace.csv";
   const vmsim::core::DriveParams p = write_trace(trace);
   for (const std::string& motor :
        std::vector<std::string>{"--torque-constant 1.5 --lead-mm 20", "--machine '" + kMachine + "' --axis X"}) {
     const fs::path out = d.path() / "out";
     fs::remove_all(out);
-    const CliResult r = run_vmsim("identify-friction '" + trace.string() + "' " + motor + " --out '" + out.string() + "'", d);
+    const CliRun r = run_vmsim("identify-friction '" + trace.string() + "' " + motor + " --out '" + out.string() + "'", d);
     ASSERT_EQ(r.code, 0) << r.err << r.out;
     EXPECT_NE(r.out.find("Coulomb friction"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("ignored columns: velocity_setpoint"), std::string::npos) << r.out;
@@ -178,10 +148,10 @@ TEST(IdentifyCli, RecoversTheSimulatedDriveAndWritesItsKeys) {
 }
 
 TEST(IdentifyCli, ErrorsNameFileLineAndColumn) {
-  Dir d;
+  TempDir d("vmsim_identify_cli_");
   const fs::path bad = d.path() / "bad.csv";
   std::ofstream(bad) << "t_s,position_mm,current_A\n0.000,0,0.1\n0.001,0.01,0.1x\n";
-  CliResult r = run_vmsim("identify-friction '" + bad.string() + "' --torque-constant 1.5 --lead-mm 20", d);
+  CliRun r = run_vmsim("identify-friction '" + bad.string() + "' --torque-constant 1.5 --lead-mm 20", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("bad.csv:3: column 3 'current_A': '0.1x' is not a finite number"), std::string::npos) << r.err;
 

@@ -21,6 +21,8 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
@@ -30,22 +32,6 @@ using namespace vmsim;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-CliRun run_vmsim(const std::string& args, const TempDir& tmp) {
-  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
 
 // A predicted surface: scallops of a 0.25 mm stepover along x, a wave along x, and an 8 um overcut mark.
 core::HeightGrid predicted(bool with_mark) {

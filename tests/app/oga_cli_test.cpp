@@ -18,6 +18,12 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
+using vmsim_test::write_file;
+using vmsim_test::read_json;
+using vmsim_test::Csv;
+using vmsim_test::read_csv;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
@@ -25,77 +31,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-CliRun cli(const std::string& args, const TempDir& tmp) {
-  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
-
-void write(const fs::path& p, const std::string& text) {
-  std::ofstream f(p, std::ios::binary);
-  f << text;
-}
-
-nlohmann::json json_of(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
-// A CSV without its '#' lines: header names and rows of numbers (quoted text cells are skipped to NaN).
-struct Csv {
-  std::vector<std::string> names;
-  std::vector<std::vector<double>> rows;
-  int col(const std::string& n) const {
-    for (std::size_t i = 0; i < names.size(); ++i)
-      if (names[i] == n) return static_cast<int>(i);
-    ADD_FAILURE() << "no column " << n;
-    return 0;
-  }
-};
-Csv read_csv(const fs::path& p) {
-  Csv c;
-  std::ifstream in(p);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::stringstream ss(line);
-    std::string cell;
-    if (c.names.empty()) {
-      while (std::getline(ss, cell, ',')) c.names.push_back(cell);
-      continue;
-    }
-    std::vector<double> r;
-    while (std::getline(ss, cell, ',')) {
-      char* end = nullptr;
-      const double v = std::strtod(cell.c_str(), &end);
-      r.push_back(end == cell.c_str() ? NAN : v);
-    }
-    c.rows.push_back(r);
-  }
-  return c;
-}
-
 const std::string kSource = VMSIM_SOURCE_DIR;
 const std::string kMachine = kSource + "/parts/machines/mikron_ucp710.toml";
 
 // A short XZ profile at 3 m/min (1.1 s): 8 mm straight, concave R30 over 35 deg, convex R20 over 70 deg (Z reverses),
 // 6 mm straight; `feed` in mm/min.
 void write_short_job(const fs::path& dir, const std::string& name, int feed = 3000, const std::string& extra = "") {
-  write(dir / (name + ".ngc"), "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F" + std::to_string(feed) +
+  write_file(dir / (name + ".ngc"), "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F" + std::to_string(feed) +
                                    "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
                                    "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
                                    "G1 X33.065263 Z1.983980\nM30\n");
-  write(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + name +
+  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + name +
                                     ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
                                     "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n");
 }
@@ -110,13 +56,13 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
   write_short_job(d, "short");
   const std::string common = "oga '" + (d / "short.toml").string() +
                              "' --kp-grid 4:2:8 --kf-grid 0:0.5:1 --dk 0.25";
-  const CliRun r = cli(common + " --out '" + (d / "two").string() + "' --threads 2 --image-size 800x600", tmp);
+  const CliRun r = run_vmsim(common + " --out '" + (d / "two").string() + "' --threads 2 --image-size 800x600", tmp);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   for (const char* f : {"admissible.csv", "gain_schedule.csv", "gain_schedule_c1.csv", "windows.csv", "comparison.csv",
                         "mse_table.csv", "report.json", "images/gains.png", "images/contour_error.png",
                         "images/contour_error_histogram.png", "images/currents.png"})
     EXPECT_TRUE(fs::exists(d / "two" / f)) << f;
-  const nlohmann::json rep = json_of(d / "two" / "report.json");
+  const nlohmann::json rep = read_json(d / "two" / "report.json");
   EXPECT_EQ(rep["command"], "oga");
   EXPECT_EQ(rep["admissible"]["X"]["configurations"], 9);
   const double c1 = rep["mse_table"]["c1_mse_um2"], c2 = rep["mse_table"]["c2_mse_um2"];
@@ -159,14 +105,14 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
   // Usable by vmsim motion: the MSE(CE) on the feed moves is the report's, for C2 and for C1.
   for (const auto& [file, expect] : {std::pair<std::string, double>{"gain_schedule.csv", c2}, {"gain_schedule_c1.csv", c1}}) {
     write_short_job(d, "use", 3000, "gain_schedule = \"" + (d / "two" / file).string() + "\"");
-    const CliRun m = cli("motion '" + (d / "use.toml").string() + "' --out '" + (d / "use").string() + "'", tmp);
+    const CliRun m = run_vmsim("motion '" + (d / "use.toml").string() + "' --out '" + (d / "use").string() + "'", tmp);
     ASSERT_EQ(m.code, 0) << m.err;
-    const double mse = json_of(d / "use" / "report.json")["contour_error"]["cutting_moves"]["mse_um2"];
+    const double mse = read_json(d / "use" / "report.json")["contour_error"]["cutting_moves"]["mse_um2"];
     EXPECT_NEAR(mse, expect, 1e-3 * expect) << file;
   }
 
   // The same files with one thread (DESIGN.md: results do not depend on the thread count).
-  const CliRun one = cli(common + " --out '" + (d / "one").string() + "' --threads 1 --no-render", tmp);
+  const CliRun one = run_vmsim(common + " --out '" + (d / "one").string() + "' --threads 1 --no-render", tmp);
   ASSERT_EQ(one.code, 0) << one.err;
   for (const char* f : {"gain_schedule.csv", "admissible.csv", "windows.csv", "mse_table.csv", "comparison.csv"})
     EXPECT_EQ(slurp(d / "one" / f), slurp(d / "two" / f)) << f;
@@ -190,15 +136,15 @@ TEST(OgaCli, ErrorsNameTheOptionOrFileAndExit2) {
       {"--image-size 10x10", "image size"},
   };
   for (const Case& c : cases) {
-    const CliRun r = cli(job + c.args, tmp);
+    const CliRun r = run_vmsim(job + c.args, tmp);
     EXPECT_EQ(r.code, 2) << c.args << ": " << r.err;
     EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << ": " << r.err;
     EXPECT_FALSE(fs::exists(d / "o" / "report.json")) << c.args;
   }
   // Three moving axes: not seed 000's biaxial profile.
-  write(d / "xyz.ngc", "G21 G90 G94\nG1 X5 Y3 Z-1 F3000\nG1 X10 Y0 Z0\nM30\n");
-  write(d / "xyz.toml", "[job]\nname = \"xyz\"\nmachine = \"" + kMachine + "\"\nprogram = \"xyz.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n");
-  const CliRun r = cli("oga '" + (d / "xyz.toml").string() + "' --no-render --out '" + (d / "o").string() + "'", tmp);
+  write_file(d / "xyz.ngc", "G21 G90 G94\nG1 X5 Y3 Z-1 F3000\nG1 X10 Y0 Z0\nM30\n");
+  write_file(d / "xyz.toml", "[job]\nname = \"xyz\"\nmachine = \"" + kMachine + "\"\nprogram = \"xyz.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n");
+  const CliRun r = run_vmsim("oga '" + (d / "xyz.toml").string() + "' --no-render --out '" + (d / "o").string() + "'", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("biaxial"), std::string::npos) << r.err;
 }

@@ -15,28 +15,14 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-CliRun vmsim(const std::string& args, const TempDir& tmp) {
-  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
 
 const fs::path kPart = fs::path(VMSIM_SOURCE_DIR) / "parts" / "feedplan";
 
@@ -45,7 +31,7 @@ const fs::path kPart = fs::path(VMSIM_SOURCE_DIR) / "parts" / "feedplan";
 TEST(PlanFeedCli, ButterflyCaseOfSeed003) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
-  const CliRun r = vmsim("plan-feed '" + (kPart / "job_butterfly.toml").string() + "' --out '" + out.string() +
+  const CliRun r = run_vmsim("plan-feed '" + (kPart / "job_butterfly.toml").string() + "' --out '" + out.string() +
                              "' --no-render",
                          tmp);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -87,21 +73,21 @@ TEST(PlanFeedCli, BadInputNamesTheKey) {
   text = replace(text, "\"seed003_machine.toml\"", "\"" + mach + "\"");
   {
     std::ofstream(job) << replace(text, "max_feed_mm_per_s = 50.0", "");
-    const CliRun r = vmsim("plan-feed '" + job.string() + "' --out '" + (tmp.path() / "o1").string() + "'", tmp);
+    const CliRun r = run_vmsim("plan-feed '" + job.string() + "' --out '" + (tmp.path() / "o1").string() + "'", tmp);
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find("max_feed_mm_per_s"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(tmp.path() / "o1" / "report.json"));
   }
   {
     std::ofstream(job) << text.substr(0, text.find("[[feedplan.axis]]"));
-    const CliRun r = vmsim("plan-feed '" + job.string() + "' --out '" + (tmp.path() / "o2").string() + "'", tmp);
+    const CliRun r = run_vmsim("plan-feed '" + job.string() + "' --out '" + (tmp.path() / "o2").string() + "'", tmp);
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find("axis"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find(job.filename().string()), std::string::npos) << r.err;
   }
   {
     std::ofstream(job) << replace(text, "contour_error_um = 20.0", "contour_error_um = -20.0");
-    const CliRun r = vmsim("plan-feed '" + job.string() + "' --out '" + (tmp.path() / "o3").string() + "'", tmp);
+    const CliRun r = run_vmsim("plan-feed '" + job.string() + "' --out '" + (tmp.path() / "o3").string() + "'", tmp);
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find("contour_error_um"), std::string::npos) << r.err;
   }

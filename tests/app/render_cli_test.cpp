@@ -20,6 +20,8 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
@@ -29,22 +31,9 @@ using vmsim::render::read_png;
 
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
 // Runs vmsim with no DISPLAY (as on a server), `env` prepended to the command (e.g. "VAR=value").
-CliRun run_vmsim(const std::string& args, const TempDir& tmp, const std::string& env = "") {
-  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd = "env -u DISPLAY " + env + " '" + std::string(VMSIM_EXE) + "' " + args + " >'" + out.string() +
-                          "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+CliRun run_headless(const std::string& args, const TempDir& tmp, const std::string& env = "") {
+  return run_vmsim(args, tmp, "env -u DISPLAY " + env + " ");
 }
 
 // Pixels left of x_end for which pred(r, g, b) holds.
@@ -69,7 +58,7 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
-  CliRun r = run_vmsim("run '" + job + "' --quiet --image-size 800x600 --out '" + out.string() + "'", tmp);
+  CliRun r = run_headless("run '" + job + "' --quiet --image-size 800x600 --out '" + out.string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("images: "), std::string::npos) << r.out;
   for (const char* f : {"part.png", "part_mark.png", "deviation.png", "deviation_mark.png", "deviation_3d.png",
@@ -112,7 +101,7 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
   fs::create_directories(again);
   std::ofstream(again / "axis_Y.png") << "stale";
   std::ofstream(again / "notes.png") << "mine";
-  CliRun rr = run_vmsim("render '" + out.string() + "' --size 640x360 --region 78,94,0,10 --limit-um 30 --isolines 2 --out '" +
+  CliRun rr = run_headless("render '" + out.string() + "' --size 640x360 --region 78,94,0,10 --limit-um 30 --isolines 2 --out '" +
                         again.string() + "'",
                     tmp);
   ASSERT_EQ(rr.code, 0) << rr.err;
@@ -135,10 +124,10 @@ TEST(RenderCli, MotionWritesSignalsAndRenderDrawsItsCharts) {
   TempDir tmp;
   const fs::path out = tmp.path() / "motion";
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
-  CliRun m = run_vmsim("motion '" + job + "' --out '" + out.string() + "'", tmp);
+  CliRun m = run_headless("motion '" + job + "' --out '" + out.string() + "'", tmp);
   ASSERT_EQ(m.code, 0) << m.err;
   ASSERT_TRUE(fs::exists(out / "signals.csv"));
-  CliRun r = run_vmsim("render '" + out.string() + "' --size 480x320", tmp);
+  CliRun r = run_headless("render '" + out.string() + "' --size 480x320", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(out / "images" / "contour_error.png"));
   EXPECT_TRUE(fs::exists(out / "images" / "axis_X.png"));
@@ -149,32 +138,32 @@ TEST(RenderCli, ErrorsAreMessagesNotAborts) {
   TempDir tmp;
   // Nothing to draw.
   fs::create_directories(tmp.path() / "empty");
-  CliRun e = run_vmsim("render '" + (tmp.path() / "empty").string() + "'", tmp);
+  CliRun e = run_headless("render '" + (tmp.path() / "empty").string() + "'", tmp);
   EXPECT_EQ(e.code, 2);
   EXPECT_NE(e.err.find("nothing to render"), std::string::npos) << e.err;
   // A bad size is found before the simulation runs: no output at all.
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
-  CliRun s = run_vmsim("run '" + job + "' --quiet --image-size 10x10 --out '" + (tmp.path() / "bad").string() + "'", tmp);
+  CliRun s = run_headless("run '" + job + "' --quiet --image-size 10x10 --out '" + (tmp.path() / "bad").string() + "'", tmp);
   EXPECT_EQ(s.code, 2);
   EXPECT_NE(s.err.find("image size"), std::string::npos) << s.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "bad" / "report.json"));
   // No EGL driver (GLVND finds no vendor): a clear error naming EGL, exit code 2, never abort()'s 134.
   const std::string no_egl = "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent/vendor.json";
   fs::create_directories(tmp.path() / "sig");
-  CliRun m = run_vmsim("motion '" + job + "' --out '" + (tmp.path() / "sig").string() + "'", tmp);
+  CliRun m = run_headless("motion '" + job + "' --out '" + (tmp.path() / "sig").string() + "'", tmp);
   ASSERT_EQ(m.code, 0) << m.err;
-  CliRun g = run_vmsim("render '" + (tmp.path() / "sig").string() + "'", tmp, no_egl);
+  CliRun g = run_headless("render '" + (tmp.path() / "sig").string() + "'", tmp, no_egl);
   EXPECT_EQ(g.code, 2);
   EXPECT_NE(g.err.find("headless OpenGL context"), std::string::npos) << g.err;
   EXPECT_NE(g.err.find("EGL"), std::string::npos) << g.err;
   // vmsim run keeps its results when the pictures fail, says so, and exits non-zero.
-  CliRun rn = run_vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "run").string() + "'", tmp, no_egl);
+  CliRun rn = run_headless("run '" + job + "' --quiet --out '" + (tmp.path() / "run").string() + "'", tmp, no_egl);
   EXPECT_EQ(rn.code, 2);
   EXPECT_NE(rn.err.find("the results are written"), std::string::npos) << rn.err;
   EXPECT_TRUE(fs::exists(tmp.path() / "run" / "deviation.csv"));
   EXPECT_NE(slurp(tmp.path() / "run" / "report.json").find("render_error"), std::string::npos);
   // --no-render draws nothing.
-  CliRun nr = run_vmsim("run '" + job + "' --quiet --no-render --out '" + (tmp.path() / "nr").string() + "'", tmp, no_egl);
+  CliRun nr = run_headless("run '" + job + "' --quiet --no-render --out '" + (tmp.path() / "nr").string() + "'", tmp, no_egl);
   EXPECT_EQ(nr.code, 0) << nr.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "nr" / "images"));
 }

@@ -25,6 +25,8 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::read_json;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
@@ -32,22 +34,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
 // `prefix` goes before the vmsim executable (mpirun and its options); the command runs in `cwd`.
 CliRun cli(const std::string& prefix, const std::string& args, const fs::path& cwd, const TempDir& tmp) {
-  const fs::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd = "cd '" + cwd.string() + "' && " + prefix + " '" + VMSIM_EXE + "' " + args + " >'" +
-                          out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  return vmsim_test::run_vmsim(args, tmp, "cd '" + cwd.string() + "' && " + prefix + " ");
 }
 
 // mpirun as the tests of STACK.md run it (as root here; -np above the cores needs --oversubscribe, P9).
@@ -60,11 +49,6 @@ void write(const fs::path& p, const std::string& text) {
   fs::create_directories(p.parent_path());
   std::ofstream f(p, std::ios::binary);
   f << text;
-}
-
-nlohmann::json json_of(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
 }
 
 // RFC 4180 CSV: a header and rows of cells, by column name.
@@ -251,7 +235,7 @@ interpolation.tolerance_mm = [0.005, 0.02]
         const CliRun r = cli("", "run part/ref_" + tag + ".toml --out ref/" + tag + "/out --feed-scale " + fs_ +
                                      " --no-render -q", root, tmp);
         ASSERT_EQ(r.code, 0) << r.err;
-        ref.push_back(figures_of(json_of(root / "ref" / tag / "out" / "report.json")));
+        ref.push_back(figures_of(read_json(root / "ref" / tag / "out" / "report.json")));
         values.push_back({fs_, kv, tol});
       }
   // The overrides act as they should on the reference itself (so the comparison below is not of eight equal rows):
@@ -274,7 +258,7 @@ interpolation.tolerance_mm = [0.005, 0.02]
       EXPECT_EQ(num(t.at(k, "interpolation.tolerance_mm")), std::stod(values[k][2]));
       expect_row(t, k, ref[k], "np " + std::to_string(np));
     }
-    const nlohmann::json sj = json_of(root / out / "study.json");
+    const nlohmann::json sj = read_json(root / out / "study.json");
     EXPECT_EQ(sj["ranks"], np);
     EXPECT_EQ(sj["summary"]["ok"], 8);
     // Each variation's own files are there, with its run's report.

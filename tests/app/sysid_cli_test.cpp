@@ -21,49 +21,15 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::CliRun;
+using vmsim_test::run_vmsim;
+using vmsim_test::write_file;
+using vmsim_test::TempDir;
 using vmsim_test::slurp;
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliResult {
-  int code = -1;
-  std::string out, err;
-};
-
-class Dir {
- public:
-  Dir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_sysid_cli_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~Dir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
-
-CliResult run_vmsim(const std::string& args, const Dir& d) {
-  const fs::path out = d.path() / "stdout.txt", err = d.path() / "stderr.txt";
-  const std::string cmd = std::string("'") + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  CliResult r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
-
-void write(const fs::path& p, const std::string& s) {
-  std::ofstream f(p, std::ios::binary);
-  f << s;
-}
 
 const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
 
@@ -110,10 +76,10 @@ std::string job_toml(const std::string& name, const std::string& program, const 
 }
 
 TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
-  Dir d;
+  TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
   // 1. The excitation program for X (Td from a 40 Hz bandwidth: 10 ms; 7 bits; 4 periods on 1.2 m/min).
-  CliResult r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "excite_x.ngc").string() +
+  CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "excite_x.ngc").string() +
                               "' --bandwidth-hz 40 --bits 7 --amplitude 0.05 --feed 1200 --periods 4",
                           d);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -123,7 +89,7 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
   const auto g0 = ngc.find("G0 X");
   ASSERT_NE(g0, std::string::npos);
   const double x0 = std::stod(ngc.substr(g0 + 4));
-  write(p / "excite.toml", job_toml("excite_x", "excite_x.ngc", "[" + std::to_string(x0) + ", 0.0, 0.0]"));
+  write_file(p / "excite.toml", job_toml("excite_x", "excite_x.ngc", "[" + std::to_string(x0) + ", 0.0, 0.0]"));
 
   // 2. Run it: the trace the NC would log.
   r = run_vmsim("motion '" + (p / "excite.toml").string() + "' --out '" + (p / "m_excite").string() + "'", d);
@@ -153,9 +119,9 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
   ASSERT_TRUE(fs::exists(p / "id" / "axis_models.toml"));
 
   // 4. Another trajectory: a circle of radius 20 mm at 3 m/min, on the cascades and on the identified X.
-  write(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
-  write(p / "circle_cascade.toml", job_toml("circle_cascade", "circle.ngc", "[0.0, 0.0, 0.0]"));
-  write(p / "circle_identified.toml",
+  write_file(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
+  write_file(p / "circle_cascade.toml", job_toml("circle_cascade", "circle.ngc", "[0.0, 0.0, 0.0]"));
+  write_file(p / "circle_identified.toml",
         job_toml("circle_identified", "circle.ngc", "[0.0, 0.0, 0.0]",
                  "axis_models = \"" + (p / "id" / "axis_models.toml").string() + "\""));
   r = run_vmsim("motion '" + (p / "circle_cascade.toml").string() + "' --out '" + (p / "m_cascade").string() + "'", d);
@@ -183,9 +149,9 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
 }
 
 TEST(SysidCli, ExciteCsvAndSimulatedTraceIdentifyOnTheirOwn) {
-  Dir d;
+  TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
-  CliResult r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "x.csv").string() +
+  CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "x.csv").string() +
                               "' --bits 6 --td-ms 5 --periods 4 --simulate '" + (p / "trace.csv").string() + "'",
                           d);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -209,10 +175,10 @@ TEST(SysidCli, TwoTracesIdentifyAtLeastAsWellAsOneOnAThirdTrace) {
   // validation MSE of the one-trace model on the same third trace. (Measured at this commit: ARX 3.154e-6 mm2 with
   // one trace, 3.065e-6 with two; the rest is the cascade's friction at the signal's reversals, which no linear model
   // carries.)
-  Dir d;
+  TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
   auto excite = [&](const std::string& name, const std::string& opts) {
-    const CliResult r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / (name + ".csv")).string() +
+    const CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / (name + ".csv")).string() +
                                       "' " + opts + " --simulate '" + (p / (name + "_trace.csv")).string() + "'",
                                   d);
     ASSERT_EQ(r.code, 0) << r.err;
@@ -221,7 +187,7 @@ TEST(SysidCli, TwoTracesIdentifyAtLeastAsWellAsOneOnAThirdTrace) {
   excite("down", "--bits 6 --td-ms 2 --periods 2 --feed -1200");
   excite("val", "--bits 7 --td-ms 3 --periods 1 --feed -600");
   auto mse = [&](const std::string& traces, const std::string& out) {
-    const CliResult r = run_vmsim("identify " + traces + " --validate '" + (p / "val_trace.csv").string() +
+    const CliRun r = run_vmsim("identify " + traces + " --validate '" + (p / "val_trace.csv").string() +
                                       "' --structure arx --orders 2,5 --out '" + (p / out).string() + "'",
                                   d);
     EXPECT_EQ(r.code, 0) << r.err;
@@ -238,7 +204,7 @@ TEST(SysidCli, TwoTracesIdentifyAtLeastAsWellAsOneOnAThirdTrace) {
   EXPECT_EQ(rep2["inputs"]["traces"][1]["use"], "estimation");
   EXPECT_NE(rep2["estimation"].get<std::string>().find("2 traces"), std::string::npos);
   // Without --validate the last of several traces is held out for validation.
-  const CliResult r = run_vmsim("identify --trace '" + (p / "up_trace.csv").string() + "' --trace '" +
+  const CliRun r = run_vmsim("identify --trace '" + (p / "up_trace.csv").string() + "' --trace '" +
                                     (p / "down_trace.csv").string() + "' --structure arx --out '" + (p / "id3").string() + "'",
                                 d);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -248,10 +214,10 @@ TEST(SysidCli, TwoTracesIdentifyAtLeastAsWellAsOneOnAThirdTrace) {
 }
 
 TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
-  Dir d;
+  TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
-  write(p / "trace.csv", "t_s,X_command_mm,X_actual_mm\n0,0,0\n0.001,0.1,0\n0.002,oops,0.05\n");
-  CliResult r = run_vmsim("identify --trace '" + (p / "trace.csv").string() + "' --out '" + (p / "id").string() + "'", d);
+  write_file(p / "trace.csv", "t_s,X_command_mm,X_actual_mm\n0,0,0\n0.001,0.1,0\n0.002,oops,0.05\n");
+  CliRun r = run_vmsim("identify --trace '" + (p / "trace.csv").string() + "' --out '" + (p / "id").string() + "'", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("trace.csv:4"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(p / "id" / "axis_models.toml"));
@@ -274,9 +240,9 @@ TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
   EXPECT_FALSE(fs::exists(p / "x.ngc"));
 
   // A model file at another Te than the job's: the job names the model file.
-  write(p / "models.toml", "[model]\nperiod_ms = 2.0\n\n[[axes]]\nname = \"X\"\nstructure = \"arx\"\na = [-0.5]\nb = [0.5]\nnk = 1\n");
-  write(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
-  write(p / "job.toml", job_toml("j", "circle.ngc", "[0.0, 0.0, 0.0]", "axis_models = \"models.toml\""));
+  write_file(p / "models.toml", "[model]\nperiod_ms = 2.0\n\n[[axes]]\nname = \"X\"\nstructure = \"arx\"\na = [-0.5]\nb = [0.5]\nnk = 1\n");
+  write_file(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
+  write_file(p / "job.toml", job_toml("j", "circle.ngc", "[0.0, 0.0, 0.0]", "axis_models = \"models.toml\""));
   r = run_vmsim("motion '" + (p / "job.toml").string() + "' --out '" + (p / "m").string() + "'", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("models.toml"), std::string::npos) << r.err;
@@ -287,9 +253,9 @@ TEST(SysidCli, CompensateTheStarfishWritesSetpointsProgramAndReport) {
   // vmsim compensate on parts/starfish (seed 001 section 5) with the machine file's cascades as the prediction:
   // report.json's figures (reference: seed 001's mean reduction, -61.76 %), the limits, and the compensated program
   // readable by vmsim's own G-code reader and interpolator.
-  Dir d;
+  TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
-  CliResult r = run_vmsim("compensate '" + std::string(VMSIM_SOURCE_DIR) + "/parts/starfish/job.toml' --out '" +
+  CliRun r = run_vmsim("compensate '" + std::string(VMSIM_SOURCE_DIR) + "/parts/starfish/job.toml' --out '" +
                               (p / "c").string() + "'",
                           d);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -325,7 +291,7 @@ TEST(SysidCli, CompensateTheStarfishWritesSetpointsProgramAndReport) {
   r = run_vmsim("interp '" + std::string(VMSIM_SOURCE_DIR) + "/parts/starfish/job.toml' --summary-only", d);
   ASSERT_EQ(r.code, 0) << r.err;
   const double t_orig = cycle(r.out);
-  write(p / "c" / "job.toml", job_toml("compensated", "compensated.ngc", "[30.0, 0.0, 0.0]"));
+  write_file(p / "c" / "job.toml", job_toml("compensated", "compensated.ngc", "[30.0, 0.0, 0.0]"));
   r = run_vmsim("interp '" + (p / "c" / "job.toml").string() + "' --summary-only", d);
   EXPECT_EQ(r.code, 0) << r.err;
   const double t_comp = cycle(r.out);
