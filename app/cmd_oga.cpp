@@ -113,18 +113,6 @@ std::string csv_text(const std::string& s) {
   return out + "\"";
 }
 
-render::Series series(const std::string& name, const Eigen::ArrayXd& x, const Eigen::ArrayXd& y, int colour,
-                      double width = 1.6, bool dashed = false) {
-  render::Series s;
-  s.name = name;
-  s.x = x;
-  s.y = y;
-  s.colour = render::series_colour(colour);
-  s.width = width;
-  s.dashed = dashed;
-  return s;
-}
-
 // A histogram as a step line: counts per bin of width `bin` over [lo, hi].
 render::Series histogram(const std::string& name, const Eigen::ArrayXd& v, const Eigen::ArrayXd& weight, double lo,
                          double hi, int bins, int colour) {
@@ -142,7 +130,7 @@ render::Series histogram(const std::string& name, const Eigen::ArrayXd& v, const
     x[2 * b + 2] = lo + (b + 1) * w, y[2 * b + 2] = count[b];
   }
   x[2 * bins + 1] = hi, y[2 * bins + 1] = 0;
-  return series(name, x, y, colour, 1.6);
+  return render::make_series(name, x, y, colour, 1.6);
 }
 
 }  // namespace
@@ -375,8 +363,8 @@ int run_oga(const OgaArgs& args) {
         for (std::size_t q = 0; q < nq; ++q) {
           Eigen::ArrayXd k(nr);
           for (Index i = 0; i < nr; ++i) k[i] = r.table.kv_1000_per_min(std::min(i, ns - 1), static_cast<Index>(q));
-          c.series.push_back(series(r.axis_names[q] + " C2", s, k, static_cast<int>(q), 2.0));
-          c.series.push_back(series(r.axis_names[q] + " C1", s, Eigen::ArrayXd::Constant(nr, r.c1[q].kp),
+          c.series.push_back(render::make_series(r.axis_names[q] + " C2", s, k, static_cast<int>(q), 2.0));
+          c.series.push_back(render::make_series(r.axis_names[q] + " C1", s, Eigen::ArrayXd::Constant(nr, r.c1[q].kp),
                                     static_cast<int>(q), 1.0, true));
           lo = std::min(lo, r.range[q].first), hi = std::max(hi, r.range[q].second);
         }
@@ -392,7 +380,7 @@ int run_oga(const OgaArgs& args) {
         Eigen::MatrixXd xyz(ns, 3);
         for (int cc = 0; cc < 3; ++cc) xyz.col(cc) = sp.position.col(machine.axis_index(cc));
         const Eigen::ArrayXd kappa = drives::setpoint_curvature(xyz, r.plane_normal, o.windows.min_chord_mm);
-        k.series.push_back(series("curvature (+: convex)", s.head(ns), kappa, 3));
+        k.series.push_back(render::make_series("curvature (+: convex)", s.head(ns), kappa, 3));
         Eigen::ArrayXd wx(3 * r.windows.size()), wy(3 * r.windows.size());
         const double kmax = std::max(1e-3, kappa.abs().maxCoeff());
         for (std::size_t w = 0; w < r.windows.size(); ++w) {  // window starts as vertical ticks
@@ -400,7 +388,7 @@ int run_oga(const OgaArgs& args) {
           wx[3 * w] = wx[3 * w + 1] = x, wx[3 * w + 2] = kNaN;
           wy[3 * w] = -kmax, wy[3 * w + 1] = kmax, wy[3 * w + 2] = kNaN;
         }
-        k.series.push_back(series("window starts", wx, wy, 7, 0.8, true));
+        k.series.push_back(render::make_series("window starts", wx, wy, 7, 0.8, true));
         pic.charts.push_back(k);
         save("gains.png", pic);
       }
@@ -412,8 +400,8 @@ int run_oga(const OgaArgs& args) {
         c.title = "contour error";
         c.x_title = "s [mm]";
         c.y_title = "contour error [µm]";
-        c.series.push_back(series(fmt::format("C1 (MSE {:.3g} µm²)", v.mse_c1_um2), s, ce1, 1, 1.4));
-        c.series.push_back(series(fmt::format("C2 (MSE {:.3g} µm²)", v.mse_c2_um2), s, ce2, 0, 1.6));
+        c.series.push_back(render::make_series(fmt::format("C1 (MSE {:.3g} µm²)", v.mse_c1_um2), s, ce1, 1, 1.4));
+        c.series.push_back(render::make_series(fmt::format("C2 (MSE {:.3g} µm²)", v.mse_c2_um2), s, ce2, 0, 1.6));
         pic.charts.push_back(c);
         save("contour_error.png", pic);
       }
@@ -444,8 +432,8 @@ int run_oga(const OgaArgs& args) {
                                 av.current_setpoint_max_diff_A, av.current_setpoint_max_rel_diff * 100);
           c.x_title = "t [s]";
           c.y_title = "current [A]";
-          c.series.push_back(series("C1", t, v.c1.current_setpoint_A.col(r.axes[q]).array(), 1, 1.4));
-          c.series.push_back(series("C2", t, v.c2.current_setpoint_A.col(r.axes[q]).array(), 0, 1.2));
+          c.series.push_back(render::make_series("C1", t, v.c1.current_setpoint_A.col(r.axes[q]).array(), 1, 1.4));
+          c.series.push_back(render::make_series("C2", t, v.c2.current_setpoint_A.col(r.axes[q]).array(), 0, 1.2));
           pic.charts.push_back(c);
         }
         save("currents.png", pic);

@@ -134,18 +134,6 @@ nlohmann::json run_json(const drives::PlayedPlan& p) {
 
 // ---- charts ------------------------------------------------------------------------------------------------------
 
-render::Series series(const std::string& name, const Eigen::ArrayXd& x, const Eigen::ArrayXd& y, int colour,
-                      double width = 1.6, bool dashed = false) {
-  render::Series s;
-  s.name = name;
-  s.x = x;
-  s.y = y;
-  s.colour = render::series_colour(colour);
-  s.width = width;
-  s.dashed = dashed;
-  return s;
-}
-
 Eigen::ArrayXd finite_or_nan(const Eigen::ArrayXd& a, double cap) {
   return a.isFinite().select(a.min(cap), std::numeric_limits<double>::quiet_NaN());
 }
@@ -351,10 +339,10 @@ int run_plan_feed(const PlanFeedArgs& args) {
       c.title = "feed";
       c.x_title = "s [mm]";
       c.y_title = "feed [mm/s]";
-      c.series.push_back(series("f* (eq. 24)", samples.s, finite_or_nan(plan.f_star, 2 * fmax), 7, 1.2, true));
-      c.series.push_back(series("plan without contour error", samples.s, free_plan.feed, 1));
-      c.series.push_back(series("plan", samples.s, plan.feed, 0, 2.0));
-      c.series.push_back(series("interpolated (plan)", sset, speed, 2, 1.2));
+      c.series.push_back(render::make_series("f* (eq. 24)", samples.s, finite_or_nan(plan.f_star, 2 * fmax), 7, 1.2, true));
+      c.series.push_back(render::make_series("plan without contour error", samples.s, free_plan.feed, 1));
+      c.series.push_back(render::make_series("plan", samples.s, plan.feed, 0, 2.0));
+      c.series.push_back(render::make_series("interpolated (plan)", sset, speed, 2, 1.2));
       c.levels.push_back({fmt::format("f_max {} mm/s", fmax), fmax});
       c.y_range = std::pair<double, double>{0.0, fmax * 1.1};
       pic.charts.push_back(c);
@@ -375,7 +363,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
           if (!(moving[r] > 0) || cols[static_cast<std::size_t>(r)] < 0) continue;
           Eigen::ArrayXd y(ns);
           for (Index k = 0; k < ns; ++k) y[k] = fd(k, r, order);
-          c.series.push_back(series(std::string(1, "XYZ"[r]), sset, y, colour++));
+          c.series.push_back(render::make_series(std::string(1, "XYZ"[r]), sset, y, colour++));
           limit = std::max(limit, order == 1 ? lim.axis_velocity[r] : lim.axis_acceleration[r]);
         }
         c.levels.push_back({fmt::format("limit ±{:g} {}", limit, order == 1 ? "mm/s" : "mm/s²"), limit});
@@ -392,16 +380,16 @@ int run_plan_feed(const PlanFeedArgs& args) {
       ch.title = "chord error";
       ch.x_title = "s [mm]";
       ch.y_title = "chord error [µm]";
-      ch.series.push_back(series("plan", sset, played.chord_error_mm * 1e3, 0));
+      ch.series.push_back(render::make_series("plan", sset, played.chord_error_mm * 1e3, 0));
       ch.levels.push_back({fmt::format("limit {:g} µm", spec.chord_error_mm * 1e3), spec.chord_error_mm * 1e3});
       pic.charts.push_back(ch);
       render::Chart ce;
       ce.title = "contour error (simulated)";
       ce.x_title = "s [mm]";
       ce.y_title = "contour error [µm]";
-      ce.series.push_back(series("no plan", no_plan.sample_s, no_plan.contour.signed_mm * 1e3, 7, 1.0));
-      ce.series.push_back(series("plan without contour error", free_played.sample_s, free_played.contour.signed_mm * 1e3, 1, 1.2));
-      ce.series.push_back(series("plan", played.sample_s, played.contour.signed_mm * 1e3, 0, 1.6));
+      ce.series.push_back(render::make_series("no plan", no_plan.sample_s, no_plan.contour.signed_mm * 1e3, 7, 1.0));
+      ce.series.push_back(render::make_series("plan without contour error", free_played.sample_s, free_played.contour.signed_mm * 1e3, 1, 1.2));
+      ce.series.push_back(render::make_series("plan", played.sample_s, played.contour.signed_mm * 1e3, 0, 1.6));
       ce.levels.push_back({fmt::format("tolerance ±{:g} µm", spec.contour_error_mm * 1e3), spec.contour_error_mm * 1e3});
       ce.levels.push_back({"", -spec.contour_error_mm * 1e3});
       pic.charts.push_back(ce);

@@ -181,12 +181,13 @@ void general_row_range(const DexelGrid& g, const GeneralRows& r, int j, int i0, 
 Footprint footprint(const DexelGrid& grid, const SweptTool& sweep) {
   Eigen::Vector3d lo, hi;
   sweep.bounds(lo, hi);
-  double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300;
+  double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300, wmin = 1e300, wmax = -1e300;
   for (int c = 0; c < 8; ++c) {
     const Eigen::Vector3d p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
     const Eigen::Vector3d q = p - grid.origin();
     umin = std::min(umin, q.dot(grid.U())), umax = std::max(umax, q.dot(grid.U()));
     vmin = std::min(vmin, q.dot(grid.V())), vmax = std::max(vmax, q.dot(grid.V()));
+    wmin = std::min(wmin, q.dot(grid.W())), wmax = std::max(wmax, q.dot(grid.W()));
   }
   // Lattice rows first (a window's rows are the lattice's from v_first on), clamped in double so far-away sweeps
   // cannot overflow an int.
@@ -196,6 +197,7 @@ Footprint footprint(const DexelGrid& grid, const SweptTool& sweep) {
   f.i1 = std::min(grid.nu() - 1, static_cast<int>(std::floor(umax / grid.du())));
   f.j0 = static_cast<int>(std::clamp(lattice_j0 - grid.v_first(), 0.0, double(grid.nv())));
   f.j1 = static_cast<int>(std::clamp(lattice_j1 - grid.v_first(), -1.0, double(grid.nv() - 1)));
+  f.w0 = wmin, f.w1 = wmax;
   return f;
 }
 
@@ -217,15 +219,7 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
   std::vector<std::vector<int>> bins(static_cast<std::size_t>(nblocks));
   for (std::size_t k = 0; k < sweeps.size(); ++k) {
     const Footprint f = footprint(grid, sweeps[k]);
-    Eigen::Vector3d lo, hi;
-    sweeps[k].bounds(lo, hi);
-    double wmin = 1e300, wmax = -1e300;
-    for (int c = 0; c < 8; ++c) {
-      const Eigen::Vector3d p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
-      const double w = (p - grid.origin()).dot(grid.W());
-      wmin = std::min(wmin, w), wmax = std::max(wmax, w);
-    }
-    wext[k] = {wmin - 1e-6 * (1 + std::abs(wmin)), wmax + 1e-6 * (1 + std::abs(wmax))};
+    wext[k] = {f.w0 - 1e-6 * (1 + std::abs(f.w0)), f.w1 + 1e-6 * (1 + std::abs(f.w1))};
     fp[k] = f;
     if (f.empty()) continue;
     for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b) bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));

@@ -18,9 +18,11 @@ struct CutStats {
 CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps);
 
 // The rays [i0, i1] x [j0, j1] (the grid's own row indices) whose lines can meet a sweep's bounding box: the only
-// rays cut() lets the sweep touch. Empty when the sweep misses the grid (or the grid's window of rows).
+// rays cut() lets the sweep touch, and the box's extent [w0, w1] along them (mm from the grid's origin). Empty when
+// the sweep misses the grid (or the grid's window of rows).
 struct Footprint {
   int i0 = 0, i1 = -1, j0 = 0, j1 = -1;
+  double w0 = 0, w1 = 0;
   bool empty() const { return i0 > i1 || j0 > j1; }
 };
 Footprint footprint(const DexelGrid& grid, const SweptTool& sweep);

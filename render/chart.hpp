@@ -10,6 +10,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace vmsim::render {
@@ -62,6 +63,12 @@ struct ChartImage {
 
 // Colours for series k = 0, 1, ... (Tableau 10: distinct, and distinct from the red of limits for k < 3).
 Rgb series_colour(int k);
+
+// A series drawn in series_colour(colour).
+inline Series make_series(std::string name, Eigen::ArrayXd x, Eigen::ArrayXd y, int colour, double width = 1.6,
+                          bool dashed = false) {
+  return Series{std::move(name), std::move(x), std::move(y), series_colour(colour), width, dashed};
+}
 
 // Throws core::Error for no charts, a chart without any finite point, series whose x and y differ in length, or an
 // empty fixed range.
