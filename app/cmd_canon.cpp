@@ -1,6 +1,6 @@
 // vmsim canon: LinuxCNC's canonical machining calls for a G-code program, numbered as `rs274 -g` prints them.
 #include "app/commands.hpp"
-#include "core/gcode.hpp"
+#include "program/gcode.hpp"
 
 #include <cstdio>
 
@@ -8,16 +8,16 @@ namespace vmsim::app {
 
 int run_canon(const std::filesystem::path& program, const std::optional<std::filesystem::path>& tool_table,
               const std::vector<int>& no_motion_mcodes) {
-  core::GcodeOptions options;
+  program::GcodeOptions options;
   options.tool_table = tool_table;
   options.no_motion_mcodes = no_motion_mcodes;
   // Interpret everything first: an error prints nothing but the message (no half listing).
-  const core::GcodeResult result = core::interpret_gcode(program, options);
+  const program::GcodeResult result = program::interpret_gcode(program, options);
   std::string out;
   out.reserve(result.canon.size() * 80);
   int number = 0;
-  for (const core::CanonCall& call : result.canon) {
-    out += core::format_canon_line(++number, call);
+  for (const program::CanonCall& call : result.canon) {
+    out += program::format_canon_line(++number, call);
     out += '\n';
   }
   std::fwrite(out.data(), 1, out.size(), stdout);

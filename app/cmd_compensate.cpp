@@ -1,22 +1,22 @@
-// vmsim compensate JOB: seed 001's predictive contour-error compensation. The job's setpoints are predicted with its
+// vmsim compensate JOB: the predictive-compensation paper's predictive contour-error compensation. The job's setpoints are predicted with its
 // axis models (the machine file's cascades, or identified transfer functions: [job] axis_models or --axis-models),
 // corrected by the predicted contour error (drives/compensate), and written as setpoints and as a G-code program a
 // user can send to the machine. The contour errors before and after are measured with core/contour on the cutting
 // moves, for the prediction and, when identified models predicted, also on the machine file's cascades.
-#include "app/axis_models.hpp"
-#include "app/compensated_program.hpp"
+#include "sim/axis_models.hpp"
+#include "methods/compensated_program.hpp"
 #include "app/commands_sysid.hpp"
-#include "app/contour_stats.hpp"
-#include "app/job_program.hpp"
+#include "sim/contour_stats.hpp"
+#include "sim/job_program.hpp"
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
-#include "core/contour.hpp"
+#include "motion/contour.hpp"
 #include "core/error.hpp"
-#include "core/interp.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
+#include "motion/kinematics.hpp"
 #include "core/units.hpp"
-#include "drives/compensate.hpp"
+#include "methods/compensate.hpp"
 #include "drives/simulate.hpp"
 
 #include <fmt/format.h>
@@ -40,7 +40,7 @@ struct Figures {
   double orientation_max_rad = 0, orientation_mean_rad = 0;  // five-axis: tool axis vs the commanded one at the foot
   bool orientation = false;
   Eigen::Index samples = 0;
-  core::ContourError ce;
+  motion::ContourError ce;
   Eigen::VectorXd angle_rad;  // per actual row (five-axis)
 };
 
@@ -52,7 +52,7 @@ Figures measure(const Eigen::MatrixXd& command_tip, const Eigen::MatrixXd& actua
                 const core::ToolPath& program, const Eigen::MatrixXd* command_axis = nullptr,
                 const Eigen::MatrixXd* actual_axis = nullptr) {
   Figures f;
-  f.ce = core::contour_error(command_tip, actual_tip);
+  f.ce = motion::contour_error(command_tip, actual_tip);
   f.orientation = command_axis && actual_axis;
   if (f.orientation) {
     const Eigen::Index rows = actual_tip.rows(), ns = command_tip.rows();
@@ -64,7 +64,7 @@ Figures measure(const Eigen::MatrixXd& command_tip, const Eigen::MatrixXd& actua
       const double t = l2 > 0 ? std::clamp((actual_tip.row(k).transpose() - a).dot(b - a) / l2, 0.0, 1.0) : 0.0;
       param[k] = static_cast<double>(i) + t;
     }
-    f.angle_rad = drives::axis_angles(drives::axes_at(*command_axis, param), *actual_axis);
+    f.angle_rad = methods::axis_angles(methods::axes_at(*command_axis, param), *actual_axis);
   }
   double sum = 0, sum2 = 0, osum = 0;
   for (Eigen::Index k = 0; k < f.ce.signed_mm.size(); ++k) {
@@ -108,7 +108,7 @@ nlohmann::json figures_json(const Figures& before, const Figures& after) {
   return j;
 }
 
-nlohmann::json limits_json(const std::vector<drives::AxisLimitCheck>& checks, const core::Machine& m) {
+nlohmann::json limits_json(const std::vector<methods::AxisLimitCheck>& checks, const core::Machine& m) {
   nlohmann::json j = nlohmann::json::object();
   for (std::size_t a = 0; a < checks.size(); ++a) {
     const auto& c = checks[a];
@@ -138,16 +138,16 @@ int run_compensate(const CompensateArgs& args) {
     throw core::Error(fmt::format("--iterations {}: expected 0 to 50", args.max_iterations));
   const core::Job job = core::load_job(args.job);
   const core::Machine& machine = job.machine;
-  const JobAxisModels models = job_axis_models(job, args.axis_models);
-  const core::ToolPath program = read_job_program(job);
-  const core::ToolPath path = core::toolpath_in_axis_space(program, machine);
-  core::InterpOptions iopt;
+  const sim::JobAxisModels models = sim::job_axis_models(job, args.axis_models);
+  const core::ToolPath program = sim::read_job_program(job);
+  const core::ToolPath path = motion::toolpath_in_axis_space(program, machine);
+  motion::InterpOptions iopt;
   iopt.period_s = job.interp.period_s;
   iopt.tolerance_mm = job.interp.tolerance_mm;
-  const core::InterpResult ir = core::interpolate(path, machine, iopt);
+  const motion::InterpResult ir = motion::interpolate(path, machine, iopt);
   const core::Setpoints& sp = ir.setpoints;
   const double te = sp.period_s;
-  const auto kin = core::make_kinematics(machine);
+  const auto kin = motion::make_kinematics(machine);
   Eigen::VectorXd tlo(sp.samples());
   for (Eigen::Index k = 0; k < sp.samples(); ++k) {
     const int mi = sp.move_index[k];
@@ -165,12 +165,12 @@ int run_compensate(const CompensateArgs& args) {
       return drives::simulate_axes(s, machine, o).position;
     };
   };
-  drives::CompensationProblem problem;
+  methods::CompensationProblem problem;
   problem.setpoints = &sp;
   problem.kinematics = kin.get();
   problem.tool_length_offset_mm = tlo;
   problem.predict = predictor(models.any() ? &models.per_axis : nullptr);
-  drives::CompensateOptions copt;
+  methods::CompensateOptions copt;
   copt.buffer_samples = args.buffer_samples;
   copt.max_iterations = args.max_iterations;
   copt.limits = &machine;  // the correction is faded where it would break an axis limit the setpoints kept
@@ -179,7 +179,7 @@ int run_compensate(const CompensateArgs& args) {
     throw core::Error(fmt::format("--smoothing {}: expected 0 to 1000 samples", args.smoothing_samples));
   copt.smoothing_samples = args.smoothing_samples;
   auto t0 = Clock::now();
-  const drives::CompensationResult res = drives::compensate_contour(problem, copt);
+  const methods::CompensationResult res = methods::compensate_contour(problem, copt);
   const double t_comp = seconds_since(t0);
 
   const Eigen::MatrixXd& cmd_tip = res.command_tip;
@@ -187,9 +187,9 @@ int run_compensate(const CompensateArgs& args) {
   const Eigen::MatrixXd* cmd_axis = five ? &res.command_axis : nullptr;
   // Tip (and, five-axis, tool axis) figures of predicted axis rows against the plan.
   auto figures = [&](const Eigen::MatrixXd& rows, const core::Setpoints& s, const core::ToolPath& prog) {
-    const Eigen::MatrixXd tips = drives::tool_tips(*kin, rows, tlo);
+    const Eigen::MatrixXd tips = methods::tool_tips(*kin, rows, tlo);
     if (!five) return measure(cmd_tip, tips, s, prog);
-    const Eigen::MatrixXd axes = drives::tool_axes(*kin, rows, tlo);
+    const Eigen::MatrixXd axes = methods::tool_axes(*kin, rows, tlo);
     return measure(cmd_tip, tips, s, prog, cmd_axis, &axes);
   };
   const Figures pred_before = figures(res.predicted_before, sp, program);
@@ -200,8 +200,8 @@ int run_compensate(const CompensateArgs& args) {
     mach_before = figures(on_machine(sp.position), sp, program);
     mach_after = figures(on_machine(res.setpoints), sp, program);
   }
-  const auto limits_before = drives::check_axis_limits(sp.position, te, machine);
-  const auto limits_after = drives::check_axis_limits(res.setpoints, te, machine);
+  const auto limits_before = methods::check_axis_limits(sp.position, te, machine);
+  const auto limits_after = methods::check_axis_limits(res.setpoints, te, machine);
   bool within = true;
   for (const auto& c : limits_after) within = within && c.within();
 
@@ -230,7 +230,7 @@ int run_compensate(const CompensateArgs& args) {
     files.push_back("compensated_setpoints.csv");
   }
   // The compensated program: the original's moves and feeds with corrected points (app/compensated_program).
-  CompensatedProgramInput pin;
+  methods::CompensatedProgramInput pin;
   pin.program = &program;
   pin.axis_path = &path;
   pin.setpoints = &sp;
@@ -239,28 +239,28 @@ int run_compensate(const CompensateArgs& args) {
   pin.machine = &machine;
   pin.kinematics = kin.get();
   pin.title = job.name;
-  const CompensatedProgram cprog = write_compensated_program(pin);
+  const methods::CompensatedProgram cprog = methods::write_compensated_program(pin);
   const std::string cprog_name = "compensated." + cprog.extension;
   core::write_file_atomic(dir / cprog_name, cprog.text);
   files.push_back(cprog_name);
-  std::optional<CompensatedProgram> tcp_prog;
+  std::optional<methods::CompensatedProgram> tcp_prog;
   if (five && cprog.extension == "cl") {
     // The G-code form for a controller with a five-axis transformation, and the original in the same form (zero
     // correction), so the two can be timed alike.
-    tcp_prog = write_compensated_tcp_gcode(pin);
+    tcp_prog = methods::write_compensated_tcp_gcode(pin);
     core::write_file_atomic(dir / "compensated_tcp.ngc", tcp_prog->text);
     files.push_back("compensated_tcp.ngc");
-    CompensatedProgramInput orig = pin;
+    methods::CompensatedProgramInput orig = pin;
     orig.compensated = &sp.position;
     orig.title = job.name + ", original, no correction: the reference for compensated_tcp.ngc";
-    core::write_file_atomic(dir / "original_tcp.ngc", write_compensated_tcp_gcode(orig).text);
+    core::write_file_atomic(dir / "original_tcp.ngc", methods::write_compensated_tcp_gcode(orig).text);
     files.push_back("original_tcp.ngc");
   }
   if (args.dense_program) {
     // The compensated setpoints themselves as a program: the tool tip (and rotary words) of every setpoint, one block
     // per Te in inverse-time feed (G93: F = 1 / block duration in minutes), for an NC that replays blocks as timed.
     std::string s;
-    s += fmt::format("(vmsim compensate: {} - seed 001 predictive contour-error compensation, dense form)\n", job.name);
+    s += fmt::format("(vmsim compensate: {} - the predictive-compensation paper predictive contour-error compensation, dense form)\n", job.name);
     s += "(one block per interpolation period Te; X Y Z: tool tip in the workpiece frame, as the original program)\n";
     if (five) s += "(five-axis: tool-centre-point form, X Y Z the tip and A B C the rotary axes; vmsim: [job] tcp = true)\n";
     s += "G21 G90 G17\n";
@@ -270,7 +270,7 @@ int run_compensate(const CompensateArgs& args) {
       if (machine.axes[static_cast<std::size_t>(a)].kind == core::AxisKind::Rotary) rotary.push_back(static_cast<int>(a));
     auto words = [&](Eigen::Index k) {
       q = res.setpoints.row(k).transpose();
-      const core::ToolPose pose = kin->forward(q, tlo[k]);
+      const motion::ToolPose pose = kin->forward(q, tlo[k]);
       std::string w = fmt::format("X{:.6f} Y{:.6f} Z{:.6f}", pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z());
       for (int a : rotary)
         if (five || (res.setpoints.col(a).array() != res.setpoints(0, a)).any())
@@ -306,8 +306,8 @@ int run_compensate(const CompensateArgs& args) {
   t0 = Clock::now();
   core::Job cjob = job;
   cjob.program_file = dir / cprog_name;
-  const core::ToolPath cprogram = read_job_program(cjob);
-  const core::InterpResult cir = core::interpolate(core::toolpath_in_axis_space(cprogram, machine), machine, iopt);
+  const core::ToolPath cprogram = sim::read_job_program(cjob);
+  const motion::InterpResult cir = motion::interpolate(motion::toolpath_in_axis_space(cprogram, machine), machine, iopt);
   Eigen::VectorXd ctlo(cir.setpoints.samples());
   for (Eigen::Index k = 0; k < ctlo.size(); ++k) {
     const int mi = cir.setpoints.move_index[k];
@@ -315,13 +315,13 @@ int run_compensate(const CompensateArgs& args) {
   }
   const Eigen::MatrixXd cactual = drives::simulate_axes(cir.setpoints, machine).position;
   const Figures prog_machine = [&] {
-    const Eigen::MatrixXd tips = drives::tool_tips(*kin, cactual, ctlo);
+    const Eigen::MatrixXd tips = methods::tool_tips(*kin, cactual, ctlo);
     if (!five) return measure(cmd_tip, tips, cir.setpoints, cprogram);
-    const Eigen::MatrixXd axes = drives::tool_axes(*kin, cactual, ctlo);
+    const Eigen::MatrixXd axes = methods::tool_axes(*kin, cactual, ctlo);
     return measure(cmd_tip, tips, cir.setpoints, cprogram, cmd_axis, &axes);
   }();
   const Figures orig_machine = models.any() ? *mach_before : figures(on_machine(sp.position), sp, program);
-  const auto limits_program = drives::check_axis_limits(cir.setpoints.position, te, machine);
+  const auto limits_program = methods::check_axis_limits(cir.setpoints.position, te, machine);
   bool program_within = true;
   for (const auto& c : limits_program) program_within = program_within && c.within();
   const double cycle_orig = sp.duration_s(), cycle_prog = cir.setpoints.duration_s();
@@ -336,8 +336,8 @@ int run_compensate(const CompensateArgs& args) {
       Eigen::VectorXd q0(na);
       for (Eigen::Index a = 0; a < na; ++a) q0[a] = path.initial_position[machine.axes[static_cast<std::size_t>(a)].program_axis];
       tj.start_mm = kin->forward(q0, tlo[0]).tip_mm;
-      const core::ToolPath tp = read_job_program(tj);
-      return core::interpolate(core::toolpath_in_axis_space(tp, machine), machine, iopt).setpoints.duration_s();
+      const core::ToolPath tp = sim::read_job_program(tj);
+      return motion::interpolate(motion::toolpath_in_axis_space(tp, machine), machine, iopt).setpoints.duration_s();
     };
     tcp_cycles = std::make_pair(cycle_of(dir / "original_tcp.ngc"), cycle_of(dir / "compensated_tcp.ngc"));
   }
@@ -349,7 +349,7 @@ int run_compensate(const CompensateArgs& args) {
   report["prediction"] = models.any() ? "identified transfer functions for " + fmt::format("{}", fmt::join(models.identified_axes, " ")) +
                                             ", the machine file's cascades for the other axes"
                                       : "the machine file's cascades ([axes.drive])";
-  report["method"] = {{"foot_points", "seed 001 section 4: nearest command point in a buffer of m samples, then the adjacent segment"},
+  report["method"] = {{"foot_points", "the predictive-compensation paper section 4: nearest command point in a buffer of m samples, then the adjacent segment"},
                       {"buffer_samples", res.buffer_samples},
                       {"correction", "eq. 23: each setpoint moved by the predicted contour error at its place on the path, repeated while the mean falls"},
                       {"smoothing_samples", copt.smoothing_samples},

@@ -1,4 +1,4 @@
-// vmsim excite AXIS --machine M --out FILE: seed 001's identification signal (inverse M-sequence or PRBS, eq. 8-15)
+// vmsim excite AXIS --machine M --out FILE: the predictive-compensation paper's identification signal (inverse M-sequence or PRBS, eq. 8-15)
 // as a G-code program or a setpoint CSV; with --simulate, also the trace the machine file's drive gives for it.
 #include "app/commands_sysid.hpp"
 #include "core/atomic_file.hpp"
@@ -6,8 +6,8 @@
 #include "core/machine.hpp"
 #include "core/units.hpp"
 #include "drives/cascade_axis.hpp"
-#include "drives/excite.hpp"
-#include "drives/position_trace.hpp"
+#include "sysid/excite.hpp"
+#include "sysid/position_trace.hpp"
 #include "drives/simulate.hpp"
 
 #include <fmt/format.h>
@@ -33,24 +33,24 @@ int run_excite(const ExciteArgs& args) {
   const bool rotary = ax.kind == core::AxisKind::Rotary;
   const double unit = rotary ? core::units::kDegToRad : 1.0;  // file units (mm, deg) to axis units
 
-  drives::ExcitationSpec s;
-  s.signal = args.signal == "prbs" ? drives::ExcitationSignal::Prbs : drives::ExcitationSignal::InverseM;
+  sysid::ExcitationSpec s;
+  s.signal = args.signal == "prbs" ? sysid::ExcitationSignal::Prbs : sysid::ExcitationSignal::InverseM;
   s.period_s = args.period_ms * 1e-3;
   s.switch_samples = args.td_ms ? static_cast<int>(std::lround(*args.td_ms / args.period_ms))
-                                : drives::switch_samples_for_bandwidth(args.bandwidth_hz, s.period_s);
+                                : sysid::switch_samples_for_bandwidth(args.bandwidth_hz, s.period_s);
   if (s.switch_samples < 1) throw core::Error(fmt::format("--td-ms {}: Td must be at least one period Te", *args.td_ms));
   s.bits = args.bits ? *args.bits
-                     : drives::bits_for_resolution(args.resolution_hz, s.switch_samples * s.period_s,
-                                                   s.signal == drives::ExcitationSignal::InverseM);
+                     : sysid::bits_for_resolution(args.resolution_hz, s.switch_samples * s.period_s,
+                                                   s.signal == sysid::ExcitationSignal::InverseM);
   s.amplitude = args.amplitude * unit;
   s.velocity = args.feed / 60.0 * unit;
   s.periods = args.periods;
   // Length of the ramp the signal rides on, to centre it in the travel (eq. 13: a <= travel / 2).
-  const Eigen::VectorXd probe = drives::excitation_setpoints(s);
+  const Eigen::VectorXd probe = sysid::excitation_setpoints(s);
   const double run = probe[probe.size() - 1] - probe[0];
   const bool limited = !ax.continuous && ax.travel_max > ax.travel_min;
   s.start = args.start ? *args.start * unit : (limited ? 0.5 * (ax.travel_min + ax.travel_max) - 0.5 * run : 0.0);
-  const Eigen::VectorXd x = drives::excitation_setpoints(s);
+  const Eigen::VectorXd x = sysid::excitation_setpoints(s);
   if (limited && (x.minCoeff() < ax.travel_min - 1e-9 || x.maxCoeff() > ax.travel_max + 1e-9))
     throw core::Error(fmt::format("the excitation spans {:.4f} .. {:.4f} {}, outside axis {}'s travel {:.4f} .. {:.4f} "
                                   "(lower --feed, --periods or --amplitude, or move --start)",
@@ -58,10 +58,10 @@ int run_excite(const ExciteArgs& args) {
                                   ax.travel_min / unit, ax.travel_max / unit));
 
   const double td = s.switch_samples * s.period_s;
-  const double sig_period = (s.signal == drives::ExcitationSignal::InverseM ? 2.0 : 1.0) * (std::ldexp(1.0, s.bits) - 1.0) * td;
+  const double sig_period = (s.signal == sysid::ExcitationSignal::InverseM ? 2.0 : 1.0) * (std::ldexp(1.0, s.bits) - 1.0) * td;
   const std::vector<std::string> header = {
       fmt::format("vmsim excite: {} on axis {} of {}", args.signal, ax.name, machine.name),
-      fmt::format("seed 001 eq. 8-15: n = {} bits, Td = {} ms ({} x Te), amplitude {} {}, signal period {:.4f} s, {} "
+      fmt::format("the predictive-compensation paper eq. 8-15: n = {} bits, Td = {} ms ({} x Te), amplitude {} {}, signal period {:.4f} s, {} "
                   "periods, bandwidth 0.433/Td = {:.1f} Hz",
                   s.bits, td * 1e3, s.switch_samples, args.amplitude, rotary ? "deg" : "mm", sig_period, s.periods,
                   0.433 / td),
@@ -74,7 +74,7 @@ int run_excite(const ExciteArgs& args) {
     for (Eigen::Index k = 0; k < x.size(); ++k) out += fmt::format("{:.6f},{:.10f}\n", k * s.period_s, x[k] / unit);
     core::write_file_atomic(args.out, out);
   } else {
-    core::write_file_atomic(args.out, drives::excitation_gcode(s, ax.name, rotary, header));
+    core::write_file_atomic(args.out, sysid::excitation_gcode(s, ax.name, rotary, header));
   }
   std::printf("%s\n%s\n%s\nwrote %s (%lld setpoints, %.3f s)\n", header[0].c_str(), header[1].c_str(), header[2].c_str(),
               args.out.string().c_str(), static_cast<long long>(x.size()), (x.size() - 1) * s.period_s);
@@ -87,7 +87,7 @@ int run_excite(const ExciteArgs& args) {
     drive.reset(x[0]);
     const Eigen::Index rows = x.size() + static_cast<Eigen::Index>(std::lround(0.1 / s.period_s));
     const Eigen::VectorXd y = drives::simulate_axis(drive, x, s.period_s, rows);
-    drives::PositionTrace tr;
+    sysid::PositionTrace tr;
     tr.period_s = s.period_s;
     tr.axes = {ax.name};
     tr.rotary = {rotary};
@@ -98,7 +98,7 @@ int run_excite(const ExciteArgs& args) {
     tr.actual.col(0) = y;
     std::vector<std::string> c = header;
     c.push_back("simulated on the cascade drive of " + args.machine.filename().string() + " [axes.drive]");
-    drives::write_position_trace_csv(*args.simulate, tr, c);
+    sysid::write_position_trace_csv(*args.simulate, tr, c);
     std::printf("wrote %s (position trace, %lld samples)\n", args.simulate->string().c_str(), static_cast<long long>(rows));
   }
   return 0;

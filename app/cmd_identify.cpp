@@ -1,12 +1,12 @@
 // vmsim identify-friction TRACE.csv: the friction law and the inertia of one axis from a measured trace
-// (seed 004 section 3.1), written as the [axes.drive] keys of a machine file.
+// (the feed-drive simulation paper section 3.1), written as the [axes.drive] keys of a machine file.
 #include "app/commands.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/machine.hpp"
 #include "core/sha256.hpp"
 #include "core/units.hpp"
-#include "drives/identify.hpp"
+#include "sysid/friction_inertia.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -18,20 +18,20 @@ namespace vmsim::app {
 
 namespace {
 
-drives::GravityModel gravity_model(const std::string& name) {
-  if (name == "auto") return drives::GravityModel::Auto;
-  if (name == "none") return drives::GravityModel::None;
-  if (name == "constant") return drives::GravityModel::Constant;
-  if (name == "tilting") return drives::GravityModel::Tilting;
+sysid::GravityModel gravity_model(const std::string& name) {
+  if (name == "auto") return sysid::GravityModel::Auto;
+  if (name == "none") return sysid::GravityModel::None;
+  if (name == "constant") return sysid::GravityModel::Constant;
+  if (name == "tilting") return sysid::GravityModel::Tilting;
   throw core::Error(fmt::format("--gravity: expected auto, none, constant or tilting, found '{}'", name));
 }
 
-const char* gravity_name(drives::GravityModel g) {
+const char* gravity_name(sysid::GravityModel g) {
   switch (g) {
-    case drives::GravityModel::Auto: return "auto";
-    case drives::GravityModel::None: return "none";
-    case drives::GravityModel::Constant: return "constant";
-    case drives::GravityModel::Tilting: return "tilting";
+    case sysid::GravityModel::Auto: return "auto";
+    case sysid::GravityModel::None: return "none";
+    case sysid::GravityModel::Constant: return "constant";
+    case sysid::GravityModel::Tilting: return "tilting";
   }
   return "?";
 }
@@ -40,15 +40,15 @@ const char* gravity_name(drives::GravityModel g) {
 
 int run_identify_friction(const IdentifyArgs& args) {
   std::vector<std::string> ignored;
-  const drives::AxisTrace trace = drives::read_axis_trace_csv(args.trace, &ignored);
+  const sysid::AxisTrace trace = sysid::read_axis_trace_csv(args.trace, &ignored);
   const bool rotary = trace.rotary;
   const char* unit = rotary ? "deg" : "mm";
   const double to_file = rotary ? core::units::kRadToDeg : 1.0;  // axis units (mm, rad) -> the trace's units
 
   // Motor data: the machine file's axis, then the explicit options on top of it.
-  drives::IdentifyOptions opt;
+  sysid::IdentifyOptions opt;
   opt.gravity = gravity_model(args.gravity);
-  const bool auto_gravity = opt.gravity == drives::GravityModel::Auto;
+  const bool auto_gravity = opt.gravity == sysid::GravityModel::Auto;
   bool gravity_from_machine = false;
   if (args.axis && !args.machine) throw core::Error("--axis names an axis of --machine FILE; give the machine file too");
   if (args.machine) {
@@ -74,9 +74,9 @@ int run_identify_friction(const IdentifyArgs& args) {
     opt.axis_per_motor_rad = axis->drive->axis_per_motor_rad;
     if (auto_gravity) {
       switch (axis->drive->gravity) {
-        case core::DriveParams::Gravity::None: opt.gravity = drives::GravityModel::None; break;
-        case core::DriveParams::Gravity::Constant: opt.gravity = drives::GravityModel::Constant; break;
-        case core::DriveParams::Gravity::Tilting: opt.gravity = drives::GravityModel::Tilting; break;
+        case core::DriveParams::Gravity::None: opt.gravity = sysid::GravityModel::None; break;
+        case core::DriveParams::Gravity::Constant: opt.gravity = sysid::GravityModel::Constant; break;
+        case core::DriveParams::Gravity::Tilting: opt.gravity = sysid::GravityModel::Tilting; break;
       }
       gravity_from_machine = true;
     }
@@ -98,7 +98,7 @@ int run_identify_friction(const IdentifyArgs& args) {
                                   rotary ? "gear ratio" : "screw lead", rotary ? "--gear-deg-per-rev DEG" : "--lead-mm MM"));
   if (args.smoothing_ms) opt.smoothing_s = *args.smoothing_ms * 1e-3;
 
-  const drives::IdentifiedDrive d = drives::identify_friction_inertia(trace, opt);
+  const sysid::IdentifiedDrive d = sysid::identify_friction_inertia(trace, opt);
   const double kt = opt.torque_constant_Nm_per_A;
   const Eigen::Index n = trace.t_s.size();
   const double duration = trace.t_s[n - 1] - trace.t_s[0];
@@ -117,8 +117,8 @@ int run_identify_friction(const IdentifyArgs& args) {
   std::printf("  viscous friction   %.6g N m s/rad  = %.6g A per (%s/s)\n", d.viscous_Nm_s_per_rad,
               d.viscous_A_s_per_axis_unit / to_file, unit);
   switch (d.gravity) {
-    case drives::GravityModel::None: std::printf("  gravity offset     none (not fitted)\n"); break;
-    case drives::GravityModel::Constant:
+    case sysid::GravityModel::None: std::printf("  gravity offset     none (not fitted)\n"); break;
+    case sysid::GravityModel::Constant:
       std::printf("  gravity offset     %.6g N m (+- %.2g)  = %.6g A (constant)\n", d.gravity_Nm, d.gravity_stderr_Nm,
                   d.gravity_A);
       break;
@@ -137,13 +137,13 @@ int run_identify_friction(const IdentifyArgs& args) {
   // horizontal axis. Writing the noise as a gravity torque would model a load the axis does not carry.
   const bool gravity_significant = std::abs(d.gravity_Nm) > 3.0 * d.gravity_stderr_Nm;
   const bool write_gravity =
-      d.gravity != drives::GravityModel::None && (!auto_gravity || gravity_from_machine || gravity_significant);
+      d.gravity != sysid::GravityModel::None && (!auto_gravity || gravity_from_machine || gravity_significant);
 
   if (args.out_dir) {
     const std::filesystem::path dir = *args.out_dir;
     std::filesystem::create_directories(dir);
     std::string toml = fmt::format(
-        "# vmsim identify-friction {} (seed 004 section 3.1)\n"
+        "# vmsim identify-friction {} (the feed-drive simulation paper section 3.1)\n"
         "# friction: {} constant-velocity stretches ({} positive, {} negative), residual {:.4g} A rms\n"
         "# inertia: eq. 2 on {} accelerating samples, residual {:.4g} A rms\n"
         "# The identified keys of the axis' [axes.drive] table; the loop gains and the winding stay as they are.\n"
@@ -160,9 +160,9 @@ int run_identify_friction(const IdentifyArgs& args) {
     if (write_gravity) {
       toml += fmt::format("gravity = \"{}\"\ngravity_torque_Nm = {:.6g}            # +- {:.2g}\n", gravity_name(d.gravity),
                           d.gravity_Nm, d.gravity_stderr_Nm);
-      if (d.gravity == drives::GravityModel::Tilting)
+      if (d.gravity == sysid::GravityModel::Tilting)
         toml += fmt::format("gravity_angle_offset_deg = {:.6g}\n", d.gravity_angle_offset_rad * core::units::kRadToDeg);
-    } else if (d.gravity != drives::GravityModel::None) {
+    } else if (d.gravity != sysid::GravityModel::None) {
       toml += fmt::format("gravity = \"none\"                  # fitted offset {:.3g} +- {:.2g} N m: not significant\n",
                           d.gravity_Nm, d.gravity_stderr_Nm);
     } else {
@@ -171,7 +171,7 @@ int run_identify_friction(const IdentifyArgs& args) {
     core::write_file_atomic(dir / "drive_identified.toml", toml);
 
     std::string csv = fmt::format("velocity_{}_per_s,measured_mean_current_A,fitted_current_A,samples,t_start_s,t_end_s\n", unit);
-    for (const drives::FrictionPoint& p : d.points)
+    for (const sysid::FrictionPoint& p : d.points)
       csv += fmt::format("{:.9g},{:.9g},{:.9g},{},{:.6f},{:.6f}\n", p.velocity * to_file, p.mean_current_A,
                          p.fitted_current_A, p.samples, p.t_start_s, p.t_end_s);
     core::write_file_atomic(dir / "friction_fit.csv", csv);

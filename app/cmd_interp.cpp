@@ -1,12 +1,12 @@
 // vmsim interp JOB: the interpolator alone, so users can look at setpoints before the drives act on them.
 #include "app/commands.hpp"
-#include "app/job_program.hpp"
+#include "sim/job_program.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/interp.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
-#include "core/program.hpp"
+#include "motion/kinematics.hpp"
+#include "program/program.hpp"
 
 #include <fmt/format.h>
 
@@ -39,12 +39,12 @@ void write_setpoints_csv(const std::filesystem::path& file, const core::Setpoint
 
 int run_interp(const InterpArgs& args) {
   const core::Job job = core::load_job(args.job);
-  const core::ToolPath path = core::toolpath_in_axis_space(read_job_program(job), job.machine);
-  core::InterpOptions iopt;
+  const core::ToolPath path = motion::toolpath_in_axis_space(sim::read_job_program(job), job.machine);
+  motion::InterpOptions iopt;
   iopt.period_s = job.interp.period_s;
   iopt.tolerance_mm = job.interp.tolerance_mm;
   iopt.feed_scale = args.feed_scale.value_or(1.0);
-  const core::InterpResult r = core::interpolate(path, job.machine, iopt);
+  const motion::InterpResult r = motion::interpolate(path, job.machine, iopt);
 
   std::printf("job %s: %d moves, %d blends, %d exact stops, %lld setpoints at Te = %g ms\n", job.name.c_str(),
               r.stats.moves, r.stats.blends, r.stats.exact_stops, static_cast<long long>(r.setpoints.samples()),

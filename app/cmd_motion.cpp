@@ -1,20 +1,20 @@
 // vmsim motion JOB: program -> interpolator -> servo drives -> kinematics -> contour error.
-#include "app/axis_models.hpp"
+#include "sim/axis_models.hpp"
 #include "app/commands.hpp"
-#include "app/contour_stats.hpp"
-#include "app/job_program.hpp"
+#include "sim/contour_stats.hpp"
+#include "sim/job_program.hpp"
 #include "app/report.hpp"
-#include "app/signals.hpp"
+#include "sim/signals.hpp"
 #include "core/atomic_file.hpp"
-#include "core/contour.hpp"
+#include "motion/contour.hpp"
 #include "core/error.hpp"
-#include "core/interp.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
-#include "core/program.hpp"
+#include "motion/kinematics.hpp"
+#include "program/program.hpp"
 #include "core/units.hpp"
-#include "drives/oga_schedule.hpp"
-#include "drives/position_trace.hpp"
+#include "methods/oga_schedule.hpp"
+#include "sysid/position_trace.hpp"
 #include "drives/simulate.hpp"
 
 #include <fmt/format.h>
@@ -37,7 +37,7 @@ const char* unit_name(const core::MachineAxis& ax) { return ax.kind == core::Axi
 
 // Tool-tip path in the workpiece frame, sample by sample (the tool length offset of the move each sample is on).
 Eigen::MatrixXd tip_path(const Eigen::MatrixXd& axes, const core::Setpoints& sp, const core::ToolPath& program,
-                         const core::Kinematics& kin) {
+                         const motion::Kinematics& kin) {
   Eigen::MatrixXd tip(axes.rows(), 3);
   for (Eigen::Index k = 0; k < axes.rows(); ++k) {
     const Eigen::Index ks = std::min(k, sp.samples() - 1);
@@ -68,16 +68,16 @@ int run_motion(const MotionArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
   const core::Machine& machine = job.machine;
-  const core::ToolPath program = read_job_program(job);
-  const core::ToolPath path = core::toolpath_in_axis_space(program, machine);
+  const core::ToolPath program = sim::read_job_program(job);
+  const core::ToolPath path = motion::toolpath_in_axis_space(program, machine);
   const double t_read = seconds_since(t_start);
 
   auto t0 = Clock::now();
-  core::InterpOptions iopt;
+  motion::InterpOptions iopt;
   iopt.period_s = job.interp.period_s;
   iopt.tolerance_mm = job.interp.tolerance_mm;
   iopt.feed_scale = args.feed_scale.value_or(1.0);
-  const core::InterpResult ir = core::interpolate(path, machine, iopt);
+  const motion::InterpResult ir = motion::interpolate(path, machine, iopt);
   const core::Setpoints& sp = ir.setpoints;
   const double t_interp = seconds_since(t0);
 
@@ -86,21 +86,21 @@ int run_motion(const MotionArgs& args) {
   sopt.full_rate_trace = args.full_rate_trace;
   drives::GainSchedule schedule;  // [job] gain_schedule (vmsim oga): the drives run its gains
   if (job.gain_schedule_file) {
-    schedule = drives::read_gain_schedule(*job.gain_schedule_file, sp, machine);
+    schedule = methods::read_gain_schedule(*job.gain_schedule_file, sp, machine);
     sopt.gains = &schedule;
   }
   // [job] axis_models (vmsim identify): those axes run as their identified transfer functions.
-  const JobAxisModels models = job_axis_models(job, std::nullopt);
+  const sim::JobAxisModels models = sim::job_axis_models(job, std::nullopt);
   if (models.any()) sopt.axis_models = &models.per_axis;
   const drives::AxisResponse resp = drives::simulate_axes(sp, machine, sopt);
   const double t_drives = seconds_since(t0);
 
   // Command and actual tool tip in the workpiece frame; the command holds its last point while the axes settle.
   t0 = Clock::now();
-  const auto kin = core::make_kinematics(machine);
+  const auto kin = motion::make_kinematics(machine);
   const Eigen::MatrixXd cmd_tip = tip_path(sp.position, sp, program, *kin);
   const Eigen::MatrixXd act_tip = tip_path(resp.position, sp, program, *kin);
-  const core::ContourError ce = core::contour_error(cmd_tip, act_tip);
+  const motion::ContourError ce = motion::contour_error(cmd_tip, act_tip);
   const double t_contour = seconds_since(t0);
 
   const Eigen::Index n = resp.samples(), ns = sp.samples(), na = static_cast<Eigen::Index>(machine.axes.size());
@@ -198,7 +198,7 @@ int run_motion(const MotionArgs& args) {
   {
     // Command and encoder position of every axis the program moves (drives/position_trace.hpp): what vmsim identify
     // reads, as an NC's trace of the same run would give it.
-    drives::PositionTrace tr;
+    sysid::PositionTrace tr;
     tr.period_s = te;
     std::vector<Eigen::Index> moved;
     for (Eigen::Index a = 0; a < na; ++a)
@@ -214,12 +214,12 @@ int run_motion(const MotionArgs& args) {
       tr.actual.col(static_cast<Eigen::Index>(i)) = resp.position.col(moved[i]);
     }
     if (!moved.empty()) {
-      drives::write_position_trace_csv(dir / "trace.csv", tr, {"vmsim motion " + job.file.filename().string()});
+      sysid::write_position_trace_csv(dir / "trace.csv", tr, {"vmsim motion " + job.file.filename().string()});
       files.push_back("trace.csv");
     }
   }
   // The same signals, binned (min/max) for charts: vmsim render DIR draws them.
-  write_signals(dir / "signals.csv", motion_signals(job, program, sp, resp, ce, iopt.feed_scale));
+  sim::write_signals(dir / "signals.csv", sim::motion_signals(job, program, sp, resp, ce, iopt.feed_scale));
   files.push_back("signals.csv");
   if (args.full_rate_trace) {
     for (std::size_t a = 0; a < resp.trace.size(); ++a) {
@@ -252,8 +252,8 @@ int run_motion(const MotionArgs& args) {
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   if (models.any())
     report["axis_models"] = {{"path", models.file->string()}, {"identified_axes", models.identified_axes}};
-  const ContourStats cutting = cutting_contour_stats(ce, sp, program);
-  report["contour_error"] = contour_json(ce, cutting);
+  const sim::ContourStats cutting = sim::cutting_contour_stats(ce, sp, program);
+  report["contour_error"] = sim::contour_json(ce, cutting);
   report["limits_held"] = {{"setpoints_velocity_acceleration_jerk", setpoint_limits_held},
                            {"currents", currents_within_limit}};
   report["files"] = files;

@@ -1,21 +1,21 @@
-// vmsim oga JOB: offline gain adjustment (seed 000) on a job's biaxial profile. The job's program is interpolated
+// vmsim oga JOB: offline gain adjustment (Duong et al.) on a job's biaxial profile. The job's program is interpolated
 // exactly as vmsim run and vmsim motion interpolate it, so the gain schedule written here is the one those commands
 // accept through [job] gain_schedule (drives/oga_schedule.hpp checks every setpoint).
 #include "app/commands_oga.hpp"
-#include "app/job_program.hpp"
+#include "sim/job_program.hpp"
 #include "app/mpi_session.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "app/result_images.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/interp.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
-#include "core/program.hpp"
+#include "motion/kinematics.hpp"
+#include "program/program.hpp"
 #include "core/units.hpp"
-#include "drives/oga.hpp"
-#include "drives/oga_schedule.hpp"
+#include "methods/oga.hpp"
+#include "methods/oga_schedule.hpp"
 #include "render/chart.hpp"
 #include "render/window.hpp"
 
@@ -42,7 +42,7 @@ using Eigen::Index;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// "MIN:STEP:MAX" -> the grid MIN, MIN + STEP, ... <= MAX (as seed 000 writes [1 : 0.5 : 9]); a single number is a
+// "MIN:STEP:MAX" -> the grid MIN, MIN + STEP, ... <= MAX (as Duong et al. writes [1 : 0.5 : 9]); a single number is a
 // grid of one value.
 std::vector<double> parse_grid(const std::string& text, const std::string& option) {
   std::vector<double> parts;
@@ -98,9 +98,9 @@ void parse_range(const std::string& text, std::map<std::string, std::pair<double
   }
 }
 
-// Linear axes: mm/s -> m/min, mm/s^2 -> m/s^2, mm/s^3 -> m/s^3 (the units of seed 000 Table I and the machine file).
-nlohmann::json peaks_json(const drives::MotionPeaks& p, double te) {
-  const auto at = [&](const drives::Peak& q) { return q.row >= 0 ? q.row * te : kNaN; };
+// Linear axes: mm/s -> m/min, mm/s^2 -> m/s^2, mm/s^3 -> m/s^3 (the units of Duong et al. Table I and the machine file).
+nlohmann::json peaks_json(const methods::MotionPeaks& p, double te) {
+  const auto at = [&](const methods::Peak& q) { return q.row >= 0 ? q.row * te : kNaN; };
   return {{"velocity_m_per_min", p.velocity.value * 60e-3},      {"velocity_t_s", at(p.velocity)},
           {"acceleration_m_per_s2", p.acceleration.value * 1e-3}, {"acceleration_t_s", at(p.acceleration)},
           {"jerk_m_per_s3", p.jerk.value * 1e-3},                 {"jerk_t_s", at(p.jerk)},
@@ -138,7 +138,7 @@ render::Series histogram(const std::string& name, const Eigen::ArrayXd& v, const
 int run_oga(const OgaArgs& args) {
   const auto t_start = Clock::now();
   // Options first: a typo costs no simulation.
-  drives::OgaOptions o;
+  methods::OgaOptions o;
   o.kp_grid = parse_grid(args.kp_grid, "--kp-grid");
   o.kf_grid = parse_grid(args.kf_grid, "--kf-grid");
   std::optional<std::pair<double, double>> all_range;
@@ -150,9 +150,9 @@ int run_oga(const OgaArgs& args) {
     throw core::Error(fmt::format("--frequency-hz {}: expected a frequency > 0", args.frequency_hz));
   o.frequency_hz = args.frequency_hz;
   if (args.reference == "best") {
-    o.reference = drives::OgaOptions::Reference::Best;
+    o.reference = methods::OgaOptions::Reference::Best;
   } else if (args.reference == "machine") {
-    o.reference = drives::OgaOptions::Reference::Machine;
+    o.reference = methods::OgaOptions::Reference::Machine;
   } else {
     throw core::Error("--reference \"" + args.reference + "\": expected best or machine");
   }
@@ -178,11 +178,11 @@ int run_oga(const OgaArgs& args) {
   const core::Job job = core::load_job(args.job);
   const core::Machine& machine = job.machine;
   // The setpoints as vmsim run and vmsim motion make them (app/cmd_run.cpp simulate_motion, feed scale 1).
-  const core::ToolPath program = read_job_program(job);
-  core::InterpOptions iopt;
+  const core::ToolPath program = sim::read_job_program(job);
+  motion::InterpOptions iopt;
   iopt.period_s = job.interp.period_s;
   iopt.tolerance_mm = job.interp.tolerance_mm;
-  const core::InterpResult ir = core::interpolate(core::toolpath_in_axis_space(program, machine), machine, iopt);
+  const motion::InterpResult ir = motion::interpolate(motion::toolpath_in_axis_space(program, machine), machine, iopt);
   const core::Setpoints& sp = ir.setpoints;
   const Index ns = sp.samples();
   const double te = sp.period_s;
@@ -207,7 +207,7 @@ int run_oga(const OgaArgs& args) {
       MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
     };
   }
-  Progress progress(mpi_rank() == 0);
+  TerminalProgress progress(mpi_rank() == 0);
   bool staged = false;
   o.progress = [&](const std::string& s) {
     if (staged) progress.done();
@@ -221,11 +221,11 @@ int run_oga(const OgaArgs& args) {
       if (a >= 0 && (sp.position.col(a).array() != sp.position(0, a)).any() && !o.range.count(n)) o.range[n] = *all_range;
     }
   }
-  const drives::OgaResult r = drives::offline_gain_adjustment(sp, machine, o);
+  const methods::OgaResult r = methods::offline_gain_adjustment(sp, machine, o);
   if (mpi_rank() != 0) return 0;
   o.progress("verification on the whole path (nonlinear model)");
   const auto t_verify0 = Clock::now();
-  const drives::OgaVerification v = drives::verify_oga(sp, machine, r, o);
+  const methods::OgaVerification v = methods::verify_oga(sp, machine, r, o);
   const double t_verify = seconds_since(t_verify0);
   progress.done();
 
@@ -238,12 +238,12 @@ int run_oga(const OgaArgs& args) {
   std::vector<std::string> files;
   const std::size_t nq = r.axes.size();
 
-  {  // the admissible sets (seed 000 Fig. 7)
+  {  // the admissible sets (Duong et al. Fig. 7)
     core::AtomicFile f(dir / "admissible.csv");
     f.stream() << "axis,kp_1000_per_min,kf,admissible,velocity_m_per_min,acceleration_m_per_s2,jerk_m_per_s3,"
                   "current_peak_A,violation\n";
     for (std::size_t q = 0; q < nq; ++q)
-      for (const drives::ConfigCheck& c : r.sweep[q])
+      for (const methods::ConfigCheck& c : r.sweep[q])
         f.stream() << fmt::format("{},{:g},{:g},{},{:.6g},{:.6g},{:.6g},{:.6g},{}\n", r.axis_names[q], c.gains.kp,
                                   c.gains.kf, c.admissible ? 1 : 0, c.twin.velocity.value * 60e-3,
                                   c.twin.acceleration.value * 1e-3, c.twin.jerk.value * 1e-3, c.twin.current.value,
@@ -258,8 +258,8 @@ int run_oga(const OgaArgs& args) {
     for (std::size_t q = 0; q < nq; ++q)
       comments.push_back(fmt::format("{}: range [{:g}, {:g}] (m/min)/mm, KF {:g} (C1's)", r.axis_names[q],
                                      r.range[q].first, r.range[q].second, r.c1[q].kf));
-    drives::write_gain_schedule(dir / "gain_schedule.csv", r.table, sp, machine, job.name, comments);
-    drives::write_gain_schedule(dir / "gain_schedule_c1.csv", r.c1_table, sp, machine, job.name,
+    methods::write_gain_schedule(dir / "gain_schedule.csv", r.table, sp, machine, job.name, comments);
+    methods::write_gain_schedule(dir / "gain_schedule_c1.csv", r.c1_table, sp, machine, job.name,
                                 {"C1 of vmsim oga: the fixed gains, as a schedule"});
     files.push_back("gain_schedule.csv");
     files.push_back("gain_schedule_c1.csv");
@@ -271,9 +271,9 @@ int run_oga(const OgaArgs& args) {
       h += fmt::format(",{0}_final_kv_1000_per_min,{0}_candidates,{0}_within_limits", n);
     f.stream() << h << ",mse_um2,hold_mse_um2,note\n";
     for (std::size_t w = 0; w < r.windows.size(); ++w) {
-      const drives::OgaWindowResult& x = r.windows[w];
+      const methods::OgaWindowResult& x = r.windows[w];
       std::string l = fmt::format("{},{},{},{:.6f},{}", w, x.window.begin, x.window.end, x.window.begin * te,
-                                  drives::window_kind_name(x.window.kind));
+                                  methods::window_kind_name(x.window.kind));
       for (std::size_t q = 0; q < nq; ++q)
         l += fmt::format(",{:.17g},{},{}", x.final_kp[q], x.candidates[q], x.within_limits[q]);
       f.stream() << l << fmt::format(",{:.6g},{:.6g},{}\n", x.mse_um2, x.hold_mse_um2, csv_text(x.note));
@@ -310,13 +310,13 @@ int run_oga(const OgaArgs& args) {
     files.push_back("comparison.csv");
   }
   const double change_pct = v.mse_c1_um2 > 0 ? (v.mse_c2_um2 - v.mse_c1_um2) / v.mse_c1_um2 * 100 : 0.0;
-  {  // seed 000 Table II
+  {  // Duong et al. Table II
     core::AtomicFile f(dir / "mse_table.csv");
     std::string h = "case";
     for (const auto& n : r.axis_names) h += fmt::format(",{0}_kv_min_1000_per_min,{0}_kv_max_1000_per_min,{0}_kf", n);
     f.stream() << h << ",mse_um2,max_contour_error_um,change_percent\n";
     for (int c = 0; c < 2; ++c) {
-      const drives::GainTable& g = c == 0 ? r.c1_table : r.table;
+      const methods::GainTable& g = c == 0 ? r.c1_table : r.table;
       std::string l = c == 0 ? "C1" : "C2";
       for (std::size_t q = 0; q < nq; ++q)
         l += fmt::format(",{:.6g},{:.6g},{:g}", g.kv_1000_per_min.col(static_cast<Index>(q)).minCoeff(),
@@ -343,7 +343,7 @@ int run_oga(const OgaArgs& args) {
       fs::create_directories(idir, ec);
       if (ec) throw core::Error(idir.string() + ": cannot create the directory: " + ec.message());
       const std::string title =
-          fmt::format("{}: OGA (seed 000), MSE(CE) {:.3g} → {:.3g} µm² ({:+.1f} %)", job.name, v.mse_c1_um2,
+          fmt::format("{}: OGA (Duong et al.), MSE(CE) {:.3g} → {:.3g} µm² ({:+.1f} %)", job.name, v.mse_c1_um2,
                       v.mse_c2_um2, change_pct);
       auto save = [&](const std::string& name, render::ChartPicture pic) {
         pic.width = image_size.first, pic.height = image_size.second;
@@ -379,7 +379,7 @@ int run_oga(const OgaArgs& args) {
         k.y_title = "curvature [1/mm]";
         Eigen::MatrixXd xyz(ns, 3);
         for (int cc = 0; cc < 3; ++cc) xyz.col(cc) = sp.position.col(machine.axis_index(cc));
-        const Eigen::ArrayXd kappa = drives::setpoint_curvature(xyz, r.plane_normal, o.windows.min_chord_mm);
+        const Eigen::ArrayXd kappa = methods::setpoint_curvature(xyz, r.plane_normal, o.windows.min_chord_mm);
         k.series.push_back(render::make_series("curvature (+: convex)", s.head(ns), kappa, 3));
         Eigen::ArrayXd wx(3 * r.windows.size()), wy(3 * r.windows.size());
         const double kmax = std::max(1e-3, kappa.abs().maxCoeff());
@@ -423,11 +423,11 @@ int run_oga(const OgaArgs& args) {
       }
       {
         render::ChartPicture pic;
-        pic.caption = {title, "current reference (velocity-loop output) of each adjusted axis, C1 and C2 (seed 000 "
+        pic.caption = {title, "current reference (velocity-loop output) of each adjusted axis, C1 and C2 (Duong et al. "
                               "Fig. 12)"};
         for (std::size_t q = 0; q < nq; ++q) {
           render::Chart c;
-          const drives::AxisVerification& av = v.axes[q];
+          const methods::AxisVerification& av = v.axes[q];
           c.title = fmt::format("{} current, max |C2 − C1| {:.3g} A ({:.1f} % of C1's peak)", r.axis_names[q],
                                 av.current_setpoint_max_diff_A, av.current_setpoint_max_rel_diff * 100);
           c.x_title = "t [s]";
@@ -485,7 +485,7 @@ int run_oga(const OgaArgs& args) {
     c1[n] = {{"kv_1000_per_min", r.c1[q].kp}, {"kf", r.c1[q].kf}};
     c2[n] = {{"kv_min_1000_per_min", col.minCoeff()}, {"kv_max_1000_per_min", col.maxCoeff()},
              {"range_1000_per_min", {r.range[q].first, r.range[q].second}}, {"kf", r.c1[q].kf}};
-    const drives::AxisVerification& av = v.axes[q];
+    const methods::AxisVerification& av = v.axes[q];
     const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(r.axes[q])];
     verification[n] = {
         {"limits", {{"velocity_m_per_min", ax.max_velocity * 60e-3}, {"acceleration_m_per_s2", ax.max_acceleration * 1e-3},
@@ -516,7 +516,7 @@ int run_oga(const OgaArgs& args) {
   int notes = 0;
   for (const auto& w : r.windows) {
     nlohmann::json j = {{"first_row", w.window.begin}, {"end_row", w.window.end},
-                        {"kind", drives::window_kind_name(w.window.kind)}, {"mse_um2", w.mse_um2},
+                        {"kind", methods::window_kind_name(w.window.kind)}, {"mse_um2", w.mse_um2},
                         {"hold_mse_um2", w.hold_mse_um2}};
     for (std::size_t q = 0; q < nq; ++q) j[r.axis_names[q] + "_final_kv_1000_per_min"] = w.final_kp[q];
     if (!w.note.empty()) j["note"] = w.note, ++notes;

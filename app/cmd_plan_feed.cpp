@@ -1,20 +1,20 @@
-// vmsim plan-feed JOB: seed 003's contour-error-constrained feed plan (drives/feedplan), played by the interpolator
+// vmsim plan-feed JOB: Chen et al.'s contour-error-constrained feed plan (drives/feedplan), played by the interpolator
 // under the plan's feed ceiling and simulated through the servo, against the same path without a plan and with a
 // plan that leaves the contour error out. Writes the feed profile (CSV), the played motion (CSV), report.json and
 // charts (feed; axis velocity and acceleration with their limits; chord and contour error with their tolerances).
 #include "app/commands.hpp"
-#include "app/job_program.hpp"
+#include "sim/job_program.hpp"
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/interp.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
-#include "core/nurbs.hpp"
+#include "motion/kinematics.hpp"
+#include "motion/nurbs.hpp"
 #include "core/sha256.hpp"
-#include "drives/feedplan.hpp"
-#include "drives/feedplan_play.hpp"
-#include "drives/feedplan_servo.hpp"
+#include "methods/feedplan.hpp"
+#include "methods/feedplan_play.hpp"
+#include "methods/feedplan_servo.hpp"
 #include "render/chart.hpp"
 #include "render/window.hpp"
 
@@ -53,8 +53,8 @@ std::string csv_number(double v, int digits) {
 // The servo of the job's [feedplan]: frequency responses of the moving axes for the contour-error model, and for the
 // simulation either transfer functions per machine axis or nothing (the machine's own cascades).
 struct Servo {
-  std::vector<drives::AxisFrequencyResponse> responses;
-  std::vector<drives::TransferFunction> simulate;  // empty: drives::simulate_axes with [axes.drive]
+  std::vector<methods::AxisFrequencyResponse> responses;
+  std::vector<methods::TransferFunction> simulate;  // empty: drives::simulate_axes with [axes.drive]
   std::string description;
 };
 
@@ -72,16 +72,16 @@ Servo make_servo(const core::FeedPlanSpec& spec, const core::Machine& machine, d
                                         fmt::format("axis {} moves but has no [axes.drive]: [feedplan] servo = "
                                                     "\"machine\" needs its cascade (or give servo = \"pid\")",
                                                     names[r])));
-      s.responses.push_back(drives::frequency_response(*machine.axes[static_cast<std::size_t>(ai)].drive, te));
+      s.responses.push_back(methods::frequency_response(*machine.axes[static_cast<std::size_t>(ai)].drive, te));
     }
     return s;
   }
   const bool pid = spec.servo == core::FeedPlanSpec::Servo::Pid;
-  s.description = pid ? "PID servo of seed 003 eq. 2 per [[feedplan.axis]]" : "transfer functions per [[feedplan.axis]]";
+  s.description = pid ? "PID servo of Chen et al. 2016 eq. 2 per [[feedplan.axis]]" : "transfer functions per [[feedplan.axis]]";
   auto tf_of = [&](const core::FeedPlanSpec::Axis& a) {
-    if (!pid) return drives::TransferFunction{a.num, a.den};
-    drives::PidServoParams p{a.kp, a.ki, a.kd, a.ka, a.kt, a.inertia, a.damping, a.rg};
-    return drives::pid_servo_transfer_function(p);
+    if (!pid) return methods::TransferFunction{a.num, a.den};
+    methods::PidServoParams p{a.kp, a.ki, a.kd, a.ka, a.kt, a.inertia, a.damping, a.rg};
+    return methods::pid_servo_transfer_function(p);
   };
   for (const core::MachineAxis& ax : machine.axes) {
     const core::FeedPlanSpec::Axis* given = nullptr;
@@ -93,8 +93,8 @@ Servo make_servo(const core::FeedPlanSpec& spec, const core::Machine& machine, d
                                                                "with name = \"{}\"",
                                                                ax.name, ax.name)));
     try {
-      s.simulate.push_back(given ? tf_of(*given) : drives::TransferFunction{{1.0}, {1.0}});  // held axes: ideal
-      if (moves) s.responses.push_back(drives::frequency_response(s.simulate.back()));
+      s.simulate.push_back(given ? tf_of(*given) : methods::TransferFunction{{1.0}, {1.0}});  // held axes: ideal
+      if (moves) s.responses.push_back(methods::frequency_response(s.simulate.back()));
     } catch (const core::Error& e) {
       throw core::Error(core::located(job_file, 0, fmt::format("[[feedplan.axis]] {}: {}", ax.name, e.what())));
     }
@@ -102,7 +102,7 @@ Servo make_servo(const core::FeedPlanSpec& spec, const core::Machine& machine, d
   return s;
 }
 
-nlohmann::json check_json(const drives::FeedPlanCheck& c) {
+nlohmann::json check_json(const methods::FeedPlanCheck& c) {
   return {{"feed", c.feed},
           {"chord_error", c.chord},
           {"contour_error_model", c.contour},
@@ -113,8 +113,8 @@ nlohmann::json check_json(const drives::FeedPlanCheck& c) {
 }
 
 // Largest eq. 7 estimate rho |1 - |G(j f/rho)|| over the samples.
-double model_contour_peak(const drives::PathSamples& ps, const Eigen::ArrayXd& feed,
-                          const drives::ContourErrorModel& model) {
+double model_contour_peak(const methods::PathSamples& ps, const Eigen::ArrayXd& feed,
+                          const methods::ContourErrorModel& model) {
   double m = 0.0;
   for (Index i = 0; i < ps.size(); ++i) {
     const double k = ps.kappa_max[i];
@@ -123,7 +123,7 @@ double model_contour_peak(const drives::PathSamples& ps, const Eigen::ArrayXd& f
   return m;
 }
 
-nlohmann::json run_json(const drives::PlayedPlan& p) {
+nlohmann::json run_json(const methods::PlayedPlan& p) {
   return {{"cycle_time_s", p.interp.stats.cycle_time_s},
           {"setpoints", p.interp.setpoints.samples()},
           {"interpolator_repair_passes", p.interp.stats.repair_passes},
@@ -152,35 +152,35 @@ int run_plan_feed(const PlanFeedArgs& args) {
   // The path: a NURBS (the quintic chain the interpolator follows, the curve sampled by parameter with arc-length
   // correction), or the job's program (its smoothed path, sampled).
   core::ToolPath program;
-  std::optional<core::NurbsPath> nurbs_path;
-  std::optional<core::NurbsCurve> curve;
-  drives::PlanPlayer player;
+  std::optional<motion::NurbsPath> nurbs_path;
+  std::optional<motion::NurbsCurve> curve;
+  methods::PlanPlayer player;
   player.machine = &machine;
   player.interp.period_s = te;
   player.interp.tolerance_mm = job.interp.tolerance_mm;
-  drives::PathSamples samples;
+  methods::PathSamples samples;
   double fmax = spec.max_feed_mm_per_s.value_or(0.0);
   nlohmann::json path_json;
   if (spec.nurbs) {
     if (!spec.max_feed_mm_per_s)
       throw core::Error(core::located(job.file.string(), 0,
                                       "[feedplan] max_feed_mm_per_s is required with a [feedplan.nurbs] path"));
-    curve = core::read_nurbs_csv(spec.nurbs->control_points, spec.nurbs->knots, spec.nurbs->degree);
-    core::NurbsPathOptions no;
+    curve = motion::read_nurbs_csv(spec.nurbs->control_points, spec.nurbs->knots, spec.nurbs->degree);
+    motion::NurbsPathOptions no;
     no.feed_mm_per_min = fmax * 60.0;
-    nurbs_path = core::nurbs_to_path(*curve, no);
+    nurbs_path = motion::nurbs_to_path(*curve, no);
     program = nurbs_path->program;
-    player.interp.geometry = std::make_shared<const core::SmoothPath>(nurbs_path->path);
+    player.interp.geometry = std::make_shared<const motion::SmoothPath>(nurbs_path->path);
     player.to_path_s = [np = &*nurbs_path](double s) { return np->path_s(s); };
     player.to_sample_s = [np = &*nurbs_path](double s) { return np->curve_s(s); };
-    samples = drives::sample_nurbs(*curve, spec.sample_spacing_mm);
+    samples = methods::sample_nurbs(*curve, spec.sample_spacing_mm);
     path_json = {{"kind", "nurbs"},
                  {"degree", curve->degree},
                  {"control_points", curve->points.size()},
                  {"quintic_pieces", nurbs_path->path.pieces.size()},
                  {"quintic_chain_max_deviation_um", nurbs_path->max_deviation_mm * 1e3}};
   } else {
-    program = core::toolpath_in_axis_space(read_job_program(job), machine);
+    program = motion::toolpath_in_axis_space(sim::read_job_program(job), machine);
     double programmed = 0.0;
     for (const core::Move& m : program.moves)
       if (!m.rapid && m.feed_mode == core::FeedMode::UnitsPerMinute) programmed = std::max(programmed, m.feed_mm_per_min / 60.0);
@@ -188,7 +188,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
     if (!(fmax > 0))
       throw core::Error(core::located(job.file.string(), 0, "[feedplan] max_feed_mm_per_s: the program has no feed "
                                                              "move to take it from; give it"));
-    samples = drives::sample_path(core::smooth_path_for(program, machine, player.interp), spec.sample_spacing_mm);
+    samples = methods::sample_path(motion::smooth_path_for(program, machine, player.interp), spec.sample_spacing_mm);
     path_json = {{"kind", "program"}, {"moves", program.moves.size()}};
   }
   player.program = &program;
@@ -204,8 +204,8 @@ int run_plan_feed(const PlanFeedArgs& args) {
   for (int r = 0; r < 3; ++r) moving[r] = samples.t_abs_max.col(r).maxCoeff() > 1e-9 ? 1.0 : 0.0;
   const Servo servo = make_servo(spec, machine, te, moving, job.file.string());
   player.servo = servo.simulate;
-  const drives::ContourErrorModel model(servo.responses);
-  drives::FeedPlanLimits lim;
+  const methods::ContourErrorModel model(servo.responses);
+  methods::FeedPlanLimits lim;
   lim.period_s = te;
   lim.chord_error_mm = spec.chord_error_mm;
   lim.contour_error_mm = spec.contour_error_mm;
@@ -222,11 +222,11 @@ int run_plan_feed(const PlanFeedArgs& args) {
     lim.axis_acceleration[r] = ax.max_acceleration;
     lim.axis_jerk[r] = spec.jerk ? ax.max_jerk : kInf;
   }
-  drives::FeedPlanOptions opt;
+  methods::FeedPlanOptions opt;
   opt.limits = lim;
   opt.contour_model = &model;
   opt.window_samples = spec.window_samples;
-  drives::FeedPlanOptions opt_free = opt;  // the same plan without the contour-error constraint
+  methods::FeedPlanOptions opt_free = opt;  // the same plan without the contour-error constraint
   opt_free.limits.contour_error_mm = 0.0;
 
   // Plans and their play (a line per stage on stderr: DESIGN.md, long runs show progress).
@@ -236,20 +236,20 @@ int run_plan_feed(const PlanFeedArgs& args) {
   };
   progress("path sampled; simulating the programmed feed");
   auto t0 = Clock::now();
-  const drives::PlayedPlan no_plan = drives::play_plan(player, samples, nullptr);
+  const methods::PlayedPlan no_plan = methods::play_plan(player, samples, nullptr);
   progress("planning and simulating without the contour-error constraint");
-  const drives::FeedPlan free_plan = drives::plan_feed(samples, opt_free);
-  const drives::PlayedPlan free_played = drives::play_plan(player, samples, &free_plan);
+  const methods::FeedPlan free_plan = methods::plan_feed(samples, opt_free);
+  const methods::PlayedPlan free_played = methods::play_plan(player, samples, &free_plan);
   progress("planning with the contour-error constraint, simulating, verifying");
-  drives::VerifyOptions vo;
+  methods::VerifyOptions vo;
   if (!spec.verify) vo.max_rounds = 1;
-  const drives::VerifiedPlan ver = drives::plan_feed_verified(samples, opt, player, vo);
+  const methods::VerifiedPlan ver = methods::plan_feed_verified(samples, opt, player, vo);
   progress("writing");
   const double t_plans = seconds_since(t0);
-  const drives::FeedPlan& plan = ver.plan;
-  const drives::PlayedPlan& played = ver.played;
-  const drives::FeedPlanCheck check = drives::check_feed_plan(samples, plan.feed, lim, &model);
-  const drives::FeedPlanCheck check_free = drives::check_feed_plan(samples, free_plan.feed, opt_free.limits, &model);
+  const methods::FeedPlan& plan = ver.plan;
+  const methods::PlayedPlan& played = ver.played;
+  const methods::FeedPlanCheck check = methods::check_feed_plan(samples, plan.feed, lim, &model);
+  const methods::FeedPlanCheck check_free = methods::check_feed_plan(samples, free_plan.feed, opt_free.limits, &model);
   const double model_peak_free = model_contour_peak(samples, free_plan.feed, model);
   const double model_peak = model_contour_peak(samples, plan.feed, model);
 
@@ -263,7 +263,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
   {
     core::AtomicFile f(dir / "feed_profile.csv");
     auto& o = f.stream();
-    o << "# vmsim plan-feed: seed 003's feed plan per sample (arc length s); feeds in mm/s, bounds: eq. 13 (contour), "
+    o << "# vmsim plan-feed: Chen et al.'s feed plan per sample (arc length s); feeds in mm/s, bounds: eq. 13 (contour), "
          "15 (chord), 22 (axis velocity), 23 without tangential part (centripetal), 24 (f_star = the smallest with "
          "f_max); feed_without_contour: the same plan without eq. 13; contour_scale: the factor on the tolerance the "
          "verified plan used; simulated errors: the largest contour error of the simulated axes whose foot point lies "
@@ -302,7 +302,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
     auto& o = f.stream();
     o << "t_s,s_mm,feed_mm_per_s,ceiling_mm_per_s,x_mm,y_mm,z_mm,vx_mm_per_s,vy_mm_per_s,vz_mm_per_s,ax_mm_per_s2,"
          "ay_mm_per_s2,az_mm_per_s2,chord_error_um,contour_error_um\n";
-    const core::FeedCeiling ceil = drives::feed_ceiling(plan, player.to_path_s);
+    const motion::FeedCeiling ceil = methods::feed_ceiling(plan, player.to_path_s);
     for (Index k = 0; k < ns; ++k) {
       auto pos = [&](int r) { return cols[static_cast<std::size_t>(r)] < 0 ? 0.0 : sp.position(k, cols[static_cast<std::size_t>(r)]); };
       o << fmt::format("{:.4f},{:.6f},{:.5f},{:.5f},{:.6f},{:.6f},{:.6f},{:.5f},{:.5f},{:.5f},{:.4f},{:.4f},{:.4f},{:.5f},{:.5f}\n",
@@ -314,7 +314,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
     files.push_back("motion.csv");
   }
 
-  // Charts (seed 003 Fig. 3 b-f), against the arc length.
+  // Charts (Chen et al. 2016 Fig. 3 b-f), against the arc length.
   std::vector<std::string> images;
   if (!args.no_render) {
     render::Window window;
@@ -411,7 +411,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
   report["servo"] = {{"model", servo.description},
                      {"natural_frequency_rad_s", model.natural_frequency()},
                      {"simulated_by", servo.simulate.empty() ? "drives::simulate_axes (the machine's cascades)"
-                                                             : "drives::TransferFunctionAxis per axis"}};
+                                                             : "methods::TransferFunctionAxis per axis"}};
   report["limits"] = {{"period_s", te},
                       {"chord_error_um", spec.chord_error_mm * 1e3},
                       {"contour_error_um", spec.contour_error_mm * 1e3},
@@ -480,7 +480,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
   if (played.max_abs_mm > spec.contour_error_mm)
     std::printf("NOTE: the simulated contour error of the plan exceeds the tolerance (%s)\n",
                 spec.verify ? "the verification rounds did not bring it within: see report.json"
-                            : "[feedplan] verify = false: seed 003's model alone");
+                            : "[feedplan] verify = false: Chen et al.'s model alone");
   return 0;
 }
 

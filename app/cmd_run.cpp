@@ -1,19 +1,19 @@
 // vmsim run JOB: the whole chain. Program -> interpolator -> drives -> kinematics -> material removal -> surfaces,
 // and the marks: the signed deviation of the predicted surface from the reference surface.
-#include "app/axis_following.hpp"
+#include "sim/axis_following.hpp"
 #include "app/commands.hpp"
-#include "app/contour_stats.hpp"
+#include "sim/contour_stats.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "app/result_images.hpp"
-#include "app/run_pipeline.hpp"
-#include "app/signals.hpp"
+#include "sim/pipeline.hpp"
+#include "sim/signals.hpp"
 #include "app/run_plan.hpp"
 #include "app/tiled_run.hpp"
 #include "app/mpi_session.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/kinematics.hpp"
+#include "motion/kinematics.hpp"
 #include "core/stl.hpp"
 #include "metrology/grid_io.hpp"
 #include "metrology/marks.hpp"
@@ -37,8 +37,8 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 // --tiles-out, rank 0: report.json without the whole-part results (marks, meshes, pictures need the whole grid):
 // the motion's figures, the removal's, and every rank's tile.
-int write_tiles_report(const core::Job& job, const RunArgs& args, const std::filesystem::path& dir, const Field& field,
-                       const Reference& reference, const Motion& motion, const removal::TrackSweeps& ts,
+int write_tiles_report(const core::Job& job, const RunArgs& args, const std::filesystem::path& dir, const sim::Field& field,
+                       const sim::Reference& reference, const sim::Motion& motion, const removal::TrackSweeps& ts,
                        const nlohmann::json& tiles_json, Clock::time_point t_start) {
   nlohmann::json report = report_header("run", job);
   double rays = 0;
@@ -47,7 +47,7 @@ int write_tiles_report(const core::Job& job, const RunArgs& args, const std::fil
                        {"field", field.kind == core::RemovalSpec::Field::ZMap ? "zmap" : "tridexel"},
                        {"spacing_mm", field.spacing_mm},
                        {"rays", rays},
-                       {"motion", motion_name(job.removal.motion)},
+                       {"motion", sim::motion_name(job.removal.motion)},
                        {"sweeps", ts.sweeps.size()},
                        {"track_tolerance_mm", job.removal.track_tolerance_mm},
                        {"track_error_bound_mm", ts.error_bound_mm}};
@@ -55,8 +55,8 @@ int write_tiles_report(const core::Job& job, const RunArgs& args, const std::fil
   report["tiles"]["manifest"] = "tiles.json";
   report["reference"] = reference.name;
   if (motion.contour) {
-    const ContourStats cutting = cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
-    report["contour_error"] = contour_json(*motion.contour, cutting);
+    const sim::ContourStats cutting = sim::cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
+    report["contour_error"] = sim::contour_json(*motion.contour, cutting);
   }
   if (job.removal.motion != core::RemovalSpec::Motion::Program)
     report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
@@ -66,7 +66,7 @@ int write_tiles_report(const core::Job& job, const RunArgs& args, const std::fil
   report["timings_s"] = {{"total", seconds_since(t_start)}};
   write_report(dir / "report.json", report);
   std::printf("job %s: %s motion, %zu sweeps on %.0f rays in %d tiles\n", job.name.c_str(),
-              motion_name(job.removal.motion), ts.sweeps.size(), rays, tiles_json["ranks"].get<int>());
+              sim::motion_name(job.removal.motion), ts.sweeps.size(), rays, tiles_json["ranks"].get<int>());
   std::printf("wrote %s: tiles.json, report.json and tiles/ (one X3P per rank%s) in %.1f s\n", dir.string().c_str(),
               reference.field ? ", surface and deviation" : "", seconds_since(t_start));
   (void)args;
@@ -87,37 +87,37 @@ int run_run(const RunArgs& args) {
   const ImageOptions image_opt = args.no_render ? ImageOptions{} : image_options(image_args);
   if (args.plan) return run_plan(job, args);
   // Under mpirun: this rank's tile of the stock (app/tiled_run.hpp); otherwise the whole stock.
-  const Tile tile = process_tile();
+  const removal::Tile tile = process_tile();
   const bool root = mpi_rank() == 0;
   if (args.tiles_out && tile.whole())
     throw core::Error("--tiles-out: writes one file per MPI rank; run under mpirun -np N (N > 1)");
   if (args.tiles_out && job.removal.field == core::RemovalSpec::Field::NBuffer)
     throw core::Error(job.file.string() + ": --tiles-out writes each tile's height grid; [removal] field = \"nbuffer\" "
                       "has none (run without --tiles-out: the needles are gathered)");
-  Progress progress(!args.quiet && root);
+  TerminalProgress progress(!args.quiet && root);
   std::set<std::string> chain;
 
   auto t0 = Clock::now();
-  Field field = initial_field(job, progress, chain, tile);
+  sim::Field field = sim::initial_field(job, progress, chain, tile);
   const double t_stock = seconds_since(t0);
-  const Field start = field;  // the stock this job starts from (reference "stock")
+  const sim::Field start = field;  // the stock this job starts from (reference "stock")
 
   const double feed_scale = args.feed_scale.value_or(1.0);
-  Motion motion = simulate_motion(job, feed_scale, job.removal.motion, progress);
-  add_contour_error(motion, job);
+  sim::Motion motion = sim::simulate_motion(job, feed_scale, job.removal.motion, progress);
+  sim::add_contour_error(motion, job);
 
   t0 = Clock::now();
   const double cpu0 = process_cpu_s();
   progress.stage(job.name + ": material removal");
-  const removal::PoseTrack track = track_of(motion, job, job.removal.motion);
-  const removal::TrackSweeps ts = sweeps_of(job, track);
-  const std::size_t sweeps_in_tile = cut_field(field, ts.sweeps);
+  const removal::PoseTrack track = sim::track_of(motion, job, job.removal.motion);
+  const removal::TrackSweeps ts = sim::sweeps_of(job, track);
+  const std::size_t sweeps_in_tile = sim::cut_field(field, ts.sweeps);
   progress.done();
   const double t_cut = seconds_since(t0), cpu_cut = process_cpu_s() - cpu0;
 
   // The reference surface.
   t0 = Clock::now();
-  Reference reference = reference_field(job, start, feed_scale, progress);
+  sim::Reference reference = sim::reference_field(job, start, feed_scale, progress);
   const double t_ref = seconds_since(t0);
 
   const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
@@ -162,8 +162,8 @@ int run_run(const RunArgs& args) {
       return 0;
     }
     progress.stage(job.name + ": gathering the tiles to rank 0");
-    std::optional<Field> whole = gather_field(field);
-    std::optional<Field> whole_ref;
+    std::optional<sim::Field> whole = gather_field(field);
+    std::optional<sim::Field> whole_ref;
     if (reference.field) whole_ref = gather_field(*reference.field);
     progress.done();
     if (!root) {
@@ -173,7 +173,7 @@ int run_run(const RunArgs& args) {
     field = std::move(*whole);
     if (reference.field) reference.field = std::move(*whole_ref);
   }
-  const std::optional<Field>& ref = reference.field;
+  const std::optional<sim::Field>& ref = reference.field;
   const std::string& ref_name = reference.name;
 
   // Outputs.
@@ -210,7 +210,7 @@ int run_run(const RunArgs& args) {
   };
   auto write_vdb_part = [&]() { write_level_set_part(field.part, ref && ref->vdb ? &ref->part : nullptr); };
   if (field.kind != core::RemovalSpec::Field::NBuffer) {
-    const core::HeightGrid pred = surface_of(field);
+    const core::HeightGrid pred = sim::surface_of(field);
     metrology::write_height_csv(dir / "surface.csv", pred);
     metrology::write_height_npy(dir / "surface.npy", pred);
     files.insert(files.end(), {"surface.csv", "surface.npy", "surface.npy.json"});
@@ -222,7 +222,7 @@ int run_run(const RunArgs& args) {
     files.push_back("surface.x3p");
     std::optional<core::HeightGrid> dev;
     if (ref) {
-      const core::HeightGrid rs = surface_of(*ref);
+      const core::HeightGrid rs = sim::surface_of(*ref);
       dev = metrology::deviation(pred, rs);
       metrology::write_height_csv(dir / "reference.csv", rs);
       metrology::write_height_csv(dir / "deviation.csv", *dev);
@@ -264,8 +264,8 @@ int run_run(const RunArgs& args) {
       surface_json["deviation_max_mm"] = hi;
     }
   } else {
-    const Eigen::VectorXd pred = needle_offsets(field);
-    const Eigen::VectorXd rs = ref ? needle_offsets(*ref) : Eigen::VectorXd::Constant(pred.size(), NAN);
+    const Eigen::VectorXd pred = sim::needle_offsets(field);
+    const Eigen::VectorXd rs = ref ? sim::needle_offsets(*ref) : Eigen::VectorXd::Constant(pred.size(), NAN);
     core::AtomicFile out(dir / "needles.csv");
     out.stream() << "x_mm,y_mm,z_mm,nx,ny,nz,surface_offset_mm,reference_offset_mm,deviation_mm\n";
     double worst = 0, lo = INFINITY, hi = -INFINITY;
@@ -305,9 +305,9 @@ int run_run(const RunArgs& args) {
                           {"y_mm", m.y_mm}, {"x_extent_mm", m.x_extent_mm}, {"y_extent_mm", m.y_extent_mm},
                           {"area_mm2", m.area_mm2}});
   if (motion.response && motion.contour) {
-    images.signals = motion_signals(job, motion.program, motion.interp.setpoints, *motion.response, *motion.contour,
+    images.signals = sim::motion_signals(job, motion.program, motion.interp.setpoints, *motion.response, *motion.contour,
                                     feed_scale);
-    write_signals(dir / "signals.csv", *images.signals);
+    sim::write_signals(dir / "signals.csv", *images.signals);
     files.push_back("signals.csv");
   }
   const double t_write = seconds_since(t0);
@@ -342,10 +342,10 @@ int run_run(const RunArgs& args) {
                        {"spacing_mm", field.spacing_mm},
                        {"rays", field.rays()},
                        {"memory_bytes", field.memory_bytes()},
-                       {"motion", motion_name(job.removal.motion)},
+                       {"motion", sim::motion_name(job.removal.motion)},
                        {"track_points", ts.points},
                        {"sweeps", ts.sweeps.size()},
-                       {"track_tolerance_mm", track_tolerance(job, track_turns(track))},
+                       {"track_tolerance_mm", sim::track_tolerance(job, sim::track_turns(track))},
                        {"track_error_bound_mm", ts.error_bound_mm},
                        {"tool_axis_turns", track.axis_per_sample.rows() > 0},
                        {"orientation_error_mm", ts.orientation_error_mm}};
@@ -367,16 +367,16 @@ int run_run(const RunArgs& args) {
                                {"setpoints", motion.interp.setpoints.samples()},
                                {"period_s", motion.interp.setpoints.period_s}};
   if (motion.response) {
-    // Follow-up error of every axis (seed 004 section 4 reports the rotary axes' in degrees) and of the tool axis.
-    const auto kin = core::make_kinematics(job.machine);
+    // Follow-up error of every axis (the feed-drive simulation paper section 4 reports the rotary axes' in degrees) and of the tool axis.
+    const auto kin = motion::make_kinematics(job.machine);
     report["axis_following_error"] =
-        axis_following_json(job.machine, motion.interp.setpoints, motion.response->position, kin.get(),
-                            [&](Eigen::Index k) { return tlo_at(motion, k); });
+        sim::axis_following_json(job.machine, motion.interp.setpoints, motion.response->position, kin.get(),
+                            [&](Eigen::Index k) { return sim::tlo_at(motion, k); });
   }
-  std::optional<ContourStats> cutting;
+  std::optional<sim::ContourStats> cutting;
   if (motion.contour) {
-    cutting = cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
-    report["contour_error"] = contour_json(*motion.contour, *cutting);
+    cutting = sim::cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
+    report["contour_error"] = sim::contour_json(*motion.contour, *cutting);
   }
   report["files"] = files;
   nlohmann::json timings = motion.timings;
@@ -394,11 +394,11 @@ int run_run(const RunArgs& args) {
 
   if (field.vdb)
     std::printf("job %s: %s motion, %zu sweeps on a level set of %zu voxels at %g mm (%.1f MB, estimated %.1f MB)\n",
-                job.name.c_str(), motion_name(job.removal.motion), ts.sweeps.size(), field.part.active_voxels(),
+                job.name.c_str(), sim::motion_name(job.removal.motion), ts.sweeps.size(), field.part.active_voxels(),
                 job.removal.voxel_mm, field.memory_bytes() / 1e6, field.vdb_estimate_bytes / 1e6);
   else
     std::printf("job %s: %s motion, %zu sweeps on %zu rays (%.1f MB)\n", job.name.c_str(),
-                motion_name(job.removal.motion), ts.sweeps.size(), field.rays(), field.memory_bytes() / 1e6);
+                sim::motion_name(job.removal.motion), ts.sweeps.size(), field.rays(), field.memory_bytes() / 1e6);
   if (cutting)
     std::printf("contour error on cutting moves: max %.2f um, rms %.2f um\n", cutting->max_abs_mm * 1e3,
                 cutting->rms_mm * 1e3);

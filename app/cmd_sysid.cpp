@@ -1,13 +1,13 @@
 // vmsim identify --trace TRACE.csv: each axis's discrete transfer function from command to encoder position (seed
 // 001 sections 2-3): ARX, ARMAX and OE fitted on the estimation data, validated on separate data, ranked by the
-// validation MSE as seed 001 Table 2, the chosen one written to axis_models.toml for jobs to run on.
+// validation MSE as the predictive-compensation paper Table 2, the chosen one written to axis_models.toml for jobs to run on.
 #include "app/commands_sysid.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/sha256.hpp"
-#include "drives/axis_model_file.hpp"
-#include "drives/position_trace.hpp"
-#include "drives/sysid.hpp"
+#include "sysid/axis_model_file.hpp"
+#include "sysid/position_trace.hpp"
+#include "sysid/sysid.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -23,9 +23,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-drives::ModelOrders parse_orders(const std::string& s, int nc, bool& automatic) {
+sysid::ModelOrders parse_orders(const std::string& s, int nc, bool& automatic) {
   automatic = s == "auto";
-  drives::ModelOrders o;
+  sysid::ModelOrders o;
   o.nc = nc;
   if (automatic) return o;
   const auto comma = s.find(',');
@@ -49,8 +49,8 @@ drives::ModelOrders parse_orders(const std::string& s, int nc, bool& automatic) 
   return o;
 }
 
-drives::IdData deviations(const drives::PositionTrace& t, int axis) {
-  drives::IdData d;
+sysid::IdData deviations(const sysid::PositionTrace& t, int axis) {
+  sysid::IdData d;
   d.u = t.command.col(axis).array() - t.command(0, axis);
   d.y = t.actual.col(axis).array() - t.actual(0, axis);
   d.period_s = t.period_s;
@@ -64,19 +64,19 @@ nlohmann::json poly_json(const Eigen::VectorXd& v) { return std::vector<double>(
 int run_sysid(const SysidArgs& args) {
   const auto t_start = Clock::now();
   // Options first: a bad option must fail before any reading or writing.
-  std::vector<drives::ModelStructure> structures;
-  if (args.structure == "all") structures = {drives::ModelStructure::Arx, drives::ModelStructure::Armax, drives::ModelStructure::Oe};
-  else if (auto s = drives::parse_structure(args.structure)) structures = {*s};
+  std::vector<sysid::ModelStructure> structures;
+  if (args.structure == "all") structures = {sysid::ModelStructure::Arx, sysid::ModelStructure::Armax, sysid::ModelStructure::Oe};
+  else if (auto s = sysid::parse_structure(args.structure)) structures = {*s};
   else throw core::Error(fmt::format("--structure '{}': expected arx, armax, oe or all", args.structure));
-  std::optional<drives::ModelStructure> use;
+  std::optional<sysid::ModelStructure> use;
   if (args.use != "best") {
-    use = drives::parse_structure(args.use);
+    use = sysid::parse_structure(args.use);
     if (!use || std::find(structures.begin(), structures.end(), *use) == structures.end())
       throw core::Error(fmt::format("--use '{}': expected best or one of the structures identified", args.use));
   }
   if (args.nc < 0 || args.nc > 30) throw core::Error(fmt::format("--nc {}: expected 0 to 30", args.nc));
   bool auto_orders = false;
-  const drives::ModelOrders given = parse_orders(args.orders, args.nc, auto_orders);
+  const sysid::ModelOrders given = parse_orders(args.orders, args.nc, auto_orders);
   std::optional<int> delay;
   if (args.delay != "auto") {
     try {
@@ -90,18 +90,18 @@ int run_sysid(const SysidArgs& args) {
   }
 
   if (args.traces.empty()) throw core::Error("--trace: at least one position trace is needed");
-  std::vector<drives::PositionTrace> traces;
-  for (const auto& p : args.traces) traces.push_back(drives::read_position_trace_csv(p));
-  const drives::PositionTrace& trace = traces.front();
+  std::vector<sysid::PositionTrace> traces;
+  for (const auto& p : args.traces) traces.push_back(sysid::read_position_trace_csv(p));
+  const sysid::PositionTrace& trace = traces.front();
   for (std::size_t i = 1; i < traces.size(); ++i)
     if (std::abs(traces[i].period_s - trace.period_s) > 1e-6 * trace.period_s)
       throw core::Error(core::located(args.traces[i].string(), 0,
                                       fmt::format("sampled every {} s, {} every {} s", traces[i].period_s,
                                                   args.traces.front().string(), trace.period_s)));
-  std::optional<drives::PositionTrace> vtrace;
+  std::optional<sysid::PositionTrace> vtrace;
   std::size_t n_est = traces.size();  // traces the estimation uses (the rest: the last one, held out)
   if (args.validate) {
-    vtrace = drives::read_position_trace_csv(*args.validate);
+    vtrace = sysid::read_position_trace_csv(*args.validate);
     if (std::abs(vtrace->period_s - trace.period_s) > 1e-6 * trace.period_s)
       throw core::Error(core::located(args.validate->string(), 0,
                                       fmt::format("sampled every {} s, the trace every {} s", vtrace->period_s, trace.period_s)));
@@ -133,7 +133,7 @@ int run_sysid(const SysidArgs& args) {
   report["period_s"] = trace.period_s;
   report["conditioning"] =
       "deviations from the first (rest) sample of command and encoder, one common scale for both; QR least squares";
-  report["orders_from"] = auto_orders ? "BIC over ARX fits (na 1-8, nb 1-4, nk 1-5)" : "given (seed 001 section 2.2: nb 2, na 5)";
+  report["orders_from"] = auto_orders ? "BIC over ARX fits (na 1-8, nb 1-4, nk 1-5)" : "given (the predictive-compensation paper section 2.2: nb 2, na 5)";
   report["validation"] = args.validate ? "separate trace"
                          : vtrace    ? "the last trace, held out"
                                      : "the trace's second half (model simulated over the whole record)";
@@ -142,7 +142,7 @@ int run_sysid(const SysidArgs& args) {
                                                  n_est)
                                    : std::string("one trace");
 
-  drives::AxisModelFile file;
+  sysid::AxisModelFile file;
   file.period_s = trace.period_s;
   file.trace = args.traces.front().filename().string();
   for (std::size_t i = 1; i < n_est; ++i) file.trace += ", " + args.traces[i].filename().string();
@@ -150,15 +150,15 @@ int run_sysid(const SysidArgs& args) {
   for (const std::string& name : axes) {
     const int ai = trace.axis_index(name);
     const bool rotary = trace.rotary[static_cast<std::size_t>(ai)];
-    const drives::IdData all = deviations(trace, ai);
-    drives::IdData est = all;
+    const sysid::IdData all = deviations(trace, ai);
+    sysid::IdData est = all;
     Eigen::Index first_val = 0;
-    drives::IdData val;
+    sysid::IdData val;
     if (n_est > 1) {
       // Each trace its own experiment, as deviations from its own rest point.
-      std::vector<drives::IdData> parts;
+      std::vector<sysid::IdData> parts;
       for (std::size_t i = 0; i < n_est; ++i) parts.push_back(deviations(traces[i], traces[i].axis_index(name)));
-      est = drives::concatenate(parts);
+      est = sysid::concatenate(parts);
     }
     if (vtrace) {
       val = deviations(*vtrace, vtrace->axis_index(name));
@@ -173,28 +173,28 @@ int run_sysid(const SysidArgs& args) {
       std::fprintf(stderr, "vmsim: warning: axis %s: the trace does not start at rest (command and encoder differ by "
                            "%.4g); identification assumes it does\n",
                    name.c_str(), std::abs(trace.command(0, ai) - trace.actual(0, ai)));
-    drives::ModelOrders o = given;
+    sysid::ModelOrders o = given;
     try {
       if (auto_orders) {
-        o = drives::select_orders_bic(est);
+        o = sysid::select_orders_bic(est);
         o.nc = args.nc;
       }
       if (delay) o.nk = *delay;
-      else if (!auto_orders) o.nk = drives::select_delay(est, o.na, o.nb);
+      else if (!auto_orders) o.nk = sysid::select_delay(est, o.na, o.nb);
     } catch (const core::Error& e) {
       throw core::Error(core::located(trace.source, 0, fmt::format("axis {}: {}", name, e.what())));
     }
 
-    struct Row { drives::IdentifiedModel m; drives::Validation v; double seconds; };
+    struct Row { sysid::IdentifiedModel m; sysid::Validation v; double seconds; };
     std::vector<Row> rows;
-    for (drives::ModelStructure s : structures) {
+    for (sysid::ModelStructure s : structures) {
       const auto t0 = Clock::now();
       try {
-        drives::IdentifiedModel m = drives::identify(s, est, o);
-        const drives::Validation v = drives::validate(m, val, 25, first_val);
+        sysid::IdentifiedModel m = sysid::identify(s, est, o);
+        const sysid::Validation v = sysid::validate(m, val, 25, first_val);
         rows.push_back({std::move(m), v, std::chrono::duration<double>(Clock::now() - t0).count()});
       } catch (const core::Error& e) {
-        throw core::Error(core::located(trace.source, 0, fmt::format("axis {} {}: {}", name, drives::structure_name(s), e.what())));
+        throw core::Error(core::located(trace.source, 0, fmt::format("axis {} {}: {}", name, sysid::structure_name(s), e.what())));
       }
     }
     std::vector<std::size_t> rank(rows.size());
@@ -211,10 +211,10 @@ int run_sysid(const SysidArgs& args) {
     jaxis["orders"] = {{"na", o.na}, {"nb", o.nb}, {"nc", o.nc}, {"nk", o.nk}};
     for (std::size_t i = 0; i < rows.size(); ++i) {
       const Row& r = rows[i];
-      const char* sn = drives::structure_name(r.m.structure);
+      const char* sn = sysid::structure_name(r.m.structure);
       std::printf("%-4s  %-9s  %2d %2d %2s %2d   %9.5f  %9.3f       %.3e   %.3e       %-5s  %d\n", name.c_str(), sn,
                   r.m.orders.na, r.m.orders.nb,
-                  r.m.structure == drives::ModelStructure::Armax ? std::to_string(r.m.orders.nc).c_str() : "-",
+                  r.m.structure == sysid::ModelStructure::Armax ? std::to_string(r.m.orders.nc).c_str() : "-",
                   r.m.orders.nk, r.v.fit_percent, r.v.tracking_fit_percent, 1.0 - r.v.r2, r.v.mse * f2,
                   r.v.white ? "yes" : "no", place[i]);
       nlohmann::json jm = {
@@ -246,9 +246,9 @@ int run_sysid(const SysidArgs& args) {
                                          rows.begin())
                                    : rank.front();
     const Row& c = rows[chosen];
-    jaxis["chosen"] = drives::structure_name(c.m.structure);
+    jaxis["chosen"] = sysid::structure_name(c.m.structure);
     report["axes"][name] = jaxis;
-    drives::IdentifiedAxis ia;
+    sysid::IdentifiedAxis ia;
     ia.name = name;
     ia.structure = c.m.structure;
     ia.tf = c.m.g;
@@ -262,15 +262,15 @@ int run_sysid(const SysidArgs& args) {
   std::filesystem::create_directories(dir, ec);
   if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
   std::vector<std::string> comments = {
-      "Identified axis models (seed 001): discrete transfer functions from command to encoder position,",
+      "Identified axis models (the predictive-compensation paper): discrete transfer functions from command to encoder position,",
       "A(q) y(k) = B(q) u(k - nk), A = 1 + a1 q^-1 + ..., B = b1 + b2 q^-1 + ...; u, y deviations from the rest point.",
       "Written by vmsim identify from " + file.trace + "; keys in parts/README.md."};
-  drives::save_axis_models(dir / "axis_models.toml", file, comments);
+  sysid::save_axis_models(dir / "axis_models.toml", file, comments);
   report["files"] = {"axis_models.toml", "report.json"};
   report["timings_s"] = {{"total", std::chrono::duration<double>(Clock::now() - t_start).count()}};
   core::write_file_atomic(dir / "report.json", report.dump(2) + "\n");
   std::printf("chosen:");
-  for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), drives::structure_name(a.structure));
+  for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), sysid::structure_name(a.structure));
   std::printf(" (lowest validation MSE%s)\nwrote %s (axis_models.toml, report.json)\n", use ? ", overridden by --use" : "",
               dir.string().c_str());
   return 0;

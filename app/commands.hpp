@@ -32,7 +32,7 @@ struct IdentifyArgs {
   std::optional<double> smoothing_ms;            // IdentifyOptions::smoothing_s, in ms
   std::optional<std::filesystem::path> out_dir;  // drive_identified.toml, friction_fit.csv, report.json
 };
-// vmsim identify-friction TRACE: Coulomb and viscous friction, gravity offset and inertia of one axis (seed 004 3.1).
+// vmsim identify-friction TRACE: Coulomb and viscous friction, gravity offset and inertia of one axis (the feed-drive simulation paper 3.1).
 int run_identify_friction(const IdentifyArgs& args);
 
 struct MotionArgs {
@@ -133,7 +133,7 @@ struct PlanFeedArgs {
   std::optional<std::filesystem::path> out_dir;  // default: the current directory
   bool no_render = false;                        // no charts
 };
-// vmsim plan-feed JOB: seed 003's contour-error-constrained feed plan (drives/feedplan), played by the interpolator
+// vmsim plan-feed JOB: Chen et al.'s contour-error-constrained feed plan (drives/feedplan), played by the interpolator
 // and simulated through the servo: feed_profile.csv, motion.csv, report.json, charts.
 int run_plan_feed(const PlanFeedArgs& args);
 

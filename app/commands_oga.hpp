@@ -1,5 +1,5 @@
 #pragma once
-// vmsim oga: offline gain adjustment (seed 000) as a command. Its own header so that app/commands.hpp is not touched.
+// vmsim oga: offline gain adjustment (Duong et al.) as a command. Its own header so that app/commands.hpp is not touched.
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -10,18 +10,18 @@ namespace vmsim::app {
 struct OgaArgs {
   std::filesystem::path job;                     // a biaxial job (two of X Y Z move)
   std::optional<std::filesystem::path> out_dir;  // default: the current directory
-  std::string kp_grid = "1:0.5:9";               // MIN:STEP:MAX, (m/min)/mm (seed 000 section III.D)
+  std::string kp_grid = "1:0.5:9";               // MIN:STEP:MAX, (m/min)/mm (Duong et al. section III.D)
   std::string kf_grid = "0:0.1:1.2";             // MIN:STEP:MAX
   std::vector<std::string> ranges;               // "MIN:MAX" (every adjusted axis) or "AXIS=MIN:MAX", repeatable
   double gain_step = 0.03;                       // dK, (m/min)/mm
   double frequency_hz = 10.0;                    // f of eq. 3's sinusoid
   std::string reference = "best";                // C1: "best" (the best admissible fixed pair) or "machine"
-  double straight_curvature_per_mm = 1e-4;       // window options (drives::WindowOptions)
+  double straight_curvature_per_mm = 1e-4;       // window options (methods::WindowOptions)
   double transition_rate_per_mm2 = 0.01;
   long long min_window_rows = 3;
   long long lead_in_rows = 100;
   double settle_s = 0.2;
-  bool from_start = false;                       // Task 2 as seed 000: every candidate from the first instant
+  bool from_start = false;                       // Task 2 as Duong et al.: every candidate from the first instant
   std::optional<int> threads;                    // OpenMP threads (default: OpenMP's own)
   bool no_render = false;                        // no charts
   std::string image_size = "1600x900";

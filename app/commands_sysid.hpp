@@ -1,5 +1,5 @@
 #pragma once
-// The seed 001 subcommands: excite, identify (transfer functions from a position trace), compensate.
+// The the predictive-compensation paper subcommands: excite, identify (transfer functions from a position trace), compensate.
 // main.cpp parses the command line; each returns the exit code and throws core::Error for input a user must fix.
 #include <filesystem>
 #include <optional>
@@ -33,13 +33,13 @@ struct SysidArgs {
   std::optional<std::filesystem::path> validate;
   std::vector<std::string> axes;                 // default: every axis in the trace
   std::string structure = "all";                 // arx | armax | oe | all
-  std::string orders = "2,5";                    // nb,na (seed 001: 2,5) or auto (BIC)
+  std::string orders = "2,5";                    // nb,na (the predictive-compensation paper: 2,5) or auto (BIC)
   int nc = 2;                                    // ARMAX noise order
   std::string delay = "auto";                    // nk in samples, or auto (smallest ARX loss over 1..5)
   std::string use = "best";                      // structure written to the model file: best (validation MSE) or one
   std::optional<std::filesystem::path> out_dir;  // axis_models.toml, report.json
 };
-// vmsim identify --trace TRACE.csv: ARX / ARMAX / OE per axis, validated, ranked (seed 001 Table 2).
+// vmsim identify --trace TRACE.csv: ARX / ARMAX / OE per axis, validated, ranked (the predictive-compensation paper Table 2).
 int run_sysid(const SysidArgs& args);
 
 struct CompensateArgs {
@@ -52,7 +52,7 @@ struct CompensateArgs {
   bool tip_only = false;                         // five-axis: correct the tool tip only, not the tool axis
   bool dense_program = false;                    // also write compensated_dense.ngc (one G93 block per setpoint)
 };
-// vmsim compensate JOB: predicted contour error added back to the setpoints (seed 001 section 4); compensated
+// vmsim compensate JOB: predicted contour error added back to the setpoints (the predictive-compensation paper section 4); compensated
 // setpoints CSV, compensated G-code, report.json with the contour error before and after.
 int run_compensate(const CompensateArgs& args);
 

@@ -85,10 +85,10 @@ int run_command(int argc, char** argv) {
   motion->add_flag("--full-rate-trace", motion_args.full_rate_trace,
                    "also write every current-loop sample of every axis (trace_<axis>.csv, large)");
 
-  // Seed 000: offline gain adjustment of a biaxial profile.
+  // Duong et al.: offline gain adjustment of a biaxial profile.
   vmsim::app::OgaArgs oga_args;
   auto* oga = app.add_subcommand(
-      "oga", "Offline gain adjustment (seed 000): admissible gains per axis, the best fixed pair (C1), a position-gain "
+      "oga", "Offline gain adjustment (Duong et al.): admissible gains per axis, the best fixed pair (C1), a position-gain "
              "schedule by receding windows (C2) for [job] gain_schedule, MSE(CE) C1 vs C2, limits, currents, charts");
   oga->add_option("JOB", oga_args.job, "job file of a biaxial profile (two of X Y Z move)")->required()->check(CLI::ExistingFile);
   oga->add_option("--out,-o", oga_args.out_dir, "output directory (created if absent)");
@@ -96,7 +96,7 @@ int run_command(int argc, char** argv) {
   oga->add_option("--kf-grid", oga_args.kf_grid, "KF values swept, MIN:STEP:MAX (default 0:0.1:1.2)");
   oga->add_option("--range", oga_args.ranges,
                   "Kv range of the schedule, MIN:MAX for every axis or AXIS=MIN:MAX, repeatable (default: [Kv1 - 1, "
-                  "Kv1 + 0.5] around C1 within the admissible Kv, as seed 000's [5, 6.5] around 6)");
+                  "Kv1 + 0.5] around C1 within the admissible Kv, as Duong et al.'s [5, 6.5] around 6)");
   oga->add_option("--dk", oga_args.gain_step, "gain step dK of the candidates, (m/min)/mm (default 0.03)");
   oga->add_option("--frequency-hz", oga_args.frequency_hz, "f of the gain function's sinusoid, eq. 3 (default 10: p = 50 at Te 1 ms)");
   oga->add_option("--reference", oga_args.reference, "C1: best (the best admissible fixed pair, default) or machine (the machine file's gains)")
@@ -109,7 +109,7 @@ int run_command(int argc, char** argv) {
   oga->add_option("--lead-in-rows", oga_args.lead_in_rows, "rows before a window in its contour error (default 100)");
   oga->add_option("--settle-s", oga_args.settle_s, "simulated after the last setpoint, s (default 0.2)");
   oga->add_flag("--from-start", oga_args.from_start,
-                "simulate every candidate from the first instant, as seed 000 (same answer, slower)");
+                "simulate every candidate from the first instant, as Duong et al. (same answer, slower)");
   oga->add_option("--threads", oga_args.threads, "OpenMP threads (default: all; the result does not depend on it)");
   oga->add_flag("--no-render", oga_args.no_render, "draw no charts (by default: PNG files in OUT/images)");
   oga->add_option("--image-size", oga_args.image_size, "size of the charts, WIDTHxHEIGHT (default 1600x900)");
@@ -248,19 +248,19 @@ int run_command(int argc, char** argv) {
   plan_feed->add_option("--out,-o", plan_feed_args.out_dir, "output directory (created if absent)");
   plan_feed->add_flag("--no-render", plan_feed_args.no_render, "draw no charts (by default: PNG files in OUT/images)");
 
-  // Seed 001: identification signals, transfer-function identification, predictive compensation.
+  // The predictive-compensation paper: identification signals, transfer-function identification, predictive compensation.
   vmsim::app::ExciteArgs excite_args;
   auto* excite = app.add_subcommand(
-      "excite", "Write seed 001's identification signal for one axis (inverse M-sequence or PRBS, eq. 8-15) as a "
+      "excite", "Write the predictive-compensation paper's identification signal for one axis (inverse M-sequence or PRBS, eq. 8-15) as a "
                 "G-code program or a setpoint CSV; --simulate also writes the trace the machine file's drive gives");
   excite->add_option("AXIS", excite_args.axis, "axis name (X Y Z A B C)")->required();
   excite->add_option("--machine,-m", excite_args.machine, "machine file")->required()->check(CLI::ExistingFile);
   excite->add_option("--out,-o", excite_args.out, "output: .ngc (G-code) or .csv (t_s and the setpoint every Te)")->required();
-  excite->add_option("--signal", excite_args.signal, "inverse-m (default: no DC, seed 001) or prbs");
+  excite->add_option("--signal", excite_args.signal, "inverse-m (default: no DC, the predictive-compensation paper) or prbs");
   excite->add_option("--bits", excite_args.bits, "shift-register length n, 2..20 (default: from --resolution-hz)");
   excite->add_option("--resolution-hz", excite_args.resolution_hz, "lowest frequency resolved, 1 / signal period (default 1)");
   excite->add_option("--bandwidth-hz", excite_args.bandwidth_hz,
-                     "axis bandwidth the signal covers: Td = q Te with 0.433 / Td >= B (default 100, seed 001)");
+                     "axis bandwidth the signal covers: Td = q Te with 0.433 / Td >= B (default 100, the predictive-compensation paper)");
   excite->add_option("--td-ms", excite_args.td_ms, "minimum switching interval Td in ms (overrides --bandwidth-hz)");
   excite->add_option("--amplitude", excite_args.amplitude, "a: +-a about the ramp, mm or deg (default 0.05)");
   excite->add_option("--feed", excite_args.feed,
@@ -274,7 +274,7 @@ int run_command(int argc, char** argv) {
 
   vmsim::app::SysidArgs sysid_args;
   auto* sysid = app.add_subcommand(
-      "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; seed 001), "
+      "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; the predictive-compensation paper), "
                   "validate, rank, and write axis_models.toml for jobs to run on");
   sysid->add_option("--trace,-t", sysid_args.traces,
                     "position trace CSV: t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ... (vmsim motion's trace.csv); repeat it for "
@@ -292,7 +292,7 @@ int run_command(int argc, char** argv) {
 
   vmsim::app::CompensateArgs comp_args;
   auto* compensate = app.add_subcommand(
-      "compensate", "Predict a job's contour error and add it back to the setpoints (seed 001): compensated setpoints, "
+      "compensate", "Predict a job's contour error and add it back to the setpoints (the predictive-compensation paper): compensated setpoints, "
                     "a compensated G-code program, contour error before and after");
   compensate->add_option("JOB", comp_args.job, "job file (job.toml)")->required()->check(CLI::ExistingFile);
   compensate->add_option("--out,-o", comp_args.out_dir, "output directory (created if absent)");

@@ -6,16 +6,16 @@
 
 namespace vmsim::app {
 
-Progress::Progress(bool enabled) : tty_(::isatty(2) != 0), enabled_(enabled) {}
+TerminalProgress::TerminalProgress(bool enabled) : tty_(::isatty(2) != 0), enabled_(enabled) {}
 
-void Progress::stage(const std::string& name, double total) {
+void TerminalProgress::stage(const std::string& name, double total) {
   name_ = name;
   total_ = total;
   start_ = last_draw_ = std::chrono::steady_clock::now();
   if (enabled_ && !tty_) std::fprintf(stderr, "vmsim: %s ...\n", name.c_str());
 }
 
-void Progress::update(double done) {
+void TerminalProgress::update(double done) {
   if (!enabled_ || !tty_ || total_ <= 0) return;
   const auto now = std::chrono::steady_clock::now();
   if (now - last_draw_ < std::chrono::milliseconds(100)) return;
@@ -32,7 +32,7 @@ void Progress::update(double done) {
   std::fflush(stderr);
 }
 
-void Progress::done() {
+void TerminalProgress::done() {
   if (!enabled_) return;
   const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   if (tty_) std::fprintf(stderr, "\r%-28s done in %.2f s%40s\n", name_.c_str(), el, "");

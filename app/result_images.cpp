@@ -52,7 +52,7 @@ std::string mm(double v) {
 
 // Each bin's minimum and maximum, in that order, at the bin's mid x: a line through them draws the signal's envelope,
 // which at chart resolution is the full-rate curve with every peak. One point per bin when bins hold one sample.
-render::Series envelope(const BinnedSignals& s, const std::string& xname, const std::string& yname, double yscale,
+render::Series envelope(const sim::BinnedSignals& s, const std::string& xname, const std::string& yname, double yscale,
                         const std::string& label, int colour, double width = 1.6) {
   const int xi = s.find(xname), yi = s.find(yname);
   render::Series out;
@@ -79,7 +79,7 @@ render::Series envelope(const BinnedSignals& s, const std::string& xname, const 
 
 bool has_data(const render::Series& s) { return (s.x.isFinite() && s.y.isFinite()).any(); }
 
-double max_abs(const BinnedSignals& s, const std::string& name) {
+double max_abs(const sim::BinnedSignals& s, const std::string& name) {
   const int i = s.find(name);
   if (i < 0) return kNaN;
   double m = 0;
@@ -89,7 +89,7 @@ double max_abs(const BinnedSignals& s, const std::string& name) {
   return m;
 }
 
-double range_of(const BinnedSignals& s, const std::string& name) {
+double range_of(const sim::BinnedSignals& s, const std::string& name) {
   const int i = s.find(name);
   if (i < 0) return 0;
   const Eigen::ArrayXd lo = s.min.col(i), hi = s.max.col(i);
@@ -212,7 +212,7 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
 }
 
 void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
-  const BinnedSignals& s = *d.signals;
+  const sim::BinnedSignals& s = *d.signals;
   render::ChartPicture base;
   base.width = o.width, base.height = o.height;
   const std::string decimation =
@@ -379,7 +379,7 @@ ResultData load_results(const fs::path& dir) {
     d.deviation = metrology::read_height_csv(dir / "deviation.csv");
     d.marks = metrology::find_marks(*d.deviation, 1e-3);  // as vmsim run: marks deeper than 1 um
   }
-  if (fs::exists(dir / "signals.csv", ec)) d.signals = read_signals(dir / "signals.csv");
+  if (fs::exists(dir / "signals.csv", ec)) d.signals = sim::read_signals(dir / "signals.csv");
   if (!d.surface && !d.deviation && !d.signals)
     throw core::Error(dir.string() + ": nothing to render: no surface.csv, deviation.csv or signals.csv (written by "
                                      "vmsim run and vmsim motion)");

@@ -2,7 +2,7 @@
 // The pictures of a result directory: `vmsim run` draws them from memory into DIR/images, `vmsim render DIR` from
 // the files run and motion wrote (surface.csv, deviation.csv, report.json, signals.csv).
 #include "app/commands.hpp"
-#include "app/signals.hpp"
+#include "sim/signals.hpp"
 #include "core/height_grid.hpp"
 #include "metrology/marks.hpp"
 #include "render/scene.hpp"
@@ -20,7 +20,7 @@ struct ResultData {
   std::optional<core::HeightGrid> surface;      // predicted surface
   std::optional<core::HeightGrid> deviation;    // surface - reference, same grid
   std::vector<metrology::Mark> marks;           // deepest first
-  std::optional<BinnedSignals> signals;
+  std::optional<sim::BinnedSignals> signals;
 };
 
 struct ImageOptions {

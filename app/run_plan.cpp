@@ -2,8 +2,9 @@
 #include "app/run_plan.hpp"
 
 #include "app/mpi_session.hpp"
+#include "app/progress.hpp"
 #include "app/report.hpp"
-#include "app/run_pipeline.hpp"
+#include "sim/pipeline.hpp"
 #include "core/error.hpp"
 #include "core/stl.hpp"
 #include "removal/dexel_grid.hpp"
@@ -80,7 +81,7 @@ struct TileSize {
   double rays = 0, bytes = 0;
   std::vector<int> rows;
 };
-TileSize tile_size(const FieldShape& s, const Tile& t) {
+TileSize tile_size(const FieldShape& s, const removal::Tile& t) {
   TileSize z;
   if (s.kind == core::RemovalSpec::Field::NBuffer) {
     const std::size_t block = removal::NeedleSet::kBlock, n = s.needles;
@@ -118,12 +119,12 @@ struct MotionCounts {
   double samples = 0, sweeps = 0;
   bool turning = false;
 };
-MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, Progress& progress) {
-  const Motion m = simulate_motion(job, feed_scale, kind, progress);
-  const removal::PoseTrack track = track_of(m, job, kind);
+MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress) {
+  const sim::Motion m = sim::simulate_motion(job, feed_scale, kind, progress);
+  const removal::PoseTrack track = sim::track_of(m, job, kind);
   MotionCounts c;
   c.samples = kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());
-  c.sweeps = double(sweeps_of(job, track).sweeps.size());
+  c.sweeps = double(sim::sweeps_of(job, track).sweeps.size());
   c.turning = track.axis_per_sample.rows() > 0;
   return c;
 }
@@ -136,7 +137,7 @@ int run_plan(const core::Job& job, const RunArgs& args) {
   if (mpi_rank() != 0) return 0;  // the plan is one process's arithmetic
   const int ranks = args.ranks.value_or(mpi_size());
   if (ranks < 1) throw core::Error("--ranks: expected a whole number >= 1");
-  Progress progress(!args.quiet);
+  TerminalProgress progress(!args.quiet);
   const FieldShape shape = shape_of(job);
   const double feed_scale = args.feed_scale.value_or(1.0);
 
@@ -215,7 +216,7 @@ int run_plan(const core::Job& job, const RunArgs& args) {
   auto rank_totals = [&](int n, bool tiles_out, nlohmann::json* out) {
     double worst = 0;
     for (int r = 0; r < n; ++r) {
-      const Tile t{r, n};
+      const removal::Tile t{r, n};
       const TileSize ts = tile_size(shape, t);
       const TileSize rts = ref_shape ? tile_size(*ref_shape, t) : TileSize{};
       double gather = 0, outputs = 0;

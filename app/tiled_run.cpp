@@ -18,9 +18,9 @@
 
 namespace vmsim::app {
 
-Tile process_tile() {
+removal::Tile process_tile() {
   if (!mpi_active()) return {};
-  return Tile{mpi_rank(), mpi_size()};
+  return removal::Tile{mpi_rank(), mpi_size()};
 }
 
 double peak_rss_bytes() {
@@ -128,14 +128,14 @@ void unpack(const Packed& p, Set&& set) {
 
 }  // namespace
 
-std::optional<Field> gather_field(const Field& tile) {
+std::optional<sim::Field> gather_field(const sim::Field& tile) {
   if (tile.vdb) throw core::Error("tiled run: a level set (method \"vdb\") is not tiled");
   const bool root = mpi_rank() == 0;
-  std::optional<Field> whole;
+  std::optional<sim::Field> whole;
   if (root) {
     // The whole field's geometry, made as a one-process run makes it; its rays come from the tiles.
     whole.emplace();
-    Field& w = *whole;
+    sim::Field& w = *whole;
     w.kind = tile.kind, w.region = tile.region, w.spacing_mm = tile.spacing_mm;
     w.needle_point = tile.needle_point, w.needle_normal = tile.needle_normal, w.needle_half = tile.needle_half;
     switch (tile.kind) {
@@ -194,11 +194,11 @@ std::vector<TileFigures> gather_tile_figures(const TileFigures& mine) {
   return all;
 }
 
-TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_name, const Field& field,
-                     const Field* reference) {
+TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_name, const sim::Field& field,
+                     const sim::Field* reference) {
   if (field.vdb || field.kind == core::RemovalSpec::Field::NBuffer)
     throw core::Error("--tiles-out writes each tile's height grid: it needs a z-map or tri-dexel field");
-  const core::HeightGrid s = surface_of(field);
+  const core::HeightGrid s = sim::surface_of(field);
   const removal::DexelGrid& g = field.kind == core::RemovalSpec::Field::TriDexel ? field.tri.z : field.zmap;
   TileFiles t;
   const int rank = mpi_rank();
@@ -214,7 +214,7 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
                             t.first_row, t.first_row + t.rows - 1);
   metrology::write_x3p(dir / t.surface, s, x3p);
   if (reference) {
-    const core::HeightGrid dev = metrology::deviation(s, surface_of(*reference));
+    const core::HeightGrid dev = metrology::deviation(s, sim::surface_of(*reference));
     t.deviation = fmt::format("tiles/deviation_{:04d}.x3p", rank);
     x3p.comment = fmt::format("deviation of job {}, tile {} of {}: predicted - reference (negative: overcut)", job_name,
                               rank, mpi_size());
@@ -223,7 +223,7 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
   return t;
 }
 
-void write_tile_manifest(const std::filesystem::path& dir, const std::string& job_name, const Field& field,
+void write_tile_manifest(const std::filesystem::path& dir, const std::string& job_name, const sim::Field& field,
                          const TileFiles& mine) {
   // Every rank's entry to rank 0: the numbers in one message, the names rebuilt from the rank (same format).
   const double nums[7] = {double(mine.first_row), double(mine.rows), double(mine.nx), mine.x0_mm, mine.y0_mm,

@@ -9,7 +9,7 @@
 // parallel work, so a tile is a window of rows of the one lattice (removal::DexelGrid::v_first) and no ray is
 // split; a z-map's rows run along x, so its tiles are bands in y. A three-axis finishing program made of passes at
 // constant y (the plane-cylinder part) then gives each rank its own passes: few sweeps reach two tiles.
-#include "app/run_pipeline.hpp"
+#include "sim/pipeline.hpp"
 
 #include <filesystem>
 #include <optional>
@@ -19,12 +19,12 @@
 namespace vmsim::app {
 
 // The tile this process holds: rank of size under MPI, the whole stock otherwise.
-Tile process_tile();
+removal::Tile process_tile();
 
 // Gathers the tiles of a field (collective over every rank): rank 0 gets the whole field, bit-identical to a
 // one-process run's; the other ranks get nullopt. Throws core::Error when the field is too large for one
 // message (MPI counts are int: use --tiles-out).
-std::optional<Field> gather_field(const Field& tile);
+std::optional<sim::Field> gather_field(const sim::Field& tile);
 
 // Figures of one rank's tile, gathered to rank 0 for report.json (every rank calls it; rank 0 gets all ranks').
 struct TileFigures {
@@ -46,11 +46,11 @@ struct TileFiles {
   int first_row = 0, rows = 0, nx = 0;
   double x0_mm = 0, y0_mm = 0, x1_mm = 0, y1_mm = 0;
 };
-TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_name, const Field& field,
-                     const Field* reference);
+TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_name, const sim::Field& field,
+                     const sim::Field* reference);
 // Rank 0: the manifest (every tile's files and x/y ranges, the grid spacing), written after every rank has
 // written its tile (collective over every rank).
-void write_tile_manifest(const std::filesystem::path& dir, const std::string& job_name, const Field& field,
+void write_tile_manifest(const std::filesystem::path& dir, const std::string& job_name, const sim::Field& field,
                          const TileFiles& mine);
 
 // A barrier that sleeps (1 ms polls of MPI_Ibarrier) instead of spinning: a rank that finished its tile early, or

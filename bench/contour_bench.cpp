@@ -1,7 +1,7 @@
-// Contour-error throughput: actual samples per second through core::contour_error (foot-point search, exact
+// Contour-error throughput: actual samples per second through motion::contour_error (foot-point search, exact
 // segment distance, sign), on long synthetic paths sampled as the interpolator samples them (Te = 1 ms).
 // Target: >= 10 M samples/s on one core. Figures: bench/README.md.
-#include "core/contour.hpp"
+#include "motion/contour.hpp"
 
 #include <Eigen/Core>
 #include <benchmark/benchmark.h>
@@ -17,7 +17,7 @@ struct Case {
   Eigen::MatrixXd command, actual;
 };
 
-// Seed 001's starfish contour (five lobes, r = 40 + 8 sin 5 theta mm) at 3 m/min (50 um per sample), laps
+// The predictive-compensation paper's starfish contour (five lobes, r = 40 + 8 sin 5 theta mm) at 3 m/min (50 um per sample), laps
 // repeated to `samples`. The actual lags 12.4 samples (0.62 mm) with a 0-6 um lateral error varying along the
 // path: the lag is ten times the step, so the search has real work to do.
 Case starfish(Eigen::Index samples) {

@@ -2,10 +2,10 @@
 // UCP 710's five cascade drives (current loop 16 kHz, velocity loop 8 kHz, position loop 1 kHz), one thread, on
 // the interpolator's setpoints for the plane-cylinder part's 10 m/min pass. Target (drives issue): >= 100x real
 // time for 5 axes on one core. Figures: bench/README.md.
-#include "core/interp.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
-#include "core/program.hpp"
+#include "motion/kinematics.hpp"
+#include "program/program.hpp"
 #include "drives/cascade_axis.hpp"
 #include "drives/simulate.hpp"
 
@@ -28,15 +28,15 @@ struct Stream {
 const Stream& plane_cylinder_fast() {
   static const Stream s = [] {
     Stream out{core::load_job(kSource / "parts/plane_cylinder/job_fast.toml"), {}};
-    core::ProgramOptions po;
+    program::ProgramOptions po;
     po.tool_table = out.job.tool_table_file;
     po.no_motion_mcodes = out.job.no_motion_mcodes;
     const core::ToolPath tp =
-        core::toolpath_in_axis_space(core::read_program(out.job.program_file, po), out.job.machine);
-    core::InterpOptions io;
+        motion::toolpath_in_axis_space(program::read_program(out.job.program_file, po), out.job.machine);
+    motion::InterpOptions io;
     io.period_s = out.job.interp.period_s;
     io.tolerance_mm = out.job.interp.tolerance_mm;
-    out.setpoints = core::interpolate(tp, out.job.machine, io).setpoints;
+    out.setpoints = motion::interpolate(tp, out.job.machine, io).setpoints;
     return out;
   }();
   return s;

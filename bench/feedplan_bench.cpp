@@ -1,13 +1,13 @@
-// Feed planning (seed 003, drives/feedplan): size and solve time of the linear program on the squared feed, and the
+// Feed planning (Chen et al. 2016, drives/feedplan): size and solve time of the linear program on the squared feed, and the
 // cost growth of the windowed plan with the path length. The path: the butterfly curve (parts/feedplan) sampled by
 // parameter with arc-length correction every 0.05 mm, traversed as many times as the sample count needs (the
-// samples tiled end to end, arc length continued), seed 003 section 4's limits (T 4 ms, chord 0.5 um, contour error
-// 20 um with its PID servo, 50 mm/s, 200 mm/s^2) and the jerk of parts/feedplan/seed003_machine.toml (5000 mm/s^3).
+// samples tiled end to end, arc length continued), Chen et al. 2016 section 4's limits (T 4 ms, chord 0.5 um, contour error
+// 20 um with its PID servo, 50 mm/s, 200 mm/s^2) and the jerk of parts/feedplan/chen2016_machine.toml (5000 mm/s^3).
 // Targets (issue 10): 20 000 samples in <= 1 s; the windowed cost linear in the path length. Figures:
 // bench/README.md.
-#include "core/nurbs.hpp"
-#include "drives/feedplan.hpp"
-#include "drives/feedplan_servo.hpp"
+#include "motion/nurbs.hpp"
+#include "methods/feedplan.hpp"
+#include "methods/feedplan_servo.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -20,17 +20,17 @@ using Index = Eigen::Index;
 
 const std::filesystem::path kParts = std::filesystem::path(VMSIM_SOURCE_DIR) / "parts/feedplan";
 
-const drives::PathSamples& butterfly() {
-  static const drives::PathSamples ps = drives::sample_nurbs(
-      core::read_nurbs_csv(kParts / "butterfly_nurbs_control_points.csv", kParts / "butterfly_nurbs_knots.csv", 3),
+const methods::PathSamples& butterfly() {
+  static const methods::PathSamples ps = methods::sample_nurbs(
+      motion::read_nurbs_csv(kParts / "butterfly_nurbs_control_points.csv", kParts / "butterfly_nurbs_knots.csv", 3),
       0.05);
   return ps;
 }
 
 // n samples: the butterfly's samples repeated (each lap's first sample dropped: it is the previous lap's last).
-drives::PathSamples tiled(Index n) {
-  const drives::PathSamples& b = butterfly();
-  drives::PathSamples out;
+methods::PathSamples tiled(Index n) {
+  const methods::PathSamples& b = butterfly();
+  methods::PathSamples out;
   out.ds = b.ds;
   out.s.resize(n);
   out.u.resize(n);
@@ -52,15 +52,15 @@ drives::PathSamples tiled(Index n) {
   return out;
 }
 
-const drives::ContourErrorModel& model() {
-  static const drives::ContourErrorModel m(
-      {drives::frequency_response(drives::pid_servo_transfer_function(drives::seed003_pid_x())),
-       drives::frequency_response(drives::pid_servo_transfer_function(drives::seed003_pid_y()))});
+const methods::ContourErrorModel& model() {
+  static const methods::ContourErrorModel m(
+      {methods::frequency_response(methods::pid_servo_transfer_function(methods::chen2016_pid_x())),
+       methods::frequency_response(methods::pid_servo_transfer_function(methods::chen2016_pid_y()))});
   return m;
 }
 
-drives::FeedPlanOptions options(bool jerk) {
-  drives::FeedPlanOptions o;
+methods::FeedPlanOptions options(bool jerk) {
+  methods::FeedPlanOptions o;
   o.contour_model = &model();
   o.limits.period_s = 0.004;
   o.limits.chord_error_mm = 0.0005;
@@ -72,7 +72,7 @@ drives::FeedPlanOptions options(bool jerk) {
   return o;
 }
 
-void report(benchmark::State& state, const drives::FeedPlan& p) {
+void report(benchmark::State& state, const methods::FeedPlan& p) {
   state.counters["samples"] = static_cast<double>(p.s.size());
   state.counters["lp_cols"] = static_cast<double>(p.stats.lp_columns_max);
   state.counters["lp_rows"] = static_cast<double>(p.stats.lp_rows_max);
@@ -84,14 +84,14 @@ void report(benchmark::State& state, const drives::FeedPlan& p) {
   state.counters["us_per_sample"] = 1e6 * p.stats.total_seconds / static_cast<double>(p.s.size());
 }
 
-// One LP over the whole path (window = every sample): seed 003's formulation as one Clp problem.
+// One LP over the whole path (window = every sample): Chen et al.'s formulation as one Clp problem.
 void BM_FeedPlanOneLp(benchmark::State& state) {
-  const drives::PathSamples ps = tiled(state.range(0));
-  drives::FeedPlanOptions o = options(state.range(1) != 0);
+  const methods::PathSamples ps = tiled(state.range(0));
+  methods::FeedPlanOptions o = options(state.range(1) != 0);
   o.window_samples = static_cast<int>(ps.size()) + 1;
-  drives::FeedPlan p;
+  methods::FeedPlan p;
   for (auto _ : state) {
-    p = drives::plan_feed(ps, o);
+    p = methods::plan_feed(ps, o);
     benchmark::DoNotOptimize(p.feed.data());
   }
   report(state, p);
@@ -100,11 +100,11 @@ BENCHMARK(BM_FeedPlanOneLp)->Args({20000, 0})->Args({20000, 1})->Unit(benchmark:
 
 // Overlapping windows of 4000 samples (the default), 20 000 to 200 000 samples.
 void BM_FeedPlanWindowed(benchmark::State& state) {
-  const drives::PathSamples ps = tiled(state.range(0));
-  const drives::FeedPlanOptions o = options(state.range(1) != 0);
-  drives::FeedPlan p;
+  const methods::PathSamples ps = tiled(state.range(0));
+  const methods::FeedPlanOptions o = options(state.range(1) != 0);
+  methods::FeedPlan p;
   for (auto _ : state) {
-    p = drives::plan_feed(ps, o);
+    p = methods::plan_feed(ps, o);
     benchmark::DoNotOptimize(p.feed.data());
   }
   report(state, p);

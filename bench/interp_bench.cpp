@@ -1,11 +1,11 @@
 // Interpolator throughput: setpoints and blocks per second, and simulated seconds per wall second (x real time),
 // on LinuxCNC's 3D_Chips.ngc (4 681 short G1 moves, ../shared) and on the plane-cylinder reference program.
 // Target (issue 2): >= 1000x real time at Te = 1 ms on one core. Figures: bench/README.md.
-#include "core/gcode.hpp"
-#include "core/interp.hpp"
+#include "program/gcode.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
-#include "core/program.hpp"
+#include "motion/kinematics.hpp"
+#include "program/program.hpp"
 
 #include <benchmark/benchmark.h>
 

@@ -2,7 +2,7 @@
 // inverse (pose -> axes near the previous ones, run for every CL point and blend sample), on the Mikron UCP 710's
 // A/C table-table chain and LinuxCNC's xyzac-trt. Poses: random reachable axis positions (fixed seed), so the
 // inverse is asked for poses it can reach. Figures: bench/README.md.
-#include "core/kinematics.hpp"
+#include "motion/kinematics.hpp"
 #include "core/machine.hpp"
 
 #include <benchmark/benchmark.h>

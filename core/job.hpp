@@ -31,7 +31,7 @@ struct StockSpec {
   std::filesystem::path job_file;   // Kind::Job
 };
 
-// How material is removed (seed 004 section 4).
+// How material is removed (the feed-drive simulation paper section 4).
 struct RemovalSpec {
   // The kernel: dexels (exact along their rays) or an OpenVDB narrow-band level set (removal/vdb_part.hpp: isotropic
   // to within its voxel, watertight meshes). With "vdb", `field` only chooses the outputs (height grid, or needles).
@@ -41,7 +41,7 @@ struct RemovalSpec {
   enum class Field { ZMap, TriDexel, NBuffer } field = Field::ZMap;
   double spacing_mm = 0.05;       // ray spacing of z-map and tri-dexel grids
   // Whose motion cuts: the drives' actual positions (the marks come from the drives), the interpolator's
-  // setpoints, or the programmed path itself (seed 004 section 1: to separate interpolator and drive effects).
+  // setpoints, or the programmed path itself (the feed-drive simulation paper section 1: to separate interpolator and drive effects).
   enum class Motion { Actual, Setpoints, Program } motion = Motion::Actual;
   double track_tolerance_mm = 1e-4;  // largest distance between the removed motion and the sampled poses
   // Whether the job gave track_tolerance_mm. If not, method "vdb" cuts a turning tool (5-axis) at voxel_mm / 10
@@ -55,7 +55,7 @@ struct RemovalSpec {
 // What the predicted surface is compared with to find the marks.
 struct ReferenceSpec {
   // The same program cut exactly along its programmed path (the nominal cut); the same program through the same
-  // chain with its feeds scaled (seed 004's low-feed reference); the part another job leaves; the stock this job
+  // chain with its feeds scaled (the feed-drive simulation paper's low-feed reference); the part another job leaves; the stock this job
   // starts from; or nothing.
   enum class Kind { Program, Feed, Job, Stock, None } kind = Kind::Program;
   double feed_scale = 0.01;        // Kind::Feed
@@ -67,9 +67,9 @@ struct InterpSpec {
   double tolerance_mm = 0.020;    // largest distance of a setpoint from the programmed geometry
 };
 
-// [feedplan]: seed 003's contour-error-constrained feed planning (vmsim plan-feed, drives/feedplan).
+// [feedplan]: Chen et al.'s contour-error-constrained feed planning (vmsim plan-feed, drives/feedplan).
 struct FeedPlanSpec {
-  double chord_error_mm = 0.0005;           // delta_max (seed 003 eq. 15)
+  double chord_error_mm = 0.0005;           // delta_max (Chen et al. 2016 eq. 15)
   double contour_error_mm = 0.020;          // eps0 (eq. 8)
   std::optional<double> max_feed_mm_per_s;  // f_max (eq. 17); default: the program's highest feed
   double sample_spacing_mm = 0.05;          // arc length between the plan's samples
@@ -82,11 +82,11 @@ struct FeedPlanSpec {
   };
   std::optional<Nurbs> nurbs;
   // The servo of the contour-error model and the simulation: the machine's cascades ([axes.drive], linearised by
-  // drives/linear_model), seed 003's PID servo (eq. 2) or a continuous transfer function, given per moving axis.
+  // drives/linear_model), Chen et al.'s PID servo (eq. 2) or a continuous transfer function, given per moving axis.
   enum class Servo { Machine, Pid, TransferFunction } servo = Servo::Machine;
   struct Axis {                             // [[feedplan.axis]]
     std::string name;                       // X Y Z
-    double kp = 0, ki = 0, kd = 0, ka = 0, kt = 0, inertia = 0, damping = 0, rg = 0;  // pid (seed 003 Table 1 units)
+    double kp = 0, ki = 0, kd = 0, ka = 0, kt = 0, inertia = 0, damping = 0, rg = 0;  // pid (Chen et al. 2016 Table 1 units)
     std::vector<double> num, den;           // transfer_function: descending powers of s
   };
   std::vector<Axis> axes;
@@ -102,7 +102,7 @@ struct Job {
   // Where the tool tip is before the program runs (workpiece frame). Without it the program's own start applies
   // (LinuxCNC: the origin, which with a tool length offset puts the tip below the origin).
   std::optional<Eigen::Vector3d> start_mm;
-  // A gain schedule (vmsim oga, seed 000): per-setpoint position-loop gains the drives run with (CSV,
+  // A gain schedule (vmsim oga, Duong et al.): per-setpoint position-loop gains the drives run with (CSV,
   // drives/oga_schedule.hpp); vmsim run and vmsim motion apply it to the job's own motion.
   std::optional<std::filesystem::path> gain_schedule_file;
   // Identified axis models (TOML written by `vmsim identify`): these axes run as their identified transfer functions

@@ -12,7 +12,7 @@ namespace vmsim::core {
 
 enum class AxisKind { Linear, Rotary };
 
-// The axis drive of seed 004 Fig. 2 / seed 000 Fig. 6: position loop at Te (P + velocity and torque feedforward,
+// The axis drive of the feed-drive simulation paper Fig. 2 / Duong et al. Fig. 6: position loop at Te (P + velocity and torque feedforward,
 // each path with its "delay"), velocity PI, current PI on the motor, mechanics. SI units on the motor side;
 // `axis_per_motor_rad` converts motor angle to axis units (mm or rad).
 struct DriveParams {
@@ -20,7 +20,7 @@ struct DriveParams {
   double kv_per_s = 100.0;          // Kv; files give it in (m/min)/mm = 1000/min: 1 (m/min)/mm = 16.667 1/s
   double kf = 0.0;                  // velocity feedforward gain (1 = full)
   double ka = 0.0;                  // torque feedforward gain on J * a_d (1 = full)
-  int position_delay_samples = 0;   // dead time of the position path, in Te (seed 004 section 2.2)
+  int position_delay_samples = 0;   // dead time of the position path, in Te (the feed-drive simulation paper section 2.2)
   int feedforward_delay_samples = 0;  // dead time of the feedforward paths, in Te
   // Velocity loop: PI from motor speed error (rad/s) to current setpoint (A), saturated at current_limit_A.
   double velocity_period_s = 125e-6;

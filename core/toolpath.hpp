@@ -51,7 +51,7 @@ struct Move {
   // TRAORI); false when the words are the machine's axis positions themselves. Set from the job ([job] tcp).
   bool tcp = false;
 
-  // Axis-space moves of chain machines only (core::toolpath_in_axis_space): when the move's image in axis space is
+  // Axis-space moves of chain machines only (motion::toolpath_in_axis_space): when the move's image in axis space is
   // not a straight line (the rotary axes turn while the tip follows the programmed path), the axis positions on the
   // exact image in between, in order, and their programmed-path parameter s (the fraction of the move's programmed
   // duration; the point the program asks for at s), non-decreasing in [0, 1). Axis-space straight segments

@@ -1,7 +1,7 @@
 #pragma once
 // An axis drive as the simulation sees it: the NC sends it a setpoint every Te, it answers with where the axis
-// really is. A real family: the cascade of seed 004 (drives/cascade_axis) and, later, the identified discrete
-// transfer function of seed 001.
+// really is. A real family: the cascade of the feed-drive simulation paper (drives/cascade_axis) and, later, the identified discrete
+// transfer function of the predictive-compensation paper.
 #include <limits>
 #include <memory>
 
@@ -12,7 +12,7 @@ struct AxisCommand {
   double position = 0.0;      // x_d, the position setpoint
   double velocity = 0.0;      // v_d for the velocity feedforward (backward difference of the setpoints)
   double acceleration = 0.0;  // a_d for the torque feedforward
-  // Gain schedule (seed 000's OGA): this sample's Kv (1/s) and KF; NaN keeps the drive's own value.
+  // Gain schedule (Duong et al.'s OGA): this sample's Kv (1/s) and KF; NaN keeps the drive's own value.
   double kv_per_s = std::numeric_limits<double>::quiet_NaN();
   double kf = std::numeric_limits<double>::quiet_NaN();
 };

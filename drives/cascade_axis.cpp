@@ -81,7 +81,7 @@ CascadeAxis::CascadeAxis(const core::DriveParams& p, double te_s, core::AxisKind
   kic_ = kpc_ * p.current_period_s / p.current_tn_s;
   ff_current_per_accel_ = p.ka * p.inertia_kg_m2 / (p.torque_constant_Nm_per_A * r_);
 
-  // Plant (seed 004 eq. 1 with the winding): L di/dt = u - R i - Ke w;  J dw/dt = Kt i - B w + tau;  dx/dt = r w,
+  // Plant (the feed-drive simulation paper eq. 1 with the winding): L di/dt = u - R i - Ke w;  J dw/dt = Kt i - B w + tau;  dx/dt = r w,
   // Ke = Kt (SI). ZOH discretisation over Tc: exp([[A, B], [0, 0]] Tc) = [[Phi, Gamma], [0, I]].
   const double L = p.inductance_H, R = p.resistance_ohm, Kt = p.torque_constant_Nm_per_A, J = p.inertia_kg_m2;
   Eigen::Matrix<double, 5, 5> m = Eigen::Matrix<double, 5, 5>::Zero();
@@ -125,7 +125,7 @@ double CascadeAxis::gravity_torque() const {
 }
 
 // Friction magnitude while sliding at |w|: Coulomb, plus the Stribeck hump exp(-(w/ws)^2) towards the breakaway
-// torque when one is given (seed 004 section 3.1 identifies the static Coulomb + viscous law; viscous is in Phi).
+// torque when one is given (the feed-drive simulation paper section 3.1 identifies the static Coulomb + viscous law; viscous is in Phi).
 double CascadeAxis::friction_level(double abs_w) const {
   if (params_.stribeck_static_Nm <= 0.0) return params_.coulomb_Nm;
   const double q = abs_w / params_.stribeck_velocity_rad_per_s;
@@ -158,7 +158,7 @@ void CascadeAxis::rest_at(double position) {
   pos_head_ = ff_head_ = 0;
 }
 
-// Velocity PI (seed 004 Fig. 2), output saturated at the current limit. Anti-windup by conditional integration:
+// Velocity PI (the feed-drive simulation paper Fig. 2), output saturated at the current limit. Anti-windup by conditional integration:
 // the integrator is frozen while the output is saturated and the error pushes it further out. It needs no tuning
 // parameter (back-calculation would need a tracking time the seeds do not give) and it keeps the integrator where
 // it was when the limit was hit, so the axis leaves saturation without the overshoot an unbounded integrator
@@ -238,7 +238,7 @@ template <bool kTrace>
 AxisSample CascadeAxis::advance(const AxisCommand& c, InnerSample* trace) {
   const double kv = std::isnan(c.kv_per_s) ? params_.kv_per_s : c.kv_per_s;
   const double kf = std::isnan(c.kf) ? params_.kf : c.kf;
-  // Delay lines: write the new command, read the one received `delay` samples ago (seed 004 section 2.2).
+  // Delay lines: write the new command, read the one received `delay` samples ago (the feed-drive simulation paper section 2.2).
   const int pos_n = static_cast<int>(pos_line_.size()), ff_n = static_cast<int>(vel_line_.size());
   pos_line_[pos_head_] = c.position;
   pos_head_ = pos_head_ + 1 == pos_n ? 0 : pos_head_ + 1;
@@ -248,7 +248,7 @@ AxisSample CascadeAxis::advance(const AxisCommand& c, InnerSample* trace) {
   ff_head_ = ff_head_ + 1 == ff_n ? 0 : ff_head_ + 1;
   const double vd = vel_line_[ff_head_], ad = acc_line_[ff_head_];
 
-  // Position loop (seed 000 Fig. 6, seed 004 Fig. 2): v_cmd = Kv (x_d - x) + KF v_d in axis units/s, to motor
+  // Position loop (Duong et al. Fig. 6, the feed-drive simulation paper Fig. 2): v_cmd = Kv (x_d - x) + KF v_d in axis units/s, to motor
   // rad/s through the screw lead or gear; torque feedforward KA J a_d as a current (Kt i = J dw/dt).
   const double w_cmd = (kv * (xd - x_) + kf * vd) * inv_r_;
   const double i_ff = ff_current_per_accel_ * ad;

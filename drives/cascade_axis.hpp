@@ -1,5 +1,5 @@
 #pragma once
-// The cascaded feed drive of seed 004 (section 2, Fig. 2) and seed 000 (section III.C, Fig. 6) as an AxisModel:
+// The cascaded feed drive of the feed-drive simulation paper (section 2, Fig. 2) and Duong et al. (section III.C, Fig. 6) as an AxisModel:
 // position loop P + velocity and torque feedforward at Te, velocity PI, current PI on the motor's R-L winding with
 // back-EMF, and the mechanics at the motor shaft with viscous, Coulomb (optionally Stribeck) friction and gravity.
 //
@@ -81,7 +81,7 @@ class CascadeAxis final : public AxisModel {
   double i_ = 0.0, w_ = 0.0, x_ = 0.0;    // current (A), motor speed (rad/s), load position (axis units)
   double ic_ = 0.0, iv_ = 0.0;            // current-PI integrator (V), velocity-PI integrator (A)
   double iset_ = 0.0, u_ = 0.0;           // held current setpoint (A) and voltage (V)
-  // Delay lines (seed 004 section 2.2): ring buffers of length delay + 1; the oldest entry is the delayed command.
+  // Delay lines (the feed-drive simulation paper section 2.2): ring buffers of length delay + 1; the oldest entry is the delayed command.
   std::vector<double> pos_line_, vel_line_, acc_line_;
   int pos_head_ = 0, ff_head_ = 0;
 };

@@ -49,7 +49,7 @@ LinearAxisModel::LinearAxisModel(const core::DriveParams& p, double te_s) : para
 
   const double L = p.inductance_H, R = p.resistance_ohm, Kt = p.torque_constant_Nm_per_A, J = p.inertia_kg_m2;
   const double B = p.viscous_Nm_s_per_rad, r = p.axis_per_motor_rad;
-  // Winding and shaft (seed 004 eq. 1), state (i, w, x), input the voltage, held over Tc: exact ZOH discretisation.
+  // Winding and shaft (the feed-drive simulation paper eq. 1), state (i, w, x), input the voltage, held over Tc: exact ZOH discretisation.
   Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
   a(kI, kI) = -R / L;
   a(kI, kW) = -Kt / L;  // back-EMF, Ke = Kt in SI
@@ -114,7 +114,7 @@ cd LinearAxisModel::velocity_to_position(double omega) const {
 
 cd LinearAxisModel::current_to_position(double omega) const { return lifted(omega, 1); }
 
-// The position loop around the inner cascade (seed 000 Fig. 6): v_cmd = Kv (z^-dp x_d - x) + KF z^-df v_d, with
+// The position loop around the inner cascade (Duong et al. Fig. 6): v_cmd = Kv (z^-dp x_d - x) + KF z^-df v_d, with
 // v_d = (1 - z^-1)/Te x_d, and the torque feedforward KA J a_d / (Kt r) on a_d = (1 - z^-1)^2/Te^2 x_d.
 cd LinearAxisModel::close(cd z, cd pv, cd pi, double kv, double kf) const {
   const cd zi = 1.0 / z;

@@ -44,7 +44,7 @@ class LinearAxisModel {
   std::complex<double> velocity_to_position(double omega_rad_s) const;
   std::complex<double> current_to_position(double omega_rad_s) const;
 
-  // Seed 003's circular contour-error model: steady radial error R (1 - |G(j v/R)|) (positive: inside the circle)
+  // Chen et al.'s circular contour-error model: steady radial error R (1 - |G(j v/R)|) (positive: inside the circle)
   // of a circle of radius R (axis units) at path speed v (axis units/s), both axes having these parameters.
   double circle_radial_error(double radius, double speed) const;
 

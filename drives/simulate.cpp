@@ -211,7 +211,7 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
     }
   }
 
-  // Axes are independent (no coupling in the model, seed 004 section 2.2): each thread runs whole axes, writing
+  // Axes are independent (no coupling in the model, the feed-drive simulation paper section 2.2): each thread runs whole axes, writing
   // only its own columns, so the results do not depend on the thread count or the schedule.
   const int n = static_cast<int>(n_axes);
 #pragma omp parallel for schedule(dynamic, 1)

@@ -11,7 +11,7 @@
 
 namespace vmsim::drives {
 
-// Per-sample gains (seed 000's OGA): samples x axes; NaN keeps the drive's own value. Empty matrices: no schedule.
+// Per-sample gains (Duong et al.'s OGA): samples x axes; NaN keeps the drive's own value. Empty matrices: no schedule.
 // During the settling rows the last row's gains stay in force.
 struct GainSchedule {
   Eigen::MatrixXd kv_per_s, kf;

@@ -96,7 +96,7 @@ class DexelGrid {
   IntervalStore store_;
 };
 
-// Needles: rays at chosen points along chosen directions (seed 004's N-buffer: normals of the nominal surface,
+// Needles: rays at chosen points along chosen directions (the feed-drive simulation paper's N-buffer: normals of the nominal surface,
 // or the rays of a measurement grid). Needle k runs from origin[k] along direction[k] over [0, length[k]].
 class NeedleSet {
  public:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# make demo: the plane-cylinder part of seed 004 (section 4) through the whole chain: interpolator, servo drives,
+# make demo: the plane-cylinder part of the feed-drive simulation paper (section 4) through the whole chain: interpolator, servo drives,
 # material removal, and the mark the fast pass leaves at the fillet.
 # Usage: scripts/demo.sh PATH/TO/vmsim
 set -euo pipefail
@@ -8,13 +8,13 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 part="$here/parts/plane_cylinder"
 out="$here/build/demo"
 
-echo "== vmsim demo: plane-cylinder part (seed 004 section 4): floor, concave R10 fillet, 30 deg slope; ball-end D10,"
-echo "   passes in XZ planes 0.25 mm apart on a stock with 0.05 mm allowance; Mikron UCP 710 (seed 000 Table I)."
+echo "== vmsim demo: plane-cylinder part (the feed-drive simulation paper section 4): floor, concave R10 fillet, 30 deg slope; ball-end D10,"
+echo "   passes in XZ planes 0.25 mm apart on a stock with 0.05 mm allowance; Mikron UCP 710 (Duong et al. Table I)."
 echo
-echo "-- 0.1 m/min: every pass; its marks against the program cut exactly (seed 004: negligible)"
+echo "-- 0.1 m/min: every pass; its marks against the program cut exactly (the feed-drive simulation paper: negligible)"
 "$vmsim" run "$part/job_reference.toml" --out "$out/reference"
 echo
-echo "-- 10 m/min: the middle pass; its mark against the same pass at 0.1 m/min (seed 004: about 0.02 mm)"
+echo "-- 10 m/min: the middle pass; its mark against the same pass at 0.1 m/min (the feed-drive simulation paper: about 0.02 mm)"
 "$vmsim" run "$part/job_fast.toml" --out "$out/fast"
 echo
 echo "Results (report.json, surface/deviation grids, part.stl, part.vtp, signals.csv): $out/reference and $out/fast"

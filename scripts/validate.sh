@@ -39,24 +39,24 @@ echo "== Random-path limits and tolerance (10 000 paths, the interpolator's hard
 "$here/build/tests/core_tests" --gtest_filter='Interp.RandomPaths*' | grep -E 'worst|OK|FAILED'
 
 echo
-echo "== OGA on parts/oga_profile (seed 000 Table II: MSE(CE) 0.76 -> 0.25 um^2, -67 %; Fig. 7: 72 X / 108 Z admissible)"
+echo "== OGA on parts/oga_profile (Duong et al. Table II: MSE(CE) 0.76 -> 0.25 um^2, -67 %; Fig. 7: 72 X / 108 Z admissible)"
 start=$(date +%s.%N)
 "$vmsim" oga "$here/parts/oga_profile/job.toml" --out "$tmp/oga" --no-render
 end=$(date +%s.%N)
 echo "wall time: $(echo "$end - $start" | bc) s"
-echo "-- the same with C1 = the machine's gains (Kv 6, KF 0.1 = seed 000's C1) and seed 000's range [5, 6.5]"
+echo "-- the same with C1 = the machine's gains (Kv 6, KF 0.1 = Duong et al.'s C1) and Duong et al.'s range [5, 6.5]"
 "$vmsim" oga "$here/parts/oga_profile/job.toml" --out "$tmp/oga_machine" --no-render --reference machine \
   --kp-grid 6 --kf-grid 0.1 --range 5:6.5
 
 echo
-echo "== Feed planning (seed 003 section 4: without the contour constraint 31.6 um peak, with it <= 20 um)"
+echo "== Feed planning (Chen et al. 2016 section 4: without the contour constraint 31.6 um peak, with it <= 20 um)"
 for curve in butterfly fan; do
   echo "-- $curve"
   "$vmsim" plan-feed "$here/parts/feedplan/job_$curve.toml" --out "$tmp/feedplan_$curve" --no-render
 done
 
 echo
-echo "== Five-axis (issue 7): the dome part (seed 004 3rd case: axis follow-up ~0.001 deg, no large mark) and boat-xyzac"
+echo "== Five-axis (issue 7): the dome part (the feed-drive simulation paper 3rd case: axis follow-up ~0.001 deg, no large mark) and boat-xyzac"
 for part in five_axis boat_xyzac; do
   echo "-- parts/$part"
   start=$(date +%s.%N)

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Generates the five-axis blade contour (seed 001 section 5: "a contour line of the blade" of an integral impeller,
+"""Generates the five-axis blade contour (the predictive-compensation paper section 5: "a contour line of the blade" of an integral impeller,
 compensated on a turning-milling centre with A and C; -31.43 % contour error after compensation).
 
-Seed 001 gives neither the blade's section nor the tool, feed or tool orientation. The contour here is chosen once:
+The predictive-compensation paper gives neither the blade's section nor the tool, feed or tool orientation. The contour here is chosen once:
 
   Blade section: a NACA 4412 airfoil (camber m = 4 %, at p = 40 % of the chord, thickness t = 12 %), with the closed
   trailing edge of the 4-digit family's modified thickness law

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Generates the corner test part's programs, stock and needles (seed 004, section 4, second test part, Fig. 7).
+"""Generates the corner test part's programs, stock and needles (the feed-drive simulation paper, section 4, second test part, Fig. 7).
 
-Seed 004: "the finishing by flank milling of a vertical corner with a cylindrical tool which diameter is 10mm. The
+The feed-drive simulation paper: "the finishing by flank milling of a vertical corner with a cylindrical tool which diameter is 10mm. The
 reference is machined in one tool path with an axial depth of cut of 10mm and a low feedrate. Then the same tool
 path is translated of about 5mm along the Z axis, and is re executed with the high feedrate; the axial depth of cut
 is thus of 5mm." Section 4 calls it "the flank milling of a sharp corner using the X and Y axes". The seed gives no
@@ -35,20 +35,20 @@ Files written (checked in; rerun this script after changing a constant):
 import math
 import os
 
-R_TOOL = 5.0            # flat-end (cylindrical) mill of diameter 10 mm (seed 004)
+R_TOOL = 5.0            # flat-end (cylindrical) mill of diameter 10 mm (the feed-drive simulation paper)
 WALL_LENGTH = 60.0      # length of each wall from the edge: the Y axis needs ~22 mm to reach 10 m/min with the
                         # Mikron's 10 m/s^3 jerk and as much to slow down for the arc, so the pass runs at its feed
                         # along W2 before the corner
 TOP = 0.0               # top face of the block
 BOTTOM = -15.0          # bottom face of the block (below the reference pass: the tool never touches a floor)
-Z_REFERENCE = -10.0     # tip of the reference pass: axial depth of cut TOP - Z_REFERENCE = 10 mm (seed 004)
-Z_SHIFT = 5.0           # the high-feed pass is the same path this much higher: axial depth 5 mm (seed 004)
+Z_REFERENCE = -10.0     # tip of the reference pass: axial depth of cut TOP - Z_REFERENCE = 10 mm (the feed-drive simulation paper)
+Z_SHIFT = 5.0           # the high-feed pass is the same path this much higher: axial depth 5 mm (the feed-drive simulation paper)
 CLEARANCE = 10.0        # the pass starts and ends with the tool this far clear of the block's far faces
 START = WALL_LENGTH + R_TOOL + CLEARANCE   # distance of the start (and end) from the edge along the walls
 SAFE_Z = 20.0           # retract height
 APPROACH = 2.0          # rapid down to this above the cutting height, then feed down (beside the block)
-FEED_LOW = 100.0        # mm/min = 0.1 m/min: the reference (seed 004's low feed of the first part)
-FEED_HIGH = 10000.0     # mm/min = 10 m/min: the high feed (seed 004's high feed of the first part)
+FEED_LOW = 100.0        # mm/min = 0.1 m/min: the reference (the feed-drive simulation paper's low feed of the first part)
+FEED_HIGH = 10000.0     # mm/min = 10 m/min: the high feed (the feed-drive simulation paper's high feed of the first part)
 FEED_PLUNGE_HIGH = 1000.0  # mm/min: plunge of the high-feed program, beside the block
 ALLOWANCE = 0.2         # radial finishing allowance left by semi-finishing on the walls (README: why 0.2)
 ARC_SAGITTA = 1e-4      # largest distance between the stock's facets and its rounded edge (mm)

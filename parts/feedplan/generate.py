@@ -8,7 +8,7 @@ second-derivative system, solved by Gaussian elimination) and writes it as a deg
 a cubic Bezier (control points P_i, P_i + h_i D_i / 3, P_{i+1} - h_i D_{i+1} / 3, P_{i+1}), the interior knots have
 multiplicity 3 (the B-spline form of a piecewise Bezier curve; the curve stays C2 because the spline is), all weights
 1, knots normalised to [0, 1]. Four lobes, each with two tight turns (radii down to about 1 mm) between straighter
-flanks: several high-curvature zones, as seed 003 asks of its examples.
+flanks: several high-curvature zones, as Chen et al. 2016 asks of its examples.
 
 Usage: python3 generate.py [WAYPOINTS_CSV]   (writes fan_nurbs_control_points.csv, fan_nurbs_knots.csv here)
 """

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Generates the five-axis test part's program (seed 004 section 4, third case: a 5-axis path with large A and C motion).
+"""Generates the five-axis test part's program (the feed-drive simulation paper section 4, third case: a 5-axis path with large A and C motion).
 
-Seed 004 gives no geometry for its third case: "a 5-axis trajectory which involves the rotational axes with large
+The feed-drive simulation paper gives no geometry for its third case: "a 5-axis trajectory which involves the rotational axes with large
 displacements", on the Mikron UCP 710 (A tilting table carrying a C rotary table), where only the follow-up of the
 rotary axes is considered and the measured and simulated axis deviations are about 0.001 deg. The part here is a
 path of that kind with a closed-form surface, so the simulated cut can be checked against geometry written elsewhere:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Generates the OGA test part's program (seed 000, section IV: a biaxial XZ profile at 3 m/min).
+"""Generates the OGA test part's program (Duong et al., section IV: a biaxial XZ profile at 3 m/min).
 
-Seed 000 does not give its profile (Fig. 8a shows it without dimensions): it is a planar XZ contour made of
+Duong et al. does not give its profile (Fig. 8a shows it without dimensions): it is a planar XZ contour made of
 convex, concave and straight parts, followed at 3 m/min with Te = 1 ms and a 20 um interpolation tolerance, and
 its contour error stays under 3.5 um with the best fixed gains (Kv 6 (m/min)/mm, KF 0.1). The profile here is a
 representative one of that kind: the finishing pass of a ball-end mill along one XZ section of a wavy die insert
@@ -33,7 +33,7 @@ Files written (checked in; rerun this script after changing a constant):
 import math
 import os
 
-FEED = 3000.0          # mm/min = 3 m/min (seed 000 section IV)
+FEED = 3000.0          # mm/min = 3 m/min (Duong et al. section IV)
 X0, Z0 = -95.0, 0.0    # first point of the profile (tool tip); centred on the X travel
 # (kind, a, b): ("line", length_mm, 0) or ("arc", radius_mm, turn_deg) with turn_deg > 0 turning left (concave).
 PROFILE = [

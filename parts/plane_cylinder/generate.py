@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""Generates the plane-cylinder test part's programs (seed 004, section 4, first test part).
+"""Generates the plane-cylinder test part's programs (the feed-drive simulation paper, section 4, first test part).
 
 Geometry (all in mm, workpiece frame, the part's surface is extruded along Y over [0, WIDTH]):
   - plane P1: horizontal floor z = 0 for x in [0, X_TANGENT];
   - cylinder C: concave fillet of radius R_FILLET, axis parallel to Y through (X_TANGENT, R_FILLET),
     tangent to P1 at x = X_TANGENT and to P2 after SLOPE_DEG of arc;
   - plane P2: rising at SLOPE_DEG above the horizontal for INCLINE_LENGTH along its slope.
-Seed 004 does not give the dimensions; these are chosen to be typical of a mould's floor-to-wall fillet, with a
+The feed-drive simulation paper does not give the dimensions; these are chosen to be typical of a mould's floor-to-wall fillet, with a
 fillet radius twice the ball radius so the ball's centre turns on a 5 mm radius there.
 
 Toolpath: finishing with a ball-end mill of diameter 10 mm (radius 5), parallel passes in XZ planes, one way
@@ -16,7 +16,7 @@ fillet it follows an arc of radius R_FILLET - 5 programmed as G18 G2, up the slo
 The finishing allowance (0.05 mm) is a property of the stock, not of this program.
 
 Files written (checked in; rerun this script after changing a constant):
-  plane_cylinder_reference.ngc  every pass at the low feed, 0.1 m/min: the reference surface of seed 004
+  plane_cylinder_reference.ngc  every pass at the low feed, 0.1 m/min: the reference surface of the feed-drive simulation paper
   plane_cylinder_fast.ngc       the middle pass (y = 5) alone, at 10 m/min: the pass that leaves the mark
   plane_cylinder_stock.stl      the semi-finished part: the surface offset by the finishing allowance (0.05 mm),
                                 a closed solid over x in [0, PART_LENGTH], y in [0, WIDTH], down to z = PART_BOTTOM
@@ -30,14 +30,14 @@ SLOPE_DEG = 30.0      # inclination of P2
 X_TANGENT = 80.0      # end of the floor P1: long enough for the fast pass to reach 10 m/min before the fillet
 INCLINE_LENGTH = 50.0  # length of P2 along its slope
 WIDTH = 10.0          # extent of the part along Y (41 passes; the fast pass is the middle one)
-STEPOVER = 0.25       # distance between passes (seed 004)
+STEPOVER = 0.25       # distance between passes (the feed-drive simulation paper)
 X_START = -8.0        # passes start and end clear of the part edges (tool radius + margin)
 SAFE_Z = 40.0         # retract height, above the top of the slope
 APPROACH_Z = 2.0      # rapid down to here, then feed down
 FEED_REFERENCE = 100.0   # mm/min = 0.1 m/min
 FEED_FAST = 10000.0      # mm/min = 10 m/min
 FEED_PLUNGE = 1000.0     # mm/min, approach and retract feeds of the fast program
-ALLOWANCE = 0.05      # finishing allowance left on the semi-finished stock (seed 004)
+ALLOWANCE = 0.05      # finishing allowance left on the semi-finished stock (the feed-drive simulation paper)
 PART_LENGTH = 120.0   # the part's extent along X (the slope is cut off there)
 PART_BOTTOM = -10.0   # bottom of the part
 ARC_SAGITTA = 1e-4    # largest distance between the stock's facets and its cylinder (mm)
@@ -146,7 +146,7 @@ def main():
     ref.append("M30")
     write("plane_cylinder_reference.ngc", ref)
 
-    # Seed 004: "only one path is executed with the high feedrate": the middle pass, whose groove job_fast.toml
+    # The feed-drive simulation paper: "only one path is executed with the high feedrate": the middle pass, whose groove job_fast.toml
     # compares with the same pass run at 0.1 m/min (its reference: the same program at 1/100 of the feed).
     fast = []
     header(fast, "plane-cylinder part: the middle pass at 10 m/min")

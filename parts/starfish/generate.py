@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Generates the starfish test contour (seed 001 section 5: "the starfish pattern with a large curvature variation").
+"""Generates the starfish test contour (the predictive-compensation paper section 5: "the starfish pattern with a large curvature variation").
 
-Seed 001 machines a starfish on a KMC600 UMT and measures its contour error before and after the predictive
+The predictive-compensation paper machines a starfish on a KMC600 UMT and measures its contour error before and after the predictive
 compensation (max 0.0135 -> 0.0078 mm, mean -61.76 %), but gives neither its equation nor its size or feed. The
 contour here is a five-armed polar rose, chosen once:
 

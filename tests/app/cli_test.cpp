@@ -146,7 +146,7 @@ double json_number_after(const std::string& text, const std::string& key, std::s
 }
 }  // namespace
 
-// The whole chain on the plane-cylinder part (seed 004 section 4, Fig. 6), the figure the seed reports: at 10 m/min
+// The whole chain on the plane-cylinder part (the feed-drive simulation paper section 4, Fig. 6), the figure the seed reports: at 10 m/min
 // the pass leaves a mark of about 0.02 mm at the fillet against the same pass at 0.1 m/min. The issue asks for the
 // order of magnitude with the one machine file: 0.01 to 0.04 mm.
 TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
@@ -164,7 +164,7 @@ TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
     EXPECT_TRUE(fs::exists(tmp.path() / "out" / f)) << f;
 }
 
-// At 0.1 m/min over the whole surface the marks against the program cut exactly stay below 0.003 mm (seed 004:
+// At 0.1 m/min over the whole surface the marks against the program cut exactly stay below 0.003 mm (the feed-drive simulation paper:
 // negligible).
 TEST(Cli, RunPlaneCylinderLowFeedMarksAreNegligible) {
   TempDir tmp;

@@ -1,9 +1,9 @@
-// vmsim compensate end to end on the five-axis blade (parts/blade, seed 001 section 5) and the compensated program a
+// vmsim compensate end to end on the five-axis blade (parts/blade, the predictive-compensation paper section 5) and the compensated program a
 // user would send to the machine. References: the machine model itself (the compensated program read back, re-timed
 // by vmsim's interpolator and run on the Mikron's cascades must cut a smaller contour error against the ORIGINAL
 // plan than the original program does; measured by core/contour, not by the compensation's own search); the original
 // program's cycle time through `vmsim interp` (a separate process) for the re-timing; the machine file's axis limits.
-// Seed 001's -31.43 % on its blade is printed for comparison, not asserted.
+// The predictive-compensation paper's -31.43 % on its blade is printed for comparison, not asserted.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -49,7 +49,7 @@ TEST(CompensateCli, FiveAxisBladeTipAndOrientationErrorsFallAndTheCompensatedPro
   ASSERT_TRUE(pr["before"].contains("orientation_mean_deg"));
   EXPECT_LT(pr["after"]["orientation_mean_deg"].get<double>(), pr["before"]["orientation_mean_deg"].get<double>());
   EXPECT_TRUE(rep["limits"]["compensated_within_limits"].get<bool>());
-  std::printf("blade, mean tip contour error %+.1f %% (seed 001 on its blade: -31.43 %%)\n",
+  std::printf("blade, mean tip contour error %+.1f %% (the predictive-compensation paper on its blade: -31.43 %%)\n",
               pr["change_percent"]["mean"].get<double>());
 
   // The compensated program: the original's moves as CL (tip and tool axis), plus the G-code form with A and C.

@@ -1,5 +1,5 @@
 // The five-axis test part (parts/five_axis: a spherical dome finished by a ball-end held along the surface normal on a
-// spiral with large A and C motion, seed 004 section 4's third case) through `vmsim run`, on one turn of its spiral
+// spiral with large A and C motion, the feed-drive simulation paper section 4's third case) through `vmsim run`, on one turn of its spiral
 // so that the test stays short. References:
 // - program motion: an independent union of balls. The CL program's motion (tip on the chord between GOTO points, the
 //   tool axis on the great circle between their vectors, core/toolpath.hpp) evaluated here every 1/200 of a move,
@@ -233,7 +233,7 @@ TEST(FiveAxisPart, RotaryFollowUpAndTheSurfaceDeviationItLeaves) {
   ASSERT_TRUE(cax.drive.has_value());
   const vmsim::core::DriveParams& dc = *cax.drive;
   const double expected_c = cax.max_velocity * 180 / kPi * ((1 - dc.kf) / dc.kv_per_s + dc.position_delay_samples * 1e-3);
-  std::printf("[ 5-axis   ] C lag expected at its %.0f deg/s limit: %.4g deg (seed 004 measured about 0.001 deg)\n",
+  std::printf("[ 5-axis   ] C lag expected at its %.0f deg/s limit: %.4g deg (the feed-drive simulation paper measured about 0.001 deg)\n",
               cax.max_velocity * 180 / kPi, expected_c);
   EXPECT_GT(c, 0.9 * expected_c);
   EXPECT_LT(c, 1.05 * expected_c);

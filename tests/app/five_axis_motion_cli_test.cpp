@@ -5,7 +5,7 @@
 // program's header and its first finishing passes (lines 1-12 and 318-355: two table turns, G93 passes), ending as
 // the program ends; `vmsim motion parts/boat_xyzac/job.toml` runs the whole program (parts/README.md).
 // References: the machine's limits (setpoints and currents within them), and the steady following error of a
-// P position loop with a PI velocity loop, v ((1 - KF)/Kv + d Te) (seed 000 Fig. 6; drives/cascade_axis tests), for
+// P position loop with a PI velocity loop, v ((1 - KF)/Kv + d Te) (Duong et al. Fig. 6; drives/cascade_axis tests), for
 // each axis at its peak setpoint speed: the largest tracking error of every axis, rotary ones in degrees, is that
 // (the program runs the axes at constant speed long enough to settle) and not more.
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 // [job] gain_schedule in vmsim motion and vmsim run, end to end as a user runs them.
 // References: the drive model itself (a schedule of the machine's own gains is no schedule at all; halving Kv
-// doubles the steady following error v (1 - KF) / Kv of a position loop with velocity feedforward, seed 004 Fig. 2),
+// doubles the steady following error v (1 - KF) / Kv of a position loop with velocity feedforward, the feed-drive simulation paper Fig. 2),
 // and the gain schedule's documented format (drives/oga_schedule.hpp, parts/README.md): the schedules here are
 // written by the test from that description, not by vmsim.
 #include "core/job.hpp"
@@ -91,7 +91,7 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
   const auto& dx = *m.axes[static_cast<std::size_t>(m.axis_index(0))].drive;
   const auto& dz = *m.axes[static_cast<std::size_t>(m.axis_index(2))].drive;
   const double kv_x = dx.kv_per_s * 60.0 / 1000.0, kv_z = dz.kv_per_s * 60.0 / 1000.0;
-  EXPECT_NEAR(kv_x, 6.0, 1e-12);  // seed 000's C1 (the machine file's value; never tuned per test)
+  EXPECT_NEAR(kv_x, 6.0, 1e-12);  // Duong et al.'s C1 (the machine file's value; never tuned per test)
 
   write_schedule(d / "same.csv", d / "plain" / "setpoints.csv", kv_x, dx.kf, kv_z, dz.kf);
   write_short_job(d, "same", 3000, "gain_schedule = \"same.csv\"");

@@ -1,5 +1,5 @@
 // vmsim oga end to end as a user runs it, on a short biaxial profile (the whole OGA case runs in make validate).
-// References: seed 000's claims (OGA never worse than the fixed gains it starts from, gains within the range,
+// References: Duong et al.'s claims (OGA never worse than the fixed gains it starts from, gains within the range,
 // continuous between windows, limits kept), vmsim motion re-simulating the written schedule on its own through
 // [job] gain_schedule, and the thread-count independence of DESIGN.md.
 #include <gtest/gtest.h>
@@ -48,7 +48,7 @@ void write_short_job(const fs::path& dir, const std::string& name, int feed = 30
 
 }  // namespace
 
-// Reference: seed 000's claims for C2 against C1 (never worse, range, continuity, limits), and vmsim motion: the
+// Reference: Duong et al.'s claims for C2 against C1 (never worse, range, continuity, limits), and vmsim motion: the
 // written schedule, re-simulated on its own through [job] gain_schedule, gives the MSE(CE) the report states.
 TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMotion) {
   TempDir tmp;
@@ -78,7 +78,7 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
   ASSERT_GE(w.rows.size(), 3u);
   bool moved = false;
   for (const char* axis : {"X", "Z"}) {
-    // The range vmsim placed around C1 (seed 000: [Kv1 - 1, Kv1 + 0.5]), within the admissible Kv.
+    // The range vmsim placed around C1 (Duong et al.: [Kv1 - 1, Kv1 + 0.5]), within the admissible Kv.
     const struct { const char* axis; double lo, hi; } ax = {axis, rep["c2"][axis]["range_1000_per_min"][0],
                                                              rep["c2"][axis]["range_1000_per_min"][1]};
     const int kv = g.col(std::string(ax.axis) + "_kv_1000_per_min"), kf = g.col(std::string(ax.axis) + "_kf");
@@ -141,7 +141,7 @@ TEST(OgaCli, ErrorsNameTheOptionOrFileAndExit2) {
     EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << ": " << r.err;
     EXPECT_FALSE(fs::exists(d / "o" / "report.json")) << c.args;
   }
-  // Three moving axes: not seed 000's biaxial profile.
+  // Three moving axes: not Duong et al.'s biaxial profile.
   write_file(d / "xyz.ngc", "G21 G90 G94\nG1 X5 Y3 Z-1 F3000\nG1 X10 Y0 Z0\nM30\n");
   write_file(d / "xyz.toml", "[job]\nname = \"xyz\"\nmachine = \"" + kMachine + "\"\nprogram = \"xyz.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n");
   const CliRun r = run_vmsim("oga '" + (d / "xyz.toml").string() + "' --no-render --out '" + (d / "o").string() + "'", tmp);

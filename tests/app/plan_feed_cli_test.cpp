@@ -1,6 +1,6 @@
-// vmsim plan-feed end to end, as a user runs it on seed 003's case (parts/feedplan/job_butterfly.toml): the files,
-// the report's figures against seed 003 section 4 (without the contour-error constraint the simulated contour error
-// exceeds the 20 um tolerance, seed 003: 31.6 um; with it every sample is within 20 um), and bad input (exit 2 with
+// vmsim plan-feed end to end, as a user runs it on Chen et al.'s case (parts/feedplan/job_butterfly.toml): the files,
+// the report's figures against Chen et al. 2016 section 4 (without the contour-error constraint the simulated contour error
+// exceeds the 20 um tolerance, Chen et al. 2016: 31.6 um; with it every sample is within 20 um), and bad input (exit 2 with
 // a message naming the file and key, no report written).
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -28,7 +28,7 @@ const fs::path kPart = fs::path(VMSIM_SOURCE_DIR) / "parts" / "feedplan";
 
 }  // namespace
 
-TEST(PlanFeedCli, ButterflyCaseOfSeed003) {
+TEST(PlanFeedCli, ButterflyCaseOfChen2016) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const CliRun r = run_vmsim("plan-feed '" + (kPart / "job_butterfly.toml").string() + "' --out '" + out.string() +
@@ -38,7 +38,7 @@ TEST(PlanFeedCli, ButterflyCaseOfSeed003) {
   for (const char* f : {"report.json", "feed_profile.csv", "motion.csv"}) EXPECT_TRUE(fs::exists(out / f)) << f;
   const nlohmann::json rep = nlohmann::json::parse(slurp(out / "report.json"));
   const auto& runs = rep.at("runs");
-  // Seed 003: without the constraint the error peaks at 31.6 um (58 % over 20 um); vmsim's servo simulation must
+  // Chen et al. 2016: without the constraint the error peaks at 31.6 um (58 % over 20 um); vmsim's servo simulation must
   // also exceed the tolerance there, and the plan with the constraint must keep it.
   EXPECT_GT(runs.at("plan_without_contour_error").at("simulated_contour_error_max_um").get<double>(), 20.0);
   EXPECT_LE(runs.at("plan").at("simulated_contour_error_max_um").get<double>(), 20.0);
@@ -62,7 +62,7 @@ TEST(PlanFeedCli, BadInputNamesTheKey) {
   std::string text = slurp(kPart / "job_butterfly.toml");
   const std::string cp = (kPart / "butterfly_nurbs_control_points.csv").string();
   const std::string kn = (kPart / "butterfly_nurbs_knots.csv").string();
-  const std::string mach = (kPart / "seed003_machine.toml").string();
+  const std::string mach = (kPart / "chen2016_machine.toml").string();
   auto replace = [](std::string s, const std::string& a, const std::string& b) {
     const auto i = s.find(a);
     if (i != std::string::npos) s.replace(i, a.size(), b);
@@ -70,7 +70,7 @@ TEST(PlanFeedCli, BadInputNamesTheKey) {
   };
   text = replace(text, "\"butterfly_nurbs_control_points.csv\"", "\"" + cp + "\"");
   text = replace(text, "\"butterfly_nurbs_knots.csv\"", "\"" + kn + "\"");
-  text = replace(text, "\"seed003_machine.toml\"", "\"" + mach + "\"");
+  text = replace(text, "\"chen2016_machine.toml\"", "\"" + mach + "\"");
   {
     std::ofstream(job) << replace(text, "max_feed_mm_per_s = 50.0", "");
     const CliRun r = run_vmsim("plan-feed '" + job.string() + "' --out '" + (tmp.path() / "o1").string() + "'", tmp);

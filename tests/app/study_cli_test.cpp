@@ -3,7 +3,7 @@
 // writes by editing the base files' text (not through the study's override code), with the feed scale on the command
 // line; the study's table must hold exactly the figures of those runs' report.json, whatever the number of ranks.
 // Also: a failing variation is a row with its message and the others are kept; bad study files are errors naming
-// the file and the key. The base job is the plane-cylinder pass of seed 004 on a coarse 0.25 mm z-map.
+// the file and the key. The base job is the plane-cylinder pass of the feed-drive simulation paper on a coarse 0.25 mm z-map.
 #include "app/study.hpp"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// vmsim excite / identify end to end, as a user runs them on a machine: the excitation G-code of seed 001 (inverse
+// vmsim excite / identify end to end, as a user runs them on a machine: the excitation G-code of the predictive-compensation paper (inverse
 // M-sequence on a ramp) run as a job through `vmsim motion` (the NC's interpolator and the Mikron X cascade drive of
 // parts/machines/mikron_ucp710.toml), its trace.csv identified by `vmsim identify` (ARX, ARMAX, OE, orders 2/5), and a
 // job on a DIFFERENT trajectory (a circle) run with [job] axis_models = the identified X. References: the cascade
@@ -56,7 +56,7 @@ std::vector<double> csv_column(const fs::path& p, const std::string& name) {
   return v;
 }
 
-// 100 (1 - |y - yhat| / |y - mean y|): seed 001's fit, computed here independently of drives/sysid.
+// 100 (1 - |y - yhat| / |y - mean y|): the predictive-compensation paper's fit, computed here independently of drives/sysid.
 double fit_percent(const std::vector<double>& y, const std::vector<double>& yhat) {
   double mean = 0;
   for (double x : y) mean += x;
@@ -250,8 +250,8 @@ TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
 }
 
 TEST(SysidCli, CompensateTheStarfishWritesSetpointsProgramAndReport) {
-  // vmsim compensate on parts/starfish (seed 001 section 5) with the machine file's cascades as the prediction:
-  // report.json's figures (reference: seed 001's mean reduction, -61.76 %), the limits, and the compensated program
+  // vmsim compensate on parts/starfish (the predictive-compensation paper section 5) with the machine file's cascades as the prediction:
+  // report.json's figures (reference: the predictive-compensation paper's mean reduction, -61.76 %), the limits, and the compensated program
   // readable by vmsim's own G-code reader and interpolator.
   TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();

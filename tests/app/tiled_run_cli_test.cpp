@@ -138,7 +138,7 @@ TEST(TiledRunCli, PlaneCylinderZmapTilesGiveTheOneProcessResult) {
   TempDir tmp("vmsim_tiled_");
   expect_tiled_equals_one_process(plane_cylinder_job(tmp.path()), tmp.path(),
                                   {"surface.npy", "surface.csv", "reference.csv", "deviation.npy", "part.stl"});
-  // The mark is there to be compared (the fast pass' fillet mark, seed 004), not an empty result.
+  // The mark is there to be compared (the fast pass' fillet mark, the feed-drive simulation paper), not an empty result.
   EXPECT_FALSE(report(tmp.path() / "np2")["marks"].empty());
 }
 

@@ -1,4 +1,4 @@
-// Machine and job files. References: the Mikron UCP 710 limits of seed 000 Table I (X 30 m/min, 2.5 m/s^2,
+// Machine and job files. References: the Mikron UCP 710 limits of Duong et al. Table I (X 30 m/min, 2.5 m/s^2,
 // 10 m/s^3; Z 30 m/min, 2.1 m/s^2, 100 m/s^3) converted by hand to mm/s, mm/s^2, mm/s^3, and the DESIGN.md rule
 // that every error names the file, the line and the full key. Small files are written to a per-test temp dir.
 #include "core/error.hpp"

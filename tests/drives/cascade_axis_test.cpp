@@ -3,7 +3,7 @@
 #include "drives/cascade_axis.hpp"
 
 #include "core/error.hpp"
-#include "drive_test_support.hpp"
+#include "tests/drives/drive_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -50,7 +50,7 @@ double ramp_following_error(const core::DriveParams& p, double v, double seconds
 }
 
 // Reference: a P position loop with a perfect velocity loop, x' = Kv (x_d - x), follows a ramp of speed v with
-// the error v / Kv (seed 000 Fig. 6 without feedforward). A dead time of d samples in the position path adds
+// the error v / Kv (Duong et al. Fig. 6 without feedforward). A dead time of d samples in the position path adds
 // v d Te; a velocity feedforward KF removes KF v / Kv.
 TEST(CascadeAxis, RampFollowingErrorIsVOverKvWithIdealInnerLoops) {
   const core::Machine m = mikron();
@@ -74,7 +74,7 @@ TEST(CascadeAxis, RampFollowingErrorIsVOverKvWithIdealInnerLoops) {
 
 // Reference: the same steady error with the Mikron's real inner loops and its Coulomb friction: the velocity PI's
 // integrator supplies the friction current, so at constant speed the velocity error, and hence the position error
-// beyond v ((1 - KF)/Kv + d Te), is zero (seed 004 section 3.1: at constant speed the current is the friction's).
+// beyond v ((1 - KF)/Kv + d Te), is zero (the feed-drive simulation paper section 3.1: at constant speed the current is the friction's).
 TEST(CascadeAxis, RampFollowingErrorWithTheMikronCascadeAndFriction) {
   const core::Machine m = mikron();
   const core::DriveParams p = axis_drive(m, "X");
@@ -139,7 +139,7 @@ TEST(CascadeAxis, CurrentNeverExceedsItsLimit) {
   }
 }
 
-// Reference: seed 004 section 3.1 (eq. 1 at zero acceleration): at constant speed the motor torque equals the
+// Reference: the feed-drive simulation paper section 3.1 (eq. 1 at zero acceleration): at constant speed the motor torque equals the
 // resistant torque, Kt i = friction(w) + gravity, which is how the seed identifies the friction law from currents.
 // Checked on the Mikron X with a Stribeck term added (breakaway 3 N m, Stribeck speed 2 rad/s) and on Z (gravity):
 // the steady current at several feeds equals (Tc + (Ts - Tc) exp(-(w/ws)^2) + B w + G) / Kt within 0.1 %.
@@ -208,7 +208,7 @@ TEST(CascadeAxis, AxisAtRestWithGravityStaysAtRest) {
   }
 }
 
-// Reference: the mechanics of seed 004 eq. 1 (section 2.2) for a tilting rotary axis, J w' = Kt i - friction(w) -
+// Reference: the mechanics of the feed-drive simulation paper eq. 1 (section 2.2) for a tilting rotary axis, J w' = Kt i - friction(w) -
 // G sin(A - A0), with the machine file's degrees converted once at load (gear 4 deg per motor turn, travel, limits).
 // The Mikron A sweeps at a constant 20 deg/s from -90 to +90 deg. At constant speed (w' = 0) the current at every
 // angle is (Tc + B w + G sin(A - A0)) / Kt: the gravity torque's shape over the angle, read from currents as the

@@ -46,7 +46,7 @@ inline core::Setpoints sampled(const core::Machine& m, double te, Eigen::Index s
   return sp;
 }
 
-// Inner loops made close to ideal for the position loop (reference behaviour of seed 000 Fig. 6 with a perfect
+// Inner loops made close to ideal for the position loop (reference behaviour of Duong et al. Fig. 6 with a perfect
 // velocity loop): the Mikron X motor and mechanics, current loop at 5 kHz bandwidth and velocity loop at 1 kHz,
 // both sampled at 5 us, limits far out of reach, no friction. Gains by the same rules as the machine file
 // (current Kp = L wc, Tn = L/R; velocity Kp = J wv / Kt, Tn = 4 / wv).

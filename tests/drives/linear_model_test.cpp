@@ -2,7 +2,7 @@
 #include "drives/linear_model.hpp"
 
 #include "core/error.hpp"
-#include "drive_test_support.hpp"
+#include "tests/drives/drive_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -22,7 +22,7 @@ core::DriveParams mikron_x() {
   return *m.axes[0].drive;
 }
 
-// Reference: with near-ideal inner loops the cascade reduces to the sampled P loop of seed 000 Fig. 6,
+// Reference: with near-ideal inner loops the cascade reduces to the sampled P loop of Duong et al. Fig. 6,
 // x[k+1] = x[k] + Te (Kv (x_d[k - d] - x[k]) + KF v_d[k - d]) (the velocity command held over Te is integrated
 // exactly), whose response is G(z) = z^-d (Kv Te + KF (1 - z^-1)) / (z - 1 + Kv Te). The inner loops' remaining
 // lag (about 0.2 ms at 1 kHz bandwidth) is the only difference: within 1 % in magnitude and 0.02 rad in phase up
@@ -57,7 +57,7 @@ TEST(LinearModel, LowFrequencyLimits) {
   EXPECT_NEAR(std::abs(model.closed_loop_elements(1e-3) - 1.0), 0.0, 1e-4);
   const cd jw_pv = cd(0, 1e-2) * model.velocity_to_position(1e-2);
   EXPECT_NEAR(std::abs(jw_pv - 1.0), 0.0, 1e-4);
-  // Seed 003's circle model: a P loop with KF < 1 cuts inside (positive error), growing with the speed.
+  // Chen et al.'s circle model: a P loop with KF < 1 cuts inside (positive error), growing with the speed.
   const double e1 = model.circle_radial_error(10.0, 1000.0 / 60), e2 = model.circle_radial_error(10.0, 2000.0 / 60);
   EXPECT_GT(e1, 0.0);
   EXPECT_NEAR(e2 / e1, 4.0, 0.1) << "R (1 - |G|) grows as w^2 at low frequency";

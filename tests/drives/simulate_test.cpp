@@ -3,10 +3,10 @@
 #include "drives/simulate.hpp"
 
 #include "core/error.hpp"
-#include "core/interp.hpp"
-#include "core/kinematics.hpp"
-#include "core/program.hpp"
-#include "drive_test_support.hpp"
+#include "motion/interp.hpp"
+#include "motion/kinematics.hpp"
+#include "program/program.hpp"
+#include "tests/drives/drive_test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -22,11 +22,11 @@ const std::filesystem::path kParts = std::filesystem::path(VMSIM_SOURCE_DIR) / "
 // A realistic setpoint stream: the plane-cylinder part's 10 m/min pass interpolated for the Mikron (X, Y, Z move;
 // A and C have drives and hold their position; Z holds its head against gravity).
 core::Setpoints plane_cylinder_setpoints(const core::Machine& m) {
-  core::ProgramOptions po;
+  program::ProgramOptions po;
   po.tool_table = kParts / "plane_cylinder/tools.tbl";
   const core::ToolPath tp =
-      core::toolpath_in_axis_space(core::read_program(kParts / "plane_cylinder/plane_cylinder_fast.ngc", po), m);
-  return core::interpolate(tp, m, core::InterpOptions{}).setpoints;
+      motion::toolpath_in_axis_space(program::read_program(kParts / "plane_cylinder/plane_cylinder_fast.ngc", po), m);
+  return motion::interpolate(tp, m, motion::InterpOptions{}).setpoints;
 }
 
 void expect_identical(const AxisResponse& a, const AxisResponse& b) {
@@ -64,7 +64,7 @@ TEST(SimulateAxes, IdenticalWithOneAndTwoThreads) {
   EXPECT_EQ(one.trace.size(), m.axes.size());
 }
 
-// Reference: a gain schedule (seed 000's OGA) whose every entry equals the drive's own Kv and KF is no schedule at
+// Reference: a gain schedule (Duong et al.'s OGA) whose every entry equals the drive's own Kv and KF is no schedule at
 // all: bit-identical results; NaN entries keep the drive's own gains, so an all-NaN schedule is also identical. A
 // changed Kv on X changes X's response and no other axis'.
 TEST(SimulateAxes, GainScheduleEqualToTheDrivesOwnChangesNothing) {

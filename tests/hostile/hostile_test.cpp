@@ -1,5 +1,5 @@
 // Hostile inputs (the issue: "Truncated, garbled or hostile G-code, CL and TOML get a clear error, never a crash
-// or hang"). Deterministic mutants of real and built-in samples go through core::read_program, load_machine and
+// or hang"). Deterministic mutants of real and built-in samples go through program::read_program, load_machine and
 // load_job, compiled with AddressSanitizer and UBSan (tests/hostile/CMakeLists.txt). The only acceptable outcomes
 // are success, or a core::Error whose message starts with the file's name; any other exception fails, a crash
 // aborts the process (the sanitizer report and the input's path are printed), and each input must finish within
@@ -7,7 +7,7 @@
 #include "core/error.hpp"
 #include "core/job.hpp"
 #include "core/machine.hpp"
-#include "core/program.hpp"
+#include "program/program.hpp"
 #include "core/stl.hpp"
 
 #include <gtest/gtest.h>
@@ -689,12 +689,12 @@ fs::path shared_data() { return fs::path(VMSIM_SHARED_DIR) / "data"; }
 // 200 kB, reads in ~0.05 s under ASan: ~140 mutants).
 std::size_t mutant_count(std::size_t bytes) { return std::clamp<std::size_t>(30000000 / (bytes + 20000), 100, 500); }
 
-void run_gcode_sample(const std::string& name, const std::string& text, const ProgramOptions& options) {
+void run_gcode_sample(const std::string& name, const std::string& text, const program::ProgramOptions& options) {
   const fs::path input = work_dir("gcode-" + name) / (name + ".ngc");
   const auto mutants = make_mutants(text, mutant_count(text.size()), "gcode:" + name, Flavor::Gcode);
   // The unmutated program not reading is a limit of the G-code reader, reported above, not a hostile-input failure.
   run("G-code " + name, mutants, input, {input.string() + ":"},
-      [&](const fs::path& p) { (void)read_program(p, options); });
+      [&](const fs::path& p) { (void)program::read_program(p, options); });
 }
 
 TEST(Hostile, GcodeBuiltInMm) { run_gcode_sample("builtin-mm", kGcodeMm, {}); }
@@ -717,7 +717,7 @@ GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(HostileShared);
 
 TEST_P(HostileShared, GcodeProgram) {
   const fs::path p = shared_data() / "gcode" / "programs" / (GetParam() + ".ngc");
-  ProgramOptions options;
+  program::ProgramOptions options;
   const bool boat = GetParam() == "boat-xyzac";
   const fs::path table = shared_data() / "gcode" / "tooltables" / (boat ? "xyzac-trt.tbl" : "tool_common.tbl");
   if (fs::exists(table)) options.tool_table = table;
@@ -744,7 +744,7 @@ TEST(Hostile, AptClSample) {
   const fs::path input = work_dir("apt") / "part.apt";
   const auto mutants = make_mutants(kApt, 600, "apt", Flavor::Apt);
   const Outcome o =
-      run("APT CL sample", mutants, input, {input.string() + ":"}, [](const fs::path& p) { (void)read_program(p); });
+      run("APT CL sample", mutants, input, {input.string() + ":"}, [](const fs::path& p) { (void)program::read_program(p); });
   EXPECT_EQ(o.base_error, "") << "the sample itself must read, or the mutants test little";
 }
 
@@ -826,9 +826,9 @@ TEST(Hostile, Replay) {
     } else if (p.extension() == ".stl") {
       read_stl_stock(p);
     } else {
-      ProgramOptions options;
+      program::ProgramOptions options;
       if (const char* t = std::getenv("VMSIM_HOSTILE_TOOL_TABLE")) options.tool_table = fs::path(t);
-      (void)read_program(p, options);
+      (void)program::read_program(p, options);
     }
     std::printf("read without error");
   } catch (const Error& e) {

@@ -1,0 +1,50 @@
+#pragma once
+// The compensated NC program of `vmsim compensate`: the original program's own moves, in order, with the same feeds
+// and feed modes, each programmed point (move end) moved by the correction the compensation found at the setpoint
+// nearest to it, so that an NC's interpolator re-times it as it times the original (the predictive-compensation paper section 5 sends its
+// compensated points to the CNC). Arcs stay arcs about their programmed centre, to the corrected end point (the
+// correction at the arc's ends; a steady radial lag is corrected whole); on five-axis chains an arc of a CL or
+// tool-centre-point program becomes the points of its axis-space image (in inverse-time feed, each piece gets an
+// equal share of the move's time).
+#include "motion/kinematics.hpp"
+#include "core/machine.hpp"
+#include "core/setpoints.hpp"
+#include "core/toolpath.hpp"
+
+#include <Eigen/Core>
+
+#include <string>
+
+namespace vmsim::methods {
+
+struct CompensatedProgramInput {
+  const core::ToolPath* program = nullptr;     // as read (workpiece frame)
+  const core::ToolPath* axis_path = nullptr;   // motion::toolpath_in_axis_space(*program)
+  const core::Setpoints* setpoints = nullptr;  // the original setpoints (move_index)
+  const Eigen::MatrixXd* compensated = nullptr;  // the compensated setpoints, samples x axes
+  const Eigen::MatrixXd* command_tip = nullptr;  // tool tips of the original setpoints, samples x 3
+  const core::Machine* machine = nullptr;
+  const motion::Kinematics* kinematics = nullptr;
+  double chord_tolerance_mm = 0.5e-3;          // arcs written as G1 chords within this sag
+  std::string title;                           // first comment line
+};
+
+struct CompensatedProgram {
+  std::string text;
+  std::string extension;          // "ngc" (G-code) or "cl" (APT CL, for CL programs)
+  int blocks = 0;                 // motion blocks written
+  double largest_tip_correction_mm = 0.0;
+  double largest_axis_correction_rad = 0.0;  // tool axis (five-axis chains)
+};
+
+// G-code programs: G-code (G0/G1, G93/G94 as the original; on five-axis chains the words of the original's own
+// convention: tool-centre-point X Y Z with the rotary words, or joint words). APT CL programs: CL (GOTO/ tip and tool
+// axis, FEDRAT, RAPID as the original).
+CompensatedProgram write_compensated_program(const CompensatedProgramInput& in);
+
+// The same correction written as G-code in tool-centre-point form with the rotary words (X Y Z: tool tip in the
+// workpiece frame; A B C: the rotary axes), for a controller with a five-axis transformation (Siemens TRAORI, LinuxCNC
+// M428): the original's moves, feeds and corrected points. Five-axis chains only.
+CompensatedProgram write_compensated_tcp_gcode(const CompensatedProgramInput& in);
+
+}  // namespace vmsim::methods

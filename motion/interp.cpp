@@ -1,0 +1,860 @@
+// The NC interpolator.
+//
+// Why this design (and not VPOp's per-period search with backtracking, the seeds' anchor): the issue demands
+// zero limit violations measured by finite differences of the setpoints, on any path. VPOp meets the limits
+// sample by sample but needs backtracking whose cost and termination are hard to bound. Here the motion
+// along the path is planned in two provable steps, then checked exactly:
+//  1. Geometry: the program is turned into a curvature-continuous path within the corner tolerance
+//     (core/smooth_path): every setpoint is a point of it.
+//  2. Speed: an acceleration-limited profile v(s) under a velocity-limit curve (feed, axis velocity,
+//     centripetal acceleration, and the jerk of a changing curvature), found by forward/backward scans of
+//     v^2 — then passed through a moving-average (FIR) filter of length T in time. A moving average of a
+//     profile whose acceleration changes by at most A over any window of length T has jerk <= A / T: this is
+//     the FIR interpolation of modern NCs (Tajima & Sencer, "Accurate real-time interpolation of rapid
+//     trajectories using FIR filters", and Fanuc/Heidenhain "acceleration before interpolation"). Filtering the
+//     path parameter, not the axes, keeps every setpoint on the path. Guards make the bounds hold: each point's
+//     speed limit holds over v*T/2 on either side (the filter mixes positions that far apart), the acceleration
+//     limits are eroded over the filter's reach, and the acceleration never flips sign without a dwell of T
+//     (peaks are capped, valleys are the dwells above, exact stops dwell T).
+//     The price of this simplicity against a time-optimal jerk-limited planner: about T more at each local
+//     speed minimum (corners), measured in bench/README.md.
+//  3. Check: axis velocity, acceleration and jerk are computed by finite differences of the setpoints, as the
+//     tests and the drives see them; where a limit is exceeded (the continuous bounds above ignore O(Te)
+//     discretisation terms), the limits are lowered locally and the plan is redone. The result never leaves
+//     this function with a violation.
+#include "motion/interp.hpp"
+
+#include "core/error.hpp"
+#include "motion/smooth_path.hpp"
+#include "core/units.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <map>
+#include <set>
+
+namespace vmsim::motion {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps = 1e-12;
+
+// Fractions of each axis limit the plan may use. The plan's continuous bounds are exact up to O(Te) terms;
+// these margins keep the first plan within the limits almost everywhere, so the repair loop rarely runs.
+constexpr double kVelocityMargin = 1.0;   // chords are shorter than arcs: finite-difference speed <= v
+constexpr double kAccelMargin = 0.97;
+constexpr double kJerkMargin = 0.97;
+constexpr double kCurvatureShare = 0.9;   // share of axis acceleration the centripetal term may take
+constexpr double kCurvatureRateShare = 0.9;  // share of axis jerk for v^3 dK/ds (blends, where a_t = 0)
+// Half-width of the zone around a point of speed limit v* over which the raw profile holds v*: v* T / 2 (a dwell
+// of one filter length T; see spread_speed_limits).
+constexpr double kSpread = 0.5;
+
+struct Limits6 {
+  core::Vec6 v, a, j;  // path units (mm, deg) per s, s^2, s^3; +inf for axes the machine does not have
+  const FeedCeiling* ceiling = nullptr;  // the feed ceiling along the path (InterpOptions), or none
+};
+
+// Path speed per unit of feed at a point of tangent t: the feed is the X Y Z speed, or the rotary axes' alone.
+double feed_gain(const PathPiece& pc, const core::Vec6& t) {
+  if (pc.feed_metric == PathPiece::FeedMetric::Abc || t.head<3>().norm() <= kEps) return t.tail<3>().norm();
+  return t.head<3>().norm();
+}
+
+struct NodeGeom {
+  double vlim = kInf;       // speed limit from feed, axis velocity, curvature and its rate (path units / s)
+  core::Vec6 t_abs = core::Vec6::Zero();  // |unit tangent| per axis (max over the two sides of a junction)
+  core::Vec6 k_abs = core::Vec6::Zero();  // |curvature vector| per axis
+  core::Vec6 dk_abs = core::Vec6::Zero();  // |d(curvature vector)/ds| per axis
+};
+
+// Geometry and speed limit at curve parameter u of a piece.
+NodeGeom node_geometry_u(const PathPiece& pc, double u, const Limits6& lim) {
+  NodeGeom g;
+  const PathJet j = pc.jet_at_u(u);
+  g.t_abs = j.t.cwiseAbs();
+  g.k_abs = j.k.cwiseAbs();
+  g.dk_abs = j.dk.cwiseAbs();
+  double v = kInf;
+  // Programmed feed.
+  if (std::isfinite(pc.feed_limit)) {
+    double gain = 1.0;
+    if (pc.feed_metric == PathPiece::FeedMetric::Xyz) gain = j.t.head<3>().norm();
+    if (pc.feed_metric == PathPiece::FeedMetric::Abc) gain = j.t.tail<3>().norm();
+    if (gain > kEps) v = std::min(v, pc.feed_limit / gain);
+  }
+  for (int i = 0; i < 6; ++i) {
+    const double t = std::abs(j.t[i]), k = std::abs(j.k[i]), dk = std::abs(j.dk[i]);
+    if (t > kEps) v = std::min(v, lim.v[i] * kVelocityMargin / t);
+    if (k > kEps) v = std::min(v, std::sqrt(kCurvatureShare * lim.a[i] * kAccelMargin / k));
+    if (dk > kEps) v = std::min(v, std::cbrt(kCurvatureRateShare * lim.j[i] * kJerkMargin / dk));
+  }
+  // The feed ceiling at this point (its smallest value between nodes is taken where the nodes are laid out).
+  if (lim.ceiling && !lim.ceiling->empty()) {
+    const double gain = feed_gain(pc, j.t);
+    if (gain > kEps) v = std::min(v, lim.ceiling->at(pc.s_begin + pc.s_at(u)) / gain);
+  }
+  g.vlim = v;
+  return g;
+}
+
+NodeGeom node_geometry(const PathPiece& pc, double s_local, const Limits6& lim) {
+  return node_geometry_u(pc, pc.u_at(s_local), lim);
+}
+
+// Smallest speed limit on [u0, u1] of a curved piece, by bisection while the limit changes by more than 2 %
+// between neighbouring points (depth <= 8: 1/256 of a node interval).
+double min_speed_limit(const PathPiece& pc, double u0, double v0, double u1, double v1, const Limits6& lim, int depth) {
+  const double um = 0.5 * (u0 + u1);
+  const double vm = node_geometry_u(pc, um, lim).vlim;
+  double v = std::min({v0, v1, vm});
+  if (depth < 8 && (std::abs(vm - v0) > 0.02 * v || std::abs(vm - v1) > 0.02 * v)) {
+    v = std::min(v, min_speed_limit(pc, u0, v0, um, vm, lim, depth + 1));
+    v = std::min(v, min_speed_limit(pc, um, vm, u1, v1, lim, depth + 1));
+  }
+  return v;
+}
+
+// Largest tangential acceleration at a node moving at speed v, such that each axis keeps
+//   |T_i| a_t + |K_i| v^2 <= a_i                              (acceleration), and
+//   |T_i| a_t / T + 3 |K_i| v a_t + |dK_i| v^3 <= j_i         (jerk: the filter ramps a_t over T; the rate of
+//                                                              v^2 K has a tangential and a geometric part).
+// The geometric parts are within the limits at the node's speed limit (node_geometry), so a share of each axis'
+// budget is always left for the tangential motion.
+double tangential_accel(const NodeGeom& g, double v, double filter_s, const Limits6& lim) {
+  double a = kInf;
+  for (int i = 0; i < 6; ++i) {
+    const double t = g.t_abs[i], k = g.k_abs[i], dk = g.dk_abs[i];
+    const double ai = lim.a[i] * kAccelMargin, ji = lim.j[i] * kJerkMargin;
+    if (t > kEps) a = std::min(a, std::max(0.0, ai - k * v * v) / t);
+    const double den = t / filter_s + 3 * k * v;
+    if (den > kEps) a = std::min(a, std::max(0.0, ji - dk * v * v * v) / den);
+  }
+  return a;
+}
+
+struct Plan {
+  // Planning nodes along the path.
+  std::vector<double> s;        // arc length
+  std::vector<double> vlim;     // velocity-limit curve
+  std::vector<double> alim;     // tangential acceleration limit
+  std::vector<char> stop;       // the axes must be at rest here (path ends, exact-stop corners)
+  std::vector<double> scale_v, scale_a;  // local reductions made by the repair loop
+};
+
+// Sliding minimum of f over the windows [s_j - back_j, s_j + ahead_j]; window ends move monotonically.
+std::vector<double> erode(const std::vector<double>& s, const std::vector<double>& f, const std::vector<double>& back,
+                          const std::vector<double>& ahead, const std::vector<char>& skip) {
+  const std::size_t n = s.size();
+  std::vector<double> out(n);
+  std::deque<std::size_t> dq;  // indices with increasing f
+  std::size_t hi = 0, lo = 0;
+  double prev_left = -kInf, prev_right = -kInf;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double left = std::max(prev_left, s[j] - back[j]);
+    const double right = std::max(prev_right, s[j] + ahead[j]);
+    prev_left = left;
+    prev_right = right;
+    while (hi < n && s[hi] <= right) {
+      if (!skip[hi]) {
+        while (!dq.empty() && f[dq.back()] >= f[hi]) dq.pop_back();
+        dq.push_back(hi);
+      }
+      ++hi;
+    }
+    while (lo < n && s[lo] < left) ++lo;
+    while (!dq.empty() && dq.front() < lo) dq.pop_front();
+    out[j] = dq.empty() ? f[j] : std::min(f[j], f[dq.front()]);
+  }
+  return out;
+}
+
+// Speed limits as the filter needs them. The filtered speed at time t is the mean of the raw speeds over the
+// window [t - T, t], at the window's mean position. Around a point s* of limit v*, the raw profile must hold
+// v <= v* long enough for a whole window to fit: over [s* - v* T / 2, s* + v* T / 2] (a dwell of T at v*,
+// which is also what keeps the acceleration from flipping sign inside one window at a valley). So each node's
+// limit v_j spreads over that distance: slow points spread over short distances. Computed smallest limit first,
+// each node taking the first (smallest) value that reaches it. Windows that straddle a zone's edge can still
+// see faster raw motion; the finite-difference check and repair below catch what this misses.
+struct SpreadNodes {
+  std::vector<double> s, vlim;   // planning nodes plus the zone edges, with the spread limits
+  std::vector<char> stop;
+  std::vector<std::size_t> base; // the planning node at or before each node
+  std::vector<char> inserted;    // a zone edge (not a planning node)
+};
+
+SpreadNodes spread_speed_limits(const std::vector<double>& s, const std::vector<double>& v,
+                                const std::vector<char>& stop, double filter_s) {
+  const std::size_t n = s.size();
+  // Lower envelope of the zones [s_j - r_j, s_j + r_j] with value v_j, by a sweep over their edges. The profile is
+  // linear in v^2 between nodes, so each edge inside an interval becomes a node: otherwise the profile could
+  // accelerate into a zone from a node outside it.
+  struct Event {
+    double x;
+    int open;  // 1 opens, 0 closes (closing sorts after opening at the same x: zones are closed intervals)
+    double v;
+  };
+  std::vector<Event> ev;
+  ev.reserve(2 * n);
+  const double s_end = s.back();
+  for (std::size_t j = 0; j < n; ++j) {
+    if (stop[j] || !std::isfinite(v[j])) continue;
+    const double r = kSpread * v[j] * filter_s;
+    ev.push_back({std::max(0.0, s[j] - r), 1, v[j]});
+    ev.push_back({std::min(s_end, s[j] + r), 0, v[j]});
+  }
+  std::sort(ev.begin(), ev.end(), [](const Event& a, const Event& b) {
+    return a.x < b.x || (a.x == b.x && a.open > b.open);
+  });
+  // Breakpoints of the envelope: (x, value just left, value just right).
+  struct Break {
+    double x, left, right;
+  };
+  std::vector<Break> br;
+  std::multiset<double> active;
+  auto current = [&] { return active.empty() ? kInf : *active.begin(); };
+  for (std::size_t i = 0; i < ev.size();) {
+    const double x = ev[i].x, before = current();
+    for (; i < ev.size() && ev[i].x == x && ev[i].open; ++i) active.insert(ev[i].v);
+    const double at = current();  // zones closed at x still count at x
+    for (; i < ev.size() && ev[i].x == x && !ev[i].open; ++i) active.erase(active.find(ev[i].v));
+    const double after = current();
+    if (at != before || at != after) br.push_back({x, before, after});
+  }
+  SpreadNodes out;
+  out.s.reserve(n + br.size());
+  out.vlim.reserve(n + br.size());
+  std::size_t b = 0;
+  double env_right = kInf;  // envelope value on the right of the last breakpoint passed
+  auto push = [&](double x, double value, char st, std::size_t base, char ins) {
+    out.s.push_back(x), out.vlim.push_back(value), out.stop.push_back(st), out.base.push_back(base),
+        out.inserted.push_back(ins);
+  };
+  for (std::size_t j = 0; j < n; ++j) {
+    // Edges strictly between node j-1 and node j.
+    for (; b < br.size() && br[b].x < s[j]; ++b) {
+      if (j > 0 && br[b].x > s[j - 1]) push(br[b].x, std::min(br[b].left, br[b].right), 0, j - 1, 1);
+      env_right = br[b].right;
+    }
+    double e = env_right;
+    for (; b < br.size() && br[b].x == s[j]; ++b) {
+      e = std::min({e, br[b].left, br[b].right});
+      env_right = br[b].right;
+    }
+    push(s[j], stop[j] ? 0.0 : std::min(v[j], e), stop[j], j, 0);
+  }
+  return out;
+}
+
+// Acceleration-limited profile q = v^2 under vmax with per-interval tangential acceleration limits.
+std::vector<double> scan_profile(const std::vector<double>& s, const std::vector<double>& vmax,
+                                 const std::vector<double>& amax) {
+  const std::size_t n = s.size();
+  std::vector<double> q(n);
+  for (std::size_t j = 0; j < n; ++j) q[j] = vmax[j] * vmax[j];
+  q.front() = 0;
+  q.back() = 0;
+  for (std::size_t j = 0; j + 1 < n; ++j) {
+    const double a = std::min(amax[j], amax[j + 1]);
+    q[j + 1] = std::min(q[j + 1], q[j] + 2 * a * (s[j + 1] - s[j]));
+  }
+  for (std::size_t j = n - 1; j > 0; --j) {
+    const double a = std::min(amax[j], amax[j - 1]);
+    q[j - 1] = std::min(q[j - 1], q[j] + 2 * a * (s[j] - s[j - 1]));
+  }
+  return q;
+}
+
+// Node times of a profile (constant acceleration between nodes), with a dwell at every interior stop.
+std::vector<double> node_times(const std::vector<double>& s, const std::vector<double>& q,
+                               const std::vector<char>& stop, double dwell_s) {
+  const std::size_t n = s.size();
+  std::vector<double> t(n, 0.0);
+  for (std::size_t j = 0; j + 1 < n; ++j) {
+    const double vs = std::sqrt(q[j]) + std::sqrt(q[j + 1]);
+    const double h = s[j + 1] - s[j];
+    double dt = h > 0 ? 2 * h / vs : 0.0;
+    if (!std::isfinite(dt)) throw core::Error("interpolator: internal error (two consecutive stops on a path piece)");
+    if (j > 0 && stop[j]) dt += dwell_s;
+    t[j + 1] = t[j] + dt;
+  }
+  return t;
+}
+
+// A profile ready for sampling: nodes, v^2 at each (linear in s between nodes) and stop flags.
+struct Profile {
+  std::vector<double> s, q;
+  std::vector<char> stop;
+};
+
+// Caps every peak of the profile so that the speed stays constant for at least T there: the acceleration then
+// never goes from + to - inside one filter window, which would double the filtered jerk. The plateau's ends
+// fall inside intervals in general; nodes are inserted there (v^2 stays linear in s on each side).
+Profile cap_peaks(const std::vector<double>& s, const std::vector<double>& q_in, const std::vector<char>& stop,
+                  double filter_s) {
+  const std::size_t n = s.size();
+  std::vector<double> q = q_in;
+  const double rel = 1e-12;
+  struct Cap {
+    std::size_t a, b;  // nodes [a, b] are at or above the cap
+    double qc, s_left, s_right;
+  };
+  std::vector<Cap> caps;
+  // Plateau [a, b] at or above qc around [p0, p1], not crossing the valleys lo_k and hi_k on either side.
+  auto reach = [&](std::size_t p0, std::size_t p1, std::size_t lo_k, std::size_t hi_k, double qc, Cap& c) {
+    std::size_t a = p0, b = p1;
+    while (a > lo_k && q[a - 1] >= qc) --a;
+    while (b < hi_k && q[b + 1] >= qc) ++b;
+    // Crossings of v^2 = qc inside the neighbouring intervals (v^2 is linear in s there).
+    const double sl = (a > 0 && q[a] > q[a - 1] && q[a - 1] < qc)
+                          ? s[a - 1] + (qc - q[a - 1]) / (q[a] - q[a - 1]) * (s[a] - s[a - 1]) : s[a];
+    const double sr = (b + 1 < n && q[b] > q[b + 1] && q[b + 1] < qc)
+                          ? s[b + 1] - (qc - q[b + 1]) / (q[b] - q[b + 1]) * (s[b + 1] - s[b]) : s[b];
+    c = {a, b, qc, sl, sr};
+    return (sr - sl) >= filter_s * std::sqrt(qc);
+  };
+  // Repeat until no peak is too short: a peak that cannot get its plateau between its two valleys is lowered to
+  // the higher valley and so merges with its neighbour, which the next round treats as one hump. A plateau made
+  // long enough is marked done: its crossings lie inside intervals, where the next round cannot see them.
+  std::vector<char> done(n, 0);
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::size_t j = 1;
+    while (j + 1 < n) {
+      // A plateau [p0, p1] of equal q that is a strict local maximum.
+      std::size_t p0 = j, p1 = j;
+      while (p1 + 1 < n && std::abs(q[p1 + 1] - q[p0]) <= rel * q[p0]) ++p1;
+      const bool peak = q[p0] > 0 && q[p0 - 1] < q[p0] * (1 - rel) && p1 + 1 < n && q[p1 + 1] < q[p0] * (1 - rel);
+      if (!peak || done[p0]) {
+        j = p1 + 1;
+        continue;
+      }
+      std::size_t lo_k = p0, hi_k = p1;
+      while (lo_k > 0 && q[lo_k - 1] <= q[lo_k]) --lo_k;
+      while (hi_k + 1 < n && q[hi_k + 1] <= q[hi_k]) ++hi_k;
+      Cap c;
+      if (reach(p0, p1, lo_k, hi_k, q[p0], c)) {
+        j = p1 + 1;
+        continue;
+      }
+      const double floor_q = std::max(q[lo_k], q[hi_k]);
+      double lo = floor_q, hi = q[p0];
+      const bool fits = reach(p0, p1, lo_k, hi_k, floor_q, c);
+      if (!fits) {
+        hi = lo;  // not even the higher valley gives a long enough plateau: merge with that side
+      } else {
+        for (int it = 0; it < 60; ++it) {
+          const double mid = 0.5 * (lo + hi);
+          if (reach(p0, p1, lo_k, hi_k, mid, c)) lo = mid; else hi = mid;
+        }
+      }
+      reach(p0, p1, lo_k, hi_k, lo, c);
+      for (std::size_t k = c.a; k <= c.b; ++k) {
+        q[k] = std::min(q[k], lo);
+        done[k] = fits;
+      }
+      caps.push_back(c);
+      changed = true;
+      j = c.b + 1;
+    }
+  }
+  // The capped profile: the scanned nodes and every cap's two crossings, each at the lowest cap covering it
+  // (a later cap may reach back over an earlier one's plateau and crossings).
+  struct Pt {
+    double s, q;
+    char stop;
+  };
+  std::vector<Pt> pts;
+  pts.reserve(n + 2 * caps.size());
+  for (std::size_t k = 0; k < n; ++k) pts.push_back({s[k], q[k], stop[k]});
+  for (const Cap& c : caps) {
+    pts.push_back({c.s_left, c.qc, 0});
+    pts.push_back({c.s_right, c.qc, 0});
+  }
+  std::stable_sort(pts.begin(), pts.end(), [](const Pt& a, const Pt& b) { return a.s < b.s; });
+  std::vector<const Cap*> by_left(caps.size());
+  for (std::size_t i = 0; i < caps.size(); ++i) by_left[i] = &caps[i];
+  std::sort(by_left.begin(), by_left.end(), [](const Cap* a, const Cap* b) { return a->s_left < b->s_left; });
+  std::multimap<double, double> active;  // s_right -> qc of the caps covering the sweep position
+  std::multiset<double> levels;
+  std::size_t next_cap = 0;
+  Profile out;
+  out.s.reserve(pts.size());
+  out.q.reserve(pts.size());
+  out.stop.reserve(pts.size());
+  for (const Pt& p : pts) {
+    for (; next_cap < by_left.size() && by_left[next_cap]->s_left <= p.s; ++next_cap) {
+      active.emplace(by_left[next_cap]->s_right, by_left[next_cap]->qc);
+      levels.insert(by_left[next_cap]->qc);
+    }
+    while (!active.empty() && active.begin()->first < p.s) {
+      levels.erase(levels.find(active.begin()->second));
+      active.erase(active.begin());
+    }
+    const double qv = levels.empty() ? p.q : std::min(p.q, *levels.begin());
+    if (!out.s.empty() && p.s <= out.s.back()) {  // coincident points: keep one, the lower value and any stop
+      out.q.back() = std::min(out.q.back(), qv);
+      out.stop.back() = out.stop.back() || p.stop;
+      continue;
+    }
+    out.s.push_back(p.s);
+    out.q.push_back(qv);
+    out.stop.push_back(p.stop);
+  }
+  return out;
+}
+
+struct Sampled {
+  std::vector<double> s_raw;  // unfiltered path parameter per sample
+  std::vector<double> s;      // filtered
+};
+
+// Samples the profile every Te, then applies the moving average of M samples.
+Sampled sample_and_filter(const std::vector<double>& s, const std::vector<double>& q, const std::vector<double>& t,
+                          const std::vector<char>& stop, double dwell_s, double te, int m, double length) {
+  Sampled out;
+  const std::size_t n = s.size();
+  const double total = t.back();
+  const std::size_t count = static_cast<std::size_t>(std::ceil(total / te - 1e-9)) + 1;
+  out.s_raw.resize(count);
+  std::size_t j = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const double tk = k * te;
+    while (j + 1 < n - 1 && t[j + 1] <= tk) ++j;
+    double sk;
+    if (tk >= total) {
+      sk = length;
+    } else {
+      // Interval j: starts at t[j] (+ dwell when node j is an interior stop), constant acceleration.
+      const double start = t[j] + ((j > 0 && stop[j]) ? dwell_s : 0.0);
+      const double tau = std::max(0.0, tk - start);
+      const double v0 = std::sqrt(q[j]), h = s[j + 1] - s[j];
+      const double acc = h > 0 ? (q[j + 1] - q[j]) / (2 * h) : 0.0;
+      sk = std::min(s[j] + v0 * tau + 0.5 * acc * tau * tau, s[j + 1]);
+    }
+    out.s_raw[k] = sk;
+  }
+  // Moving average as a running window sum of offsets from the path start, recomputed from scratch every
+  // 1024 samples so round-off cannot drift; its per-sample noise (~1e-13 mm) is far below what the jerk
+  // (a third difference over Te^3) can see.
+  const std::size_t total_count = count + static_cast<std::size_t>(m) - 1;
+  out.s.resize(total_count);
+  auto raw = [&](std::ptrdiff_t idx) {
+    return idx < 0 ? 0.0 : (static_cast<std::size_t>(idx) < count ? out.s_raw[static_cast<std::size_t>(idx)] : length);
+  };
+  double acc = 0.0;
+  for (std::size_t k = 0; k < total_count; ++k) {
+    const auto kk = static_cast<std::ptrdiff_t>(k);
+    if (k % 1024 == 0) {
+      acc = 0.0;
+      for (int i = 0; i < m; ++i) acc += raw(kk - i);
+    } else {
+      acc += raw(kk) - raw(kk - m);
+    }
+    out.s[k] = std::clamp(acc / m, 0.0, length);
+  }
+  out.s.back() = length;
+  return out;
+}
+
+struct Violation {
+  Eigen::Index sample;
+  int axis;
+  int order;  // 1 velocity, 2 acceleration, 3 jerk
+  double value, limit;
+};
+
+// Finite differences of the path-space positions (rest before the first and after the last sample).
+std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const Limits6& lim,
+                                    std::size_t max_report) {
+  std::vector<Violation> out;
+  const Eigen::Index n = x.rows();
+  auto at = [&](Eigen::Index k, int i) { return x(std::clamp<Eigen::Index>(k, 0, n - 1), i); };
+  for (int i = 0; i < 6; ++i) {
+    if (!std::isfinite(lim.v[i])) continue;
+    for (Eigen::Index k = 1; k < n + 3; ++k) {
+      const double x0 = at(k, i), x1 = at(k - 1, i), x2 = at(k - 2, i), x3 = at(k - 3, i);
+      const double v = (x0 - x1) / te;
+      const double a = (x0 - 2 * x1 + x2) / (te * te);
+      const double j = (x0 - 3 * x1 + 3 * x2 - x3) / (te * te * te);
+      // Round-off in the differences is ~1e-12 relative; 1e-9 keeps it from triggering repairs.
+      constexpr double kSlack = 1 + 1e-9;
+      if (std::abs(v) > lim.v[i] * kSlack) out.push_back({k, i, 1, v, lim.v[i]});
+      else if (std::abs(a) > lim.a[i] * kSlack) out.push_back({k, i, 2, a, lim.a[i]});
+      else if (std::abs(j) > lim.j[i] * kSlack) out.push_back({k, i, 3, j, lim.j[i]});
+      if (out.size() >= max_report) return out;
+    }
+  }
+  return out;
+}
+
+// Axis limits in path space (rotary axes in degrees); +inf for axes the machine lacks (they must not move).
+Limits6 path_limits(const core::Machine& machine) {
+  Limits6 lim;
+  lim.v.setConstant(kInf);
+  lim.a.setConstant(kInf);
+  lim.j.setConstant(kInf);
+  for (const core::MachineAxis& ax : machine.axes) {
+    const double f = ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0;
+    lim.v[ax.program_axis] = ax.max_velocity * f;
+    lim.a[ax.program_axis] = ax.max_acceleration * f;
+    lim.j[ax.program_axis] = ax.max_jerk * f;
+  }
+  return lim;
+}
+
+SmoothPathOptions smooth_path_options(const Limits6& lim, const InterpOptions& options) {
+  SmoothPathOptions sopt;
+  sopt.tolerance_mm = options.tolerance_mm;
+  sopt.axis_jerk = lim.j;
+  sopt.axis_accel = lim.a;
+  sopt.rapid_speed = lim.v.head<3>().minCoeff();
+  sopt.feed_scale = options.feed_scale;
+  return sopt;
+}
+
+// A geometry given in the options must be the moves' path: contiguous pieces naming existing moves, from the path's
+// start to its end.
+void check_geometry(const SmoothPath& sp, const core::ToolPath& path) {
+  const std::string& src = path.source_path;
+  if (path.moves.empty()) {
+    if (!sp.pieces.empty()) throw core::Error(core::located(src, 0, "interpolator: a path geometry for a program without moves"));
+    return;
+  }
+  if (sp.pieces.empty()) throw core::Error(core::located(src, 0, "interpolator: the path geometry has no pieces"));
+  double s = 0.0;
+  for (const PathPiece& pc : sp.pieces) {
+    if (pc.move_index < 0 || pc.move_index_next < 0 || static_cast<std::size_t>(pc.move_index) >= path.moves.size() ||
+        static_cast<std::size_t>(pc.move_index_next) >= path.moves.size())
+      throw core::Error(core::located(src, 0, "interpolator: a piece of the path geometry names a move the program does not have"));
+    if (std::abs(pc.s_begin - s) > 1e-9 * std::max(1.0, s) || !(pc.length > 0))
+      throw core::Error(core::located(src, 0, "interpolator: the path geometry's pieces are not contiguous in arc length"));
+    s += pc.length;
+  }
+  const core::Vec6 a = to_path_space(path.initial_position), b = to_path_space(path.moves.back().end);
+  if ((sp.pieces.front().point_u(sp.pieces.front().u_begin) - a).cwiseAbs().maxCoeff() > 1e-6 ||
+      (sp.pieces.back().point_u(sp.pieces.back().u_end) - b).cwiseAbs().maxCoeff() > 1e-6)
+    throw core::Error(core::located(src, 0, "interpolator: the path geometry does not start and end where the moves do"));
+}
+
+}  // namespace
+
+double FeedCeiling::at(double s) const {
+  const std::size_t n = s_mm.size();
+  if (n == 0) return kInf;
+  if (s <= s_mm.front()) return feed_mm_per_s.front();
+  if (s >= s_mm.back()) return feed_mm_per_s.back();
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(s_mm.begin(), s_mm.end(), s) - s_mm.begin()) - 1;
+  const double w = (s - s_mm[k]) / (s_mm[k + 1] - s_mm[k]);
+  const double qa = feed_mm_per_s[k] * feed_mm_per_s[k], qb = feed_mm_per_s[k + 1] * feed_mm_per_s[k + 1];
+  return std::sqrt(qa + w * (qb - qa));
+}
+
+double FeedCeiling::min_over(double s0, double s1) const {
+  if (s_mm.empty()) return kInf;
+  if (s1 < s0) std::swap(s0, s1);
+  double v = std::min(at(s0), at(s1));
+  // Breakpoints strictly inside: v^2 is linear between them, so the smallest value is at one of them or an end.
+  auto it = std::upper_bound(s_mm.begin(), s_mm.end(), s0);
+  for (; it != s_mm.end() && *it < s1; ++it) v = std::min(v, feed_mm_per_s[static_cast<std::size_t>(it - s_mm.begin())]);
+  return v;
+}
+
+void FeedCeiling::check() const {
+  if (s_mm.size() != feed_mm_per_s.size())
+    throw core::Error(fmt::format("feed ceiling: {} positions for {} feeds", s_mm.size(), feed_mm_per_s.size()));
+  for (std::size_t i = 0; i < s_mm.size(); ++i) {
+    if (!std::isfinite(s_mm[i]) || (i > 0 && !(s_mm[i] > s_mm[i - 1])))
+      throw core::Error(fmt::format("feed ceiling: position {} ({} mm) does not increase", i, s_mm[i]));
+    if (!(feed_mm_per_s[i] > 0) || !std::isfinite(feed_mm_per_s[i]))
+      throw core::Error(fmt::format("feed ceiling: feed {} at {} mm (expected > 0: the interpolator starts and stops at "
+                              "rest by itself)",
+                              feed_mm_per_s[i], s_mm[i]));
+  }
+}
+
+SmoothPath smooth_path_for(const core::ToolPath& path, const core::Machine& machine, const InterpOptions& options) {
+  if (options.geometry) {
+    check_geometry(*options.geometry, path);
+    return *options.geometry;
+  }
+  return build_smooth_path(path, smooth_path_options(path_limits(machine), options));
+}
+
+InterpResult interpolate(const core::ToolPath& path, const core::Machine& machine, const InterpOptions& options) {
+  if (!(options.period_s > 0) || !(options.tolerance_mm > 0) || !(options.feed_scale > 0))
+    throw core::Error("interpolator: the period, the tolerance and the feed scale must be > 0");
+  const double te = options.period_s;
+  options.feed_ceiling.check();
+
+  // Axis limits in path space (rotary axes in degrees); axes the machine lacks must not move.
+  Limits6 lim = path_limits(machine);
+  if (!options.feed_ceiling.empty()) lim.ceiling = &options.feed_ceiling;
+  static const char* axis_names[] = {"X", "Y", "Z", "A", "B", "C"};
+  for (const core::Move& m : path.moves) {
+    for (int i = 0; i < 6; ++i) {
+      if (machine.axis_index(i) < 0 && std::abs(m.end[i] - m.start[i]) > 1e-12)
+        throw core::Error(core::located(path.source_path, m.source_line,
+                            fmt::format("the program moves axis {}, which machine \"{}\" ({}) does not have",
+                                        axis_names[i], machine.name, machine.source_file)));
+    }
+    for (const auto* axis : {&m.tool_axis_start, &m.tool_axis_end}) {
+      if (*axis && machine.kinematics == "xyz" && ((**axis) - Eigen::Vector3d::UnitZ()).norm() > 1e-9)
+        throw core::Error(core::located(path.source_path, m.source_line,
+                            "the program tilts the tool axis, which a 3-axis machine (kinematics \"xyz\") cannot do"));
+    }
+  }
+
+  // The path must be continuous in axis space (readers and motion::toolpath_in_axis_space guarantee it).
+  core::Vec6 at = path.initial_position;
+  for (const core::Move& m : path.moves) {
+    if ((m.start - at).cwiseAbs().maxCoeff() > 1e-6)
+      throw core::Error(core::located(path.source_path, m.source_line,
+                          fmt::format("move starts at ({:.6f}, {:.6f}, {:.6f}) but the axes are at ({:.6f}, {:.6f}, "
+                                      "{:.6f}); was the tool path converted to axis coordinates?",
+                                      m.start[0], m.start[1], m.start[2], at[0], at[1], at[2])));
+    at = m.end;
+  }
+
+  SmoothPath built;
+  if (options.geometry) check_geometry(*options.geometry, path);
+  else built = build_smooth_path(path, smooth_path_options(lim, options));
+  const SmoothPath& sp = options.geometry ? *options.geometry : built;
+
+  InterpResult result;
+  result.stats.moves = static_cast<int>(path.moves.size());
+  result.stats.blends = sp.blends;
+  result.stats.exact_stops = sp.exact_stops;
+  core::Setpoints& out = result.setpoints;
+  out.period_s = te;
+  for (const core::MachineAxis& ax : machine.axes) out.axis_names.push_back(ax.name);
+
+  auto write_samples = [&](const std::vector<double>& s_f, const Eigen::MatrixXd& xp,
+                           const std::vector<int>& move_of) {
+    const Eigen::Index n = xp.rows();
+    out.position.resize(n, static_cast<Eigen::Index>(machine.axes.size()));
+    for (std::size_t a = 0; a < machine.axes.size(); ++a) {
+      const core::MachineAxis& ax = machine.axes[a];
+      const double f = ax.kind == core::AxisKind::Rotary ? core::units::kDegToRad : 1.0;
+      const auto col = static_cast<Eigen::Index>(a);
+      out.position.col(col) = xp.col(ax.program_axis) * f;
+      // The motion starts and ends exactly at the program's points, without a round trip through path space.
+      out.position(0, col) = path.initial_position[ax.program_axis];
+      if (!path.moves.empty()) out.position(n - 1, col) = path.moves.back().end[ax.program_axis];
+    }
+    out.path_length_mm.resize(n);
+    out.path_speed_mm_per_s.resize(n);
+    out.move_index.resize(n);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      out.path_length_mm[k] = s_f[k];
+      out.path_speed_mm_per_s[k] = k == 0 ? 0.0 : (xp.row(k).head<3>() - xp.row(k - 1).head<3>()).norm() / te;
+      out.move_index[k] = move_of[k];
+    }
+  };
+
+  if (sp.pieces.empty()) {
+    Eigen::MatrixXd xp(1, 6);
+    xp.row(0) = sp.start.transpose();
+    write_samples({0.0}, xp, {path.moves.empty() ? -1 : 0});
+    return result;
+  }
+
+  // Planning nodes: 16 per blend, arcs every 5 degrees, and at most 0.5 mm apart (a feed ceiling's mean spacing
+  // where it is finer).
+  double node_spacing = 0.5;
+  if (lim.ceiling) {
+    const FeedCeiling& c = *lim.ceiling;
+    if (c.s_mm.size() > 1) node_spacing = std::clamp((c.s_mm.back() - c.s_mm.front()) / (c.s_mm.size() - 1), 0.01, 0.5);
+  }
+  Plan plan;
+  std::vector<NodeGeom> geom;
+  for (std::size_t pi = 0; pi < sp.pieces.size(); ++pi) {
+    const PathPiece& pc = sp.pieces[pi];
+    int n = 2;
+    if (pc.kind == PathPiece::Kind::Quintic) n = 16;
+    if (pc.kind == PathPiece::Kind::Arc)
+      n = std::max(4, static_cast<int>(std::ceil(std::abs(pc.dtheta * (pc.u_end - pc.u_begin)) / (core::units::kPi / 36))));
+    n = std::max(n, static_cast<int>(std::ceil(pc.length / node_spacing)));
+    const bool curved = pc.kind != PathPiece::Kind::Line;
+    // Nodes evenly spaced in the curve parameter (no arc-length inversion; blends are nearly uniform anyway).
+    const double span = pc.u_end - pc.u_begin;
+    std::vector<NodeGeom> gk(n + 1);
+    for (int k = 0; k <= n; ++k) gk[k] = node_geometry_u(pc, pc.u_begin + span * k / n, lim);
+    // The limit between two nodes: on curved pieces, the smallest over points bisected until the limit varies by
+    // less than 2 % from one point to the next (a blend's curvature can peak sharply between its nodes).
+    std::vector<double> between(n, kInf);
+    if (curved) {
+      for (int k = 0; k < n; ++k)
+        between[k] = min_speed_limit(pc, pc.u_begin + span * k / n, gk[k].vlim, pc.u_begin + span * (k + 1) / n,
+                                     gk[k + 1].vlim, lim, 0);
+    }
+    std::vector<double> sk(n + 1);
+    for (int k = 0; k <= n; ++k) sk[k] = k == 0 ? 0.0 : (k == n ? pc.length : pc.s_at(pc.u_begin + span * k / n));
+    if (lim.ceiling) {
+      // The ceiling's smallest value between two nodes holds at both (v^2 is linear between nodes, so the profile
+      // then stays under the ceiling everywhere between them).
+      for (int k = 0; k < n; ++k) {
+        const double gain = std::max(feed_gain(pc, pc.jet_at_u(pc.u_begin + span * k / n).t),
+                                     feed_gain(pc, pc.jet_at_u(pc.u_begin + span * (k + 1) / n).t));
+        if (gain > kEps)
+          between[k] = std::min(between[k], lim.ceiling->min_over(pc.s_begin + sk[k], pc.s_begin + sk[k + 1]) / gain);
+      }
+    }
+    for (int k = 0; k <= n; ++k) {
+      const double sl = sk[k];
+      NodeGeom g = gk[k];
+      if (k > 0) g.vlim = std::min(g.vlim, between[k - 1]);
+      if (k < n) g.vlim = std::min(g.vlim, between[k]);
+      if (k == 0 && !plan.s.empty()) {  // junction: the stricter of both sides
+        NodeGeom& prev = geom.back();
+        prev.vlim = std::min(prev.vlim, g.vlim);
+        prev.t_abs = prev.t_abs.cwiseMax(g.t_abs);
+        prev.k_abs = prev.k_abs.cwiseMax(g.k_abs);
+        prev.dk_abs = prev.dk_abs.cwiseMax(g.dk_abs);
+        continue;
+      }
+      plan.s.push_back(pc.s_begin + sl);
+      plan.stop.push_back(0);
+      geom.push_back(g);
+    }
+    if (pc.stop_after) plan.stop.back() = 1;
+  }
+  plan.stop.front() = plan.stop.back() = 1;
+  const std::size_t nn = plan.s.size();
+
+  // Filter length: the longest natural jerk time A/J of the directions travelled, in whole periods.
+  double filter_s = te;
+  for (const NodeGeom& g : geom) {
+    double at = kInf, jt = kInf;
+    for (int i = 0; i < 6; ++i) {
+      if (g.t_abs[i] <= kEps) continue;
+      at = std::min(at, lim.a[i] * kAccelMargin / g.t_abs[i]);
+      jt = std::min(jt, lim.j[i] * kJerkMargin / g.t_abs[i]);
+    }
+    if (std::isfinite(at) && std::isfinite(jt)) filter_s = std::max(filter_s, at / jt);
+  }
+  const int m = std::max(1, static_cast<int>(std::ceil(filter_s / te - 1e-9)));
+  filter_s = m * te;
+  const double dwell_s = filter_s;
+
+  plan.scale_v.assign(nn, 1.0);
+  plan.scale_a.assign(nn, 1.0);
+  plan.vlim.resize(nn);
+  plan.alim.resize(nn);
+
+  constexpr int kMaxPasses = 60;
+  for (int pass = 0;; ++pass) {
+    for (std::size_t j = 0; j < nn; ++j) {
+      plan.vlim[j] = plan.stop[j] ? 0.0 : geom[j].vlim * plan.scale_v[j];
+      plan.alim[j] = tangential_accel(geom[j], plan.vlim[j], filter_s, lim) * plan.scale_a[j];
+      if (!(plan.alim[j] > 0)) plan.alim[j] = 1e-9;  // keeps the scans moving on degenerate nodes
+    }
+    // Speed limits spread for the filter, a first profile to learn how far the filter window reaches at each
+    // node, the acceleration limits eroded over those windows, and the final profile (slower than the first,
+    // so its windows are shorter and the erosion stays valid).
+    const SpreadNodes sn = spread_speed_limits(plan.s, plan.vlim, plan.stop, filter_s);
+    const std::size_t na = sn.s.size();
+    std::vector<double> alim(na);
+    for (std::size_t i = 0; i < na; ++i) {
+      if (!sn.inserted[i]) {
+        alim[i] = plan.alim[sn.base[i]];
+        continue;
+      }
+      const PathPiece& pc = sp.pieces[sp.piece_at(sn.s[i])];
+      const NodeGeom g = node_geometry(pc, sn.s[i] - pc.s_begin, lim);
+      alim[i] = std::max(1e-9, tangential_accel(g, std::min(g.vlim, sn.vlim[i]), filter_s, lim) *
+                                   std::min(plan.scale_a[sn.base[i]], plan.scale_a[std::min(sn.base[i] + 1, nn - 1)]));
+    }
+    const std::vector<double> q1 = scan_profile(sn.s, sn.vlim, alim);
+    const std::vector<double> t1 = node_times(sn.s, q1, sn.stop, dwell_s);
+    std::vector<double> back(na), ahead(na);
+    {
+      std::size_t lo = 0, hi = 0;
+      for (std::size_t j = 0; j < na; ++j) {
+        while (hi + 1 < na && t1[hi + 1] <= t1[j] + filter_s) ++hi;
+        while (t1[lo] < t1[j] - filter_s) ++lo;
+        // One node beyond each end: the window's true reach lies inside the next interval.
+        ahead[j] = sn.s[std::min(hi + 1, na - 1)] - sn.s[j];
+        back[j] = sn.s[j] - sn.s[lo > 0 ? lo - 1 : 0];
+      }
+    }
+    const std::vector<double> ae = erode(sn.s, alim, back, ahead, std::vector<char>(na, 0));
+    const Profile prof = cap_peaks(sn.s, scan_profile(sn.s, sn.vlim, ae), sn.stop, filter_s);
+    std::vector<double> t = node_times(prof.s, prof.q, prof.stop, dwell_s);
+    Sampled smp = sample_and_filter(prof.s, prof.q, t, prof.stop, dwell_s, te, m, sp.length);
+
+    // Setpoints in path space.
+    const Eigen::Index ns = static_cast<Eigen::Index>(smp.s.size());
+    Eigen::MatrixXd xp(ns, 6);
+    std::vector<int> move_of(ns);
+    SmoothPath::Cursor cursor;
+    for (Eigen::Index k = 0; k < ns; ++k) {
+      const double sk = smp.s[k];
+      xp.row(k) = sp.point(sk, cursor).transpose();
+      const PathPiece& pc = sp.pieces[sp.piece_at(sk, cursor.piece)];
+      move_of[k] = (pc.move_index == pc.move_index_next || sk < pc.s_begin + 0.5 * pc.length) ? pc.move_index
+                                                                                              : pc.move_index_next;
+    }
+    xp.row(ns - 1) = sp.end.transpose();
+
+    const std::vector<Violation> bad = check_limits(xp, te, lim, 100000);
+    if (bad.empty()) {
+      result.stats.repair_passes = pass;
+      write_samples(smp.s, xp, move_of);
+      break;
+    }
+    if (pass + 1 >= kMaxPasses) {
+      const Violation& v = bad.front();
+      const core::Move& mv = path.moves[static_cast<std::size_t>(move_of[std::min<Eigen::Index>(v.sample, ns - 1)])];
+      throw core::Error(core::located(path.source_path, mv.source_line,
+                          fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > {:.6g}) "
+                                      "after {} passes; please report this program",
+                                      axis_names[v.axis], v.order == 1 ? "velocity" : v.order == 2 ? "acceleration" : "jerk",
+                                      std::abs(v.value), v.limit, kMaxPasses)));
+    }
+    // Lower the limits on the nodes that fed the offending samples (the filter window and the differences).
+    std::vector<char> touched(nn, 0);
+    const Eigen::Index nraw = static_cast<Eigen::Index>(smp.s_raw.size());
+    for (const Violation& v : bad) {
+      const Eigen::Index k_hi = std::min<Eigen::Index>(v.sample, nraw - 1);
+      const Eigen::Index k_lo = std::clamp<Eigen::Index>(v.sample - 3 - m, 0, nraw - 1);
+      const double s_lo = smp.s_raw[k_lo], s_hi = std::max(smp.s_raw[k_hi], smp.s[std::min(v.sample, ns - 1)]);
+      auto a = std::lower_bound(plan.s.begin(), plan.s.end(), s_lo) - plan.s.begin();
+      auto b = std::upper_bound(plan.s.begin(), plan.s.end(), s_hi) - plan.s.begin();
+      for (auto j = std::max<std::ptrdiff_t>(0, a - 1); j < std::min<std::ptrdiff_t>(nn, b + 1); ++j) touched[j] = 1;
+    }
+    for (std::size_t j = 0; j < nn; ++j) {
+      if (!touched[j]) continue;
+      plan.scale_v[j] *= 0.9;
+      plan.scale_a[j] *= 0.8;
+    }
+  }
+
+  result.stats.cycle_time_s = out.duration_s();
+
+  // Travel limits of the machine.
+  for (std::size_t a = 0; a < machine.axes.size(); ++a) {
+    const core::MachineAxis& ax = machine.axes[a];
+    if (ax.continuous) continue;
+    const auto col = out.position.col(static_cast<Eigen::Index>(a));
+    for (Eigen::Index k = 0; k < col.size(); ++k) {
+      if (col[k] < ax.travel_min - 1e-9 || col[k] > ax.travel_max + 1e-9) {
+        const double f = ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0;
+        const char* unit = ax.kind == core::AxisKind::Rotary ? "deg" : "mm";
+        const core::Move& mv = path.moves[static_cast<std::size_t>(std::max(0, out.move_index[k]))];
+        throw core::Error(core::located(path.source_path, mv.source_line,
+                            fmt::format("axis {} reaches {:.4f} {}, outside its travel [{:g}, {:g}] {} ({})", ax.name,
+                                        col[k] * f, unit, ax.travel_min * f, ax.travel_max * f, unit,
+                                        machine.source_file)));
+      }
+    }
+  }
+  return result;
+}
+
+}  // namespace vmsim::motion

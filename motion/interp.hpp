@@ -1,0 +1,58 @@
+#pragma once
+// The NC interpolator: from a ToolPath and the machine's axis limits to axis setpoints every Te.
+#include "core/machine.hpp"
+#include "core/setpoints.hpp"
+#include "motion/smooth_path.hpp"
+#include "core/toolpath.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace vmsim::motion {
+
+// A ceiling on the feed along the path, e.g. Chen et al.'s contour-error-constrained feed plan (drives/feedplan): at
+// arc length s of the smoothed path the interpolator follows (smooth_path_for), the speed of the programmed point
+// (X Y Z, mm/s; the path speed for moves of the rotary axes alone) is at most ceiling(s). The squared ceiling is
+// linear in s between the points, as the plan's squared feed is (Chen et al. 2016 eq. 21), and constant beyond the ends.
+// s_mm strictly increasing, feeds > 0 (the interpolator starts and stops at rest by itself).
+struct FeedCeiling {
+  std::vector<double> s_mm, feed_mm_per_s;
+  bool empty() const { return s_mm.empty(); }
+  double at(double s) const;
+  double min_over(double s0, double s1) const;  // smallest value on [s0, s1]
+  void check() const;                           // throws core::Error for a malformed ceiling
+};
+
+struct InterpOptions {
+  double period_s = 1e-3;        // Te
+  double tolerance_mm = 0.020;   // corner tolerance: largest distance of a setpoint from the programmed path
+  double feed_scale = 1.0;       // feed override applied to every programmed feed
+  FeedCeiling feed_ceiling;      // empty: none
+  // The path to follow when it is not the moves' lines and arcs (a NURBS made G2 by core/nurbs): its pieces' move
+  // indices name the ToolPath's moves, which then serve for bookkeeping (feeds, start and end, source lines) and
+  // must join the same points. Null: the moves' lines and arcs, blended within the tolerance (core/smooth_path).
+  std::shared_ptr<const SmoothPath> geometry;
+};
+
+struct InterpStats {
+  double cycle_time_s = 0.0;
+  int moves = 0;                 // ToolPath moves interpolated
+  int blends = 0;                // corners and curvature jumps smoothed within the tolerance
+  int exact_stops = 0;           // corners too sharp to blend: the axes stop there
+  int repair_passes = 0;         // re-plans needed to bring every finite difference within the limits
+};
+
+struct InterpResult {
+  core::Setpoints setpoints;
+  InterpStats stats;
+};
+
+// `path` is in axis coordinates (motion::toolpath_in_axis_space): its moves join end to start. Setpoints start at
+// path.initial_position and end exactly at the last move's end.
+InterpResult interpolate(const core::ToolPath& path, const core::Machine& machine, const InterpOptions& options);
+
+// The smoothed path interpolate() follows for these arguments (options.geometry when given): its arc length is the
+// coordinate of a FeedCeiling.
+SmoothPath smooth_path_for(const core::ToolPath& path, const core::Machine& machine, const InterpOptions& options);
+
+}  // namespace vmsim::motion

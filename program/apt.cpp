@@ -1,0 +1,647 @@
+// APT CL (cutter location) files as CAM systems write them: CATIA "APT source", NX CLSF, Creo/Pro-E NCL,
+// Mastercam, hyperMILL and PowerMILL APT output, and Autodesk's ISO 4343 APT posts.
+//
+// What a record looks like (ISO 4343, and what the CAM systems above actually write):
+//   MAJOR/arg, arg, ...      e.g. GOTO  / 10.0000, 20.0000, 5.0000, 0.000000, 0.000000, 1.000000
+//   MAJOR [free text]        e.g. RAPID, FINI, MULTAX, PARTNO my part (CATIA writes PARTNO without a slash)
+//   $$ comment               anywhere on a line; the rest of the line is ignored
+//   ... ,$                   a line ending in a single '$' continues on the next line
+// Major words are case-insensitive; runs of blanks inside them collapse ("TOOL PATH/" in NX CLSF).
+//
+// Motion semantics (the CL file already holds the tool tip positions; nothing is offset here):
+//   FROM/x,y,z[,i,j,k]        start point. Before any motion it is the initial position; later it is a rapid
+//                             move to that point (what posts do with a from-move).
+//   GOTO/x,y,z[,i,j,k]        straight move of the tool tip; i,j,k the tool axis (normalised here).
+//   GODLTA/dx,dy,dz | /d      incremental move; /d moves d along the current tool axis.
+//   GOHOME                    move back to the FROM/ point.
+//   CIRCLE/xc,yc,zc,i,j,k,r[,...] then GOTO/   arc (or helix) to the GOTO end point about the axis (i,j,k),
+//                             counter-clockwise about the axis (right-hand rule), as ISO 4343 and NX CLSF define
+//                             it. NX appends tolerance and tool data after r; they are ignored. (Autodesk's
+//                             MfgSuite and CAMplete APT posts write the opposite sense: such files must be
+//                             re-posted with an ISO 4343 post.)
+//   MOVARC/xc,yc,zc,i,j,k,r[,ANGLE,deg] then GOTO/   the same arc, as Autodesk's ISO 4343 post writes it; ANGLE
+//                             gives the swept angle, which distinguishes full turns.
+//   RAPID                     the next motion only is a rapid; the last FEDRAT/ applies again afterwards.
+//   FEDRAT/f[,MMPM|IPM|PERMIN], FEDRAT/MMPM|IPM,f   feed per minute (no unit word: the file's UNITS).
+//   TLAXIS/i,j,k              tool axis for GOTOs that give no i,j,k under MULTAX/OFF (default +Z).
+//   MULTAX[/ON|/OFF]          under MULTAX/ON a GOTO without i,j,k keeps the last tool axis.
+//   UNITS/MM|INCHES           lengths and feeds that follow are in that unit; converted to mm here.
+//   CUTTER/d[,r,...], TLDATA/MILL,d,r,...   tool diameter and corner radius (ToolPath::tool_*).
+//   LOADTL/n, LOAD/TOOL,n     active tool number of the moves that follow.
+//   INDIRV/i,j,k              checked and ignored: it aims the next GO command of part-program source, and CL
+//                             files contain only GOTOs, which do not use it.
+//   FINI                      end of the CL file; anything after it is not read.
+//
+// Accepted and ignored (kNonMotionWords below), because they neither move the tool nor change what the
+// coordinates mean in the workpiece frame: PARTNO MACHIN MODE SELECT SELCTL TOOLNO TPRINT PPRINT PRINT INSERT
+// SPINDL COOLNT END STOP OPSTOP OPSKIP PAINT "TOOL PATH" MSYS END-OF-PATH AUTOPS INTOL OUTTOL TOLER LINTOL
+// CLEARP THICK OFSTNO SEQNO CLAMP HEAD TURRET LEADER REWIND NOPOST DISPLY PPLOT CSI_TOOL_PATH OPERATION PITCH;
+// also CUTCOM (CL files hold centre-line data: CUTCOM only arms the controller's wear offset), DELAY and DWELL
+// (ToolPath carries no time), ORIGIN (places the workpiece on the machine, not the path in the workpiece frame),
+// MSYS (the CL output frame is taken as the workpiece frame) and CYCLE/OFF.
+//
+// Refused with an error naming the line and the word: words that move the tool in a way this reader does not
+// model (part-program GO commands, canned cycles, table rotations, CL transforms), and any word not listed
+// here: a word that might move the tool must never be skipped silently.
+#include "program/apt.hpp"
+
+#include "core/error.hpp"
+#include "core/units.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace vmsim::program {
+
+namespace {
+
+constexpr std::string_view kNonMotionWords[] = {
+    "PARTNO", "MACHIN",      "MODE",   "SELECT", "SELCTL", "TOOLNO",        "TPRINT",    "PPRINT", "PRINT",
+    "INSERT", "SPINDL",      "COOLNT", "END",    "STOP",   "OPSTOP",        "OPSKIP",    "PAINT",  "TOOL PATH",
+    "MSYS",   "END-OF-PATH", "CUTCOM", "DELAY",  "DWELL",  "AUTOPS",        "INTOL",     "OUTTOL", "TOLER",
+    "LINTOL", "ORIGIN",      "CLEARP", "THICK",  "OFSTNO", "SEQNO",         "CLAMP",     "HEAD",   "TURRET",
+    "LEADER", "REWIND",      "NOPOST", "DISPLY", "PPLOT",  "CSI_TOOL_PATH", "OPERATION", "PITCH"};
+
+// Words whose argument is free text: their arguments are not split or checked.
+constexpr std::string_view kTextWords[] = {"PARTNO", "PPRINT", "TPRINT", "PRINT", "INSERT", "OPERATION"};
+
+// Words that move the tool (or change what later coordinates mean) in ways this reader does not model.
+constexpr std::string_view kUnsupportedMotionWords[] = {"GO",     "GOFWD",  "GOLFT",  "GORGT",  "GOBACK", "GOUP",
+                                                        "GODOWN", "RETRCT", "TRACUT", "COPY",   "INDEX",  "TRANS",
+                                                        "ROTABL", "ROTATE", "ROTHED", "THREAD", "PIVOTZ"};
+
+template <std::size_t N>
+bool contains(const std::string_view (&words)[N], std::string_view w) {
+  return std::find(std::begin(words), std::end(words), w) != std::end(words);
+}
+
+std::string upper(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return out;
+}
+
+std::string_view trim(std::string_view s) {
+  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; };
+  while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+// For messages: a garbled file must not put control bytes or megabytes of text into an error message.
+std::string printable(std::string_view s) {
+  std::string out;
+  for (char c : s.substr(0, 40)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
+  if (s.size() > 40) out += "...";
+  return out;
+}
+
+// Numbers in messages: short, and readable for 1e300 as well as for 0.0001.
+std::string num(double v) {
+  std::ostringstream os;
+  os.precision(6);
+  os << v;
+  return os.str();
+}
+
+// A logical record: the text of one or more physical lines (continuations joined, comments removed).
+struct Record {
+  int line = 0;  // first physical line
+  std::string text;
+};
+
+std::vector<Record> split_records(const std::string& content) {
+  std::vector<Record> records;
+  Record current;
+  bool continuing = false;
+  int line_no = 0;
+  std::size_t pos = 0;
+  while (pos < content.size()) {
+    std::size_t eol = content.find_first_of("\r\n", pos);
+    if (eol == std::string::npos) eol = content.size();
+    std::string_view line(content.data() + pos, eol - pos);
+    ++line_no;
+    // "\r\n", "\n" and a lone "\r" each end one line.
+    pos = eol + 1;
+    if (eol < content.size() && content[eol] == '\r' && pos < content.size() && content[pos] == '\n') ++pos;
+
+    if (auto c = line.find("$$"); c != std::string_view::npos) line = line.substr(0, c);
+    line = trim(line);
+    bool continues = false;
+    if (!line.empty() && line.back() == '$') {
+      continues = true;
+      line.remove_suffix(1);
+    }
+    if (!continuing) {
+      current = Record{line_no, std::string()};
+    }
+    current.text.append(line);
+    continuing = continues;
+    if (!continuing) {
+      if (!trim(current.text).empty()) records.push_back(std::move(current));
+      current = Record{};
+    }
+  }
+  // A file that ends inside a continued record: the record is whatever was read (truncated files get an
+  // error from the record's own checks, not a silent drop).
+  if (continuing && !trim(current.text).empty()) records.push_back(std::move(current));
+  return records;
+}
+
+enum class NumberStatus { Ok, NotANumber, OutOfRange, NotFinite };
+
+NumberStatus parse_number(std::string_view s, double& out) {
+  s = trim(s);
+  if (!s.empty() && s.front() == '+') {  // from_chars does not take a leading '+'
+    s.remove_prefix(1);
+    if (!s.empty() && (s.front() == '+' || s.front() == '-')) return NumberStatus::NotANumber;
+  }
+  if (s.empty()) return NumberStatus::NotANumber;
+  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), out, std::chars_format::general);
+  if (ec == std::errc::result_out_of_range) return NumberStatus::OutOfRange;
+  if (ec != std::errc() || ptr != s.data() + s.size()) return NumberStatus::NotANumber;
+  if (!std::isfinite(out)) return NumberStatus::NotFinite;
+  return NumberStatus::Ok;
+}
+
+struct Statement {
+  int line = 0;
+  std::string word;               // major word, upper case, blanks collapsed
+  bool slash = false;             // the record had "WORD/..."
+  std::string rest;               // text after the slash (or after the word when there is no slash)
+  std::vector<std::string> args;  // rest split at commas, trimmed (upper case)
+};
+
+Statement parse_statement(const Record& r) {
+  Statement st;
+  st.line = r.line;
+  std::string_view text = trim(r.text);
+  // Free-text words first: CATIA's "PARTNO part/1" must not be split at the slash inside its text.
+  const std::size_t token_end = std::min(text.find_first_of(" \t/"), text.size());
+  if (contains(kTextWords, upper(text.substr(0, token_end)))) {
+    st.word = upper(text.substr(0, token_end));
+    std::string_view rest = trim(text.substr(token_end));
+    st.slash = !rest.empty() && rest.front() == '/';
+    if (st.slash) rest.remove_prefix(1);
+    st.rest = std::string(trim(rest));
+    return st;
+  }
+  const std::size_t slash = text.find('/');
+  std::string_view word;
+  if (slash != std::string_view::npos) {
+    st.slash = true;
+    word = trim(text.substr(0, slash));
+    st.rest = std::string(trim(text.substr(slash + 1)));
+  } else {
+    const std::size_t blank = text.find_first_of(" \t");
+    word = text.substr(0, blank);
+    if (blank != std::string_view::npos) st.rest = std::string(trim(text.substr(blank)));
+  }
+  // Collapse blank runs inside the word ("TOOL  PATH" -> "TOOL PATH").
+  bool blank = false;
+  for (char c : word) {
+    if (c == ' ' || c == '\t') {
+      blank = true;
+      continue;
+    }
+    if (blank && !st.word.empty()) st.word += ' ';
+    blank = false;
+    st.word += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  }
+  if (st.slash) {
+    std::string_view rest = st.rest;
+    while (true) {
+      const std::size_t comma = rest.find(',');
+      st.args.push_back(upper(trim(rest.substr(0, comma))));
+      if (comma == std::string_view::npos) break;
+      rest.remove_prefix(comma + 1);
+    }
+    if (st.args.size() == 1 && st.args[0].empty()) st.args.clear();  // "WORD/" with nothing after it
+  }
+  return st;
+}
+
+struct PlaneAxes {
+  core::ArcPlane plane;
+  int first, second, normal;  // indices into x y z
+};
+
+class AptReader {
+ public:
+  explicit AptReader(std::string file) : file_(std::move(file)) { path_.source_path = file_; }
+
+  core::ToolPath read(const std::string& content) {
+    for (const Record& rec : split_records(content)) {
+      const Statement st = parse_statement(rec);
+      if (!handle(st)) break;  // FINI
+    }
+    if (pending_arc_)
+      fail(pending_arc_->line,
+           pending_arc_->word + "/ is not followed by its GOTO/ end point (expected GOTO/x,y,z after it)");
+    if (!position_) {
+      throw core::Error(core::located(
+          file_, 0, "no FROM/ or GOTO/ record: nothing to machine (expected an APT CL file with GOTO/x,y,z records)"));
+    }
+    if (!multi_axis_file_) {
+      for (core::Move& m : path_.moves) m.tool_axis_start = m.tool_axis_end = std::nullopt;
+    }
+    return std::move(path_);
+  }
+
+ private:
+  struct PendingArc {
+    int line = 0;
+    std::string word;
+    Eigen::Vector3d centre;
+    Eigen::Vector3d axis;  // unit
+    double radius = 0;
+    std::optional<double> sweep_deg;  // MOVARC/...,ANGLE,deg
+  };
+
+  [[noreturn]] void fail(int line, const std::string& message) const { throw core::Error(core::located(file_, line, message)); }
+
+  double number(const Statement& st, std::size_t i, const char* expected) const {
+    if (i >= st.args.size())
+      fail(st.line, st.word + "/ has " + std::to_string(st.args.size()) + " values (expected " + expected + ")");
+    double v = 0;
+    switch (parse_number(st.args[i], v)) {
+      case NumberStatus::Ok:
+        return v;
+      case NumberStatus::OutOfRange:
+        fail(st.line, st.word + "/ value " + std::to_string(i + 1) + " \"" + printable(st.args[i]) +
+                          "\" is out of the range of a double (expected " + expected + ")");
+      case NumberStatus::NotFinite:
+        fail(st.line, st.word + "/ value " + std::to_string(i + 1) + " \"" + printable(st.args[i]) +
+                          "\" is not a finite number (expected " + expected + ")");
+      case NumberStatus::NotANumber:
+        break;
+    }
+    fail(st.line, st.word + "/ value " + std::to_string(i + 1) + " \"" + printable(st.args[i]) +
+                      "\" is not a number (expected " + expected + ")");
+  }
+
+  std::vector<double> numbers(const Statement& st, const char* expected) const {
+    std::vector<double> v;
+    for (std::size_t i = 0; i < st.args.size(); ++i) v.push_back(number(st, i, expected));
+    return v;
+  }
+
+  Eigen::Vector3d unit_axis(const Statement& st, double i, double j, double k) const {
+    Eigen::Vector3d a(i, j, k);
+    const double n = a.norm();
+    // Components up to 1e300 keep the norm finite; beyond that (or for a zero vector) there is no direction.
+    if (!(n > 1e-12) || !std::isfinite(n))
+      fail(st.line, st.word + "/ axis vector (" + num(i) + ", " + num(j) + ", " + num(k) + ") has " +
+                        (std::isfinite(n) ? "zero length" : "no finite length") + " (expected a direction i, j, k)");
+    return a / n;
+  }
+
+  void no_args(const Statement& st) const {
+    if (st.slash || !st.rest.empty())
+      fail(st.line, st.word + " takes no arguments, found \"" + printable(st.rest) + "\"");
+  }
+
+  double length_unit() const { return inches_ ? core::units::kInchToMm : 1.0; }
+
+  // One straight move (or the initial position) to `target` with tool axis `axis`.
+  void go(const Statement& st, const Eigen::Vector3d& target, const Eigen::Vector3d& axis) {
+    const bool rapid = rapid_next_;
+    rapid_next_ = false;
+    if (pending_arc_) {
+      arc_to(st, target, axis);
+      return;
+    }
+    if (!position_) {
+      position_ = target;
+      axis_ = axis;
+      path_.initial_position.head<3>() = target;
+      return;
+    }
+    core::Move m = make_move(st, rapid, axis);
+    m.end.head<3>() = target;
+    // Zero-length moves are dropped; a move that only turns the tool axis is kept, as the five-axis machine
+    // has to move its rotary axes for it.
+    const bool turns = (axis - axis_).norm() > 1e-12;
+    if ((target - *position_).norm() > 1e-9 || turns) path_.moves.push_back(m);
+    position_ = target;
+    axis_ = axis;
+  }
+
+  core::Move make_move(const Statement& st, bool rapid, const Eigen::Vector3d& axis) const {
+    if (!rapid && !(feed_mm_per_min_ > 0))
+      fail(st.line, st.word + "/ cuts at feed before any FEDRAT/ (expected FEDRAT/f or RAPID before it)");
+    core::Move m;
+    m.rapid = rapid;
+    m.start.head<3>() = *position_;
+    m.end.head<3>() = *position_;
+    m.feed_mode = core::FeedMode::UnitsPerMinute;
+    m.feed_mm_per_min = rapid ? 0.0 : feed_mm_per_min_;  // rapids carry no programmed feed: the machine's rapid rate
+    m.tool_axis_start = axis_;
+    m.tool_axis_end = axis;
+    m.tool_number = tool_number_;
+    m.source_line = st.line;
+    return m;
+  }
+
+  void arc_to(const Statement& st, const Eigen::Vector3d& target, const Eigen::Vector3d& axis) {
+    const PendingArc arc = *pending_arc_;
+    pending_arc_.reset();
+    const std::string where = arc.word + "/ on line " + std::to_string(arc.line);
+    // The axis must be one of the coordinate axes: ToolPath arcs lie in XY, ZX or YZ (LinuxCNC ARC_FEED).
+    int m = 0;
+    arc.axis.cwiseAbs().maxCoeff(&m);
+    for (int i = 0; i < 3; ++i)
+      if (i != m && std::abs(arc.axis[i]) > 1e-6)
+        fail(arc.line, arc.word + "/ axis (" + num(arc.axis.x()) + ", " + num(arc.axis.y()) + ", " + num(arc.axis.z()) +
+                           ") is not parallel to X, Y or Z (expected an arc in the XY, ZX or YZ plane; output "
+                           "tilted-plane arcs as GOTO/ points)");
+    static constexpr PlaneAxes kPlanes[3] = {{core::ArcPlane::YZ, 1, 2, 0}, {core::ArcPlane::ZX, 2, 0, 1}, {core::ArcPlane::XY, 0, 1, 2}};
+    const PlaneAxes p = kPlanes[m];
+    const Eigen::Vector2d c(arc.centre[p.first], arc.centre[p.second]);
+    const Eigen::Vector2d s((*position_)[p.first], (*position_)[p.second]);
+    const Eigen::Vector2d e(target[p.first], target[p.second]);
+    const double rs = (s - c).norm(), re = (e - c).norm();
+    // CAM systems print 4 to 6 decimals; a radius off by more than 10 µm (or 0.1 %) is a different arc.
+    const double tol = std::max(0.01, 1e-3 * arc.radius);
+    if (std::abs(rs - arc.radius) > tol)
+      fail(st.line, "arc start is " + num(rs) + " mm from the centre of " + where + ", radius " + num(arc.radius) +
+                        " mm (expected the tool on the circle when the arc starts)");
+    if (std::abs(re - arc.radius) > tol)
+      fail(st.line, "GOTO/ end point is " + num(re) + " mm from the centre of " + where + ", radius " +
+                        num(arc.radius) + " mm (expected the arc's end point on its circle)");
+    // Counter-clockwise about the axis (ISO 4343): positive rotation when the axis points along +normal.
+    int turns = 1;
+    if (arc.sweep_deg) turns = std::max(1, static_cast<int>(std::ceil(*arc.sweep_deg / 360.0 - 1e-9)));
+    core::Move mv = make_move(st, false, axis);
+    mv.source_line = arc.line;  // the arc is the CIRCLE/ record's; its GOTO/ only gives the end point
+    mv.kind = core::MotionKind::Arc;
+    mv.plane = p.plane;
+    mv.centre_mm = c;
+    mv.rotation = arc.axis[m] > 0 ? turns : -turns;
+    mv.end.head<3>() = target;
+    path_.moves.push_back(mv);  // start == end is a full circle, never a zero-length move
+    position_ = target;
+    axis_ = axis;
+  }
+
+  // Returns false at FINI.
+  bool handle(const Statement& st) {
+    const std::string& w = st.word;
+    if (w == "GOTO" || w == "FROM") {
+      const std::vector<double> v = numbers(st, "x, y, z[, i, j, k]");
+      if (v.size() != 3 && v.size() != 6)
+        fail(st.line, w + "/ has " + std::to_string(v.size()) + " values (expected x, y, z or x, y, z, i, j, k)");
+      const Eigen::Vector3d p = Eigen::Vector3d(v[0], v[1], v[2]) * length_unit();
+      Eigen::Vector3d axis = multax_ ? last_given_axis_ : tlaxis_;
+      if (v.size() == 6) {
+        axis = last_given_axis_ = unit_axis(st, v[3], v[4], v[5]);
+        multi_axis_file_ = true;
+      }
+      if (!p.allFinite()) fail(st.line, w + "/ position is out of range after the unit conversion");
+      if (w == "FROM") {
+        if (pending_arc_)
+          fail(st.line, "FROM/ follows " + pending_arc_->word + "/ on line " + std::to_string(pending_arc_->line) +
+                            " (expected GOTO/ with the arc's end point)");
+        if (!position_) {
+          rapid_next_ = false;
+          from_ = p;
+          go(st, p, axis);
+          return true;
+        }
+        from_ = p;
+        rapid_next_ = true;  // a later FROM/ is a rapid to the new start point
+      }
+      go(st, p, axis);
+      return true;
+    }
+    if (w == "GODLTA") {
+      if (!position_) fail(st.line, "GODLTA/ before any FROM/ or GOTO/ (expected a start position first)");
+      if (pending_arc_)
+        fail(st.line, "GODLTA/ follows " + pending_arc_->word + "/ (expected GOTO/ with the arc's end point)");
+      const std::vector<double> v = numbers(st, "dx, dy, dz or a distance along the tool axis");
+      Eigen::Vector3d d;
+      if (v.size() == 3)
+        d = Eigen::Vector3d(v[0], v[1], v[2]) * length_unit();
+      else if (v.size() == 1)
+        d = axis_ * v[0] * length_unit();
+      else
+        fail(st.line, "GODLTA/ has " + std::to_string(v.size()) +
+                          " values (expected dx, dy, dz or one distance along the tool axis)");
+      const Eigen::Vector3d target = *position_ + d;
+      if (!target.allFinite()) fail(st.line, "GODLTA/ moves out of the range of a double");
+      go(st, target, axis_);
+      return true;
+    }
+    if (w == "GOHOME") {
+      no_args(st);
+      if (!from_) fail(st.line, "GOHOME without a FROM/ point (expected FROM/x,y,z earlier in the file)");
+      if (pending_arc_)
+        fail(st.line, "GOHOME follows " + pending_arc_->word + "/ (expected GOTO/ with the arc's end point)");
+      go(st, *from_, axis_);
+      return true;
+    }
+    if (w == "CIRCLE" || w == "MOVARC") {
+      if (!position_) fail(st.line, w + "/ before any FROM/ or GOTO/ (expected the arc's start position first)");
+      if (pending_arc_)
+        fail(st.line, w + "/ follows " + pending_arc_->word + "/ on line " + std::to_string(pending_arc_->line) +
+                          " without its GOTO/ end point");
+      if (rapid_next_)
+        fail(st.line, w + "/ follows RAPID (expected RAPID to be followed by GOTO/; arcs are cut at feed)");
+      const char* expected = "xc, yc, zc, i, j, k, r";
+      if (st.args.size() < 7)
+        fail(st.line, w + "/ has " + std::to_string(st.args.size()) + " values (expected " + expected + ")");
+      PendingArc arc;
+      arc.line = st.line;
+      arc.word = w;
+      double v[7];
+      for (int i = 0; i < 7; ++i) v[i] = number(st, static_cast<std::size_t>(i), expected);
+      arc.centre = Eigen::Vector3d(v[0], v[1], v[2]) * length_unit();
+      arc.axis = unit_axis(st, v[3], v[4], v[5]);
+      arc.radius = v[6] * length_unit();
+      if (!(arc.radius > 0) || !std::isfinite(arc.radius) || !arc.centre.allFinite())
+        fail(st.line, w + "/ radius " + printable(st.args[6]) + " is not a positive finite length (expected r > 0)");
+      if (w == "MOVARC" && st.args.size() > 7) {
+        if (st.args.size() != 9 || st.args[7] != "ANGLE")
+          fail(st.line, "MOVARC/ after the radius expects ANGLE, degrees; found \"" + printable(st.args[7]) + "\"");
+        const double deg = number(st, 8, "the swept angle in degrees");
+        // The turn count becomes an int (Move::rotation); a million turns is already no real program.
+        if (!(deg > 0) || deg > 360e6)
+          fail(st.line, "MOVARC/ ANGLE " + printable(st.args[8]) +
+                            " is out of range (expected the swept angle in degrees, > 0 and at most a million turns)");
+        arc.sweep_deg = deg;
+      }
+      // CIRCLE/ values after r (NX: tolerance, thickness, tool diameter and corner radius) do not change the arc.
+      pending_arc_ = arc;
+      return true;
+    }
+    if (w == "RAPID") {
+      // "RAPID" alone (ISO 4343); some posts write "RAPID/" or "RAPID/ON".
+      if (!(st.args.empty() || (st.args.size() == 1 && st.args[0] == "ON")) || (!st.slash && !st.rest.empty()))
+        fail(st.line, "RAPID takes no values, found \"" + printable(st.rest) + "\"");
+      if (pending_arc_)
+        fail(st.line, "RAPID follows " + pending_arc_->word + "/ on line " + std::to_string(pending_arc_->line) +
+                          " (expected GOTO/ with the arc's end point)");
+      rapid_next_ = true;
+      return true;
+    }
+    if (w == "FEDRAT") {
+      fedrat(st);
+      return true;
+    }
+    if (w == "UNITS") {
+      if (st.args.size() != 1) fail(st.line, "UNITS/ expects one word (MM or INCHES)");
+      if (st.args[0] == "MM")
+        inches_ = false;
+      else if (st.args[0] == "INCHES" || st.args[0] == "INCH")
+        inches_ = true;
+      else
+        fail(st.line, "UNITS/" + printable(st.args[0]) + " is not a unit (expected UNITS/MM or UNITS/INCHES)");
+      return true;
+    }
+    if (w == "MULTAX") {
+      if (st.args.empty() && st.rest.empty())
+        multax_ = true;  // CATIA writes a bare MULTAX
+      else if (st.args.size() == 1 && st.args[0] == "ON")
+        multax_ = true;
+      else if (st.args.size() == 1 && st.args[0] == "OFF")
+        multax_ = false;
+      else
+        fail(st.line, "MULTAX/" + printable(st.rest) + " (expected MULTAX, MULTAX/ON or MULTAX/OFF)");
+      return true;
+    }
+    if (w == "TLAXIS") {
+      if (st.args.size() != 3)
+        fail(st.line, "TLAXIS/ has " + std::to_string(st.args.size()) + " values (expected the tool axis i, j, k)");
+      const Eigen::Vector3d a =
+          unit_axis(st, number(st, 0, "i, j, k"), number(st, 1, "i, j, k"), number(st, 2, "i, j, k"));
+      tlaxis_ = last_given_axis_ = a;
+      multi_axis_file_ = true;
+      return true;
+    }
+    if (w == "INDIRV") {
+      if (st.args.size() != 3)
+        fail(st.line, "INDIRV/ has " + std::to_string(st.args.size()) + " values (expected a direction i, j, k)");
+      (void)unit_axis(st, number(st, 0, "i, j, k"), number(st, 1, "i, j, k"), number(st, 2, "i, j, k"));
+      return true;
+    }
+    if (w == "CUTTER") {
+      const char* expected = "d[, r, ...] with 0 <= r <= d/2";
+      if (st.args.empty()) fail(st.line, std::string("CUTTER/ has no values (expected ") + expected + ")");
+      const double d = number(st, 0, expected) * length_unit();
+      const double r = st.args.size() > 1 && !st.args[1].empty() ? number(st, 1, expected) * length_unit() : 0.0;
+      set_tool(st, d, r, expected);
+      return true;
+    }
+    if (w == "TLDATA") {
+      // NX CLSF: TLDATA/MILL,d,r,length,taper,tip[,...]; other tool kinds carry no milling geometry.
+      if (!st.args.empty() && st.args[0] == "MILL") {
+        const char* expected = "MILL, d, r, ... with 0 <= r <= d/2";
+        const double d = number(st, 1, expected) * length_unit();
+        const double r = number(st, 2, expected) * length_unit();
+        set_tool(st, d, r, expected);
+      }
+      return true;
+    }
+    if (w == "LOADTL" || (w == "LOAD" && !st.args.empty() && st.args[0] == "TOOL")) {
+      const std::size_t i = w == "LOAD" ? 1 : 0;
+      const double n = number(st, i, "a tool number");
+      if (!(n >= 0 && n <= 1e9) || n != std::floor(n))
+        fail(st.line,
+             w + "/ tool number " + printable(st.args[i]) + " is not a whole number >= 0 (expected a tool number)");
+      tool_number_ = static_cast<int>(n);
+      return true;
+    }
+    if (w == "CYCLE") {
+      if (st.args.size() == 1 && st.args[0] == "OFF") return true;
+      fail(st.line, "CYCLE/" + printable(st.rest) +
+                        ": canned cycles move the tool in ways the CL file does not spell out (expected the CAM system "
+                        "to output the cycle as GOTO/ moves)");
+    }
+    if (w == "FINI") return false;
+    if (contains(kUnsupportedMotionWords, w))
+      fail(st.line, "'" + w +
+                        "' moves the tool in a way vmsim does not read (expected CL motion records: GOTO/, "
+                        "GODLTA/, CIRCLE/ or MOVARC/ with GOTO/, FROM/, GOHOME; part-program source must go through "
+                        "the CAM system's APT processor first)");
+    if (contains(kNonMotionWords, w)) return true;
+    if (w.empty())
+      fail(st.line, "record \"" + printable(trim(st.rest)) + "\" has no major word (expected WORD/values)");
+    fail(st.line, "unknown APT major word '" + printable(w) +
+                      "' (expected a CL record vmsim knows, e.g. GOTO/, FEDRAT/, CIRCLE/; a word that might move the "
+                      "tool is never skipped, the accepted ones are listed in core/apt.cpp)");
+  }
+
+  void set_tool(const Statement& st, double d, double r, const char* expected) {
+    if (!(d >= 0) || !std::isfinite(d) || !(r >= 0) || !std::isfinite(r) || r > d / 2 + 1e-9)
+      fail(st.line,
+           st.word + "/ diameter " + num(d) + " mm, corner radius " + num(r) + " mm (expected " + expected + ")");
+    path_.tool_diameter_mm = d;
+    path_.tool_corner_radius_mm = r;
+  }
+
+  void fedrat(const Statement& st) {
+    const char* expected = "FEDRAT/f, FEDRAT/f,MMPM|IPM or FEDRAT/MMPM|IPM,f";
+    std::optional<double> f;
+    std::optional<double> unit;  // mm per unit of the value
+    for (std::size_t i = 0; i < st.args.size(); ++i) {
+      const std::string& a = st.args[i];
+      if (a == "MMPM")
+        unit = 1.0;
+      else if (a == "IPM")
+        unit = core::units::kInchToMm;
+      else if (a == "PERMIN")
+        unit = length_unit();
+      else if (a == "MMPR" || a == "IPR" || a == "PERREV" || a == "INVERS")
+        fail(st.line, "FEDRAT/ " + a + " feeds are not supported (expected a feed per minute: " + expected + ")");
+      else if (!f)
+        f = number(st, i, expected);
+      else
+        fail(st.line, "FEDRAT/ has an unexpected value \"" + printable(a) + "\" (expected " + expected + ")");
+    }
+    if (!f) fail(st.line, std::string("FEDRAT/ has no feed value (expected ") + expected + ")");
+    const double mm_per_min = *f * unit.value_or(length_unit());
+    if (!(mm_per_min > 0) || !std::isfinite(mm_per_min))
+      fail(st.line, "FEDRAT/ feed " + num(*f) + " is not positive (expected a feed > 0; use RAPID for rapids)");
+    feed_mm_per_min_ = mm_per_min;
+  }
+
+  std::string file_;
+  core::ToolPath path_;
+  std::optional<Eigen::Vector3d> position_;  // tool tip, mm
+  std::optional<Eigen::Vector3d> from_;
+  Eigen::Vector3d axis_ = Eigen::Vector3d::UnitZ();             // current tool axis
+  Eigen::Vector3d tlaxis_ = Eigen::Vector3d::UnitZ();           // axis of GOTOs without i,j,k under MULTAX/OFF
+  Eigen::Vector3d last_given_axis_ = Eigen::Vector3d::UnitZ();  // ... and under MULTAX/ON: the last one given
+  bool multax_ = false;
+  bool multi_axis_file_ = false;
+  bool inches_ = false;
+  bool rapid_next_ = false;
+  double feed_mm_per_min_ = 0.0;
+  int tool_number_ = 0;
+  std::optional<PendingArc> pending_arc_;
+};
+
+}  // namespace
+
+core::ToolPath read_apt(const std::filesystem::path& program) {
+  const std::string file = program.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(program, ec))
+    throw core::Error(core::located(file, 0, "cannot open APT CL file (it does not exist or is not a regular file)"));
+  std::ifstream in(program, std::ios::binary);
+  if (!in) throw core::Error(core::located(file, 0, "cannot open APT CL file for reading"));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return AptReader(file).read(ss.str());
+}
+
+}  // namespace vmsim::program

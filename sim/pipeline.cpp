@@ -1,0 +1,467 @@
+// vmsim run's chain as callable stages (app/run_pipeline.hpp): the motion, its sweeps, the stock's field cut by
+// them, the reference field, and the surfaces read back.
+#include "sim/pipeline.hpp"
+
+#include "sim/axis_models.hpp"
+#include "sim/job_program.hpp"
+#include "sim/tool_poses.hpp"
+#include "core/error.hpp"
+#include "motion/kinematics.hpp"
+#include "core/stl.hpp"
+#include "core/units.hpp"
+#include "methods/oga_schedule.hpp"
+#include "removal/mesh_stock.hpp"
+#include "removal/surface.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace vmsim::sim {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+}  // namespace
+
+const char* motion_name(core::RemovalSpec::Motion m) {
+  switch (m) {
+    case core::RemovalSpec::Motion::Actual: return "actual";
+    case core::RemovalSpec::Motion::Setpoints: return "setpoints";
+    case core::RemovalSpec::Motion::Program: return "program";
+  }
+  return "?";
+}
+
+Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress) {
+  Motion m;
+  auto t0 = Clock::now();
+  m.program = read_job_program(job);
+  m.timings["read_program"] = seconds_since(t0);
+  if (kind == core::RemovalSpec::Motion::Program) return m;
+  t0 = Clock::now();
+  progress.stage(job.name + ": interpolation");
+  motion::InterpOptions iopt;
+  iopt.period_s = job.interp.period_s;
+  iopt.tolerance_mm = job.interp.tolerance_mm;
+  iopt.feed_scale = feed_scale;
+  m.interp = motion::interpolate(motion::toolpath_in_axis_space(m.program, job.machine), job.machine, iopt);
+  progress.done();
+  m.timings["interpolate"] = seconds_since(t0);
+  if (kind == core::RemovalSpec::Motion::Actual) {
+    t0 = Clock::now();
+    progress.stage(job.name + ": servo drives");
+    // [job] gain_schedule (vmsim oga) holds gains for the job's own feeds; a feed-scaled reference (kind = "feed")
+    // runs the drives' own gains.
+    drives::SimulateOptions sopt;
+    drives::GainSchedule schedule;
+    if (job.gain_schedule_file && feed_scale == 1.0) {
+      schedule = methods::read_gain_schedule(*job.gain_schedule_file, m.interp.setpoints, job.machine);
+      sopt.gains = &schedule;
+    }
+    // [job] axis_models (vmsim identify): those axes run as their identified transfer functions, at any feed.
+    const JobAxisModels models = job_axis_models(job, std::nullopt);
+    if (models.any()) sopt.axis_models = &models.per_axis;
+    m.response = drives::simulate_axes(m.interp.setpoints, job.machine, sopt);
+    progress.done();
+    m.timings["drives"] = seconds_since(t0);
+  }
+  return m;
+}
+
+void add_contour_error(Motion& motion, const core::Job& job) {
+  if (!motion.response) return;
+  const auto t0 = Clock::now();
+  const auto kin = motion::make_kinematics(job.machine);
+  const core::Setpoints& sp = motion.interp.setpoints;
+  Eigen::MatrixXd cmd(motion.response->samples(), 3), act(motion.response->samples(), 3);
+  for (Eigen::Index k = 0; k < cmd.rows(); ++k) {
+    cmd.row(k) = kin->forward(sp.position.row(std::min(k, sp.samples() - 1)).transpose(), tlo_at(motion, k)).tip_mm.transpose();
+    act.row(k) = kin->forward(motion.response->position.row(k).transpose(), tlo_at(motion, k)).tip_mm.transpose();
+  }
+  motion.contour = motion::contour_error(cmd, act);
+  motion.timings["contour_error"] = seconds_since(t0);
+}
+
+double tlo_at(const Motion& m, Eigen::Index k) {
+  const core::Setpoints& sp = m.interp.setpoints;
+  const int mi = sp.move_index[std::min(k, sp.samples() - 1)];
+  return mi >= 0 ? m.program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
+}
+
+double track_tolerance(const core::Job& job, bool tool_turns) {
+  if (job.removal.track_tolerance_given || job.removal.method != core::RemovalSpec::Method::Vdb || !tool_turns)
+    return job.removal.track_tolerance_mm;
+  return job.removal.voxel_mm / 10;
+}
+
+bool track_turns(const removal::PoseTrack& tr) {
+  const Eigen::MatrixXd& a = tr.axis_per_sample;
+  for (Eigen::Index k = 1; k < a.rows(); ++k)
+    if ((a.row(k).normalized() - a.row(0).normalized()).norm() > 1e-12) return true;
+  return false;
+}
+
+removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind) {
+  removal::PoseTrack tr;
+  if (kind == core::RemovalSpec::Motion::Program && job.machine.kinematics == "chain" && program_turns_tool(m.program)) {
+    // A five-axis program: tool tip and axis along the programmed moves (app/tool_poses.hpp), sampled within a tenth
+    // of the track tolerance as the arcs below are.
+    const auto kin = motion::make_kinematics(job.machine);
+    return program_pose_track(m.program, motion::toolpath_in_axis_space(m.program, job.machine), *kin, job.machine,
+                              removal::make_tool(job.tool), 0.1 * track_tolerance(job, true));
+  }
+  if (kind == core::RemovalSpec::Motion::Program) {
+    // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
+    // tenth of the track tolerance (the kernel's sweeps are exact between points).
+    std::vector<Eigen::Vector3d> pts;
+    if (!m.program.moves.empty()) pts.push_back(m.program.moves.front().start.head<3>());
+    for (const core::Move& mv : m.program.moves) {
+      if (mv.kind == core::MotionKind::Line) {
+        pts.push_back(mv.end.head<3>());
+        continue;
+      }
+      int i1 = 0, i2 = 1, iw = 2;
+      if (mv.plane == core::ArcPlane::ZX) i1 = 2, i2 = 0, iw = 1;
+      if (mv.plane == core::ArcPlane::YZ) i1 = 1, i2 = 2, iw = 0;
+      const double c1 = mv.centre_mm[0], c2 = mv.centre_mm[1];
+      const double r0 = std::hypot(mv.start[i1] - c1, mv.start[i2] - c2), r1 = std::hypot(mv.end[i1] - c1, mv.end[i2] - c2);
+      const double t0 = std::atan2(mv.start[i2] - c2, mv.start[i1] - c1), te = std::atan2(mv.end[i2] - c2, mv.end[i1] - c1);
+      const int turns = std::abs(mv.rotation) - 1;
+      double sweep;
+      const bool full = std::hypot(mv.end[i1] - mv.start[i1], mv.end[i2] - mv.start[i2]) < 1e-9;
+      if (mv.rotation > 0) {
+        sweep = std::fmod(te - t0 + 4 * core::units::kPi, 2 * core::units::kPi);
+        if (full) sweep = 2 * core::units::kPi;
+        sweep += 2 * core::units::kPi * turns;
+      } else {
+        sweep = std::fmod(t0 - te + 4 * core::units::kPi, 2 * core::units::kPi);
+        if (full) sweep = 2 * core::units::kPi;
+        sweep = -(sweep + 2 * core::units::kPi * turns);
+      }
+      const double tol = 0.1 * job.removal.track_tolerance_mm, r = std::max(r0, r1);
+      const double dphi = 2 * std::acos(std::max(0.0, 1 - tol / std::max(r, 1e-9)));
+      const int n = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / std::max(dphi, 1e-6))));
+      for (int k = 1; k <= n; ++k) {
+        const double f = double(k) / n, th = t0 + f * sweep, rr = r0 + f * (r1 - r0);
+        Eigen::Vector3d p = (mv.start.head<3>() + f * (mv.end.head<3>() - mv.start.head<3>())).eval();
+        p[i1] = c1 + rr * std::cos(th);
+        p[i2] = c2 + rr * std::sin(th);
+        p[iw] = mv.start[iw] + f * (mv.end[iw] - mv.start[iw]);
+        pts.push_back(k == n ? Eigen::Vector3d(mv.end.head<3>()) : p);
+      }
+    }
+    tr.tip_mm.resize(static_cast<Eigen::Index>(pts.size()), 3);
+    for (std::size_t k = 0; k < pts.size(); ++k) tr.tip_mm.row(static_cast<Eigen::Index>(k)) = pts[k].transpose();
+    return tr;
+  }
+  const auto kin = motion::make_kinematics(job.machine);
+  const core::Setpoints& sp = m.interp.setpoints;
+  const bool actual = kind == core::RemovalSpec::Motion::Actual;
+  const Eigen::MatrixXd& axes = actual ? m.response->position : sp.position;
+  // Tool tip and axis per sample through the forward transform (a turning axis on five-axis machines). Between Te
+  // samples of the actual motion the tip follows the cubic through both samples with the drives' velocities through
+  // the chain's Jacobian (Cartesian machine: the X Y Z velocities).
+  return pose_track_from_axes(*kin, job.machine, axes, actual ? &m.response->velocity : nullptr, sp.period_s,
+                              [&](Eigen::Index k) { return tlo_at(m, k); });
+}
+
+std::size_t Field::rays() const {
+  if (vdb) return 0;
+  switch (kind) {
+    case core::RemovalSpec::Field::ZMap: return static_cast<std::size_t>(zmap.nu()) * zmap.nv();
+    case core::RemovalSpec::Field::TriDexel:
+      return static_cast<std::size_t>(tri.x.nu()) * tri.x.nv() + static_cast<std::size_t>(tri.y.nu()) * tri.y.nv() +
+             static_cast<std::size_t>(tri.z.nu()) * tri.z.nv();
+    case core::RemovalSpec::Field::NBuffer: return needles.size();
+  }
+  return 0;
+}
+std::size_t Field::memory_bytes() const {
+  if (vdb) return part.memory_bytes();
+  switch (kind) {
+    case core::RemovalSpec::Field::ZMap: return zmap.memory_bytes();
+    case core::RemovalSpec::Field::TriDexel: return tri.x.memory_bytes() + tri.y.memory_bytes() + tri.z.memory_bytes();
+    case core::RemovalSpec::Field::NBuffer: return needles.store().memory_bytes();
+  }
+  return 0;
+}
+
+std::vector<removal::DexelGrid*> Field::grids() {
+  if (vdb) return {};
+  if (kind == core::RemovalSpec::Field::ZMap) return {&zmap};
+  if (kind == core::RemovalSpec::Field::TriDexel) return {&tri.x, &tri.y, &tri.z};
+  return {};
+}
+std::vector<const removal::DexelGrid*> Field::grids() const {
+  std::vector<const removal::DexelGrid*> out;
+  for (removal::DexelGrid* g : const_cast<Field*>(this)->grids()) out.push_back(g);
+  return out;
+}
+
+namespace {
+
+void read_needles(const core::Job& job, Field& f) {
+  const auto& file = job.removal.needles_file;
+  std::ifstream in(file);
+  if (!in) throw core::Error(file.string() + ": cannot open file");
+  std::string line;
+  int lineno = 0;
+  std::vector<Eigen::Vector3d> o, d;
+  std::vector<double> len;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;
+    double v[6];
+    std::stringstream ss(line);
+    std::string cell;
+    int c = 0;
+    while (c < 6 && std::getline(ss, cell, ',')) {
+      char* end = nullptr;
+      v[c] = std::strtod(cell.c_str(), &end);
+      if (end == cell.c_str() || !std::isfinite(v[c]))
+        throw core::Error(core::located(file.string(), lineno, "expected x,y,z,nx,ny,nz numbers (mm)"));
+      ++c;
+    }
+    if (c != 6) throw core::Error(core::located(file.string(), lineno, "expected 6 values x,y,z,nx,ny,nz"));
+    const Eigen::Vector3d p(v[0], v[1], v[2]), n(v[3], v[4], v[5]);
+    if (n.norm() < 1e-9) throw core::Error(core::located(file.string(), lineno, "the normal has zero length"));
+    f.needle_point.push_back(p);
+    f.needle_normal.push_back(n.normalized());
+  }
+  if (f.needle_point.empty()) throw core::Error(file.string() + ": no needles");
+  f.needle_half = job.removal.needle_half_length_mm;
+  // The tile's needles: whole blocks of the list (the store's rows).
+  const std::size_t n = f.needle_point.size(), block = removal::NeedleSet::kBlock;
+  std::size_t k0 = 0, k1 = n;
+  if (!f.tile.whole()) {
+    const auto [b0, b1] = removal::tile_rows(static_cast<int>((n + block - 1) / block), f.tile);
+    k0 = static_cast<std::size_t>(b0) * block;
+    k1 = std::min(n, static_cast<std::size_t>(b1) * block);
+  }
+  for (std::size_t k = k0; k < k1; ++k) {
+    o.push_back(f.needle_point[k] - f.needle_half * f.needle_normal[k]);
+    d.push_back(f.needle_normal[k]);
+    len.push_back(2 * f.needle_half);
+  }
+  f.needle_first = k0;
+  f.needles = removal::NeedleSet(std::move(o), std::move(d), std::move(len));
+}
+
+void fill_stock(Field& f, const core::Job& job, const std::optional<core::TriangleMesh>& mesh) {
+  if (mesh) {
+    // One dexelizer: the closedness check and Embree's tree once for every grid.
+    const removal::MeshDexelizer dex(*mesh, job.stock.mesh_file.string());
+    switch (f.kind) {
+      case core::RemovalSpec::Field::ZMap: dex.fill(f.zmap); break;
+      case core::RemovalSpec::Field::TriDexel:
+        for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) dex.fill(*g);
+        break;
+      case core::RemovalSpec::Field::NBuffer: dex.fill(f.needles); break;
+    }
+    return;
+  }
+  const removal::Box b{job.stock.min_mm, job.stock.max_mm};
+  switch (f.kind) {
+    case core::RemovalSpec::Field::ZMap: removal::fill_box(f.zmap, b); break;
+    case core::RemovalSpec::Field::TriDexel:
+      for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::fill_box(*g, b);
+      break;
+    case core::RemovalSpec::Field::NBuffer: removal::fill_box(f.needles, b); break;
+  }
+}
+
+}  // namespace
+
+std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+  if (f.vdb) {
+    f.part.cut(sweeps);
+    return sweeps.size();
+  }
+  if (f.kind == core::RemovalSpec::Field::NBuffer) {
+    // The needle kernel already takes each block of needles with the sweeps whose boxes meet the block's box; the
+    // count says how many reach the tile's needles at all.
+    removal::cut(f.needles, sweeps);
+    if (f.tile.whole()) return sweeps.size();
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
+    for (std::size_t k = 0; k < f.needles.size(); ++k) {
+      const Eigen::Vector3d a = f.needles.origin(k), e = a + f.needles.length(k) * f.needles.direction(k);
+      lo = lo.cwiseMin(a.cwiseMin(e)), hi = hi.cwiseMax(a.cwiseMax(e));
+    }
+    std::size_t reach = 0;
+    for (const removal::SweptTool& s : sweeps) {
+      Eigen::Vector3d a, b;
+      s.bounds(a, b);
+      reach += (b.array() >= lo.array()).all() && (a.array() <= hi.array()).all();
+    }
+    return reach;
+  }
+  if (f.tile.whole()) {
+    for (removal::DexelGrid* g : f.grids()) removal::cut(*g, sweeps);
+    return sweeps.size();
+  }
+  // A tile: each grid's band of rows only with the sweeps that reach it.
+  std::vector<char> reaches(sweeps.size(), 0);
+  for (removal::DexelGrid* g : f.grids()) {
+    std::vector<removal::SweptTool> mine;
+    for (std::size_t k = 0; k < sweeps.size(); ++k)
+      if (!removal::footprint(*g, sweeps[k]).empty()) mine.push_back(sweeps[k]), reaches[k] = 1;
+    removal::cut(*g, mine);
+  }
+  return static_cast<std::size_t>(std::count(reaches.begin(), reaches.end(), 1));
+}
+
+removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
+  removal::TrackOptions topt;
+  topt.tolerance_mm = track_tolerance(job, track_turns(tr));
+  return removal::sweeps_from_track(removal::make_tool(job.tool), tr, topt);
+}
+
+Field final_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain, const Tile& tile) {
+  Field f = initial_field(job, progress, chain, tile);
+  const Motion m = simulate_motion(job, 1.0, job.removal.motion, progress);
+  progress.stage(job.name + ": material removal");
+  cut_field(f, sweeps_of(job, track_of(m, job, job.removal.motion)).sweeps);
+  progress.done();
+  return f;
+}
+
+Field initial_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain, const Tile& tile) {
+  const std::string key = std::filesystem::weakly_canonical(job.file).string();
+  if (!chain.insert(key).second) throw core::Error(job.file.string() + ": the stock jobs form a cycle");
+  Field f;
+  if (job.stock.kind == core::StockSpec::Kind::Job) {
+    Field prev = final_field(core::load_job(job.stock.job_file), progress, chain, tile);
+    if (prev.vdb != (job.removal.method == core::RemovalSpec::Method::Vdb))
+      throw core::Error(job.file.string() + ": [removal] method differs from that of the stock job " +
+                        job.stock.job_file.string() + " (a part is carried from job to job in one kernel)");
+    return prev;
+  }
+  std::optional<core::TriangleMesh> mesh;
+  removal::Box region;
+  if (job.stock.kind == core::StockSpec::Kind::Box) {
+    region = removal::Box{job.stock.min_mm, job.stock.max_mm};
+  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
+    mesh = core::read_stl(job.stock.mesh_file);
+    region.lo = mesh->vertices_mm.colwise().minCoeff().transpose();
+    region.hi = mesh->vertices_mm.colwise().maxCoeff().transpose();
+  } else {
+    throw core::Error(job.file.string() + ": [stock] is required to remove material (box, stl or job)");
+  }
+  f.kind = job.removal.field;
+  f.tile = tile;
+  f.region = region;
+  f.spacing_mm = job.removal.spacing_mm;
+  if (job.removal.method == core::RemovalSpec::Method::Vdb) {
+    if (!tile.whole())
+      throw core::Error(job.file.string() + ": [removal] method = \"vdb\" does not run tiled under MPI (a narrow-band "
+                        "level set has no rows to split without changing its result); run it as one process, or use "
+                        "method = \"dexel\"");
+    f.vdb = true;
+    if (f.kind == core::RemovalSpec::Field::NBuffer) read_needles(job, f);
+    // The memory it will need, stated before the run (removal/vdb_part.hpp's model): the narrow band of the stock's
+    // surface, which cuts that finish a part replace by their own (deep cuts add their new walls and floors), and
+    // the part mesh written at the end. report.json holds both beside the level set's measured memory.
+    const removal::SurfaceArea sa = mesh ? removal::surface_area(*mesh) : removal::surface_area(region);
+    const double h = job.removal.voxel_mm;
+    f.vdb_estimate_bytes = removal::estimate_level_set_bytes(sa, h);
+    f.vdb_mesh_estimate_bytes = removal::estimate_mesh_bytes(sa.area_mm2, h);
+    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB: %.1f MB for the band of the stock's "
+                 "%.0f mm^2 (%.1f MB per 1000 mm^2 of surface the cuts add) and %.1f MB for the part mesh\n",
+                 job.name.c_str(), h, (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e6,
+                 f.vdb_estimate_bytes / 1e6, sa.area_mm2, f.vdb_estimate_bytes / sa.area_mm2 * 1e3 / 1e6,
+                 f.vdb_mesh_estimate_bytes / 1e6);
+    const double limit = 32e9;
+    if (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes > limit)
+      throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {:.1f} GB for the level "
+                                                        "set and its mesh; choose a larger voxel", h,
+                                                        (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e9));
+    progress.stage(job.name + ": stock (level set)");
+    removal::VdbOptions vo;
+    vo.voxel_mm = h;
+    f.part = mesh ? removal::VdbPart::mesh(*mesh, vo, job.stock.mesh_file.string())
+                  : removal::VdbPart::box(region, vo);
+    progress.done();
+    return f;
+  }
+  // ~3.2 GB of dexels per process: far beyond this machine's jobs, a typo in spacing_mm (a tiled run holds its share).
+  const double rays_limit = 4e8;
+  const Eigen::Vector3d ext = region.hi - region.lo;
+  const double estimate = (ext.x() / f.spacing_mm + 1) * (ext.y() / f.spacing_mm + 1) *
+                          (f.kind == core::RemovalSpec::Field::TriDexel ? 3 : 1) / tile.count;
+  if (f.kind != core::RemovalSpec::Field::NBuffer && estimate > rays_limit)
+    throw core::Error(job.file.string() + fmt::format(": [removal] spacing_mm = {} gives {:.3g} rays ({:.1f} GB){}; "
+                                                      "choose a larger spacing{}",
+                                                      f.spacing_mm, estimate, estimate * 8 / 1e9,
+                                                      tile.whole() ? "" : " per process",
+                                                      " or more processes (vmsim run --plan JOB says how many)"));
+  try {
+    switch (f.kind) {
+      case core::RemovalSpec::Field::ZMap: f.zmap = removal::make_zmap(region, f.spacing_mm, tile); break;
+      case core::RemovalSpec::Field::TriDexel: f.tri = removal::make_tridexel(region, f.spacing_mm, tile); break;
+      case core::RemovalSpec::Field::NBuffer: read_needles(job, f); break;
+    }
+  } catch (const core::Error& e) {
+    if (tile.whole()) throw;
+    throw core::Error(job.file.string() + ": [removal] the stock's rays split into " + std::to_string(tile.count) +
+                      " tiles: " + e.what());
+  }
+  progress.stage(job.name + ": stock");
+  fill_stock(f, job, mesh);
+  progress.done();
+  return f;
+}
+
+core::HeightGrid surface_of(const Field& f) {
+  // The level set read back along the z-map's rays (same nodes as a z-map at spacing_mm).
+  if (f.vdb) return f.part.height_grid(f.region, f.spacing_mm);
+  return removal::height_grid(f.kind == core::RemovalSpec::Field::TriDexel ? f.tri.z : f.zmap);
+}
+
+Eigen::VectorXd needle_offsets(const Field& f) {
+  Eigen::VectorXd o(static_cast<Eigen::Index>(f.needles.size()));
+  if (f.vdb) {
+    const std::vector<double> top = f.part.needle_tops(f.needles);
+    for (std::size_t k = 0; k < top.size(); ++k) o[static_cast<Eigen::Index>(k)] = top[k] - f.needle_half;
+    return o;
+  }
+  for (std::size_t k = 0; k < f.needles.size(); ++k) o[static_cast<Eigen::Index>(k)] = f.needles.store().top(k) - f.needle_half;
+  return o;
+}
+
+Reference reference_field(const core::Job& job, const Field& start, double feed_scale, core::Progress& progress) {
+  Reference r;
+  std::optional<Field>& ref = r.field;
+  std::string& ref_name = r.name;
+  if (job.reference.kind == core::ReferenceSpec::Kind::Job) {
+    std::set<std::string> ref_chain = {std::filesystem::weakly_canonical(job.file).string()};
+    ref = final_field(core::load_job(job.reference.job_file), progress, ref_chain, start.tile);
+    ref_name = "job: the part " + job.reference.job_file.filename().string() + " leaves";
+  } else if (job.reference.kind == core::ReferenceSpec::Kind::Feed) {
+    ref = start;
+    const Motion rm = simulate_motion(job, feed_scale * job.reference.feed_scale, job.removal.motion, progress);
+    progress.stage(job.name + ": reference (feeds x " + fmt::format("{:g}", job.reference.feed_scale) + ")");
+    cut_field(*ref, sweeps_of(job, track_of(rm, job, job.removal.motion)).sweeps);
+    progress.done();
+    ref_name = fmt::format("feed: the same program through the same chain at {:g} x its feeds", job.reference.feed_scale);
+  } else if (job.reference.kind == core::ReferenceSpec::Kind::Stock) {
+    ref = start;
+    ref_name = "stock: the part " + job.stock.job_file.filename().string() + " leaves";
+  } else if (job.reference.kind == core::ReferenceSpec::Kind::Program) {
+    progress.stage(job.name + ": reference (programmed path)");
+    ref = start;
+    const Motion pm = simulate_motion(job, feed_scale, core::RemovalSpec::Motion::Program, progress);
+    cut_field(*ref, sweeps_of(job, track_of(pm, job, core::RemovalSpec::Motion::Program)).sweeps);
+    progress.done();
+    ref_name = "program: the same program cut exactly along its programmed path";
+  }
+  return r;
+}
+
+}  // namespace vmsim::sim

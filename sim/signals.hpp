@@ -1,0 +1,80 @@
+#pragma once
+// signals.csv: the drive signals of a run, compact enough to chart later (`vmsim render DIR`) whatever the run's
+// length. The plane-cylinder reference job has ~4 M samples per signal; the file keeps, for consecutive bins of
+// samples, each signal's minimum and maximum over the bin, so that a peak of one sample survives the decimation to
+// ~10 000 bins (a chart drawn from min and max per bin looks like the full-rate one at any width up to the number
+// of bins). `vmsim run` and `vmsim motion` write it; `vmsim render` reads it.
+//
+// Format (CSV, '#' lines first):
+//   # vmsim signals 1: per-bin minimum and maximum of each signal (columns NAME.min, NAME.max) ...
+//   # job=NAME
+//   # period_s=0.001          sample period Te
+//   # samples=N               samples before binning
+//   # bin_samples=K           samples per bin (the last bin may hold fewer)
+//   # axes=X:mm,Z:mm          the machine axes that move (their signals are in the file), with their unit
+//   # held_axes=Y,A,C         the axes that do not move (not in the file)
+//   # limit NAME=VALUE        |signal| limit of the machine file, e.g. limit X_velocity_mm_per_s=500
+//   t_s.min,t_s.max,X_setpoint_mm.min,X_setpoint_mm.max,...
+//   one row per bin; "nan" where a signal is undefined over the whole bin (contour error on rapids)
+//
+// Signals (units in the names; axis unit U is mm, or deg for rotary axes):
+//   t_s                                      time of the sample
+//   A_setpoint_U, A_actual_U                 axis position: interpolator setpoint, drive's actual position
+//   A_tracking_error_U                       setpoint - actual
+//   A_velocity_setpoint_U_per_s, A_velocity_actual_U_per_s         (setpoints: backward differences, as the
+//   A_acceleration_setpoint_U_per_s2, A_acceleration_actual_U_per_s2 drives receive them; actual: the drive model)
+//   A_jerk_setpoint_U_per_s3, A_jerk_actual_U_per_s3
+//   A_current_A                              motor current, mean over each Te (signed)
+//   A_current_peak_A                         largest |current| within each Te
+//   feed_programmed_mm_per_min               the programmed feed x the feed scale, on feed moves (nan on rapids)
+//   path_speed_setpoint_mm_per_min           speed of the setpoints along the (smoothed) path
+//   path_speed_actual_mm_per_min             speed of the actual tool tip
+//   contour_error_mm                         signed contour error on cutting moves (nan on rapids)
+//   cutting_path_mm                          length of the commanded tool-tip path along cutting moves so far
+//   cutting                                  1 on cutting (feed) moves, 0 on rapids
+//   limits: A_velocity_U_per_s, A_acceleration_U_per_s2, A_jerk_U_per_s3 (setpoint limits), A_current_A (drive)
+#include "motion/contour.hpp"
+#include "core/job.hpp"
+#include "core/setpoints.hpp"
+#include "core/toolpath.hpp"
+#include "drives/simulate.hpp"
+
+#include <Eigen/Core>
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vmsim::sim {
+
+struct BinnedSignals {
+  std::string job;
+  double period_s = 1e-3;
+  Eigen::Index samples = 0, bin_samples = 1;
+  std::vector<std::pair<std::string, std::string>> axes;  // moving axes: (name, unit)
+  std::vector<std::string> held_axes;
+  std::map<std::string, double> limits;
+  std::vector<std::string> names;
+  Eigen::ArrayXXd min, max;  // bins x names
+
+  Eigen::Index bins() const { return min.rows(); }
+  // Column of `name`, or -1.
+  int find(const std::string& name) const;
+  bool has(const std::string& name) const { return find(name) >= 0; }
+  std::optional<double> limit(const std::string& name) const;
+};
+
+// The signals of one run through the drives, binned on the fly (no full-rate copy of the signals is made).
+// feed_scale: the override the setpoints were interpolated with (it scales the programmed feeds).
+BinnedSignals motion_signals(const core::Job& job, const core::ToolPath& program, const core::Setpoints& setpoints,
+                             const drives::AxisResponse& response, const motion::ContourError& contour,
+                             double feed_scale = 1.0, Eigen::Index max_bins = 10000);
+
+// Written atomically. Throws core::Error on I/O errors.
+void write_signals(const std::filesystem::path& file, const BinnedSignals& signals);
+// Throws core::Error naming the file, the line and what was expected.
+BinnedSignals read_signals(const std::filesystem::path& file);
+
+}  // namespace vmsim::sim

@@ -1,0 +1,210 @@
+#include "sim/tool_poses.hpp"
+
+#include "core/error.hpp"
+#include "core/units.hpp"
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace vmsim::sim {
+
+namespace {
+
+constexpr double kPi = core::units::kPi;
+
+// Machine-file-order axis vector from program-axis (Vec6) positions.
+Eigen::VectorXd machine_axes(const core::Vec6& v, const core::Machine& machine) {
+  Eigen::VectorXd q(static_cast<Eigen::Index>(machine.axes.size()));
+  for (std::size_t i = 0; i < machine.axes.size(); ++i) q[static_cast<Eigen::Index>(i)] = v[machine.axes[i].program_axis];
+  return q;
+}
+
+// Swept angle of an arc move (signed: > 0 counter-clockwise about the plane's normal), as LinuxCNC's ARC_FEED gives it.
+struct ArcFrame {
+  int i1 = 0, i2 = 1, iw = 2;
+  double c1 = 0, c2 = 0, r0 = 0, r1 = 0, t0 = 0, sweep = 0;
+};
+
+ArcFrame arc_frame(const core::Move& mv) {
+  ArcFrame a;
+  if (mv.plane == core::ArcPlane::ZX) a.i1 = 2, a.i2 = 0, a.iw = 1;
+  if (mv.plane == core::ArcPlane::YZ) a.i1 = 1, a.i2 = 2, a.iw = 0;
+  a.c1 = mv.centre_mm[0], a.c2 = mv.centre_mm[1];
+  a.r0 = std::hypot(mv.start[a.i1] - a.c1, mv.start[a.i2] - a.c2);
+  a.r1 = std::hypot(mv.end[a.i1] - a.c1, mv.end[a.i2] - a.c2);
+  a.t0 = std::atan2(mv.start[a.i2] - a.c2, mv.start[a.i1] - a.c1);
+  const double te = std::atan2(mv.end[a.i2] - a.c2, mv.end[a.i1] - a.c1);
+  const int turns = std::max(0, std::abs(mv.rotation) - 1);
+  const bool full = std::hypot(mv.end[a.i1] - mv.start[a.i1], mv.end[a.i2] - mv.start[a.i2]) < 1e-9;
+  if (mv.rotation >= 0) {
+    a.sweep = full ? 2 * kPi : std::fmod(te - a.t0 + 4 * kPi, 2 * kPi);
+    a.sweep += 2 * kPi * turns;
+  } else {
+    a.sweep = full ? 2 * kPi : std::fmod(a.t0 - te + 4 * kPi, 2 * kPi);
+    a.sweep = -(a.sweep + 2 * kPi * turns);
+  }
+  return a;
+}
+
+// Position (all six program axes) at parameter s of a move: lines linear, arcs at a fraction s of the swept angle
+// with the radius, the normal coordinate and the rotary axes linear in s. The ends are returned exactly.
+core::Vec6 on_move(const core::Move& mv, const ArcFrame* arc, double s) {
+  if (s <= 0) return mv.start;
+  if (s >= 1) return mv.end;
+  core::Vec6 p = (1 - s) * mv.start + s * mv.end;
+  if (mv.kind == core::MotionKind::Arc && arc) {
+    const double th = arc->t0 + s * arc->sweep, r = arc->r0 + s * (arc->r1 - arc->r0);
+    p[arc->i1] = arc->c1 + r * std::cos(th);
+    p[arc->i2] = arc->c2 + r * std::sin(th);
+  }
+  return p;
+}
+
+Eigen::Vector3d slerp(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double s) {
+  const double th = std::atan2(a.cross(b).norm(), a.dot(b));
+  if (th < 1e-12) return ((1 - s) * a + s * b).normalized();
+  if (th > kPi - 1e-9)
+    throw core::Error("the tool axis turns by 180 degrees within one CL move: the great circle between them is not unique");
+  return ((std::sin((1 - s) * th) / std::sin(th)) * a + (std::sin(s * th) / std::sin(th)) * b).normalized();
+}
+
+double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+
+}  // namespace
+
+bool program_turns_tool(const core::ToolPath& program) {
+  for (const core::Move& mv : program.moves) {
+    if (mv.tool_axis_start || mv.tool_axis_end) return true;
+    for (int a = core::kA; a <= core::kC; ++a)
+      if (mv.start[a] != 0 || mv.end[a] != 0) return true;
+  }
+  return false;
+}
+
+removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const core::Machine& machine,
+                                        const Eigen::MatrixXd& axes, const Eigen::MatrixXd* velocities,
+                                        double period_s, const std::function<double(Eigen::Index)>& tool_length_offset) {
+  removal::PoseTrack tr;
+  const Eigen::Index n = axes.rows();
+  tr.period_s = period_s;
+  tr.tip_mm.resize(n, 3);
+  Eigen::MatrixXd ax(n, 3);
+  Eigen::VectorXd q(axes.cols()), qd(axes.cols());
+  for (Eigen::Index k = 0; k < n; ++k) {
+    q = axes.row(k).transpose();
+    const motion::ToolPose p = kin.forward(q, tool_length_offset(k));
+    tr.tip_mm.row(k) = p.tip_mm.transpose();
+    ax.row(k) = p.axis.transpose();
+  }
+  // Constant tool axis: the rotary axes never move (bitwise) and the pose's axis is the same everywhere.
+  bool constant = n > 0;
+  for (std::size_t i = 0; constant && i < machine.axes.size(); ++i) {
+    if (machine.axes[i].kind != core::AxisKind::Rotary) continue;
+    const auto c = static_cast<Eigen::Index>(i);
+    constant = (axes.col(c).array() == axes(0, c)).all();
+  }
+  for (Eigen::Index k = 1; constant && k < n; ++k) constant = ax.row(k) == ax.row(0);
+  if (constant) {
+    if (n > 0) tr.axis = ax.row(0).transpose();
+  } else {
+    tr.axis_per_sample = std::move(ax);
+  }
+  if (velocities) {
+    if (velocities->rows() != n || velocities->cols() != axes.cols())
+      throw core::Error(fmt::format("tool poses: {} x {} axis velocities for {} x {} axis positions", velocities->rows(),
+                                    velocities->cols(), n, axes.cols()));
+    tr.tip_velocity_mm_per_s.resize(n, 3);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      q = axes.row(k).transpose();
+      qd = velocities->row(k).transpose();
+      tr.tip_velocity_mm_per_s.row(k) = kin.tip_velocity(q, qd, tool_length_offset(k)).transpose();
+    }
+  }
+  return tr;
+}
+
+removal::PoseTrack program_pose_track(const core::ToolPath& program, const core::ToolPath& axis_space,
+                                      const motion::Kinematics& kin, const core::Machine& machine,
+                                      const removal::Tool& tool, double tolerance_mm) {
+  if (!(tolerance_mm > 0)) throw core::Error("tool poses: the tolerance must be > 0");
+  if (axis_space.moves.size() != program.moves.size())
+    throw core::Error(fmt::format("tool poses: {} axis-space moves for {} program moves", axis_space.moves.size(),
+                                  program.moves.size()));
+  const double reach = tool.reach();
+  constexpr double kMaxTurn = 5 * kPi / 180, kMaxRotary = 10 * kPi / 180;
+  std::vector<Eigen::Vector3d> tips, axes;
+  for (std::size_t m = 0; m < program.moves.size(); ++m) {
+    const core::Move& mv = program.moves[m];
+    const core::Move& am = axis_space.moves[m];
+    const bool cl = mv.tool_axis_start.has_value() && mv.tool_axis_end.has_value();
+    const ArcFrame arc = mv.kind == core::MotionKind::Arc ? arc_frame(mv) : ArcFrame{};
+    const ArcFrame aarc = am.kind == core::MotionKind::Arc ? arc_frame(am) : ArcFrame{};
+    // The pose at s and the rotary axes there (program axes A B C, rad).
+    auto pose = [&](double s, Eigen::Vector3d& rot) -> motion::ToolPose {
+      if (cl) {
+        const core::Vec6 p = on_move(mv, &arc, s);
+        rot = p.tail<3>();
+        return motion::ToolPose{p.head<3>(), slerp(mv.tool_axis_start->normalized(), mv.tool_axis_end->normalized(), s)};
+      }
+      if (mv.tcp) {
+        const core::Vec6 p = on_move(mv, &arc, s);
+        rot = p.tail<3>();
+        motion::ToolPose tp = kin.forward(machine_axes(p, machine), mv.tool_length_offset_mm);
+        tp.tip_mm = p.head<3>();
+        return tp;
+      }
+      const core::Vec6 a = on_move(am, &aarc, s);
+      rot = a.tail<3>();
+      return kin.forward(machine_axes(a, machine), am.tool_length_offset_mm);
+    };
+    struct Piece {
+      double s0, s1;
+      motion::ToolPose p0, p1;
+      Eigen::Vector3d r0, r1;
+      int depth;
+    };
+    Eigen::Vector3d r0, r1;
+    const motion::ToolPose first = pose(0, r0), last = pose(1, r1);
+    if (tips.empty()) {
+      tips.push_back(first.tip_mm);
+      axes.push_back(first.axis.normalized());
+    }
+    // Depth-first bisection, left piece first, so the points come out in order.
+    std::vector<Piece> stack{{0, 1, first, last, r0, r1, 0}};
+    while (!stack.empty()) {
+      Piece pc = stack.back();
+      stack.pop_back();
+      const double sm = 0.5 * (pc.s0 + pc.s1);
+      Eigen::Vector3d rm;
+      const motion::ToolPose pm = pose(sm, rm);
+      const Eigen::Vector3d a0 = pc.p0.axis.normalized(), a1 = pc.p1.axis.normalized();
+      const double turn = angle_between(a0, a1);
+      const double err = (pm.tip_mm - 0.5 * (pc.p0.tip_mm + pc.p1.tip_mm)).norm() +
+                         reach * (pm.axis.normalized() - (a0 + a1).normalized()).norm();
+      const bool split = pc.depth < 40 && (err > tolerance_mm || turn > kMaxTurn ||
+                                           (pc.r1 - pc.r0).cwiseAbs().maxCoeff() > kMaxRotary);
+      if (split) {
+        stack.push_back({sm, pc.s1, pm, pc.p1, rm, pc.r1, pc.depth + 1});
+        stack.push_back({pc.s0, sm, pc.p0, pm, pc.r0, rm, pc.depth + 1});
+        continue;
+      }
+      tips.push_back(pc.p1.tip_mm);
+      axes.push_back(a1);
+    }
+  }
+  removal::PoseTrack tr;
+  const auto n = static_cast<Eigen::Index>(tips.size());
+  tr.tip_mm.resize(n, 3);
+  tr.axis_per_sample.resize(n, 3);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    tr.tip_mm.row(k) = tips[static_cast<std::size_t>(k)].transpose();
+    tr.axis_per_sample.row(k) = axes[static_cast<std::size_t>(k)].transpose();
+  }
+  return tr;
+}
+
+}  // namespace vmsim::sim
