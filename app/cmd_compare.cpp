@@ -8,6 +8,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "core/stl.hpp"
 #include "metrology/areal.hpp"
 #include "metrology/filter.hpp"
@@ -32,8 +33,8 @@ namespace vmsim::app {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::Clock;
+using core::seconds_since;
 constexpr double kPi = 3.14159265358979323846;
 
 std::vector<metrology::Region> parse_regions(const std::vector<std::string>& texts) {

@@ -12,6 +12,7 @@
 #include "core/atomic_file.hpp"
 #include "motion/contour.hpp"
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "motion/interp.hpp"
 #include "core/job.hpp"
 #include "motion/kinematics.hpp"
@@ -32,8 +33,8 @@ namespace vmsim::app {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::Clock;
+using core::seconds_since;
 
 struct Figures {
   double max_mm = 0, mean_mm = 0, rms_mm = 0;

@@ -8,6 +8,7 @@
 #include "core/atomic_file.hpp"
 #include "motion/contour.hpp"
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "motion/interp.hpp"
 #include "core/job.hpp"
 #include "motion/kinematics.hpp"
@@ -28,8 +29,8 @@ namespace vmsim::app {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::Clock;
+using core::seconds_since;
 
 // Axis units to the units written in the files (mm or deg).
 double file_unit(const core::MachineAxis& ax) { return ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0; }

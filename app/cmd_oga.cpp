@@ -9,6 +9,7 @@
 #include "app/result_images.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "motion/interp.hpp"
 #include "core/job.hpp"
 #include "motion/kinematics.hpp"
@@ -37,9 +38,9 @@ namespace vmsim::app {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
+using core::Clock;
 using Eigen::Index;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::seconds_since;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // "MIN:STEP:MAX" -> the grid MIN, MIN + STEP, ... <= MAX (as Duong et al. writes [1 : 0.5 : 9]); a single number is a

@@ -8,6 +8,7 @@
 #include "app/study.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/timing.hpp"
 
 #include <fmt/format.h>
 #include <mpi.h>
@@ -33,19 +34,14 @@ namespace vmsim::app {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
+using core::Clock;
 
 constexpr int kTagToCoordinator = 7101;  // worker -> rank 0: "ready", with the result of its last variation
 constexpr int kTagToWorker = 7102;       // rank 0 -> worker: the next variation, or stop
 
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::seconds_since;
 
-double process_cpu_s() {
-  rusage ru{};
-  getrusage(RUSAGE_SELF, &ru);
-  return static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
-}
+using core::process_cpu_s;
 
 // While a variation runs, this process's stdout and stderr go to its run.log: vmsim run's pipeline prints its
 // summary with printf, and a study of many variations on several ranks would otherwise interleave them all.

@@ -1,16 +1,14 @@
 #pragma once
 // report.json: the machine-readable summary of every run (inputs with their hashes, figures, files, timings).
-#include "core/job.hpp"
+#include "sim/report.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
-#include <string>
 
 namespace vmsim::app {
 
-// {"vmsim": version, "command": ..., "job": name, "inputs": {job, machine, program, tool_table: {path, sha256}}}
-nlohmann::json report_header(const std::string& command, const core::Job& job);
+using sim::report_header;
 
 // Written atomically (temporary file, then rename), pretty-printed.
 void write_report(const std::filesystem::path& file, const nlohmann::json& report);

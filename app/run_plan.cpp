@@ -120,7 +120,9 @@ struct MotionCounts {
   bool turning = false;
 };
 MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress) {
-  const sim::Motion m = sim::simulate_motion(job, feed_scale, kind, progress);
+  sim::ChainOptions copt;
+  copt.feed_scale = feed_scale;
+  const sim::Motion m = sim::simulate_motion(sim::Chain(job, copt), kind, progress);
   const removal::PoseTrack track = sim::track_of(m, job, kind);
   MotionCounts c;
   c.samples = kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());

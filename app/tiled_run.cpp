@@ -23,14 +23,6 @@ removal::Tile process_tile() {
   return removal::Tile{mpi_rank(), mpi_size()};
 }
 
-double peak_rss_bytes() {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;  // "VmHWM:  1234 kB"
-  return 0;
-}
-
 void quiet_barrier() {
   if (!mpi_active()) return;
   MPI_Request req;
@@ -42,12 +34,6 @@ void quiet_barrier() {
     const timespec pause{0, 1000000};
     nanosleep(&pause, nullptr);
   }
-}
-
-double process_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 namespace {

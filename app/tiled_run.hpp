@@ -9,6 +9,7 @@
 // parallel work, so a tile is a window of rows of the one lattice (removal::DexelGrid::v_first) and no ray is
 // split; a z-map's rows run along x, so its tiles are bands in y. A three-axis finishing program made of passes at
 // constant y (the plane-cylinder part) then gives each rank its own passes: few sweeps reach two tiles.
+#include "core/timing.hpp"
 #include "sim/pipeline.hpp"
 
 #include <filesystem>
@@ -57,9 +58,7 @@ void write_tile_manifest(const std::filesystem::path& dir, const std::string& jo
 // waits while rank 0 writes the outputs, leaves its core to the others (oversubscribed or loaded machines).
 void quiet_barrier();
 
-// This process's peak resident memory (bytes; /proc/self/status VmHWM, 0 where unavailable).
-double peak_rss_bytes();
-// CPU time of this process so far, every thread (s).
-double process_cpu_s();
+using core::peak_rss_bytes;  // core/timing.hpp
+using core::process_cpu_s;
 
 }  // namespace vmsim::app

@@ -2,14 +2,12 @@
 // them, the reference field, and the surfaces read back.
 #include "sim/pipeline.hpp"
 
-#include "sim/axis_models.hpp"
 #include "sim/job_program.hpp"
 #include "sim/tool_poses.hpp"
 #include "core/error.hpp"
 #include "motion/kinematics.hpp"
 #include "core/stl.hpp"
 #include "core/units.hpp"
-#include "methods/oga_schedule.hpp"
 #include "removal/mesh_stock.hpp"
 #include "removal/surface.hpp"
 
@@ -39,7 +37,8 @@ const char* motion_name(core::RemovalSpec::Motion m) {
   return "?";
 }
 
-Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress) {
+Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress) {
+  const core::Job& job = chain.job();
   Motion m;
   auto t0 = Clock::now();
   m.program = read_job_program(job);
@@ -47,28 +46,14 @@ Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpe
   if (kind == core::RemovalSpec::Motion::Program) return m;
   t0 = Clock::now();
   progress.stage(job.name + ": interpolation");
-  motion::InterpOptions iopt;
-  iopt.period_s = job.interp.period_s;
-  iopt.tolerance_mm = job.interp.tolerance_mm;
-  iopt.feed_scale = feed_scale;
-  m.interp = motion::interpolate(motion::toolpath_in_axis_space(m.program, job.machine), job.machine, iopt);
+  m.interp = chain.interpolate(m.program);
+  m.tool_length_offset_mm = tool_length_offsets(m.program, m.interp.setpoints);
   progress.done();
   m.timings["interpolate"] = seconds_since(t0);
   if (kind == core::RemovalSpec::Motion::Actual) {
     t0 = Clock::now();
     progress.stage(job.name + ": servo drives");
-    // [job] gain_schedule (vmsim oga) holds gains for the job's own feeds; a feed-scaled reference (kind = "feed")
-    // runs the drives' own gains.
-    drives::SimulateOptions sopt;
-    drives::GainSchedule schedule;
-    if (job.gain_schedule_file && feed_scale == 1.0) {
-      schedule = methods::read_gain_schedule(*job.gain_schedule_file, m.interp.setpoints, job.machine);
-      sopt.gains = &schedule;
-    }
-    // [job] axis_models (vmsim identify): those axes run as their identified transfer functions, at any feed.
-    const JobAxisModels models = job_axis_models(job, std::nullopt);
-    if (models.any()) sopt.axis_models = &models.per_axis;
-    m.response = drives::simulate_axes(m.interp.setpoints, job.machine, sopt);
+    m.response = chain.simulate(m.interp.setpoints);
     progress.done();
     m.timings["drives"] = seconds_since(t0);
   }
@@ -90,9 +75,7 @@ void add_contour_error(Motion& motion, const core::Job& job) {
 }
 
 double tlo_at(const Motion& m, Eigen::Index k) {
-  const core::Setpoints& sp = m.interp.setpoints;
-  const int mi = sp.move_index[std::min(k, sp.samples() - 1)];
-  return mi >= 0 ? m.program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
+  return m.tool_length_offset_mm[std::min(k, m.tool_length_offset_mm.size() - 1)];
 }
 
 double track_tolerance(const core::Job& job, bool tool_turns) {
@@ -325,7 +308,7 @@ removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& t
 
 Field final_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain, const Tile& tile) {
   Field f = initial_field(job, progress, chain, tile);
-  const Motion m = simulate_motion(job, 1.0, job.removal.motion, progress);
+  const Motion m = simulate_motion(Chain(job), job.removal.motion, progress);
   progress.stage(job.name + ": material removal");
   cut_field(f, sweeps_of(job, track_of(m, job, job.removal.motion)).sweeps);
   progress.done();
@@ -445,7 +428,9 @@ Reference reference_field(const core::Job& job, const Field& start, double feed_
     ref_name = "job: the part " + job.reference.job_file.filename().string() + " leaves";
   } else if (job.reference.kind == core::ReferenceSpec::Kind::Feed) {
     ref = start;
-    const Motion rm = simulate_motion(job, feed_scale * job.reference.feed_scale, job.removal.motion, progress);
+    ChainOptions copt;
+    copt.feed_scale = feed_scale * job.reference.feed_scale;
+    const Motion rm = simulate_motion(Chain(job, copt), job.removal.motion, progress);
     progress.stage(job.name + ": reference (feeds x " + fmt::format("{:g}", job.reference.feed_scale) + ")");
     cut_field(*ref, sweeps_of(job, track_of(rm, job, job.removal.motion)).sweeps);
     progress.done();
@@ -456,7 +441,7 @@ Reference reference_field(const core::Job& job, const Field& start, double feed_
   } else if (job.reference.kind == core::ReferenceSpec::Kind::Program) {
     progress.stage(job.name + ": reference (programmed path)");
     ref = start;
-    const Motion pm = simulate_motion(job, feed_scale, core::RemovalSpec::Motion::Program, progress);
+    const Motion pm = simulate_motion(Chain(job), core::RemovalSpec::Motion::Program, progress);
     cut_field(*ref, sweeps_of(job, track_of(pm, job, core::RemovalSpec::Motion::Program)).sweeps);
     progress.done();
     ref_name = "program: the same program cut exactly along its programmed path";

@@ -12,6 +12,7 @@
 #include "removal/fields.hpp"
 #include "removal/track.hpp"
 #include "removal/vdb_part.hpp"
+#include "sim/chain.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -30,14 +31,16 @@ struct Motion {
   motion::InterpResult interp;
   std::optional<drives::AxisResponse> response;
   std::optional<motion::ContourError> contour;
+  Eigen::VectorXd tool_length_offset_mm;  // per setpoint (sim::tool_length_offsets)
   nlohmann::json timings = nlohmann::json::object();
 };
 
-// Program -> interpolator -> drives, as far as `kind` needs (program: read only; setpoints: interpolated).
-Motion simulate_motion(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress);
+// Program -> interpolator -> drives of the chain, as far as `kind` needs (program: read only; setpoints:
+// interpolated; actual: through the drives).
+Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress);
 // The contour error of the actual tool tip against the commanded one (when the drives ran).
 void add_contour_error(Motion& m, const core::Job& job);
-// Tool length offset active at setpoint sample k.
+// Tool length offset active at setpoint sample k (the last setpoint's while the axes settle after it).
 double tlo_at(const Motion& m, Eigen::Index k);
 
 // Tool-tip track (and tool axis on five-axis work) of the motion that cuts.

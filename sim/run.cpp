@@ -1,0 +1,231 @@
+#include "sim/run.hpp"
+
+#include "core/error.hpp"
+#include "core/timing.hpp"
+#include "metrology/grid_io.hpp"
+#include "motion/kinematics.hpp"
+#include "removal/surface.hpp"
+#include "sim/axis_following.hpp"
+#include "sim/contour_stats.hpp"
+#include "sim/report.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <string>
+
+namespace vmsim::sim {
+
+namespace {
+
+using core::Clock;
+using core::process_cpu_s;
+using core::seconds_since;
+
+const char* field_name(const Field& f) {
+  return f.kind == core::RemovalSpec::Field::ZMap ? "zmap" : f.kind == core::RemovalSpec::Field::TriDexel ? "tridexel"
+                                                                                                          : "nbuffer";
+}
+
+// The level set's part as a watertight, manifold mesh (volumeToMesh), each vertex with its signed distance to the
+// reference part's level set (positive: material left; NaN beyond the reference's band of 3 voxels).
+LevelSetPart level_set_part(removal::VdbPart part, const removal::VdbPart* ref_part, double adaptivity) {
+  LevelSetPart out;
+  out.mesh = part.mesh(adaptivity);
+  std::size_t beyond = 0;
+  if (ref_part) {
+    Eigen::VectorXd dev = ref_part->signed_distance(out.mesh.vertices_mm);
+    for (Eigen::Index k = 0; k < dev.size(); ++k) beyond += std::isnan(dev[k]) ? 1 : 0;
+    out.mesh.point_data.emplace_back("deviation_mm", std::move(dev));
+  }
+  out.figures = {{"voxel_mm", part.voxel_mm()}, {"mesh_triangles", out.mesh.triangles.rows()},
+                 {"mesh_vertices", out.mesh.vertices_mm.rows()}, {"mesh_adaptivity", adaptivity},
+                 {"volume_mm3", part.volume_mm3()}};
+  if (ref_part) out.figures["vertices_beyond_reference_band"] = beyond;
+  out.part = std::move(part);
+  return out;
+}
+
+// Grid fields: heights, reference, deviation, marks, and the part mesh.
+void read_back_grids(const core::Job& job, RunResult& r, nlohmann::json& surface_json) {
+  const Field& field = r.cut.field;
+  const std::optional<Field>& ref = r.cut.reference.field;
+  r.surface = surface_of(field);
+  const core::HeightGrid& pred = *r.surface;
+  if (ref) {
+    r.reference_surface = surface_of(*ref);
+    r.deviation = metrology::deviation(pred, *r.reference_surface);
+    r.marks = metrology::find_marks(*r.deviation, 1e-3);  // marks deeper than 1 um
+  }
+  surface_json = {{"grid", {{"x0_mm", pred.x0_mm}, {"y0_mm", pred.y0_mm}, {"dx_mm", pred.dx_mm}, {"dy_mm", pred.dy_mm},
+                            {"nx", pred.nx()}, {"ny", pred.ny()}}}};
+  if (field.vdb) {
+    r.level_set = level_set_part(field.part, ref && ref->vdb ? &ref->part : nullptr, job.removal.mesh_adaptivity);
+    surface_json["mesh_triangles"] = r.level_set->figures["mesh_triangles"];
+  } else if (field.kind == core::RemovalSpec::Field::TriDexel) {
+    // The tri-dexel part in 3-D (walls and undercuts the height grid cannot show), through its level set.
+    std::optional<removal::VdbPart> rl;
+    if (ref && !ref->vdb && ref->kind == core::RemovalSpec::Field::TriDexel) rl = removal::VdbPart::from_tridexel(ref->tri);
+    r.level_set = level_set_part(removal::VdbPart::from_tridexel(field.tri), rl ? &*rl : nullptr,
+                                 job.removal.mesh_adaptivity);
+    surface_json["mesh_triangles"] = r.level_set->figures["mesh_triangles"];
+    surface_json["tridexel_mesh"] = r.level_set->figures;
+  } else {
+    r.part_mesh = removal::heightfield_mesh(pred, field.region.lo.z(), r.deviation ? &*r.deviation : nullptr);
+    surface_json["mesh_triangles"] = r.part_mesh->triangles.rows();
+  }
+  if (r.deviation) {
+    const core::HeightGrid& dev = *r.deviation;
+    surface_json["deviation_min_mm"] = dev.z_mm.isNaN().select(0, dev.z_mm).minCoeff();
+    surface_json["deviation_max_mm"] = dev.z_mm.isNaN().select(0, dev.z_mm).maxCoeff();
+  }
+}
+
+// N-buffer fields: each needle's offset, its reference and deviation, and the deepest deviation as the mark.
+void read_back_needles(const core::Job& job, RunResult& r, nlohmann::json& surface_json) {
+  const Field& field = r.cut.field;
+  const std::optional<Field>& ref = r.cut.reference.field;
+  r.needle_offset_mm = needle_offsets(field);
+  const Eigen::Index n = r.needle_offset_mm.size();
+  r.needle_reference_mm = ref ? needle_offsets(*ref) : Eigen::VectorXd::Constant(n, NAN);
+  r.needle_deviation_mm = r.needle_offset_mm - r.needle_reference_mm;
+  double worst = 0, lo = INFINITY, hi = -INFINITY;
+  Eigen::Index worst_k = 0;
+  std::size_t empty = 0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double d = r.needle_deviation_mm[k];
+    if (std::isfinite(d) && std::abs(d) > std::abs(worst)) worst = d, worst_k = k;
+    if (std::isfinite(d)) lo = std::min(lo, d), hi = std::max(hi, d);
+    if (!std::isfinite(r.needle_offset_mm[k])) ++empty;
+  }
+  if (field.vdb) r.level_set = level_set_part(field.part, ref && ref->vdb ? &ref->part : nullptr, job.removal.mesh_adaptivity);
+  // The needles' summary, as the grid fields give theirs: how many, how many the tool emptied (the surface lies
+  // beyond their inner end), and the extremes of the deviation (overcuts negative).
+  surface_json = {{"needles", field.needles.size()}, {"empty_needles", empty}};
+  if (lo <= hi) {
+    surface_json["deviation_min_mm"] = lo;
+    surface_json["deviation_max_mm"] = hi;
+  }
+  if (std::abs(worst) > 1e-3) {
+    metrology::Mark m;
+    m.depth_mm = std::abs(worst);
+    m.overcut = worst < 0;
+    m.x_mm = field.needle_point[static_cast<std::size_t>(worst_k)].x();
+    m.y_mm = field.needle_point[static_cast<std::size_t>(worst_k)].y();
+    r.marks.push_back(m);
+  }
+}
+
+nlohmann::json removal_json(const core::Job& job, const Cut& c) {
+  const Field& field = c.field;
+  nlohmann::json j = {{"method", field.vdb ? "vdb" : "dexel"},
+                      {"field", field_name(field)},
+                      {"spacing_mm", field.spacing_mm},
+                      {"rays", field.rays()},
+                      {"memory_bytes", field.memory_bytes()},
+                      {"motion", motion_name(job.removal.motion)},
+                      {"track_points", c.sweeps.points},
+                      {"sweeps", c.sweeps.sweeps.size()},
+                      {"track_tolerance_mm", c.track_tolerance_mm},
+                      {"track_error_bound_mm", c.sweeps.error_bound_mm},
+                      {"tool_axis_turns", c.track.axis_per_sample.rows() > 0},
+                      {"orientation_error_mm", c.sweeps.orientation_error_mm}};
+  if (field.vdb) {
+    j["voxel_mm"] = job.removal.voxel_mm;
+    j["memory_estimate_bytes"] = field.vdb_estimate_bytes;  // the level set's, vs memory_bytes
+    j["mesh_memory_estimate_bytes"] = field.vdb_mesh_estimate_bytes;
+    j["active_voxels"] = field.part.active_voxels();
+  }
+  return j;
+}
+
+}  // namespace
+
+Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& progress) {
+  if (job.gain_schedule_file && options.feed_scale != 1.0)
+    throw core::Error(job.file.string() + ": --feed-scale changes the setpoints its gain_schedule was computed for "
+                      "(run vmsim oga on a job at those feeds instead)");
+  Cut c;
+  std::set<std::string> stock_chain;
+  auto t0 = Clock::now();
+  c.field = initial_field(job, progress, stock_chain, options.tile);
+  c.timings["stock"] = seconds_since(t0);
+  const Field start = c.field;  // the stock this job starts from (reference "stock")
+
+  ChainOptions copt;
+  copt.feed_scale = options.feed_scale;
+  c.motion = simulate_motion(Chain(job, copt), job.removal.motion, progress);
+  add_contour_error(c.motion, job);
+  for (const auto& [k, v] : c.motion.timings.items()) c.timings[k] = v;
+
+  t0 = Clock::now();
+  const double cpu0 = process_cpu_s();
+  progress.stage(job.name + ": material removal");
+  c.track = track_of(c.motion, job, job.removal.motion);
+  c.track_tolerance_mm = track_tolerance(job, track_turns(c.track));
+  c.sweeps = sweeps_of(job, c.track);
+  c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps);
+  progress.done();
+  c.timings["removal"] = seconds_since(t0);
+  c.timings["removal_cpu"] = process_cpu_s() - cpu0;  // every thread's CPU time
+
+  t0 = Clock::now();
+  c.reference = reference_field(job, start, options.feed_scale, progress);
+  c.timings["reference"] = seconds_since(t0);
+  return c;
+}
+
+RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, core::Progress& progress) {
+  RunResult r;
+  r.cut = std::move(cut);
+  const Cut& c = r.cut;
+  const auto t0 = Clock::now();
+  progress.stage(job.name + ": surfaces");
+  nlohmann::json surface_json;
+  if (c.field.kind != core::RemovalSpec::Field::NBuffer) read_back_grids(job, r, surface_json);
+  else read_back_needles(job, r, surface_json);
+  if (c.motion.response && c.motion.contour)
+    r.signals = motion_signals(job, c.motion.program, c.motion.interp.setpoints, *c.motion.response,
+                               *c.motion.contour, options.feed_scale);
+  progress.done();
+
+  nlohmann::json& report = r.report;
+  report = report_header("run", job);
+  report["removal"] = removal_json(job, c);
+  if (r.level_set && c.field.vdb) report["removal"]["level_set"] = r.level_set->figures;
+  report["reference"] = c.reference.name;
+  if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
+  if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
+  nlohmann::json marks_json = nlohmann::json::array();
+  for (const metrology::Mark& m : r.marks)
+    marks_json.push_back({{"depth_mm", m.depth_mm}, {"kind", m.overcut ? "overcut" : "undercut"}, {"x_mm", m.x_mm},
+                          {"y_mm", m.y_mm}, {"x_extent_mm", m.x_extent_mm}, {"y_extent_mm", m.y_extent_mm},
+                          {"area_mm2", m.area_mm2}});
+  report["marks"] = marks_json;
+  report["surface"] = surface_json;
+  const Motion& motion = c.motion;
+  if (job.removal.motion != core::RemovalSpec::Motion::Program)
+    report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
+                               {"setpoints", motion.interp.setpoints.samples()},
+                               {"period_s", motion.interp.setpoints.period_s}};
+  if (motion.response) {
+    // Follow-up error of every axis (the feed-drive simulation paper section 4 reports the rotary axes' in degrees)
+    // and of the tool axis.
+    const auto kin = motion::make_kinematics(job.machine);
+    report["axis_following_error"] =
+        axis_following_json(job.machine, motion.interp.setpoints, motion.response->position, kin.get(),
+                            [&](Eigen::Index k) { return tlo_at(motion, k); });
+  }
+  if (motion.contour)
+    report["contour_error"] =
+        contour_json(*motion.contour, cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program));
+  report["timings_s"] = c.timings;
+  report["timings_s"]["surfaces"] = seconds_since(t0);
+  return r;
+}
+
+RunResult run_job(const core::Job& job, const RunOptions& options, core::Progress& progress) {
+  return finish_run(job, cut_job(job, options, progress), options, progress);
+}
+
+}  // namespace vmsim::sim
