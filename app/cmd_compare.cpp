@@ -181,6 +181,9 @@ int run_compare(const CompareArgs& a) {
   // ---- inputs ----
   auto t0 = Clock::now();
   const metrology::SurfaceFile ms = metrology::read_surface_file(a.measured);
+  if (!ms.note.empty()) std::fprintf(stderr, "vmsim compare: warning: %s: %s\n", a.measured.string().c_str(), ms.note.c_str());
+  if (ms.profile) return run_compare_profile(a, ms);
+  if (!a.profile_line.empty()) throw core::Error("--profile-line: applies to a measured profile; " + a.measured.string() + " holds a surface");
   core::HeightGrid scan = ms.grid;
   std::string ext = a.predicted.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));

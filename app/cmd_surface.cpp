@@ -93,6 +93,52 @@ nlohmann::json areal_json(const metrology::ArealParameters& p) {
           {"Sku", num(p.Sku)},       {"Sdq", num(p.Sdq)},         {"Sdr_percent", num(p.Sdr_percent)}};
 }
 
+metrology::ProfileEvaluation profile_evaluation(int level, const std::vector<FilterSpec>& filters) {
+  metrology::ProfileEvaluation how;
+  how.level = level;
+  for (const FilterSpec& f : filters) how.filters.push_back({f.kind, f.cutoff_mm});
+  return how;
+}
+
+metrology::LineScan profile_in_range(const metrology::LineScan& p, const std::string& range) {
+  if (range.empty()) return p;
+  const auto comma = range.find(',');
+  if (comma == std::string::npos) throw core::Error("--range: expected X0,X1 (lengths, e.g. 468um,733um), found \"" + range + "\"");
+  const double a = parse_length_mm(range.substr(0, comma), "--range"), b = parse_length_mm(range.substr(comma + 1), "--range");
+  if (!(b > a)) throw core::Error("--range: X0 must be less than X1, found \"" + range + "\"");
+  // From the sample nearest to X0 to the one nearest to X1, as an instrument's cursors take them.
+  return metrology::crop(p, a - p.dx_mm / 2, b + p.dx_mm / 2);
+}
+
+nlohmann::json line_scan_json(const metrology::LineScan& p) {
+  std::size_t invalid = 0;
+  for (Eigen::Index k = 0; k < p.size(); ++k) invalid += std::isfinite(p.z_mm[k]) ? 0 : 1;
+  return {{"points", p.size()}, {"dx_mm", p.dx_mm}, {"x0_mm", p.x0_mm}, {"length_mm", p.length_mm()}, {"invalid_points", invalid}};
+}
+
+nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrology::ProfileEvaluation& how) {
+  const metrology::ProfileParameters& r = e.parameters;
+  const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  nlohmann::json filters = nlohmann::json::array();
+  for (const auto& f : how.filters)
+    filters.push_back({{"type", f.kind == 'S' ? "S (Gaussian mean line kept, ISO 16610-21)" : "L (Gaussian mean line removed, ISO 16610-21)"},
+                       {"cutoff_mm", f.cutoff_mm}});
+  return {{"standard", "ISO 21920-2 (heights from the mean line of the evaluated profile)"},
+          {"form_removed", how.level == 0 ? std::string("none (the mean line)") : how.level == 1 ? std::string("least-squares line")
+                                                                                : fmt::format("polynomial of degree {}", how.level)},
+          {"filters", filters},
+          {"ends", "after an L-filter, half a cut-off dropped at each end (run-in, run-out)"},
+          {"x_from_mm", e.profile.x0_mm},
+          {"x_to_mm", e.profile.x(e.profile.size() - 1)},
+          {"points", r.points},
+          {"evaluation_length_mm", r.evaluation_length_mm},
+          {"sections", r.sections},
+          {"section_length_mm", r.section_length_mm},
+          {"Ra_mm", num(r.Ra_mm)}, {"Rq_mm", num(r.Rq_mm)}, {"Rsk", num(r.Rsk)}, {"Rku", num(r.Rku)},
+          {"Rp_mm", num(r.Rp_mm)}, {"Rv_mm", num(r.Rv_mm)}, {"Rz_mm", num(r.Rz_mm)}, {"Rt_mm", num(r.Rt_mm)},
+          {"Rzx_mm", num(r.Rzx_mm)}};
+}
+
 nlohmann::json grid_json(const core::HeightGrid& g) {
   std::size_t invalid = 0;
   for (Eigen::Index k = 0; k < g.z_mm.size(); ++k) invalid += std::isfinite(g.z_mm.data()[k]) ? 0 : 1;

@@ -3,6 +3,7 @@
 // the form removal and filter options, and their JSON for report.json and stdout.
 #include "core/height_grid.hpp"
 #include "metrology/areal.hpp"
+#include "metrology/profile.hpp"
 #include "metrology/surface_io.hpp"
 
 #include <nlohmann/json.hpp>
@@ -32,6 +33,18 @@ core::HeightGrid level_and_filter(const core::HeightGrid& grid, int level, const
                                   nlohmann::json& log);
 
 nlohmann::json areal_json(const metrology::ArealParameters& p);
+
+// Profiles: --level and --filter as a profile evaluation (plane -> the least-squares line), --range "X0,X1"
+// applied (the samples from the one nearest to X0 to the one nearest to X1; an empty text keeps the whole trace),
+// and the JSON of the trace and of its ISO 21920-2 parameters.
+metrology::ProfileEvaluation profile_evaluation(int level, const std::vector<FilterSpec>& filters);
+metrology::LineScan profile_in_range(const metrology::LineScan& p, const std::string& range);
+nlohmann::json line_scan_json(const metrology::LineScan& p);
+nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrology::ProfileEvaluation& how);
+
+struct CompareArgs;
+// vmsim compare with a measured profile (cmd_compare_profile.cpp): the profile against --profile-line across PRED.
+int run_compare_profile(const CompareArgs& args, const metrology::SurfaceFile& measured);
 nlohmann::json grid_json(const core::HeightGrid& g);  // size, spacing, origin, valid and invalid points
 // {path, sha256, format}
 nlohmann::json input_json(const std::filesystem::path& file, const std::string& format);

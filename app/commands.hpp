@@ -86,9 +86,10 @@ int run_render(const RenderArgs& args);
 
 // Processing before areal parameters, shared by stats and compare.
 struct SurfaceOptions {
-  std::string level = "plane";       // form removed first: none | plane | poly:N
-  std::vector<std::string> filters;  // S:<cut-off> and/or L:<cut-off> (Gaussian, ISO 16610-61), in order
+  std::string level = "plane";       // form removed first: none | plane | poly:N (a profile: mean, line, polynomial)
+  std::vector<std::string> filters;  // S:<cut-off> and/or L:<cut-off> (Gaussian, ISO 16610-61 / -21), in order
   double outlier_sigma = 0.0;        // mask spikes departing more than this many robust sigmas (0: keep all)
+  std::string profile_range;         // profiles: "X0,X1" (lengths), the part of the trace evaluated
 };
 
 struct StatsArgs {
@@ -105,10 +106,11 @@ struct CompareArgs {
   std::vector<double> align_init;                // X,Y,Z mm, RX,RY,RZ deg: start (auto) or the transform (none)
   std::vector<std::string> align_regions;        // XMIN,XMAX,YMIN,YMAX (mm, prediction frame): align on these only
   std::string loss = "tukey";                    // tukey | huber
-  SurfaceOptions options{"plane", {}, 6.0};      // outliers masked in the scan at 6 sigma by default
+  SurfaceOptions options{"plane", {}, 6.0, ""};  // outliers masked in the scan at 6 sigma by default
   std::string mark_threshold = "1um";            // marks: |deviation| above this
   std::optional<double> path_direction_deg;      // the path direction for the marks (default: the lay of the prediction)
   bool no_render = false;                        // no pictures
+  std::string profile_line;                      // a measured profile: "X0,Y0,X1,Y1" (mm), the line across PRED
 };
 // vmsim compare --measured SCAN --predicted PRED: registration, deviation grid (X3P), statistics, marks, areal
 // parameters of both and their differences, report.json, pictures.

@@ -180,8 +180,11 @@ int run_command(int argc, char** argv) {
   // Surface commands (metrology): measured scans against predicted surfaces.
   vmsim::app::StatsArgs stats_args;
   auto* stats = app.add_subcommand(
-      "stats", "Print a surface file's size, spacing, invalid points and ISO 25178-2 areal parameters as JSON");
-  stats->add_option("SURFACE", stats_args.surface, "X3P, SDF, .sur, CSV, ASCII x y z or matrix grid")
+      "stats", "Print a surface file's size, spacing, invalid points and ISO 25178-2 areal parameters as JSON (a "
+               "profile: its ISO 21920-2 profile parameters)");
+  stats->add_option("SURFACE", stats_args.surface,
+                    "X3P, SDF, .sur, BCR-STM, CSV, ASCII x y z or matrix grid (also gzip-compressed), or a profile "
+                    "(Dektak CSV, X3P PRF, .sur profile): its ISO 21920-2 profile parameters")
       ->required()->check(CLI::ExistingFile);
   stats->add_option("--level", stats_args.options.level, "form removed first: none, plane (default) or poly:N");
   stats->add_option("--filter", stats_args.options.filters,
@@ -190,12 +193,16 @@ int run_command(int argc, char** argv) {
   stats->add_option("--outliers", stats_args.options.outlier_sigma,
                     "mask spikes beyond this many robust sigmas first (default 0: keep every point)")
       ->check(CLI::NonNegativeNumber);
+  stats->add_option("--range", stats_args.options.profile_range,
+                    "profiles: X0,X1 (lengths, e.g. 468um,733um), the part of the trace evaluated: the samples nearest to X0 "
+                    "and X1 and those between (default: all)");
 
   vmsim::app::CompareArgs compare_args;
   auto* compare = app.add_subcommand(
       "compare", "Hold a measured scan against a predicted surface: registration, deviation (X3P), marks, areal "
                  "parameters, report.json, pictures");
-  compare->add_option("--measured,-m", compare_args.measured, "the measured scan (X3P, SDF, .sur, CSV, ASCII grids)")
+  compare->add_option("--measured,-m", compare_args.measured,
+                      "the measured scan (X3P, SDF, .sur, BCR-STM, CSV, ASCII grids) or profile (Dektak CSV, X3P PRF)")
       ->required()->check(CLI::ExistingFile);
   compare->add_option("--predicted,-p", compare_args.predicted,
                       "the predicted surface (e.g. vmsim run's surface.x3p) or part mesh (.stl)")
@@ -218,6 +225,11 @@ int run_command(int argc, char** argv) {
   compare->add_option("--path-direction-deg", compare_args.path_direction_deg,
                       "the tool path's direction in XY for the marks' width and length (default: the prediction's lay)");
   compare->add_flag("--no-render", compare_args.no_render, "draw no pictures");
+  compare->add_option("--profile-line", compare_args.profile_line,
+                      "a measured profile: X0,Y0,X1,Y1 (mm, prediction frame), the line across the prediction it was "
+                      "measured along");
+  compare->add_option("--range", compare_args.options.profile_range,
+                      "a measured profile: X0,X1 (lengths), the part of the trace compared (default: all)");
 
   vmsim::app::MeasureArgs measure_args;
   auto* measure = app.add_subcommand(

@@ -87,6 +87,11 @@ void write_height_csv(const std::filesystem::path& file, const core::HeightGrid&
 core::HeightGrid read_height_csv(const std::filesystem::path& file) {
   std::ifstream in(file);
   if (!in) throw core::Error(file.string() + ": cannot open file");
+  return read_height_csv(in, file.string());
+}
+
+core::HeightGrid read_height_csv(std::istream& in, const std::string& file_name) {
+  const std::filesystem::path file(file_name);
   core::HeightGrid g;
   long nx = -1, ny = -1;
   std::string line;
@@ -224,6 +229,11 @@ core::HeightGrid points_to_grid(const Eigen::Matrix<double, Eigen::Dynamic, 3>& 
 core::HeightGrid read_xyz_grid(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
+  return read_xyz_grid(in, file.string());
+}
+
+core::HeightGrid read_xyz_grid(std::istream& in, const std::string& file_name) {
+  const std::filesystem::path file(file_name);
   int pow10 = -3;
   std::vector<double> v;
   std::string line;
@@ -284,21 +294,68 @@ void write_xyz(const std::filesystem::path& file, const core::HeightGrid& g) {
 core::HeightGrid read_matrix_grid(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
-  std::optional<double> width, height, dx, dy, x0, y0;
+  return read_matrix_grid(in, file.string());
+}
+
+namespace {
+
+// "key: value" or "key = value" pairs of a header line; several "k=v" pairs may share a line ("h=305 w=75"): the
+// value of each runs to the last blank before the next key.
+std::vector<std::pair<std::string, std::string>> header_pairs(const std::string& body) {
+  std::vector<std::pair<std::string, std::string>> out;
+  const std::size_t colon = body.find(':'), eq = body.find('=');
+  if (colon != std::string::npos && (eq == std::string::npos || colon < eq)) {
+    out.emplace_back(lower(trim(std::string_view(body).substr(0, colon))), trim(std::string_view(body).substr(colon + 1)));
+    return out;
+  }
+  std::vector<std::size_t> eqs;
+  for (std::size_t k = 0; k < body.size(); ++k)
+    if (body[k] == '=') eqs.push_back(k);
+  if (eqs.empty()) return out;
+  std::size_t key_start = 0;
+  for (std::size_t e = 0; e < eqs.size(); ++e) {
+    const std::string key = lower(trim(std::string_view(body).substr(key_start, eqs[e] - key_start)));
+    std::size_t value_end = body.size(), next_key = body.size();
+    if (e + 1 < eqs.size()) {
+      const std::string_view seg = std::string_view(body).substr(eqs[e] + 1, eqs[e + 1] - eqs[e] - 1);
+      const std::string t = trim(seg);
+      const std::size_t sp = seg.find_last_of(" \t", seg.find_last_not_of(" \t"));
+      if (sp == std::string_view::npos || t.empty()) {
+        value_end = next_key = eqs[e + 1];  // "a=b=c": not pairs we know
+      } else {
+        value_end = eqs[e] + 1 + sp;
+        next_key = value_end;
+      }
+    }
+    out.emplace_back(key, trim(std::string_view(body).substr(eqs[e] + 1, value_end - eqs[e] - 1)));
+    key_start = next_key;
+  }
+  return out;
+}
+
+}  // namespace
+
+core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name) {
+  const std::filesystem::path file(file_name);
+  std::optional<double> width, height, dx, dy, x0, y0, pixel, zfactor;
+  std::optional<long long> rows_declared, cols_declared;
+  std::string zunit_name, data_unit;  // the unit the heights are in, as named
   int zpow10 = -3;
+  bool zunit_is_length = true;
+  std::optional<int> xunit, yunit;   // SPIP's x-unit / y-unit for x-length / y-length given without a unit
   std::vector<double> v;
   long long nx = -1;
   long long ny = 0;
   std::string line;
   std::vector<std::string_view> f;
   int lineno = 0;
-  // "12.5 um" -> mm
-  const auto length = [&](const std::string& val) -> double {
+  // "12.5 um" -> mm (a bare number takes `fallback` as its unit's power of ten)
+  const auto length = [&](const std::string& val, int fallback = -3) -> double {
     std::vector<std::string_view> parts;
     split_fields(val, parts);
     if (parts.empty() || parts.size() > 2)
       throw core::Error(core::located(file.string(), lineno, "expected a length \"<number> <unit>\", found \"" + val.substr(0, 40) + "\""));
-    int p = -3;
+    int p = fallback;
     if (parts.size() == 2) {
       const auto u = length_unit_pow10(parts[1]);
       if (!u) throw core::Error(core::located(file.string(), lineno, "unknown length unit \"" + std::string(parts[1]).substr(0, 20) + "\" (m, mm, um, nm)"));
@@ -309,48 +366,99 @@ core::HeightGrid read_matrix_grid(const std::filesystem::path& file) {
       throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(parts[0]).substr(0, 40) + "\""));
     return *x;
   };
+  const auto count = [&](const std::string& val) -> long long {
+    const auto x = parse_decimal_scaled(val);
+    if (!x || !(*x >= 1) || *x != std::floor(*x) || *x > static_cast<double>(kMaxNodes))
+      throw core::Error(core::located(file.string(), lineno, "expected a count of points, found \"" + val.substr(0, 40) + "\""));
+    return static_cast<long long>(*x);
+  };
+  const auto set_zunit = [&](const std::string& val) {
+    zunit_name = val;
+    const auto u = length_unit_pow10(val);
+    zunit_is_length = static_cast<bool>(u);
+    if (u) zpow10 = *u;
+  };
+  const auto header_line = [&](const std::string& body) {
+    for (const auto& [key, val] : header_pairs(body)) {
+      if (key == "width") width = length(val);
+      else if (key == "height") height = length(val);
+      else if (key == "x-length") width = length(val, xunit.value_or(-3));
+      else if (key == "y-length") height = length(val, yunit.value_or(-3));
+      else if (key == "dx" || key == "x spacing") dx = length(val);
+      else if (key == "dy" || key == "y spacing") dy = length(val);
+      else if (key == "pixel size") pixel = length(val);
+      else if (key == "x0" || key == "x offset") x0 = length(val);
+      else if (key == "y0" || key == "y offset") y0 = length(val);
+      else if (key == "x-unit" || key == "y-unit") {
+        const auto u = length_unit_pow10(val);
+        if (!u) throw core::Error(core::located(file.string(), lineno, "unknown length unit \"" + val.substr(0, 20) + "\" (m, mm, um, nm)"));
+        (key == "x-unit" ? xunit : yunit) = *u;
+      } else if (key == "value units" || key == "z unit" || key == "z units" || key == "z-unit") set_zunit(val);
+      else if (key == "data unit") data_unit = val;
+      else if (key == "h") rows_declared = count(val);
+      else if (key == "w") cols_declared = count(val);
+      else if (key.rfind("height conversion factor", 0) == 0) {
+        // "height conversion factor (-> m)=2.9e-8": heights times the factor are in the unit named in the key.
+        const std::size_t arrow = key.find("->"), close = key.find(')', arrow == std::string::npos ? 0 : arrow);
+        const std::string u = arrow == std::string::npos ? std::string() : trim(std::string_view(key).substr(arrow + 2, close == std::string::npos ? std::string::npos : close - arrow - 2));
+        const auto p = length_unit_pow10(u);
+        if (!p) throw core::Error(core::located(file.string(), lineno, "height conversion factor: the key names no length unit (\"-> m\" expected)"));
+        const auto x = parse_decimal_scaled(val);
+        if (!x || !std::isfinite(*x) || *x == 0)
+          throw core::Error(core::located(file.string(), lineno, "height conversion factor: \"" + val.substr(0, 40) + "\" is not a non-zero number"));
+        zfactor = *x;
+        zpow10 = *p;
+        zunit_is_length = true;
+      }
+    }
+  };
   while (std::getline(in, line)) {
     ++lineno;
     const std::string t = trim(line);
     if (t.empty()) continue;
     if (t[0] == '#') {
-      const std::string body = trim(std::string_view(t).substr(1));
-      std::size_t sep = body.find(':');
-      if (sep == std::string::npos) sep = body.find('=');
-      if (sep == std::string::npos) continue;  // a comment
-      const std::string key = lower(trim(std::string_view(body).substr(0, sep)));
-      const std::string val = trim(std::string_view(body).substr(sep + 1));
-      if (key == "width") width = length(val);
-      else if (key == "height") height = length(val);
-      else if (key == "dx" || key == "x spacing") dx = length(val);
-      else if (key == "dy" || key == "y spacing") dy = length(val);
-      else if (key == "x0" || key == "x offset") x0 = length(val);
-      else if (key == "y0" || key == "y offset") y0 = length(val);
-      else if (key == "value units" || key == "z unit" || key == "z units") {
-        const auto u = length_unit_pow10(val);
-        if (!u) throw core::Error(core::located(file.string(), lineno, "unknown height unit \"" + val.substr(0, 20) + "\" (m, mm, um, nm)"));
-        zpow10 = *u;
-      }
+      header_line(trim(std::string_view(t).substr(1)));
       continue;
     }
     split_fields(t, f);
-    if (nx < 0) nx = static_cast<long long>(f.size());
+    // Before the first row of heights, a line that is not all numbers is a header line ("h=305 w=75").
+    if (nx < 0 && t.find_first_of("=:") != std::string::npos &&
+        std::any_of(f.begin(), f.end(), [](std::string_view tok) { return !is_nan_token(tok) && !parse_decimal_scaled(tok); })) {
+      header_line(t);
+      continue;
+    }
+    if (nx < 0) {
+      // The header is over: the heights' unit and factor are known.
+      nx = static_cast<long long>(f.size());
+      if (!zfactor && (!zunit_is_length || (!data_unit.empty() && !length_unit_pow10(data_unit))))
+        throw core::Error(core::located(file.string(), lineno, "the heights are in \"" + (zunit_is_length ? data_unit : zunit_name) +
+                                                               "\", not a length, and the header gives no \"height conversion factor (-> m)\""));
+      if (zunit_name.empty() && !zfactor && !data_unit.empty()) zpow10 = *length_unit_pow10(data_unit);
+    }
     if (static_cast<long long>(f.size()) != nx)
       throw core::Error(core::located(file.string(), lineno, fmt::format("{} values, the first row has {}", f.size(), nx)));
+    // Without a factor the decimal exponent shift is exact (units.hpp); a factor applies in double arithmetic.
+    const double scale = zfactor ? *zfactor * std::pow(10.0, zpow10 + 3) : 1.0;
     for (const auto& tok : f) {
-      const auto z = value_mm(tok, zpow10);
+      const auto z = zfactor ? value_mm(tok, -3) : value_mm(tok, zpow10);
       if (!z) throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(tok).substr(0, 40) + "\""));
-      v.push_back(std::isfinite(*z) ? *z : kNaN);
+      v.push_back(std::isfinite(*z) ? *z * scale : kNaN);
     }
     ++ny;
     if (nx * ny > kMaxNodes) throw core::Error(core::located(file.string(), lineno, "more heights than vmsim accepts"));
   }
   if (nx <= 0 || ny == 0) throw core::Error(file.string() + ": no rows of heights");
+  if (rows_declared && *rows_declared != ny)
+    throw core::Error(file.string() + fmt::format(": the header declares h={} rows, the file has {}", *rows_declared, ny));
+  if (cols_declared && *cols_declared != nx)
+    throw core::Error(file.string() + fmt::format(": the header declares w={} columns, the rows have {} values", *cols_declared, nx));
   core::HeightGrid g;
   if (dx) g.dx_mm = *dx;
+  else if (pixel) g.dx_mm = *pixel;
   else if (width) g.dx_mm = *width / static_cast<double>(nx);
-  else throw core::Error(file.string() + ": the header gives no x spacing (\"# dx: 5 um\" or Gwyddion's \"# Width: 1 mm\")");
+  else throw core::Error(file.string() + ": the header gives no x spacing (\"# dx: 5 um\", \"pixel size=0.37 um\" or Gwyddion's \"# Width: 1 mm\")");
   if (dy) g.dy_mm = *dy;
+  else if (pixel) g.dy_mm = *pixel;
   else if (height) g.dy_mm = *height / static_cast<double>(ny);
   else if (dx && !width) g.dy_mm = g.dx_mm;
   else throw core::Error(file.string() + ": the header gives no y spacing (\"# dy: 5 um\" or Gwyddion's \"# Height: 1 mm\")");

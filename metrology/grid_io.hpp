@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <filesystem>
+#include <istream>
 #include <string>
 
 namespace vmsim::metrology {
@@ -16,6 +17,7 @@ namespace vmsim::metrology {
 // a grid read back is the same bit for bit. Written atomically.
 void write_height_csv(const std::filesystem::path& file, const core::HeightGrid& grid);
 core::HeightGrid read_height_csv(const std::filesystem::path& file);
+core::HeightGrid read_height_csv(std::istream& in, const std::string& name);  // `name` starts every error
 
 // NumPy .npy (float64, shape ny x nx, C order; NaN where invalid) for Python users, plus the grid geometry in a
 // JSON sidecar file.npy.json. Written atomically.
@@ -31,15 +33,24 @@ core::HeightGrid points_to_grid(const Eigen::Matrix<double, Eigen::Dynamic, 3>& 
 // with '#' or '//' are comments, and a comment "# unit: um" (m, mm, um, nm) gives the unit of all three columns
 // (default mm). A z of "nan" is an invalid point. The points must lie on a lattice (points_to_grid).
 core::HeightGrid read_xyz_grid(const std::filesystem::path& file);
+core::HeightGrid read_xyz_grid(std::istream& in, const std::string& name);
 // One line "x y z" (mm, shortest exact digits) per valid node, for CloudCompare and other point tools.
 void write_xyz(const std::filesystem::path& file, const core::HeightGrid& grid);
 
-// ASCII matrix with a header: '#' lines "key: value [unit]" or "key = value [unit]", then one row of heights per
-// line (y = y0 + j dy), separated by blanks, tabs, commas or semicolons; "nan" is invalid. Keys (any case):
-//   Width, Height        the grid's extent, nx dx and ny dy (Gwyddion's ASCII export)
-//   dx, dy               the spacing (or "x spacing", "y spacing")
-//   x0, y0               the position of node (0, 0) (or "x offset", "y offset"); default 0
-//   Value units, z unit  the unit of the heights (default mm); lengths name their unit after the number.
+// ASCII matrix with a header: header lines "key: value [unit]" or "key = value [unit]" ('#' lines anywhere, or
+// lines before the first row that are not all numbers; several "k=v" pairs may share one: "h=305 w=75"), then one
+// row of heights per line (y = y0 + j dy), separated by blanks, tabs, commas or semicolons; "nan" is invalid.
+// Keys (any case), as Gwyddion's and SPIP's ASCII exports and interferometer exports write them:
+//   Width, Height / x-length, y-length   the grid's extent, nx dx and ny dy (x-unit, y-unit give a bare number's unit)
+//   dx, dy / x spacing, y spacing        the spacing; "pixel size" the spacing along both
+//   x0, y0 / x offset, y offset          the position of node (0, 0); default 0
+//   Value units / z unit / z-unit        the unit of the heights (default mm); "data unit" the unit of the values
+//   height conversion factor (-> m)      heights = value x factor, in the unit named in the key (for values in a
+//                                        unit that is not a length, e.g. an interferometer's phase in rad)
+//   h, w                                 the numbers of rows and columns (checked)
+// Lengths name their unit after the number. Values in a unit that is not a length with no conversion factor are
+// an error.
 core::HeightGrid read_matrix_grid(const std::filesystem::path& file);
+core::HeightGrid read_matrix_grid(std::istream& in, const std::string& name);
 
 }  // namespace vmsim::metrology

@@ -67,12 +67,30 @@ class ZipReader {
   ZipReader(const ZipReader&) = delete;
   ZipReader& operator=(const ZipReader&) = delete;
 
+  // An entry named relative to main.xml's folder (the archive's root in a standard file), or from the root.
   std::optional<zip_uint64_t> find(std::string name) const {
     while (name.rfind("./", 0) == 0) name.erase(0, 2);
     while (!name.empty() && name.front() == '/') name.erase(0, 1);
+    if (!base_.empty()) {
+      const zip_int64_t i = zip_name_locate(za_, (base_ + name).c_str(), ZIP_FL_NOCASE);
+      if (i >= 0) return static_cast<zip_uint64_t>(i);
+    }
     const zip_int64_t i = zip_name_locate(za_, name.c_str(), ZIP_FL_NOCASE);
     if (i < 0) return std::nullopt;
     return static_cast<zip_uint64_t>(i);
+  }
+  void set_base(const std::string& folder) { base_ = folder; }
+  std::string name(zip_uint64_t index) const {
+    const char* s = zip_get_name(za_, index, 0);
+    return s ? std::string(s) : std::string();
+  }
+
+  std::vector<std::string> names() const {
+    std::vector<std::string> out;
+    const zip_int64_t n = zip_get_num_entries(za_, 0);
+    for (zip_int64_t i = 0; i < n && i < 100000; ++i)
+      if (const char* s = zip_get_name(za_, static_cast<zip_uint64_t>(i), 0)) out.emplace_back(s);
+    return out;
   }
 
   // The entry's bytes. Its declared size must be at most max_bytes (and exactly `exact` when given); the bytes
@@ -117,6 +135,7 @@ class ZipReader {
  private:
   std::filesystem::path file_;
   zip_t* za_ = nullptr;
+  std::string base_;
 };
 
 std::string read_whole_file(const std::filesystem::path& file) {
@@ -202,7 +221,8 @@ Axis parse_axis(const XmlContext& cx, pugi::xml_node axes, const char* name) {
     a.inc_mm = *v;
     a.unit_inc = *v == 1000.0;
   }
-  if (const pugi::xml_node off = child(n, "Offset")) {
+  // An empty <Offset/> (x3ptools writes one on CZ) is no offset.
+  if (const pugi::xml_node off = child(n, "Offset"); off && !text_of(off).empty()) {
     const std::string s = text_of(off);
     const auto v = parse_decimal_scaled(s, 3);
     if (!v || !std::isfinite(*v)) cx.error(off, path + "/Offset", "expected a number of metres, found \"" + s + "\"");
@@ -285,11 +305,41 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
   const std::string bytes = read_whole_file(file);
   if (bytes.size() < 4 || bytes.compare(0, 4, "PK\x03\x04") != 0)
     fail(file, "not an X3P file: it does not start like a zip archive (PK\\3\\4)");
-  const ZipReader zip(file, bytes);
+  ZipReader zip(file, bytes);
 
-  const auto main_idx = zip.find("main.xml");
+  // main.xml sits at the archive's root in a standard file; some tools (x3ptools, archives made on macOS) put the
+  // whole X3P under a folder, next to __MACOSX/ resource forks and .DS_Store files. The one main.xml outside that
+  // junk is taken wherever it is, and the data links are read relative to its folder.
+  std::vector<std::string> notes;
+  const std::vector<std::string> entries = zip.names();
+  const auto is_junk = [](const std::string& e) {
+    const std::string base = e.substr(e.find_last_of('/') == std::string::npos ? 0 : e.find_last_of('/') + 1);
+    return e.rfind("__MACOSX/", 0) == 0 || base.rfind("._", 0) == 0 || base == ".DS_Store";
+  };
+  std::vector<std::string> mains;
+  for (const std::string& e : entries) {
+    if (is_junk(e)) continue;
+    const std::size_t slash = e.find_last_of('/');
+    std::string base = slash == std::string::npos ? e : e.substr(slash + 1);
+    for (char& c : base) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (base == "main.xml") mains.push_back(e);
+  }
+  if (mains.empty()) fail(file, "main.xml: missing from the zip (every X3P file has one)");
+  if (mains.size() > 1)
+    fail(file, fmt::format("the zip holds {} main.xml files ({}); an X3P file has one", mains.size(),
+                           [&] {
+                             std::string l;
+                             for (const auto& m : mains) l += (l.empty() ? "" : ", ") + m;
+                             return l;
+                           }()));
+  const std::string main_name = mains.front();
+  const std::string folder = main_name.substr(0, main_name.size() - std::string("main.xml").size());
+  zip.set_base(folder);
+  if (!folder.empty()) notes.push_back("main.xml is in the folder \"" + folder + "\" of the zip, not at its root; vmsim read the X3P from there");
+  const auto main_idx = zip.find(main_name.substr(folder.size()));
   if (!main_idx) fail(file, "main.xml: missing from the zip (every X3P file has one)");
-  const std::string xml = zip.read(*main_idx, "main.xml", kMaxXmlBytes);
+  std::vector<std::string> used = {zip.name(*main_idx)};
+  const std::string xml = zip.read(*main_idx, main_name, kMaxXmlBytes);
 
   pugi::xml_document doc;
   const pugi::xml_parse_result pr = doc.load_buffer(xml.data(), xml.size(), pugi::parse_default, pugi::encoding_auto);
@@ -299,8 +349,9 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
   }
   const XmlContext cx{file, xml};
   const pugi::xml_node root = doc.document_element();
-  if (!root || local_name(root.name()) != "ISO5436_2")
+  if (!root || (local_name(root.name()) != "ISO5436_2" && local_name(root.name()) != "ISO5436"))
     fail(file, std::string("main.xml: the root element is \"") + (root ? root.name() : "") + "\", expected ISO5436_2");
+  if (local_name(root.name()) == "ISO5436") notes.push_back("main.xml's root element is ISO5436 (as x3ptools writes it), read as ISO5436_2");
 
   X3pData out;
   X3pMeta& meta = out.meta;
@@ -395,6 +446,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     const auto di = zip.find(data_name);
     if (!di) cx.error(link, "Record3/DataLink/PointDataLink", "\"" + data_name + "\" is not in the zip");
     const std::string data = zip.read(*di, data_name, kMaxPoints * 24, npoints * record);
+    used.push_back(zip.name(*di));
     allocate();
     if (options.verify_checksums) {
       const std::string want = hex_lower(text_of(child(link, "MD5ChecksumPointData")));
@@ -413,6 +465,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
       const auto vi = zip.find(valid_name);
       if (!vi) cx.error(link, "Record3/DataLink/ValidPointsLink", "\"" + valid_name + "\" is not in the zip");
       const std::string bits = zip.read(*vi, valid_name, kMaxPoints / 8 + 1, (npoints + 7) / 8);
+      used.push_back(zip.name(*vi));
       if (options.verify_checksums) {
         const std::string want = hex_lower(text_of(child(link, "MD5ChecksumValidPoints")));
         if (!want.empty() && want != core::md5_hex(bits))
@@ -427,7 +480,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     const pugi::xml_node vendor = child(root, "VendorSpecificID");
     if (vendor && text_of(vendor) == kVendorUri && matrix && stored.size() == 1 && ax[2].data == 'D' &&
         ax[2].unit_inc && ax[2].zero_off)
-      if (const auto ci = zip.find(kVendorEntry)) zcorr = zip.read(*ci, kVendorEntry, kMaxPoints, npoints);
+      if (const auto ci = zip.find(kVendorEntry)) zcorr = zip.read(*ci, kVendorEntry, kMaxPoints, npoints), used.push_back(zip.name(*ci));
   } else if (list) {
     std::uint64_t count = 0;
     for (pugi::xml_node d = list.first_child(); d; d = d.next_sibling())
@@ -484,6 +537,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
   if (options.verify_checksums && !sum_name.empty()) {
     if (const auto si = zip.find(sum_name)) {
       const std::string sum = zip.read(*si, sum_name, 4096);
+      used.push_back(zip.name(*si));
       std::string want = trimmed(sum).substr(0, 32);
       want = hex_lower(want);
       const std::string have = core::md5_hex(xml);
@@ -504,6 +558,23 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
       for (int s = 0; s < std::abs(k); ++s) z = std::nextafter(z, k > 0 ? HUGE_VAL : -HUGE_VAL);
     }
   meta.invalid_points = static_cast<std::size_t>(std::count(valid.begin(), valid.end(), 0));
+  {
+    // Say what was left aside: macOS junk, and entries main.xml does not name (an R package's annotation image).
+    std::vector<std::string> junk, other;
+    for (const std::string& e : entries) {
+      if (e.empty() || e.back() == '/' || std::find(used.begin(), used.end(), e) != used.end()) continue;
+      (is_junk(e) ? junk : other).push_back(e);
+    }
+    const auto join = [](const std::vector<std::string>& v) {
+      std::string l;
+      for (std::size_t k = 0; k < v.size() && k < 8; ++k) l += (l.empty() ? "" : ", ") + v[k];
+      if (v.size() > 8) l += fmt::format(" and {} more", v.size() - 8);
+      return l;
+    };
+    if (!junk.empty()) notes.push_back("ignored " + std::to_string(junk.size()) + " macOS metadata entries (" + join(junk) + ")");
+    if (!other.empty()) notes.push_back("ignored entries main.xml does not name: " + join(other));
+  }
+  meta.notes = notes;
 
   if (matrix) {
     core::HeightGrid& g = out.grid;

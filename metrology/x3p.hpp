@@ -2,6 +2,9 @@
 // X3P files (ISO 5436-2 XML, ISO 25178-72): a zip holding main.xml (the axes, the matrix or list dimension, the
 // data or a link to binary data), bindata/data.bin (little-endian heights), bindata/valid.bin (one bit per point,
 // least significant bit first, 1 = valid) and md5checksum.hex (the MD5 of main.xml as md5sum prints it).
+// Files other tools write are read too: main.xml under a folder of the zip (the one main.xml outside __MACOSX/ and
+// "._" / .DS_Store entries; the links are relative to its folder; two main.xml files are an error naming both), the
+// root element ISO5436 (x3ptools), an empty <Offset/>. X3pMeta::notes says what was done.
 // Lengths in the file are metres; vmsim gets mm (units.hpp says how they are converted without losing bits).
 #include "core/height_grid.hpp"
 
@@ -10,6 +13,7 @@
 #include <array>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace vmsim::metrology {
 
@@ -24,6 +28,9 @@ struct X3pMeta {
   bool rotation_identity = true;        // Record1/Axes/Rotation absent or the identity
   bool main_checksum_checked = false;   // md5checksum.hex was present and matched
   std::size_t invalid_points = 0;       // points invalid in the mask, empty <Datum/>, NaN or infinite
+  // What a user should know about a file written by another tool: main.xml found in a folder of the zip, junk
+  // entries (__MACOSX/, .DS_Store) and entries main.xml does not name left aside, x3ptools' root element.
+  std::vector<std::string> notes;
 };
 
 struct X3pData {

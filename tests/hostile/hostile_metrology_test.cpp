@@ -687,5 +687,73 @@ TEST(HostileMetrology, DigitalSurf) {
   EXPECT_EQ(o.base_error, "");
 }
 
+// The formats issue 17 added: BCR-STM (binary points, a text header), Dektak CSV profiles, gzip-compressed text,
+// and the real files of ../shared/data/real/scans when present (X3P laid out by other tools, .sur, BCR).
+TEST(HostileMetrology, BcrStm) {
+  std::string h = "fileformat = bcrstm\nheadersize = 2048\nxpixels = 4\nypixels = 3\nxlength = 400\nylength = 600\n"
+                  "bit2nm = 0.5\nvoidpixels = 1\nintelmode = 1\n";
+  h.resize(2048, ' ');
+  for (int k = 0; k < 12; ++k) {
+    const std::int16_t v = static_cast<std::int16_t>(k * 100 - 300);
+    h.append(reinterpret_cast<const char*>(&v), 2);
+  }
+  std::vector<Mutant> m = mutate(h, 500, "bcr", false);
+  std::string t = h;
+  t.replace(t.find("xpixels = 4"), 11, "xpixels = 999999999");
+  m.push_back({"a billion points declared", t});
+  t = h;
+  t.replace(t.find("headersize = 2048"), 17, "headersize = 99999");
+  m.push_back({"header larger than the file", t});
+  const Outcome o = run("BCR-STM", m, work_dir("bcr") / "scan.bcr", read_any);
+  EXPECT_EQ(o.base_error, "");
+}
+
+TEST(HostileMetrology, DektakCsv) {
+  std::string t = "Scan Parameters\r\r\nStylus,Radius: 2.5 \xb5m\r\n\r\r\nScan Data\r\r\nLateral um,Raw Micrometer,\r\n";
+  for (int i = 0; i < 40; ++i) t += std::to_string(0.15625 * i).substr(0, 5) + "," + std::to_string(0.01 * i) + ",,\r\n";
+  const Outcome o = run("Dektak CSV", mutate(t, 500, "dektak", true), work_dir("dektak") / "trace.csv", read_any);
+  EXPECT_EQ(o.base_error, "");
+}
+
+TEST(HostileMetrology, GzipText) {
+  const std::string text = "h=3 w=3\npixel size=2 um\ndata unit=rad\nheight conversion factor (-> m)=1e-8\n1 2 3\n4 5 6\n7 8 9\n";
+  std::string z(compressBound(static_cast<uLong>(text.size())) + 64, '\0');
+  z_stream s{};
+  deflateInit2(&s, 6, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY);  // a gzip wrapper
+  s.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+  s.avail_in = static_cast<uInt>(text.size());
+  s.next_out = reinterpret_cast<Bytef*>(z.data());
+  s.avail_out = static_cast<uInt>(z.size());
+  deflate(&s, Z_FINISH);
+  z.resize(s.total_out);
+  deflateEnd(&s);
+  std::vector<Mutant> m = mutate(z, 500, "gzip", false);
+  m.push_back({"a gzip magic before a zlib stream", [] {
+                 std::string big(std::size_t{1} << 20, '0');
+                 std::string out(compressBound(static_cast<uLong>(big.size())), '\0');
+                 uLongf n = out.size();
+                 compress(reinterpret_cast<Bytef*>(out.data()), &n, reinterpret_cast<const Bytef*>(big.data()), big.size());
+                 out.resize(n);
+                 return std::string("\x1f\x8b", 2) + out;  // a zlib stream behind a gzip magic: corrupt
+               }()});
+  const Outcome o = run("gzip text", m, work_dir("gzip") / "grid.txt.gz", read_any);
+  EXPECT_EQ(o.base_error, "");
+}
+
+TEST(HostileMetrology, RealScansByteMutants) {
+  const fs::path dir = fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "scans";
+  const char* files[] = {"sample-land.x3p", "SurfaceTopography/sur-3.sur", "SurfaceTopography/bcrf-1.bcrf"};
+  int ran = 0;
+  for (const char* f : files) {
+    if (!fs::exists(dir / f)) continue;
+    ++ran;
+    const std::string base = read_file(dir / f);
+    const fs::path name = fs::path(f).filename();
+    const Outcome o = run(name.string(), mutate(base, 120, name.string(), false), work_dir("real") / name, read_any);
+    EXPECT_EQ(o.base_error, "") << f;
+  }
+  if (ran == 0) GTEST_SKIP() << dir << " is absent; the real scans are not mutated";
+}
+
 }  // namespace vmsim::metrology
 

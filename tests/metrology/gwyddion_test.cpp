@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/metrology/gwy_reader.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -18,72 +20,10 @@
 #include <vector>
 
 using namespace vmsim;
+using vmsim_test::GwyObject;
+using vmsim_test::GwyReader;
 namespace fs = std::filesystem;
 
-namespace {
-
-// The GWY serialisation (Gwyddion user guide, "Gwyddion native file format"): "GWYP", then an object: its type
-// name (NUL-terminated), the byte size of its components, and components: name, one type character, value.
-struct GwyObject {
-  std::string type;
-  std::map<std::string, double> numbers;
-  std::map<std::string, std::vector<double>> arrays;
-  std::map<std::string, GwyObject> objects;
-};
-
-struct Reader {
-  const std::string& b;
-  std::size_t p = 0;
-  std::string cstr() {
-    const std::size_t e = b.find('\0', p);
-    if (e == std::string::npos) throw std::runtime_error("gwy: unterminated string");
-    std::string s = b.substr(p, e - p);
-    p = e + 1;
-    return s;
-  }
-  template <typename T>
-  T get() {
-    if (p + sizeof(T) > b.size()) throw std::runtime_error("gwy: truncated");
-    T v;
-    std::memcpy(&v, b.data() + p, sizeof v);
-    p += sizeof v;
-    return v;
-  }
-  GwyObject object() {
-    GwyObject o;
-    o.type = cstr();
-    const std::uint32_t size = get<std::uint32_t>();
-    const std::size_t end = p + size;
-    while (p < end) {
-      const std::string name = cstr();
-      const char t = b[p++];
-      switch (t) {
-        case 'b': case 'c': o.numbers[name] = static_cast<unsigned char>(b[p++]); break;
-        case 'i': o.numbers[name] = get<std::int32_t>(); break;
-        case 'q': o.numbers[name] = static_cast<double>(get<std::int64_t>()); break;
-        case 'd': o.numbers[name] = get<double>(); break;
-        case 's': cstr(); break;
-        case 'o': o.objects[name] = object(); break;
-        case 'D': {
-          const std::uint32_t n = get<std::uint32_t>();
-          auto& a = o.arrays[name];
-          for (std::uint32_t k = 0; k < n; ++k) a.push_back(get<double>());
-          break;
-        }
-        case 'C': { const std::uint32_t n = get<std::uint32_t>(); p += n; break; }
-        case 'I': { const std::uint32_t n = get<std::uint32_t>(); p += 4 * static_cast<std::size_t>(n); break; }
-        case 'Q': { const std::uint32_t n = get<std::uint32_t>(); p += 8 * static_cast<std::size_t>(n); break; }
-        case 'S': for (std::uint32_t k = 0, n = get<std::uint32_t>(); k < n; ++k) cstr(); break;
-        case 'O': for (std::uint32_t k = 0, n = get<std::uint32_t>(); k < n; ++k) (void)object(); break;
-        default: throw std::runtime_error("gwy: unknown component type " + std::to_string(static_cast<int>(t)) + " of " + name + " at byte " + std::to_string(p));
-      }
-    }
-    p = end;
-    return o;
-  }
-};
-
-}  // namespace
 
 TEST(Gwyddion, OpensVmsimX3pWithItsSizeHeightsAndMask) {
   if (std::system("command -v gwyddion > /dev/null 2>&1") != 0)
@@ -106,7 +46,7 @@ TEST(Gwyddion, OpensVmsimX3pWithItsSizeHeightsAndMask) {
   ss << in.rdbuf();
   const std::string bytes = ss.str();
   ASSERT_EQ(bytes.substr(0, 4), "GWYP");
-  Reader r{bytes, 4};
+  GwyReader r{bytes, 4};
   const GwyObject top = r.object();
   ASSERT_TRUE(top.objects.count("/0/data")) << "no image channel";
   const GwyObject& f = top.objects.at("/0/data");
