@@ -18,6 +18,9 @@
 #include "core/units.hpp"
 #include "drives/compensate.hpp"
 #include "drives/simulate.hpp"
+#include "render/chart.hpp"
+#include "render/image.hpp"
+#include "render/window.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -343,6 +346,54 @@ int run_compensate(const CompensateArgs& args) {
   }
   const double t_check = seconds_since(t0);
 
+  // The chart of the contour error before and after (images/contour_error.png), after every result file: a failure
+  // to draw loses no result.
+  std::optional<std::string> render_error;
+  double t_render = 0;
+  if (!args.no_render) {
+    t0 = Clock::now();
+    try {
+      render::Window window;
+      std::filesystem::create_directories(dir / "images");
+      auto um = [](const Eigen::VectorXd& mm) { return Eigen::ArrayXd(mm.array() * 1e3); };
+      auto time = [te](Eigen::Index n) { return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(n, 0.0, te * static_cast<double>(n - 1))); };
+      render::ChartPicture pic;
+      pic.caption = {fmt::format("{}: predictive compensation (seed 001), contour error on the machine max {:.2f} → {:.2f} µm",
+                                 job.name, orig_machine.max_mm * 1e3, prog_machine.max_mm * 1e3),
+                     "signed contour error against the planned path, every sample (rapid moves too)"};
+      render::Chart pred;
+      pred.title = "predicted: the setpoints before and after the correction";
+      pred.x_title = "t [s]";
+      pred.y_title = "contour error [µm]";
+      pred.series.push_back(render::make_series("before", time(pred_before.ce.signed_mm.size()), um(pred_before.ce.signed_mm), 1, 1.4));
+      pred.series.push_back(render::make_series("after", time(pred_after.ce.signed_mm.size()), um(pred_after.ce.signed_mm), 0, 1.6));
+      pic.charts.push_back(pred);
+      render::Chart end;
+      end.title = "the original and the compensated program, re-timed and run on the machine file's cascades";
+      end.x_title = "t [s]";
+      end.y_title = "contour error [µm]";
+      end.series.push_back(render::make_series("original program", time(orig_machine.ce.signed_mm.size()), um(orig_machine.ce.signed_mm), 1, 1.4));
+      end.series.push_back(render::make_series("compensated program", time(prog_machine.ce.signed_mm.size()), um(prog_machine.ce.signed_mm), 0, 1.6));
+      pic.charts.push_back(end);
+      if (five) {
+        render::Chart o;
+        o.title = "predicted orientation error (tool axis)";
+        o.x_title = "t [s]";
+        o.y_title = "angle [deg]";
+        o.series.push_back(render::make_series("before", time(pred_before.angle_rad.size()), pred_before.angle_rad.array() * core::units::kRadToDeg, 1, 1.4));
+        o.series.push_back(render::make_series("after", time(pred_after.angle_rad.size()), pred_after.angle_rad.array() * core::units::kRadToDeg, 0, 1.6));
+        pic.charts.push_back(o);
+      }
+      pic.height = five ? 1200 : 900;
+      render::write_png(dir / "images" / "contour_error.png", render::render_charts(window, pic).image);
+      files.push_back("images/contour_error.png");
+    } catch (const core::Error& e) {
+      render_error = e.what();
+      std::fprintf(stderr, "vmsim compensate: no chart: %s\n", e.what());
+    }
+    t_render = seconds_since(t0);
+  }
+
   nlohmann::json report = report_header("compensate", job);
   if (models.file)
     report["inputs"]["axis_models"] = {{"path", models.file->string()}};
@@ -398,7 +449,8 @@ int run_compensate(const CompensateArgs& args) {
   report["setpoints"] = ns;
   files.push_back("report.json");
   report["files"] = files;
-  report["timings_s"] = {{"prepare", t_prepare}, {"compensate", t_comp}, {"write", t_write},
+  if (render_error) report["render_error"] = *render_error;
+  report["timings_s"] = {{"prepare", t_prepare}, {"compensate", t_comp}, {"write", t_write}, {"render", t_render},
                          {"program_check", t_check}, {"total", seconds_since(t_start)}};
   write_report(dir / "report.json", report);
 

@@ -79,6 +79,7 @@ std::string fixed(double v, int decimals) {
 // data-value attribute, so the page and report.json can be checked against each other. (Not HTML5's <data>
 // element: Debian 12's tidy, one of the validators the tests use, does not know it yet.)
 std::string data(const json& raw, const std::string& shown) {
+  if (raw.is_number_float() && !std::isfinite(raw.get<double>())) return shown;  // JSON has no NaN: report.json says null
   return "<span data-value=\"" + esc(raw.dump()) + "\">" + shown + "</span>";
 }
 
@@ -205,7 +206,7 @@ table.kv td:first-child{color:var(--muted)}
 td table{margin:0;font-size:.92em}
 .hash,code{font-family:"DejaVu Sans Mono",ui-monospace,monospace;font-size:.86em;overflow-wrap:anywhere}
 .path{overflow-wrap:anywhere}
-.kpi{display:grid;grid-template-columns:repeat(auto-fill,minmax(190px,1fr));gap:8px;margin:.6em 0}
+.kpi{display:grid;grid-template-columns:repeat(auto-fill,minmax(160px,1fr));gap:8px;margin:.6em 0}
 .kpi div{background:var(--alt);border-radius:4px;padding:8px 10px}
 .kpi b{display:block;font-size:1.25em}
 .kpi span{color:var(--muted);font-size:.88em}
@@ -610,7 +611,9 @@ std::string pictures_note(Page& p, bool draws, const std::string& hint = "") {
   std::string why;
   if (const json* e = find(r, "render_error")) {
     p.shown("render_error");
-    why = "The pictures could not be drawn: " + plain(*e);
+    why = p.picture_count() == 0 ? "The pictures could not be drawn: " + plain(*e)
+                                 : "When the command ran, the pictures could not be drawn (" + plain(*e) +
+                                       "); those shown were drawn afterwards.";
   } else if (const json* e2 = find(get(r, {"pictures"}), "error")) {
     why = "The pictures could not be drawn: " + plain(*e2);
   } else if (p.picture_count() == 0 && draws) {
@@ -621,7 +624,8 @@ std::string pictures_note(Page& p, bool draws, const std::string& hint = "") {
 }
 
 // The colour scale of the deviation pictures (render/colormap: the same function draws the pictures' colours).
-std::string colour_scale(double limit_um) {
+std::string colour_scale(const json& limit) {
+  const double limit_um = limit.get<double>();
   std::string stops;
   for (int k = 0; k <= 10; ++k) {
     const Rgb c = diverging_colour(-1.0 + 0.2 * k);
@@ -630,7 +634,7 @@ std::string colour_scale(double limit_um) {
   }
   return "<div class=\"scale\"><div class=\"bar\" style=\"background:linear-gradient(to right," + stops +
          ")\"></div><div class=\"ticks\"><span>−" + num(limit_um) + " µm (overcut)</span><span>0</span><span>+" +
-         num(limit_um) + " µm (undercut: material left)</span></div></div>\n";
+         data(limit, num(limit_um)) + " µm (undercut: material left)</span></div></div>\n";
 }
 
 // "All figures": every key no section showed, flattened; nothing in report.json is hidden.
@@ -784,7 +788,7 @@ void run_page(Page& p) {
     // The pictures' own limits: the same function, on the same extremes (unless `vmsim render --limit-um` redrew them).
     const double limit_um = symmetric_limit(v, 1.0);
     dev += p.figure("images/deviation.png", "The deviation map of the whole part, from above at true scale") +
-           (p.has_picture("images/deviation.png") || p.has_picture("images/deviation_mark.png") ? colour_scale(limit_um) : "");
+           (p.has_picture("images/deviation.png") || p.has_picture("images/deviation_mark.png") ? colour_scale(json(limit_um)) : "");
     dev += "<p>Deviation = predicted − reference: from " + um_from_mm(surf["deviation_min_mm"]) + " to " +
            um_from_mm(surf["deviation_max_mm"]) + ". Colour limits ±" + num(limit_um) +
            " µm: the largest |deviation| rounded up to 1, 2, 2.5 or 5 × 10^k.</p>\n";
@@ -851,7 +855,7 @@ void compare_page(Page& p) {
   std::string d;
   const json& limit = get(r, {"pictures", "deviation_map_limit_um"});
   d += p.figure("images/deviation_map.png", "Deviation of the measured scan from the prediction, seen from above");
-  if (limit.is_number() && p.has_picture("images/deviation_map.png")) d += colour_scale(limit.get<double>());
+  if (limit.is_number() && p.has_picture("images/deviation_map.png")) d += colour_scale(limit);
   if (dev.is_object()) {
     p.shown("deviation");
     d += kv_table_um(dev, 3);
@@ -1007,9 +1011,12 @@ void compensate_page(Page& p) {
       {plain(get(r, {"limits", "compensated_within_limits"})), "compensated setpoints within the axis limits"},
       {seconds(get(r, {"timings_s", "total"})), "run time"},
   });
-  summary += pictures_note(p, false);
+  summary += pictures_note(p, true);
   p.section("summary", "Summary", summary);
   p.section("inputs", "Job and inputs", inputs_html(p));
+  p.section("charts", "Contour error before and after, along the path",
+            p.figures({{"images/contour_error.png", "Contour error before and after the compensation: as predicted, "
+                                                    "and the compensated program on the machine's cascades"}}));
   if (ce.is_object()) {
     p.shown("contour_error");
     std::string s;
@@ -1081,17 +1088,22 @@ void study_page(Page& p) {
                   "own page (its number).</p>\n";
   if (!common.empty()) {
     s += "<p>Every variation sets ";
-    for (std::size_t i = 0; i < common.size(); ++i)
-      s += (i ? ", " : "") + std::string("<code>") + esc(common[i]) + " = " + esc(*seen[common[i]].begin()) + "</code>";
+    for (std::size_t i = 0; i < common.size(); ++i) {
+      std::string where;
+      for (const auto& o : get(vars.front(), {"overrides"}))
+        if (str(o.value("key", json())) == common[i]) where = str(o.value("where", json()));
+      s += (i ? ", " : "") + std::string("<code title=\"") + esc(where) + "\">" + esc(common[i]) + " = " +
+           esc(*seen[common[i]].begin()) + "</code>";
+    }
     s += ".</p>\n";
   }
-  std::vector<std::string> head = {"#"};
+  std::vector<std::string> head = {"#", "name"};
   for (const auto& k : varied) head.push_back("<code>" + esc(k) + "</code>");
   for (const char* h : {"status", "marks", "deepest mark", "kind", "deviation range", "contour error max",
-                        "contour error RMS", "cycle time", "CPU time"})
+                        "contour error RMS", "cycle time", "CPU time", "wall time", "rank"})
     head.push_back(h);
   std::vector<bool> numeric(head.size(), true);
-  numeric[1 + varied.size()] = numeric[4 + varied.size()] = false;
+  numeric[1] = numeric[2 + varied.size()] = numeric[5 + varied.size()] = false;
   std::vector<std::vector<std::string>> rows;
   for (const auto& v : vars) {
     const json& f = get(v, {"figures"});
@@ -1101,12 +1113,14 @@ void study_page(Page& p) {
     const std::string index = plain(v.value("variation", json()));
     std::vector<std::string> row = {!dir.empty() && fs::exists(p.dir() / page, ec)
                                         ? "<a href=\"" + url(page) + "\" title=\"" + esc(dir) + "\">" + index + "</a>"
-                                        : index};
+                                        : "<span title=\"" + esc(dir) + "\">" + index + "</span>"};
+    row.push_back(plain(v.value("name", json())));
     for (const auto& k : varied) {
       std::string value;
       for (const auto& o : get(v, {"overrides"}))
-        if (str(o.value("key", json())) == k) value = str(o.value("value", json()));  // the last one wins, as in the run
-      row.push_back(esc(value));
+        if (str(o.value("key", json())) == k)  // the last one wins, as in the run; where the study sets it, on hover
+          value = "<span title=\"" + esc(str(o.value("where", json()))) + "\">" + esc(str(o.value("value", json()))) + "</span>";
+      row.push_back(value);
     }
     const std::string status = str(v.value("status", json()));
     const std::string error = str(v.value("error", json()));
@@ -1120,6 +1134,8 @@ void study_page(Page& p) {
     row.push_back(um_from_mm(f.value("contour_error_rms_mm", json())));
     row.push_back(seconds(f.value("cycle_time_s", json())));
     row.push_back(status == "pending" ? "" : seconds(v.value("cpu_s", json())));
+    row.push_back(status == "pending" ? "" : seconds(v.value("wall_s", json())));
+    row.push_back(status == "pending" ? "" : plain(v.value("rank", json())));
     rows.push_back(row);
   }
   p.section("results", "Results", s + table(head, rows, numeric));

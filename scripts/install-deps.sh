@@ -3,7 +3,18 @@
 # with sudo when not root. Does nothing when every package is already installed.
 #   scripts/install-deps.sh          install what is missing
 #   scripts/install-deps.sh --check  exit 1 (and list them) when packages are missing, install nothing
+#   scripts/install-deps.sh --test   also the packages only the tests use (`make test`; `make demo` needs none)
 set -euo pipefail
+
+check=0
+with_tests=0
+for arg in "$@"; do
+  case "$arg" in
+    --check) check=1 ;;
+    --test) with_tests=1 ;;
+    *) echo "usage: scripts/install-deps.sh [--check] [--test]" >&2; exit 2 ;;
+  esac
+done
 
 packages=(
   build-essential cmake ninja-build pkg-config
@@ -12,6 +23,12 @@ packages=(
   libzip-dev zipcmp zipmerge ziptool libpugixml-dev coinor-libclp-dev libglpk-dev
   libopenmpi-dev openmpi-bin libegl-dev fonts-dejavu-core libbenchmark-dev libfmt-dev python3-imath
 )
+# For the tests only: report.html validated (html5lib in strict mode, tidy) and opened in headless Chromium through
+# chromedriver (selenium), its screenshot read with PIL.
+test_packages=(chromium chromium-driver python3-selenium python3-html5lib python3-pil tidy)
+if [ "$with_tests" -eq 1 ]; then
+  packages+=("${test_packages[@]}")
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -23,7 +40,7 @@ done
 if [ ${#missing[@]} -eq 0 ]; then
   exit 0
 fi
-if [ "${1:-}" = "--check" ]; then
+if [ "$check" -eq 1 ]; then
   echo "missing packages: ${missing[*]}" >&2
   exit 1
 fi
