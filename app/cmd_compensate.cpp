@@ -375,7 +375,10 @@ int run_compensate(const CompensateArgs& args) {
       end.series.push_back(render::make_series("original program", time(orig_machine.ce.signed_mm.size()), um(orig_machine.ce.signed_mm), 1, 1.4));
       end.series.push_back(render::make_series("compensated program", time(prog_machine.ce.signed_mm.size()), um(prog_machine.ce.signed_mm), 0, 1.6));
       pic.charts.push_back(end);
-      if (five) {
+      // The orientation error where the tool axis has one (a five-axis chain whose program turns the tool).
+      const bool turns = five && pred_before.angle_rad.size() > 0 && pred_after.angle_rad.size() > 0 &&
+                         std::max(pred_before.angle_rad.maxCoeff(), pred_after.angle_rad.maxCoeff()) > 0;
+      if (turns) {
         render::Chart o;
         o.title = "predicted orientation error (tool axis)";
         o.x_title = "t [s]";
@@ -384,7 +387,7 @@ int run_compensate(const CompensateArgs& args) {
         o.series.push_back(render::make_series("after", time(pred_after.angle_rad.size()), pred_after.angle_rad.array() * core::units::kRadToDeg, 0, 1.6));
         pic.charts.push_back(o);
       }
-      pic.height = five ? 1200 : 900;
+      pic.height = turns ? 1200 : 900;
       render::write_png(dir / "images" / "contour_error.png", render::render_charts(window, pic).image);
       files.push_back("images/contour_error.png");
     } catch (const core::Error& e) {
