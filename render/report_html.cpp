@@ -641,20 +641,23 @@ std::string colour_scale(const json& limit) {
 std::string rest_html(Page& p, const std::set<std::string>& always_skip = {}) {
   const json& r = p.report();
   std::vector<std::vector<std::string>> rows;
+  std::string per_item;  // objects of objects (per axis, per run): one table each, the objects side by side
   for (const auto& [k, x] : r.items()) {
     if (always_skip.count(k)) continue;
     if (p.shown_keys().count(k)) continue;
-    if (x.is_object()) {
+    if (x.is_object() && x.size() >= 2 && std::all_of(x.begin(), x.end(), [](const json& e) { return e.is_object() && !e.empty(); })) {
+      per_item += "<h3>" + words(k) + "</h3>\n" + grouped(x);
+    } else if (x.is_object()) {
       for (const auto& [k2, x2] : x.items())
         if (!p.shown_keys().count(k + "/" + k2)) flatten(x2, words(k) + " › " + words(k2), rows);
     } else {
       flatten(x, words(k), rows);
     }
   }
-  if (rows.empty()) return "";
+  if (rows.empty() && per_item.empty()) return "";
   return "<p>Every other entry of " + esc(p.source_name()) +
          ", as written (key names carry their units: _mm, _um, _s, _deg, _mm_per_s, ...).</p>\n" +
-         table({"key", "value"}, rows, {false, false}, "kv");
+         (rows.empty() ? "" : table({"key", "value"}, rows, {false, false}, "kv")) + per_item;
 }
 
 // The marks as `vmsim run` and `vmsim compare` write them.
@@ -1144,7 +1147,10 @@ void study_page(Page& p) {
 // Commands without their own sections (motion, measure, identify, ...): the summary, the inputs and every figure.
 void generic_page(Page& p) {
   std::string summary = verdict_html(p);
-  summary += kpi({{seconds(get(p.report(), {"interpolation", "cycle_time_s"})), "cycle time"},
+  const json& ce = get(p.report(), {"contour_error", "cutting_moves"});
+  summary += kpi({{ce.is_object() ? um_from_mm(get(ce, {"max_abs_mm"})) : "", "contour error max, cutting moves"},
+                  {ce.is_object() ? um_from_mm(get(ce, {"rms_mm"})) : "", "contour error RMS, cutting moves"},
+                  {seconds(get(p.report(), {"interpolation", "cycle_time_s"})), "cycle time"},
                   {seconds(get(p.report(), {"timings_s", "total"})), "run time"}});
   p.section("summary", "Summary", summary);
   p.section("inputs", "Job and inputs", p.report().contains("inputs") ? inputs_html(p) : "");
