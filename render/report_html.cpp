@@ -137,6 +137,16 @@ const json& get(const json& j, std::initializer_list<std::string_view> path) {
   return *p;
 }
 
+// A key of an object, or null: the page reads a report of any shape (an older vmsim's, a hand-edited one) without
+// throwing; what is missing or of another type is shown as "—" or as it is.
+const json& at(const json& j, std::string_view key) {
+  static const json none;
+  const json* p = find(j, key);
+  return p ? *p : none;
+}
+
+double number(const json& v, double fallback) { return v.is_number() ? v.get<double>() : fallback; }
+
 std::string str(const json& v) { return v.is_string() ? v.get<std::string>() : std::string(); }
 
 // ---- pictures ------------------------------------------------------------------------------------------------------
@@ -297,7 +307,7 @@ class Page {
     return s;
   }
 
-  std::string source_name() const { return str(r_.value("command", json())) == "study" ? "study.json" : "report.json"; }
+  std::string source_name() const { return str(at(r_, "command")) == "study" ? "study.json" : "report.json"; }
 
  private:
   const json& r_;
@@ -519,7 +529,7 @@ std::string verdict_html(Page& p) {
     if (v->is_string()) {
       text = esc(v->get<std::string>());
     } else if (v->is_object()) {
-      const std::string status = str(v->value("status", json(v->value("level", json()))));
+      const std::string status = str(at(*v, "status").is_null() ? at(*v, "level") : at(*v, "status"));
       if (status == "ok" || status == "pass" || status == "good") cls = " ok";
       if (status == "warn" || status == "warning" || status == "marginal") cls = " warn";
       if (status == "fail" || status == "bad" || status == "error" || status == "reject") cls = " bad";
@@ -555,8 +565,8 @@ std::string inputs_html(Page& p) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& [role, f] : in.items()) {
     if (f.is_object()) {
-      rows.push_back({words(role), "<span class=\"path\">" + esc(str(f.value("path", json()))) + "</span>",
-                      "<span class=\"hash\">" + esc(str(f.value("sha256", json("—")))) + "</span>"});
+      rows.push_back({words(role), "<span class=\"path\">" + esc(str(at(f, "path"))) + "</span>",
+                      "<span class=\"hash\">" + (at(f, "sha256").is_string() ? esc(str(at(f, "sha256"))) : "—") + "</span>"});
       for (const auto& [k, x] : f.items())
         if (k != "path" && k != "sha256") rows.back()[1] += "<br>" + words(k) + ": " + value_html(x);
     } else {
@@ -588,7 +598,7 @@ std::string files_html(Page& p) {
         if (std::find(names.begin(), names.end(), e.get<std::string>()) == names.end()) names.push_back(e.get<std::string>());
     }
   }
-  if (str(p.report().value("command", json())) == "study") names.push_back("results.csv");
+  if (str(at(p.report(), "command")) == "study") names.push_back("results.csv");
   const std::string self = p.source_name();
   if (std::find(names.begin(), names.end(), self) == names.end()) names.push_back(self);
   std::string s = "<ul>";
@@ -625,7 +635,7 @@ std::string pictures_note(Page& p, bool draws, const std::string& hint = "") {
 
 // The colour scale of the deviation pictures (render/colormap: the same function draws the pictures' colours).
 std::string colour_scale(const json& limit) {
-  const double limit_um = limit.get<double>();
+  const double limit_um = number(limit, NAN);
   std::string stops;
   for (int k = 0; k <= 10; ++k) {
     const Rgb c = diverging_colour(-1.0 + 0.2 * k);
@@ -679,12 +689,13 @@ std::string marks_table(const json& marks) {
   numeric[1] = false;
   int k = 0;
   for (const auto& m : marks) {
-    std::vector<std::string> row = {std::to_string(++k), plain(m.value("kind", json())), um_from_mm(m.value("depth_mm", json())),
-                                    mm(m.value("x_mm", json())), mm(m.value("y_mm", json()))};
-    if (extent) row.insert(row.end(), {mm(m.value("x_extent_mm", json())), mm(m.value("y_extent_mm", json()))});
-    if (width) row.push_back(mm(m.value("width_mm", json())));
-    if (along) row.push_back(mm(m.value("along_mm", m.value("along_path_mm", json()))));
-    if (area) row.push_back(m.contains("area_mm2") ? data(m["area_mm2"], num(m["area_mm2"].get<double>(), 4) + " mm²") : "—");
+    std::vector<std::string> row = {std::to_string(++k), plain(at(m, "kind")), um_from_mm(at(m, "depth_mm")),
+                                    mm(at(m, "x_mm")), mm(at(m, "y_mm"))};
+    if (extent) row.insert(row.end(), {mm(at(m, "x_extent_mm")), mm(at(m, "y_extent_mm"))});
+    if (width) row.push_back(mm(at(m, "width_mm")));
+    if (along) row.push_back(mm(at(m, "along_mm").is_null() ? at(m, "along_path_mm") : at(m, "along_mm")));
+    if (area) row.push_back(at(m, "area_mm2").is_number() ? data(m["area_mm2"], num(m["area_mm2"].get<double>(), 4) + " mm²")
+                                                          : plain(at(m, "area_mm2")));
     rows.push_back(row);
   }
   return table(head, rows, numeric);
@@ -693,15 +704,15 @@ std::string marks_table(const json& marks) {
 std::string deepest_mark_kpi(const json& marks) {
   if (!marks.is_array() || marks.empty()) return "";
   const json& m = marks.front();
-  return um_from_mm(m.value("depth_mm", json()));
+  return um_from_mm(at(m, "depth_mm"));
 }
 
 std::string mark_label(const json& marks, bool have_reference) {
   if (!marks.is_array()) return "";
   if (marks.empty()) return have_reference ? "no mark deeper than 1 µm" : "";
   const json& m = marks.front();
-  return "deepest mark, " + esc(str(m.value("kind", json()))) + " at x " + fixed(m.value("x_mm", 0.0), 2) + ", y " +
-         fixed(m.value("y_mm", 0.0), 2) + " mm";
+  return "deepest mark, " + esc(str(at(m, "kind"))) + " at x " + fixed(number(at(m, "x_mm"), NAN), 2) + ", y " +
+         fixed(number(at(m, "y_mm"), NAN), 2) + " mm";
 }
 
 // ---- per command ---------------------------------------------------------------------------------------------------
@@ -737,7 +748,7 @@ void motion_charts(Page& p) {
 void run_page(Page& p) {
   const json& r = p.report();
   const json& marks = get(r, {"marks"});
-  const bool have_ref = str(r.value("reference", json())) != "none" && find(r, "reference");
+  const bool have_ref = str(at(r, "reference")) != "none" && find(r, "reference");
   const json& ce = get(r, {"contour_error", "cutting_moves"});
   const json& cycle = get(r, {"interpolation", "cycle_time_s"});
   const json& surf = get(r, {"surface"});
@@ -749,8 +760,8 @@ void run_page(Page& p) {
       {marks.is_array() && !marks.empty() ? deepest_mark_kpi(marks) : (marks.is_array() && have_ref ? "none" : ""),
        mark_label(marks, have_ref)},
       {marks.is_array() ? data(json(marks.size()), std::to_string(marks.size())) : "", "marks deeper than 1 µm"},
-      {ce.is_object() ? um_from_mm(ce.value("max_abs_mm", json())) : "", "contour error max, cutting moves"},
-      {ce.is_object() ? um_from_mm(ce.value("rms_mm", json())) : "", "contour error RMS, cutting moves"},
+      {ce.is_object() ? um_from_mm(at(ce, "max_abs_mm")) : "", "contour error max, cutting moves"},
+      {ce.is_object() ? um_from_mm(at(ce, "rms_mm")) : "", "contour error RMS, cutting moves"},
       {cycle.is_number() ? seconds(cycle) : "", "cycle time"},
       {std::isfinite(lo) ? um_from_mm(surf["deviation_min_mm"]) + " … " + um_from_mm(surf["deviation_max_mm"]) : "",
        "deviation range (negative: overcut)"},
@@ -837,7 +848,7 @@ void compare_page(Page& p) {
       {marks.is_array() && !marks.empty() ? deepest_mark_kpi(marks) : (marks.is_array() ? "none" : ""),
        marks.is_array() && !marks.empty() ? mark_label(marks, true) : "marks above the threshold"},
       {marks.is_array() ? data(json(marks.size()), std::to_string(marks.size())) : "", "marks"},
-      {reg.is_object() ? um_from_mm(reg.value("residual_rms_mm", json())) : "", "registration residual RMS"},
+      {reg.is_object() ? um_from_mm(at(reg, "residual_rms_mm")) : "", "registration residual RMS"},
       {um_from_mm(get(dev, {"rms_mm"})), "deviation RMS"},
       {dev.is_object() ? um_from_mm(get(dev, {"min_mm"})) + " … " + um_from_mm(get(dev, {"max_mm"})) : "",
        "deviation range, measured − predicted"},
@@ -1079,9 +1090,9 @@ void study_page(Page& p) {
   std::map<std::string, std::size_t> count;
   for (const auto& v : vars)
     for (const auto& o : get(v, {"overrides"})) {
-      const std::string k = str(o.value("key", json()));
+      const std::string k = str(at(o, "key"));
       if (std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
-      seen[k].insert(str(o.value("value", json())));
+      seen[k].insert(str(at(o, "value")));
       ++count[k];
     }
   std::vector<std::string> varied, common;
@@ -1094,7 +1105,7 @@ void study_page(Page& p) {
     for (std::size_t i = 0; i < common.size(); ++i) {
       std::string where;
       for (const auto& o : get(vars.front(), {"overrides"}))
-        if (str(o.value("key", json())) == common[i]) where = str(o.value("where", json()));
+        if (str(at(o, "key")) == common[i]) where = str(at(o, "where"));
       s += (i ? ", " : "") + std::string("<code title=\"") + esc(where) + "\">" + esc(common[i]) + " = " +
            esc(*seen[common[i]].begin()) + "</code>";
     }
@@ -1110,35 +1121,35 @@ void study_page(Page& p) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& v : vars) {
     const json& f = get(v, {"figures"});
-    const std::string dir = str(v.value("dir", json()));
+    const std::string dir = str(at(v, "dir"));
     const std::string page = dir + "/report.html";
     std::error_code ec;
-    const std::string index = plain(v.value("variation", json()));
+    const std::string index = plain(at(v, "variation"));
     std::vector<std::string> row = {!dir.empty() && fs::exists(p.dir() / page, ec)
                                         ? "<a href=\"" + url(page) + "\" title=\"" + esc(dir) + "\">" + index + "</a>"
                                         : "<span title=\"" + esc(dir) + "\">" + index + "</span>"};
-    row.push_back(plain(v.value("name", json())));
+    row.push_back(plain(at(v, "name")));
     for (const auto& k : varied) {
       std::string value;
       for (const auto& o : get(v, {"overrides"}))
-        if (str(o.value("key", json())) == k)  // the last one wins, as in the run; where the study sets it, on hover
-          value = "<span title=\"" + esc(str(o.value("where", json()))) + "\">" + esc(str(o.value("value", json()))) + "</span>";
+        if (str(at(o, "key")) == k)  // the last one wins, as in the run; where the study sets it, on hover
+          value = "<span title=\"" + esc(str(at(o, "where"))) + "\">" + esc(str(at(o, "value"))) + "</span>";
       row.push_back(value);
     }
-    const std::string status = str(v.value("status", json()));
-    const std::string error = str(v.value("error", json()));
+    const std::string status = str(at(v, "status"));
+    const std::string error = str(at(v, "error"));
     row.push_back(status == "ok" ? "ok" : "<b>" + esc(status) + "</b>" + (error.empty() ? "" : ": " + esc(error)));
     const bool ok = status == "ok";
-    row.push_back(ok ? plain(f.value("marks", json())) : "");
-    row.push_back(um_from_mm(f.value("mark_depth_mm", json())));
-    row.push_back(plain(f.value("mark_kind", json())));
-    row.push_back(f.contains("deviation_min_mm") ? um_from_mm(f["deviation_min_mm"]) + " … " + um_from_mm(f.value("deviation_max_mm", json())) : "—");
-    row.push_back(um_from_mm(f.value("contour_error_max_mm", json())));
-    row.push_back(um_from_mm(f.value("contour_error_rms_mm", json())));
-    row.push_back(seconds(f.value("cycle_time_s", json())));
-    row.push_back(status == "pending" ? "" : seconds(v.value("cpu_s", json())));
-    row.push_back(status == "pending" ? "" : seconds(v.value("wall_s", json())));
-    row.push_back(status == "pending" ? "" : plain(v.value("rank", json())));
+    row.push_back(ok ? plain(at(f, "marks")) : "");
+    row.push_back(um_from_mm(at(f, "mark_depth_mm")));
+    row.push_back(plain(at(f, "mark_kind")));
+    row.push_back(f.contains("deviation_min_mm") ? um_from_mm(f["deviation_min_mm"]) + " … " + um_from_mm(at(f, "deviation_max_mm")) : "—");
+    row.push_back(um_from_mm(at(f, "contour_error_max_mm")));
+    row.push_back(um_from_mm(at(f, "contour_error_rms_mm")));
+    row.push_back(seconds(at(f, "cycle_time_s")));
+    row.push_back(status == "pending" ? "" : seconds(at(v, "cpu_s")));
+    row.push_back(status == "pending" ? "" : seconds(at(v, "wall_s")));
+    row.push_back(status == "pending" ? "" : plain(at(v, "rank")));
     rows.push_back(row);
   }
   p.section("results", "Results", s + table(head, rows, numeric));
@@ -1154,16 +1165,16 @@ void generic_page(Page& p) {
                   {seconds(get(p.report(), {"timings_s", "total"})), "run time"}});
   p.section("summary", "Summary", summary);
   p.section("inputs", "Job and inputs", p.report().contains("inputs") ? inputs_html(p) : "");
-  if (str(p.report().value("command", json())) == "motion") motion_charts(p);
+  if (str(at(p.report(), "command")) == "motion") motion_charts(p);
 }
 
 }  // namespace
 
 std::string report_html(const nlohmann::json& report, const std::filesystem::path& dir) {
   Page p(report, dir);
-  const std::string command = str(report.value("command", json()));
-  std::string name = str(report.value("job", json()));
-  if (command == "study") name = str(report.value("study", json()));
+  const std::string command = str(at(report, "command"));
+  std::string name = str(at(report, "job"));
+  if (command == "study") name = str(at(report, "study"));
   if (command == "compare")
     name = fs::path(str(get(report, {"inputs", "measured", "path"}))).filename().string() + " vs " +
            fs::path(str(get(report, {"inputs", "predicted", "path"}))).filename().string();
@@ -1188,7 +1199,7 @@ std::string report_html(const nlohmann::json& report, const std::filesystem::pat
 
   const std::string title = (command.empty() ? std::string("vmsim") : "vmsim " + command) + (name.empty() ? "" : ": " + name);
   const std::string what = command == "study" ? "study " : command == "compare" ? "" : "job ";
-  const std::string subtitle = "vmsim " + esc(str(report.value("vmsim", json()))) + " · <code>vmsim " + esc(command) +
+  const std::string subtitle = "vmsim " + esc(str(at(report, "vmsim"))) + " · <code>vmsim " + esc(command) +
                                "</code>" + (name.empty() ? "" : " · " + esc(what) + esc(name));
   return p.html(title, subtitle);
 }

@@ -188,10 +188,8 @@ TEST(ReportHtml, LinksStayInTheFolderAndArePercentEncoded) {
   EXPECT_EQ(page.find("href=\"../outside.csv\""), std::string::npos);
 }
 
-TEST(ReportHtml, StudyRowsLinkTheVariationsPagesThatExist) {
-  Dir d;
-  write_text(d.path() / "variations" / "001" / "report.html", "<!DOCTYPE html>");
-  const json s = json::parse(R"({
+json study_report() {
+  return json::parse(R"({
     "vmsim": "0.1.0", "command": "study", "study": "kv", "ranks": 1,
     "summary": {"variations": 2, "ok": 1, "failed": 1, "pending": 0},
     "variations": [
@@ -206,6 +204,12 @@ TEST(ReportHtml, StudyRowsLinkTheVariationsPagesThatExist) {
        "figures": {"marks": 0}}],
     "timings_s": {"total": 2.0}
   })");
+}
+
+TEST(ReportHtml, StudyRowsLinkTheVariationsPagesThatExist) {
+  Dir d;
+  write_text(d.path() / "variations" / "001" / "report.html", "<!DOCTYPE html>");
+  const json s = study_report();
   const std::string page = report_html(s, d.path());
   EXPECT_NE(page.find("<a href=\"variations/001/report.html\""), std::string::npos);
   EXPECT_EQ(page.find("variations/002/report.html"), std::string::npos);
@@ -214,4 +218,38 @@ TEST(ReportHtml, StudyRowsLinkTheVariationsPagesThatExist) {
   // The key every variation sets alike is said once; the varied one is a column.
   EXPECT_NE(page.find("Every variation sets <code title=\"[common]\">removal.spacing_mm = 0.1</code>"), std::string::npos);
   EXPECT_NE(page.find("<th><code>feed_scale</code></th>"), std::string::npos);
+}
+
+// Every entry of a report replaced in turn by a value of another type (a string, a number, a list, null): the page is
+// still made (what does not fit is shown as it is), never an exception that would fail the command after its
+// report.json is written.
+void mutate_each(json& root, json& node, const fs::path& dir, const std::string& where, int& pages) {
+  const json saved = node;
+  for (const json& other : {json("x<y>"), json(1.5), json::array({1, "a"}), json(nullptr)}) {
+    node = other;
+    std::string page;
+    EXPECT_NO_THROW(page = report_html(root, dir)) << where << " = " << other.dump();
+    EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u) << where;
+    ++pages;
+  }
+  node = saved;
+  if (node.is_object())
+    for (auto& [k, v] : node.items()) mutate_each(root, v, dir, where + "/" + k, pages);
+  else if (node.is_array())
+    for (auto& v : node) mutate_each(root, v, dir, where + "/[]", pages);
+}
+
+TEST(ReportHtml, AReportOfAnyShapeStillGivesAPage) {
+  Dir d;
+  write_picture(d.path() / "images" / "part.png", 8, 6);
+  int pages = 0;
+  for (json r : {run_report(), study_report()}) {
+    r["verdict"] = {{"status", "ok"}};
+    r["warnings"] = {"w"};
+    for (const char* command : {"run", "compare", "oga", "plan-feed", "compensate", "study", "motion"}) {
+      r["command"] = command;
+      mutate_each(r, r, d.path(), command, pages);
+    }
+  }
+  EXPECT_GT(pages, 1000);
 }
