@@ -356,37 +356,35 @@ int run_compensate(const CompensateArgs& args) {
       render::Window window;
       std::filesystem::create_directories(dir / "images");
       auto um = [](const Eigen::VectorXd& mm) { return Eigen::ArrayXd(mm.array() * 1e3); };
-      auto time = [te](Eigen::Index n) { return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(n, 0.0, te * static_cast<double>(n - 1))); };
+      auto deg = [](const Eigen::VectorXd& rad) { return Eigen::ArrayXd(rad.array() * core::units::kRadToDeg); };
+      auto time = [te](Eigen::Index n) {
+        return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(n, 0.0, te * static_cast<double>(n - 1)));
+      };
+      auto chart = [&](const std::string& title, const std::string& y, const std::string& a, const Eigen::ArrayXd& ya,
+                       const std::string& b, const Eigen::ArrayXd& yb) {
+        render::Chart c;
+        c.title = title;
+        c.x_title = "t [s]";
+        c.y_title = y;
+        c.series.push_back(render::make_series(a, time(ya.size()), ya, 1, 1.4));
+        c.series.push_back(render::make_series(b, time(yb.size()), yb, 0, 1.6));
+        return c;
+      };
       render::ChartPicture pic;
-      pic.caption = {fmt::format("{}: predictive compensation (seed 001), contour error on the machine max {:.2f} → {:.2f} µm",
-                                 job.name, orig_machine.max_mm * 1e3, prog_machine.max_mm * 1e3),
+      pic.caption = {fmt::format("{}: predictive contour-error compensation, contour error on the machine max {:.2f} "
+                                 "→ {:.2f} µm", job.name, orig_machine.max_mm * 1e3, prog_machine.max_mm * 1e3),
                      "signed contour error against the planned path, every sample (rapid moves too)"};
-      render::Chart pred;
-      pred.title = "predicted: the setpoints before and after the correction";
-      pred.x_title = "t [s]";
-      pred.y_title = "contour error [µm]";
-      pred.series.push_back(render::make_series("before", time(pred_before.ce.signed_mm.size()), um(pred_before.ce.signed_mm), 1, 1.4));
-      pred.series.push_back(render::make_series("after", time(pred_after.ce.signed_mm.size()), um(pred_after.ce.signed_mm), 0, 1.6));
-      pic.charts.push_back(pred);
-      render::Chart end;
-      end.title = "the original and the compensated program, re-timed and run on the machine file's cascades";
-      end.x_title = "t [s]";
-      end.y_title = "contour error [µm]";
-      end.series.push_back(render::make_series("original program", time(orig_machine.ce.signed_mm.size()), um(orig_machine.ce.signed_mm), 1, 1.4));
-      end.series.push_back(render::make_series("compensated program", time(prog_machine.ce.signed_mm.size()), um(prog_machine.ce.signed_mm), 0, 1.6));
-      pic.charts.push_back(end);
+      pic.charts.push_back(chart("predicted: the setpoints before and after the correction", "contour error [µm]",
+                                 "before", um(pred_before.ce.signed_mm), "after", um(pred_after.ce.signed_mm)));
+      pic.charts.push_back(chart("the original and the compensated program, re-timed and run on the machine file's "
+                                 "cascades", "contour error [µm]", "original program", um(orig_machine.ce.signed_mm),
+                                 "compensated program", um(prog_machine.ce.signed_mm)));
       // The orientation error where the tool axis has one (a five-axis chain whose program turns the tool).
       const bool turns = five && pred_before.angle_rad.size() > 0 && pred_after.angle_rad.size() > 0 &&
                          std::max(pred_before.angle_rad.maxCoeff(), pred_after.angle_rad.maxCoeff()) > 0;
-      if (turns) {
-        render::Chart o;
-        o.title = "predicted orientation error (tool axis)";
-        o.x_title = "t [s]";
-        o.y_title = "angle [deg]";
-        o.series.push_back(render::make_series("before", time(pred_before.angle_rad.size()), pred_before.angle_rad.array() * core::units::kRadToDeg, 1, 1.4));
-        o.series.push_back(render::make_series("after", time(pred_after.angle_rad.size()), pred_after.angle_rad.array() * core::units::kRadToDeg, 0, 1.6));
-        pic.charts.push_back(o);
-      }
+      if (turns)
+        pic.charts.push_back(chart("predicted orientation error (tool axis)", "angle [deg]", "before",
+                                   deg(pred_before.angle_rad), "after", deg(pred_after.angle_rad)));
       pic.height = turns ? 1200 : 900;
       render::write_png(dir / "images" / "contour_error.png", render::render_charts(window, pic).image);
       files.push_back("images/contour_error.png");

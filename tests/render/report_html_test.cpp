@@ -4,8 +4,8 @@
 // specification's IHDR chunk for the pictures' sizes (the files here are written by VTK's PNG writer). Whole pages
 // of real runs are validated and opened in Chromium by the app tests (tests/app/check_report_html.py,
 // report_html_browser_test.py).
-#include "render/image.hpp"
 #include "render/report_html.hpp"
+#include "render/image.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -216,7 +216,8 @@ TEST(ReportHtml, StudyRowsLinkTheVariationsPagesThatExist) {
   EXPECT_NE(page.find("<span data-value=\"0.052\">52.00 µm</span>"), std::string::npos);
   EXPECT_NE(page.find("bad &lt;key&gt;"), std::string::npos);
   // The key every variation sets alike is said once; the varied one is a column.
-  EXPECT_NE(page.find("Every variation sets <code title=\"[common]\">removal.spacing_mm = 0.1</code>"), std::string::npos);
+  EXPECT_NE(page.find("Every variation sets <code title=\"[common]\">removal.spacing_mm = 0.1</code>"),
+            std::string::npos);
   EXPECT_NE(page.find("<th><code>feed_scale</code></th>"), std::string::npos);
 }
 
