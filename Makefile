@@ -6,12 +6,16 @@ JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 GENERATOR := $(shell command -v ninja >/dev/null 2>&1 && echo Ninja || echo "Unix Makefiles")
 VMSIM := $(BUILD)/app/vmsim
 
-.PHONY: all deps configure build demo test bench validate asan clean
+.PHONY: all deps test-deps configure build demo test bench validate asan clean
 
 all: build
 
 deps:
 	@scripts/install-deps.sh --check 2>/dev/null || scripts/install-deps.sh
+
+# What only the tests use (Chromium and the HTML validators for report.html); `make demo` installs none of it.
+test-deps:
+	@scripts/install-deps.sh --test --check 2>/dev/null || scripts/install-deps.sh --test
 
 $(BUILD)/CMakeCache.txt:
 	@$(MAKE) --no-print-directory deps
@@ -25,7 +29,7 @@ build: configure
 demo: build
 	@scripts/demo.sh $(VMSIM)
 
-test: build
+test: build test-deps
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 1200
 
 bench: configure

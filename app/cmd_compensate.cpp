@@ -19,6 +19,9 @@
 #include "core/units.hpp"
 #include "methods/compensate.hpp"
 #include "drives/simulate.hpp"
+#include "render/chart.hpp"
+#include "render/image.hpp"
+#include "render/window.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -344,6 +347,55 @@ int run_compensate(const CompensateArgs& args) {
   }
   const double t_check = seconds_since(t0);
 
+  // The chart of the contour error before and after (images/contour_error.png), after every result file: a failure
+  // to draw loses no result.
+  std::optional<std::string> render_error;
+  double t_render = 0;
+  if (!args.no_render) {
+    t0 = Clock::now();
+    try {
+      render::Window window;
+      std::filesystem::create_directories(dir / "images");
+      auto um = [](const Eigen::VectorXd& mm) { return Eigen::ArrayXd(mm.array() * 1e3); };
+      auto deg = [](const Eigen::VectorXd& rad) { return Eigen::ArrayXd(rad.array() * core::units::kRadToDeg); };
+      auto time = [te](Eigen::Index n) {
+        return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(n, 0.0, te * static_cast<double>(n - 1)));
+      };
+      auto chart = [&](const std::string& title, const std::string& y, const std::string& a, const Eigen::ArrayXd& ya,
+                       const std::string& b, const Eigen::ArrayXd& yb) {
+        render::Chart c;
+        c.title = title;
+        c.x_title = "t [s]";
+        c.y_title = y;
+        c.series.push_back(render::make_series(a, time(ya.size()), ya, 1, 1.4));
+        c.series.push_back(render::make_series(b, time(yb.size()), yb, 0, 1.6));
+        return c;
+      };
+      render::ChartPicture pic;
+      pic.caption = {fmt::format("{}: predictive contour-error compensation, contour error on the machine max {:.2f} "
+                                 "→ {:.2f} µm", job.name, orig_machine.max_mm * 1e3, prog_machine.max_mm * 1e3),
+                     "signed contour error against the planned path, every sample (rapid moves too)"};
+      pic.charts.push_back(chart("predicted: the setpoints before and after the correction", "contour error [µm]",
+                                 "before", um(pred_before.ce.signed_mm), "after", um(pred_after.ce.signed_mm)));
+      pic.charts.push_back(chart("the original and the compensated program, re-timed and run on the machine file's "
+                                 "cascades", "contour error [µm]", "original program", um(orig_machine.ce.signed_mm),
+                                 "compensated program", um(prog_machine.ce.signed_mm)));
+      // The orientation error where the tool axis has one (a five-axis chain whose program turns the tool).
+      const bool turns = five && pred_before.angle_rad.size() > 0 && pred_after.angle_rad.size() > 0 &&
+                         std::max(pred_before.angle_rad.maxCoeff(), pred_after.angle_rad.maxCoeff()) > 0;
+      if (turns)
+        pic.charts.push_back(chart("predicted orientation error (tool axis)", "angle [deg]", "before",
+                                   deg(pred_before.angle_rad), "after", deg(pred_after.angle_rad)));
+      pic.height = turns ? 1200 : 900;
+      render::write_png(dir / "images" / "contour_error.png", render::render_charts(window, pic).image);
+      files.push_back("images/contour_error.png");
+    } catch (const core::Error& e) {
+      render_error = e.what();
+      std::fprintf(stderr, "vmsim compensate: no chart: %s\n", e.what());
+    }
+    t_render = seconds_since(t0);
+  }
+
   nlohmann::json report = report_header("compensate", job);
   if (models.file)
     report["inputs"]["axis_models"] = {{"path", models.file->string()}};
@@ -399,7 +451,8 @@ int run_compensate(const CompensateArgs& args) {
   report["setpoints"] = ns;
   files.push_back("report.json");
   report["files"] = files;
-  report["timings_s"] = {{"prepare", t_prepare}, {"compensate", t_comp}, {"write", t_write},
+  if (render_error) report["render_error"] = *render_error;
+  report["timings_s"] = {{"prepare", t_prepare}, {"compensate", t_comp}, {"write", t_write}, {"render", t_render},
                          {"program_check", t_check}, {"total", seconds_since(t_start)}};
   write_report(dir / "report.json", report);
 

@@ -1,6 +1,7 @@
 // vmsim identify-friction TRACE.csv: the friction law and the inertia of one axis from a measured trace
 // (the feed-drive simulation paper section 3.1), written as the [axes.drive] keys of a machine file.
 #include "app/commands.hpp"
+#include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/machine.hpp"
@@ -197,7 +198,7 @@ int run_identify_friction(const IdentifyArgs& args) {
                          {"accelerating_samples", d.accel_samples},
                          {"rms_residual_A", d.inertia_rms_residual_A}};
     report["files"] = {"drive_identified.toml", "friction_fit.csv", "report.json"};
-    core::write_file_atomic(dir / "report.json", report.dump(2) + "\n");
+    write_report(dir / "report.json", report);  // and report.html
     std::printf("wrote %s, %s, %s\n", (dir / "drive_identified.toml").string().c_str(),
                 (dir / "friction_fit.csv").string().c_str(), (dir / "report.json").string().c_str());
   }

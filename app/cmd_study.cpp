@@ -9,6 +9,7 @@
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/timing.hpp"
+#include "render/report_html.hpp"
 
 #include <fmt/format.h>
 #include <mpi.h>
@@ -136,13 +137,15 @@ StudyResult run_variation(const nlohmann::json& task, int rank) {
     if (code != 0) throw core::Error(fmt::format("vmsim run ended with exit code {} (see {})", code, (dir / "run.log").string()));
     std::ifstream in(dir / "report.json");
     if (!in) throw core::Error((dir / "report.json").string() + ": the run wrote no report");
-    r.figures = figures_from_report(nlohmann::json::parse(in));
+    const nlohmann::json report = nlohmann::json::parse(in);
+    r.figures = figures_from_report(report);
     r.status = StudyResult::Status::Ok;
     if (task.value("keep", std::string("all")) == "summary") {
       for (const auto& e : fs::directory_iterator(dir)) {
         const std::string n = e.path().filename().string();
         if (n != "job.toml" && n != "machine.toml" && n != "report.json" && n != "run.log") fs::remove_all(e.path(), ec);
       }
+      render::write_report_html(dir, report);  // again: its links to the files just removed go
     }
   } catch (const core::Error& e) {
     r.status = StudyResult::Status::Failed;
@@ -261,7 +264,9 @@ int run_study(const StudyArgs& args) {
       copy = results;
     }
     core::write_file_atomic(args.out_dir / "results.csv", results_csv(study, copy));
-    core::write_file_atomic(args.out_dir / "study.json", study_json(study, copy, size, seconds_since(t_start)).dump(2) + "\n");
+    const nlohmann::json sj = study_json(study, copy, size, seconds_since(t_start));
+    core::write_file_atomic(args.out_dir / "study.json", sj.dump(2) + "\n");
+    render::write_report_html(args.out_dir, sj);
   };
   std::size_t reported = 0, written = 0;
   auto last_write = Clock::now();

@@ -2,6 +2,7 @@
 // 001 sections 2-3): ARX, ARMAX and OE fitted on the estimation data, validated on separate data, ranked by the
 // validation MSE as the predictive-compensation paper Table 2, the chosen one written to axis_models.toml for jobs to run on.
 #include "app/commands_sysid.hpp"
+#include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/sha256.hpp"
@@ -268,7 +269,7 @@ int run_sysid(const SysidArgs& args) {
   sysid::save_axis_models(dir / "axis_models.toml", file, comments);
   report["files"] = {"axis_models.toml", "report.json"};
   report["timings_s"] = {{"total", std::chrono::duration<double>(Clock::now() - t_start).count()}};
-  core::write_file_atomic(dir / "report.json", report.dump(2) + "\n");
+  write_report(dir / "report.json", report);  // and report.html
   std::printf("chosen:");
   for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), sysid::structure_name(a.structure));
   std::printf(" (lowest validation MSE%s)\nwrote %s (axis_models.toml, report.json)\n", use ? ", overridden by --use" : "",

@@ -51,6 +51,7 @@ struct CompensateArgs {
   double smoothing_samples = 4.0;                // Gaussian smoothing of the correction along the setpoints (sigma)
   bool tip_only = false;                         // five-axis: correct the tool tip only, not the tool axis
   bool dense_program = false;                    // also write compensated_dense.ngc (one G93 block per setpoint)
+  bool no_render = false;                        // draw no chart (images/contour_error.png)
 };
 // vmsim compensate JOB: predicted contour error added back to the setpoints (the predictive-compensation paper section 4); compensated
 // setpoints CSV, compensated G-code, report.json with the contour error before and after.

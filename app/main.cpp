@@ -314,6 +314,7 @@ int run_command(int argc, char** argv) {
   compensate->add_option("--iterations", comp_args.max_iterations, "largest number of corrections (default 6)");
   compensate->add_option("--smoothing", comp_args.smoothing_samples,
                          "standard deviation of the correction's Gaussian smoothing along the setpoints, in samples (default 4)");
+  compensate->add_flag("--no-render", comp_args.no_render, "draw no chart (by default: OUT/images/contour_error.png)");
   compensate->add_flag("--tip-only", comp_args.tip_only,
                        "five-axis machines: correct the tool tip only (default: the tool axis' orientation error too)");
   compensate->add_flag("--dense-program", comp_args.dense_program,

@@ -10,7 +10,7 @@ namespace vmsim::app {
 
 using sim::report_header;
 
-// Written atomically (temporary file, then rename), pretty-printed.
+// Written atomically (temporary file, then rename), pretty-printed; a report.json gets its report.html beside it.
 void write_report(const std::filesystem::path& file, const nlohmann::json& report);
 
 }  // namespace vmsim::app

@@ -3,7 +3,18 @@
 # with sudo when not root. Does nothing when every package is already installed.
 #   scripts/install-deps.sh          install what is missing
 #   scripts/install-deps.sh --check  exit 1 (and list them) when packages are missing, install nothing
+#   scripts/install-deps.sh --test   also the packages only the tests use (`make test`; `make demo` needs none)
 set -euo pipefail
+
+check=0
+with_tests=0
+for arg in "$@"; do
+  case "$arg" in
+    --check) check=1 ;;
+    --test) with_tests=1 ;;
+    *) echo "usage: scripts/install-deps.sh [--check] [--test]" >&2; exit 2 ;;
+  esac
+done
 
 packages=(
   build-essential cmake ninja-build pkg-config
@@ -16,6 +27,12 @@ packages=(
   # Gwyddion 2.62 (headless --convert-to-gwy) and plain Python 3 (tests/metrology/independent_stats.py).
   gwyddion python3
 )
+# For the tests only: report.html validated (html5lib in strict mode, tidy) and opened in headless Chromium through
+# chromedriver (selenium), its screenshot read with PIL.
+test_packages=(chromium chromium-driver python3-selenium python3-html5lib python3-pil tidy)
+if [ "$with_tests" -eq 1 ]; then
+  packages+=("${test_packages[@]}")
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -27,7 +44,7 @@ done
 if [ ${#missing[@]} -eq 0 ]; then
   exit 0
 fi
-if [ "${1:-}" = "--check" ]; then
+if [ "$check" -eq 1 ]; then
   echo "missing packages: ${missing[*]}" >&2
   exit 1
 fi

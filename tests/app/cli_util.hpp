@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -71,6 +72,28 @@ inline CliRun run_vmsim(const std::string& args, const TempDir& tmp, const std::
   r.out = slurp(out);
   r.err = slurp(err);
   return r;
+}
+#endif
+
+#ifdef VMSIM_PYTHON
+// A result directory's report.html checked against its report.json (or study.json) by
+// tests/app/check_report_html.py: valid HTML5 (html5lib strict, tidy), self-contained (every link and picture inside
+// the directory), every number and string of the JSON on the page, the key figures as the reader sees them.
+// `options`: e.g. "--pictures yes", "--note 'TEXT'". Without python3-html5lib (make test installs it) it says so and
+// checks only that the page exists.
+inline void expect_report_html(const std::filesystem::path& dir, const std::string& options = "") {
+  ASSERT_TRUE(std::filesystem::exists(dir / "report.html")) << dir;
+  const std::filesystem::path log = dir.parent_path() / (dir.filename().string() + "_report_html_check.txt");
+  const std::string cmd = std::string("'") + VMSIM_PYTHON + "' '" + VMSIM_SOURCE_DIR + "/tests/app/check_report_html.py' '" +
+                          dir.string() + "' " + options + " >'" + log.string() + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const std::string out = slurp(log);
+  if (code == 77) {
+    std::printf("[   NOTE   ] %s: report.html not validated: %s", dir.string().c_str(), out.c_str());
+    return;
+  }
+  EXPECT_EQ(code, 0) << out;
 }
 #endif
 

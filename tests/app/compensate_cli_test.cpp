@@ -49,6 +49,7 @@ TEST(CompensateCli, FiveAxisBladeTipAndOrientationErrorsFallAndTheCompensatedPro
   ASSERT_TRUE(pr["before"].contains("orientation_mean_deg"));
   EXPECT_LT(pr["after"]["orientation_mean_deg"].get<double>(), pr["before"]["orientation_mean_deg"].get<double>());
   EXPECT_TRUE(rep["limits"]["compensated_within_limits"].get<bool>());
+  vmsim_test::expect_report_html(p / "c", "--pictures yes");
   std::printf("blade, mean tip contour error %+.1f %% (the predictive-compensation paper on its blade: -31.43 %%)\n",
               pr["change_percent"]["mean"].get<double>());
 

@@ -144,6 +144,7 @@ TEST(IdentifyCli, RecoversTheSimulatedDriveAndWritesItsKeys) {
     }
     EXPECT_EQ(rows, 8);
     EXPECT_TRUE(fs::exists(out / "report.json"));
+    vmsim_test::expect_report_html(out, "--pictures no");
   }
 }
 

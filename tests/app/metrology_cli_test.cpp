@@ -134,6 +134,9 @@ TEST(MetrologyCli, MeasureThenCompareRecoversTheTransformAndTheMark) {
   if (!r["pictures"].contains("error")) {
     EXPECT_TRUE(fs::exists(tmp.path() / "cmp" / "images" / "deviation_map.png"));
     EXPECT_TRUE(fs::exists(tmp.path() / "cmp" / "images" / "profile_mark_1.png"));
+    vmsim_test::expect_report_html(tmp.path() / "cmp", "--pictures yes");
+  } else {
+    vmsim_test::expect_report_html(tmp.path() / "cmp", "--pictures no --note 'The pictures could not be drawn'");
   }
 }
 

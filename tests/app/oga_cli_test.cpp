@@ -64,6 +64,7 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
     EXPECT_TRUE(fs::exists(d / "two" / f)) << f;
   const nlohmann::json rep = read_json(d / "two" / "report.json");
   EXPECT_EQ(rep["command"], "oga");
+  vmsim_test::expect_report_html(d / "two", "--pictures yes");
   EXPECT_EQ(rep["admissible"]["X"]["configurations"], 9);
   const double c1 = rep["mse_table"]["c1_mse_um2"], c2 = rep["mse_table"]["c2_mse_um2"];
   EXPECT_GT(c1, 0.0);

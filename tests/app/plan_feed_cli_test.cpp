@@ -53,6 +53,7 @@ TEST(PlanFeedCli, ButterflyCaseOfChen2016) {
   std::size_t rows = 0;
   for (char c : csv) rows += c == '\n';
   EXPECT_EQ(rows, rep.at("path").at("samples").get<std::size_t>() + 2);
+  vmsim_test::expect_report_html(out, "--pictures no --note 'run with --no-render'");
 }
 
 TEST(PlanFeedCli, BadInputNamesTheKey) {

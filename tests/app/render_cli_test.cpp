@@ -94,6 +94,8 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
   EXPECT_NE(sig.find("# limit X_velocity_mm_per_s=500\n"), std::string::npos);
   EXPECT_NE(sig.find("# axes=X:mm,Z:mm\n"), std::string::npos);
   EXPECT_NE(sig.find("contour_error_mm.min,contour_error_mm.max"), std::string::npos);
+  // report.html shows every picture, and the report's figures.
+  vmsim_test::expect_report_html(out, "--pictures yes");
 
   // vmsim render: the same directory, other size, a given region and colour limits, into another directory that
   // holds a stale picture of an axis that does not move here (removed) and a file of the user's (kept).
@@ -162,8 +164,15 @@ TEST(RenderCli, ErrorsAreMessagesNotAborts) {
   EXPECT_NE(rn.err.find("the results are written"), std::string::npos) << rn.err;
   EXPECT_TRUE(fs::exists(tmp.path() / "run" / "deviation.csv"));
   EXPECT_NE(slurp(tmp.path() / "run" / "report.json").find("render_error"), std::string::npos);
+  // Its page shows everything else, and why there are no pictures.
+  vmsim_test::expect_report_html(tmp.path() / "run", "--pictures no --note 'The pictures could not be drawn' --note EGL");
   // --no-render draws nothing.
   CliRun nr = run_headless("run '" + job + "' --quiet --no-render --out '" + (tmp.path() / "nr").string() + "'", tmp, no_egl);
   EXPECT_EQ(nr.code, 0) << nr.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "nr" / "images"));
+  vmsim_test::expect_report_html(tmp.path() / "nr", "--pictures no --note 'run with --no-render'");
+  // vmsim render draws them afterwards, and the page shows them.
+  CliRun later = run_headless("render '" + (tmp.path() / "nr").string() + "' --size 480x320", tmp);
+  ASSERT_EQ(later.code, 0) << later.err;
+  vmsim_test::expect_report_html(tmp.path() / "nr", "--pictures yes");
 }

@@ -261,8 +261,10 @@ interpolation.tolerance_mm = [0.005, 0.02]
     const nlohmann::json sj = read_json(root / out / "study.json");
     EXPECT_EQ(sj["ranks"], np);
     EXPECT_EQ(sj["summary"]["ok"], 8);
-    // Each variation's own files are there, with its run's report.
+    // Each variation's own files are there, with its run's report and page; the study's page links each.
     EXPECT_TRUE(fs::exists(root / out / "variations" / "008" / "report.json"));
+    vmsim_test::expect_report_html(root / out);
+    vmsim_test::expect_report_html(root / out / "variations" / "008", "--pictures no");
     tables.push_back(t);
   }
   expect_same_table(tables[0], tables[1], "1 vs 2 ranks");
@@ -327,6 +329,9 @@ feed_scale = 0.5
   EXPECT_TRUE(fs::exists(root / "out" / "variations" / "001" / "report.json"));
   EXPECT_TRUE(fs::exists(root / "out" / "variations" / "001" / "run.log"));
   EXPECT_FALSE(fs::exists(root / "out" / "variations" / "001" / "surface.x3p"));
+  // The pages: the failed rows with their messages, and each kept run's page without links to what was removed.
+  vmsim_test::expect_report_html(root / "out", "--note 'negative kv'");
+  vmsim_test::expect_report_html(root / "out" / "variations" / "001", "--pictures no");
 }
 
 TEST(StudyCli, BadStudyFilesNameTheFileAndTheKey) {

@@ -103,6 +103,7 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
   ASSERT_EQ(r.code, 0) << r.err;
   std::printf("%s", r.out.c_str());
   const nlohmann::json rep = nlohmann::json::parse(slurp(p / "id" / "report.json"));
+  vmsim_test::expect_report_html(p / "id", "--pictures no");  // a command without its own sections: all figures
   const auto& x = rep["axes"]["X"];
   std::vector<int> ranks;
   for (const char* s : {"arx", "armax", "oe"}) {
@@ -130,6 +131,7 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
                 d);
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json mrep = nlohmann::json::parse(slurp(p / "m_identified" / "report.json"));
+  vmsim_test::expect_report_html(p / "m_identified", "--pictures no");
   ASSERT_TRUE(mrep.contains("axis_models"));
   EXPECT_EQ(mrep["axis_models"]["identified_axes"], nlohmann::json::array({"X"}));
   const auto cmd = csv_column(p / "m_cascade" / "trace.csv", "X_command_mm");
