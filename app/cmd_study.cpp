@@ -5,7 +5,7 @@
 #include "app/commands.hpp"
 #include "app/commands_study.hpp"
 #include "app/mpi_session.hpp"
-#include "app/study.hpp"
+#include "sim/study.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/timing.hpp"
@@ -78,17 +78,17 @@ class OutputToFile {
 };
 
 // One variation, as rank 0 hands it out: everything a rank needs, so workers never read the study file.
-nlohmann::json make_task(const Study& study, const StudyVariation& v, const PreparedVariation& p, const fs::path& out,
+nlohmann::json make_task(const sim::Study& study, const sim::StudyVariation& v, const sim::PreparedVariation& p, const fs::path& out,
                          const std::string& keep) {
   nlohmann::json t = {{"index", v.index},
                       {"label", fmt::format("{}: variation {} ({})", study.file.string(), v.index, v.name)},
-                      {"dir", fs::absolute(variation_dir(out, study, v)).string()},
+                      {"dir", fs::absolute(sim::variation_dir(out, study, v)).string()},
                       {"job_toml", p.job_toml},
                       {"feed_scale", p.feed_scale},
                       {"keep", keep}};
   if (p.machine_toml) t["machine_toml"] = *p.machine_toml;
   nlohmann::json ov = nlohmann::json::array();
-  for (const StudyOverride& o : v.overrides) ov.push_back({{"key", o.key}, {"where", o.where}});
+  for (const sim::StudyOverride& o : v.overrides) ov.push_back({{"key", o.key}, {"where", o.where}});
   t["overrides"] = ov;
   return t;
 }
@@ -108,8 +108,8 @@ std::string with_study_key(const std::string& message, const nlohmann::json& tas
 }
 
 // Runs one variation in its own directory through vmsim run (no pictures); every error stays in its row.
-StudyResult run_variation(const nlohmann::json& task, int rank) {
-  StudyResult r;
+sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
+  sim::StudyResult r;
   r.rank = rank;
   const auto t0 = Clock::now();
   const double c0 = process_cpu_s();
@@ -138,8 +138,8 @@ StudyResult run_variation(const nlohmann::json& task, int rank) {
     std::ifstream in(dir / "report.json");
     if (!in) throw core::Error((dir / "report.json").string() + ": the run wrote no report");
     const nlohmann::json report = nlohmann::json::parse(in);
-    r.figures = figures_from_report(report);
-    r.status = StudyResult::Status::Ok;
+    r.figures = sim::figures_from_report(report);
+    r.status = sim::StudyResult::Status::Ok;
     if (task.value("keep", std::string("all")) == "summary") {
       for (const auto& e : fs::directory_iterator(dir)) {
         const std::string n = e.path().filename().string();
@@ -148,13 +148,13 @@ StudyResult run_variation(const nlohmann::json& task, int rank) {
       render::write_report_html(dir, report);  // again: its links to the files just removed go
     }
   } catch (const core::Error& e) {
-    r.status = StudyResult::Status::Failed;
+    r.status = sim::StudyResult::Status::Failed;
     r.error = with_study_key(label + ": " + e.what(), task);
   } catch (const std::exception& e) {
-    r.status = StudyResult::Status::Failed;
+    r.status = sim::StudyResult::Status::Failed;
     r.error = label + ": internal error: " + e.what();
   } catch (...) {
-    r.status = StudyResult::Status::Failed;
+    r.status = sim::StudyResult::Status::Failed;
     r.error = label + ": internal error";
   }
   r.cpu_s = process_cpu_s() - c0;
@@ -184,8 +184,8 @@ int worker_loop(int rank) {
     send_json(msg, 0, kTagToCoordinator);
     const nlohmann::json task = recv_json(0, kTagToWorker);
     if (task.contains("stop")) return 0;
-    const StudyResult r = run_variation(task, rank);
-    msg = {{"rank", rank}, {"index", task.at("index")}, {"result", result_to_json(r)}};
+    const sim::StudyResult r = run_variation(task, rank);
+    msg = {{"rank", rank}, {"index", task.at("index")}, {"result", sim::result_to_json(r)}};
   }
 }
 
@@ -198,7 +198,7 @@ int run_study(const StudyArgs& args) {
   if (rank != 0) return worker_loop(rank);
 
   const auto t_start = Clock::now();
-  const Study study = load_study(args.study);
+  const sim::Study study = sim::load_study(args.study);
   std::error_code ec;
   fs::create_directories(args.out_dir, ec);
   if (ec) throw core::Error(args.out_dir.string() + ": cannot create the output directory: " + ec.message());
@@ -209,9 +209,9 @@ int run_study(const StudyArgs& args) {
   std::mutex mu;
   std::deque<std::size_t> queue;
   for (std::size_t i = 0; i < n; ++i) queue.push_back(i);
-  std::vector<StudyResult> results(n);
+  std::vector<sim::StudyResult> results(n);
   std::vector<std::size_t> finished;  // in the order they finished, for the progress lines
-  auto store = [&](std::size_t i, const StudyResult& r) {
+  auto store = [&](std::size_t i, const sim::StudyResult& r) {
     std::lock_guard<std::mutex> lock(mu);
     results[i] = r;
     finished.push_back(i);
@@ -227,11 +227,11 @@ int run_study(const StudyArgs& args) {
         queue.pop_front();
       }
       try {
-        return make_task(study, study.variations[i], prepare_variation(study, study.variations[i]), args.out_dir,
+        return make_task(study, study.variations[i], sim::prepare_variation(study, study.variations[i]), args.out_dir,
                          args.keep);
       } catch (const std::exception& e) {  // core::Error names the study file, the variation and the key
-        StudyResult r;
-        r.status = StudyResult::Status::Failed;
+        sim::StudyResult r;
+        r.status = sim::StudyResult::Status::Failed;
         r.error = dynamic_cast<const core::Error*>(&e)
                       ? std::string(e.what())
                       : fmt::format("{}: variation {} ({}): {}", study.file.string(), study.variations[i].index,
@@ -258,13 +258,13 @@ int run_study(const StudyArgs& args) {
   });
 
   auto write_tables = [&]() {
-    std::vector<StudyResult> copy;
+    std::vector<sim::StudyResult> copy;
     {
       std::lock_guard<std::mutex> lock(mu);
       copy = results;
     }
-    core::write_file_atomic(args.out_dir / "results.csv", results_csv(study, copy));
-    const nlohmann::json sj = study_json(study, copy, size, seconds_since(t_start));
+    core::write_file_atomic(args.out_dir / "results.csv", sim::results_csv(study, copy));
+    const nlohmann::json sj = sim::study_json(study, copy, size, seconds_since(t_start));
     core::write_file_atomic(args.out_dir / "study.json", sj.dump(2) + "\n");
     render::write_report_html(args.out_dir, sj);
   };
@@ -286,7 +286,7 @@ int run_study(const StudyArgs& args) {
           if (msg.contains("index")) {
             const auto idx = msg["index"].get<std::size_t>();
             if (idx < 1 || idx > n) throw core::Error(fmt::format("rank {} sent a result for variation {}", src, idx));
-            store(idx - 1, result_from_json(msg["result"]));
+            store(idx - 1, sim::result_from_json(msg["result"]));
           }
           if (auto task = next_task()) {
             send_json(*task, src, kTagToWorker);
@@ -305,10 +305,10 @@ int run_study(const StudyArgs& args) {
       }
       for (std::size_t i : fresh) {
         ++shown;
-        const StudyResult& r = results[i];  // written once, before it was listed as finished
-        const StudyVariation& v = study.variations[i];
-        if (r.status == StudyResult::Status::Ok) {
-          const StudyFigures& f = r.figures;
+        const sim::StudyResult& r = results[i];  // written once, before it was listed as finished
+        const sim::StudyVariation& v = study.variations[i];
+        if (r.status == sim::StudyResult::Status::Ok) {
+          const sim::StudyFigures& f = r.figures;
           say(fmt::format("[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}",
                           shown, n, v.index, v.name,
                           f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
@@ -342,7 +342,7 @@ int run_study(const StudyArgs& args) {
   local.join();
   write_tables();
   int ok = 0;
-  for (const StudyResult& r : results) ok += r.status == StudyResult::Status::Ok;
+  for (const sim::StudyResult& r : results) ok += r.status == sim::StudyResult::Status::Ok;
   say(fmt::format("study {}: {} ok, {} failed of {} variations on {} rank{} in {:.1f} s; wrote {} and {}", study.name,
                   ok, static_cast<int>(n) - ok, n, size, size > 1 ? "s" : "", seconds_since(t_start),
                   (args.out_dir / "results.csv").string(), (args.out_dir / "study.json").string()));
