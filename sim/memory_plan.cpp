@@ -120,6 +120,7 @@ struct MotionCounts {
 MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress) {
   ChainOptions copt;
   copt.feed_scale = feed_scale;
+  copt.ignore_gain_schedule = feed_scale != 1.0;  // a reference at other feeds (the run itself refuses it)
   const Motion m = simulate_motion(Chain(job, copt), kind, progress);
   const removal::PoseTrack track = track_of(m, job, kind);
   MotionCounts c;
