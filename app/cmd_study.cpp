@@ -177,6 +177,56 @@ nlohmann::json recv_json(int source, int tag) {
   return nlohmann::json::parse(s);
 }
 
+// Variation i as a task for a rank; one whose overrides cannot be applied is `failed` (its row) instead.
+std::optional<nlohmann::json> prepare_task(const sim::Study& study, std::size_t i, const StudyArgs& args,
+                                           sim::StudyResult& failed) {
+  try {
+    return make_task(study, study.variations[i], sim::prepare_variation(study, study.variations[i]), args.out_dir,
+                     args.keep);
+  } catch (const std::exception& e) {  // core::Error names the study file, the variation and the key
+    failed.status = sim::StudyResult::Status::Failed;
+    failed.error = dynamic_cast<const core::Error*>(&e)
+                       ? std::string(e.what())
+                       : fmt::format("{}: variation {} ({}): {}", study.file.string(), study.variations[i].index,
+                                     study.variations[i].name, e.what());
+    return std::nullopt;
+  }
+}
+
+// A worker's message to rank 0: its request for work, with the result of the variation it just ran.
+struct Request {
+  int rank = 0;
+  std::size_t index = 0;                    // 1-based; 0: no result (its first request)
+  std::optional<sim::StudyResult> result;
+};
+std::optional<Request> poll_request(std::size_t n) {
+  int flag = 0;
+  MPI_Status st;
+  MPI_Iprobe(MPI_ANY_SOURCE, kTagToCoordinator, MPI_COMM_WORLD, &flag, &st);
+  if (!flag) return std::nullopt;
+  Request r;
+  r.rank = st.MPI_SOURCE;
+  const nlohmann::json msg = recv_json(r.rank, kTagToCoordinator);
+  if (msg.contains("index")) {
+    r.index = msg["index"].get<std::size_t>();
+    if (r.index < 1 || r.index > n) throw core::Error(fmt::format("rank {} sent a result for variation {}", r.rank, r.index));
+    r.result = sim::result_from_json(msg["result"]);
+  }
+  return r;
+}
+
+// The progress line of a finished variation.
+std::string finished_line(std::size_t shown, std::size_t n, const sim::StudyVariation& v, const sim::StudyResult& r) {
+  if (r.status != sim::StudyResult::Status::Ok)
+    return fmt::format("[{}/{}] variation {} ({}): FAILED: {}", shown, n, v.index, v.name, r.error);
+  const sim::StudyFigures& f = r.figures;
+  return fmt::format("[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}",
+                     shown, n, v.index, v.name,
+                     f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
+                     f.contour_error_max_mm ? fmt::format("{:.2f} um", *f.contour_error_max_mm * 1e3) : std::string("-"),
+                     r.cpu_s, r.rank);
+}
+
 // Ranks 1..N-1: ask rank 0 for a variation, run it, send its result with the next request, until told to stop.
 int worker_loop(int rank) {
   nlohmann::json msg = {{"rank", rank}};
@@ -226,18 +276,9 @@ int run_study(const StudyArgs& args) {
         i = queue.front();
         queue.pop_front();
       }
-      try {
-        return make_task(study, study.variations[i], sim::prepare_variation(study, study.variations[i]), args.out_dir,
-                         args.keep);
-      } catch (const std::exception& e) {  // core::Error names the study file, the variation and the key
-        sim::StudyResult r;
-        r.status = sim::StudyResult::Status::Failed;
-        r.error = dynamic_cast<const core::Error*>(&e)
-                      ? std::string(e.what())
-                      : fmt::format("{}: variation {} ({}): {}", study.file.string(), study.variations[i].index,
-                                    study.variations[i].name, e.what());
-        store(i, r);
-      }
+      sim::StudyResult failed;
+      if (auto task = prepare_task(study, i, args, failed)) return task;
+      store(i, failed);
     }
   };
 
@@ -276,22 +317,15 @@ int run_study(const StudyArgs& args) {
     while (true) {
       bool busy = false;
       if (remote_active > 0) {
-        int flag = 0;
-        MPI_Status st;
-        MPI_Iprobe(MPI_ANY_SOURCE, kTagToCoordinator, MPI_COMM_WORLD, &flag, &st);
-        if (flag) {
+        // A worker's request (with the result of its last variation): its next variation, or stop.
+        const std::optional<Request> req = poll_request(n);
+        if (req) {
           busy = true;
-          const int src = st.MPI_SOURCE;
-          const nlohmann::json msg = recv_json(src, kTagToCoordinator);
-          if (msg.contains("index")) {
-            const auto idx = msg["index"].get<std::size_t>();
-            if (idx < 1 || idx > n) throw core::Error(fmt::format("rank {} sent a result for variation {}", src, idx));
-            store(idx - 1, sim::result_from_json(msg["result"]));
-          }
+          if (req->result) store(req->index - 1, *req->result);
           if (auto task = next_task()) {
-            send_json(*task, src, kTagToWorker);
+            send_json(*task, req->rank, kTagToWorker);
           } else {
-            send_json({{"stop", true}}, src, kTagToWorker);
+            send_json({{"stop", true}}, req->rank, kTagToWorker);
             --remote_active;
           }
         }
@@ -303,21 +337,8 @@ int run_study(const StudyArgs& args) {
         fresh.assign(finished.begin() + static_cast<std::ptrdiff_t>(reported), finished.end());
         reported = finished.size();
       }
-      for (std::size_t i : fresh) {
-        ++shown;
-        const sim::StudyResult& r = results[i];  // written once, before it was listed as finished
-        const sim::StudyVariation& v = study.variations[i];
-        if (r.status == sim::StudyResult::Status::Ok) {
-          const sim::StudyFigures& f = r.figures;
-          say(fmt::format("[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}",
-                          shown, n, v.index, v.name,
-                          f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
-                          f.contour_error_max_mm ? fmt::format("{:.2f} um", *f.contour_error_max_mm * 1e3) : std::string("-"),
-                          r.cpu_s, r.rank));
-        } else {
-          say(fmt::format("[{}/{}] variation {} ({}): FAILED: {}", shown, n, v.index, v.name, r.error));
-        }
-      }
+      for (std::size_t i : fresh)  // results[i] was written once, before it was listed as finished
+        say(finished_line(++shown, n, study.variations[i], results[i]));
       // The table so far, now and then: a study cut short (a killed job) keeps what it had. Every 2 s at most, and
       // never more than 5 % of the time (a study of many variations has long tables).
       if (reported > written && seconds_since(last_write) > std::max(2.0, 20 * write_s)) {
