@@ -8,10 +8,16 @@
 
 namespace vmsim::app {
 
-// vmsim canon PROGRAM [--tool-table F] [--no-motion-m LIST]: LinuxCNC's canonical calls on stdout (as `rs274 -g`).
-// no_motion_mcodes: M codes the machine remaps to actions without motion (GcodeOptions::no_motion_mcodes).
-int run_canon(const std::filesystem::path& program, const std::optional<std::filesystem::path>& tool_table,
-              const std::vector<int>& no_motion_mcodes = {});
+// vmsim canon PROGRAM [--tool-table F] [--no-motion-m LIST] [--dialect D] [--lenient]: LinuxCNC's canonical calls on
+// stdout (as `rs274 -g` for G-code; the same vocabulary for Sinumerik 840D programs), warnings on stderr.
+struct CanonArgs {
+  std::filesystem::path program;
+  std::optional<std::filesystem::path> tool_table;
+  std::vector<int> no_motion_mcodes;
+  std::string dialect = "auto";
+  bool lenient = false;
+};
+int run_canon(const CanonArgs& args);
 
 struct InterpArgs {
   std::filesystem::path job;

@@ -62,20 +62,23 @@ using Commands = std::vector<Command>;
 // ---- the subcommands, in the order of the chain ----
 
 void add_canon(CLI::App& cli, Commands& cmds) {
-  struct Args {
-    Path program;
-    std::optional<Path> tool_table;
-    std::vector<int> no_motion_mcodes;
-  };
-  auto a = std::make_shared<Args>();
-  auto* c = cli.add_subcommand(
-      "canon", "Print LinuxCNC's canonical machining calls for a G-code program (compare with `rs274 -g`)");
-  c->add_option("PROGRAM", a->program, "G-code program (.ngc)")->required()->check(CLI::ExistingFile);
+  auto a = std::make_shared<app::CanonArgs>();
+  auto* c = cli.add_subcommand("canon",
+                               "Print LinuxCNC's canonical machining calls for a G-code (compare with `rs274 -g`) or "
+                               "Sinumerik 840D program");
+  c->add_option("PROGRAM", a->program, "program (.ngc .nc .txt G-code, .mpf .spf Sinumerik)")
+      ->required()
+      ->check(CLI::ExistingFile);
   c->add_option("--tool-table,-t", a->tool_table, "LinuxCNC tool table (T1 P1 Z0 D10 lines)")->check(CLI::ExistingFile);
   c->add_option("--no-motion-m", a->no_motion_mcodes,
                 "comma-separated M codes the machine remaps to actions without motion (e.g. 428,429)")
       ->delimiter(',');
-  cmds.push_back({c, [a] { return app::run_canon(a->program, a->tool_table, a->no_motion_mcodes); }});
+  c->add_option("--dialect", a->dialect, "the program's language: auto (by extension and content), rs274ngc, sinumerik")
+      ->check(CLI::IsMember({"auto", "rs274ngc", "sinumerik"}));
+  c->add_flag("--lenient", a->lenient,
+              "Sinumerik: accept statements known to have no motion that vmsim does not model (unknown M and H "
+              "functions, ...) with a warning instead of an error");
+  cmds.push_back({c, [a] { return app::run_canon(*a); }});
 }
 
 void add_interp(CLI::App& cli, Commands& cmds) {

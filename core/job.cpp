@@ -125,7 +125,7 @@ InterpSpec read_interp(const TomlTable& t) {
     if (*te > 100) t.fail("period_ms", fmt::format("{} ms is not an NC interpolation period (expected <= 100)", *te));
     spec.period_s = *te * 1e-3;
   }
-  if (auto tol = t.opt_positive("tolerance_mm")) spec.tolerance_mm = *tol;
+  if (auto tol = t.opt_positive("tolerance_mm")) spec.tolerance_mm = *tol, spec.tolerance_given = true;
   t.finish();
   return spec;
 }
@@ -209,6 +209,12 @@ Job load_job(const std::filesystem::path& path) {
       }
     }
     job.tcp = jt.opt_boolean("tcp").value_or(false);
+    if (auto d = jt.opt_string("program_dialect")) {
+      if (*d != "auto" && *d != "rs274ngc" && *d != "sinumerik" && *d != "apt")
+        jt.fail("program_dialect", "expected \"auto\", \"rs274ngc\", \"sinumerik\" or \"apt\", found \"" + *d + "\"");
+      job.program_dialect = *d;
+    }
+    job.program_lenient = jt.opt_boolean("program_lenient").value_or(false);
     // Identified axis models (vmsim identify) run instead of the drives of the machine file (drives/axis_model_file).
     job.axis_models_file = jt.opt_existing_path("axis_models");
     jt.finish();

@@ -65,6 +65,9 @@ struct ReferenceSpec {
 struct InterpSpec {
   double period_s = 1e-3;         // Te
   double tolerance_mm = 0.020;    // largest distance of a setpoint from the programmed geometry
+  // Whether the job gave tolerance_mm; if not, a program that sets its own (Sinumerik CYCLE832,
+  // core::ToolPath::program_tolerance_mm) is interpolated with that.
+  bool tolerance_given = false;
 };
 
 // [feedplan]: Chen et al.'s contour-error-constrained feed planning (vmsim plan-feed, drives/feedplan).
@@ -111,6 +114,10 @@ struct Job {
   // G-code X Y Z are the tool tip in the workpiece frame and A B C the rotary axes (tool-centre-point programming,
   // LinuxCNC's M428 on xyzac-trt); false: the words are the machine's axes. Chain machines only (core/kinematics).
   bool tcp = false;
+  // The program's language: "auto" (by extension and content), "rs274ngc", "sinumerik" or "apt" (program/program.hpp).
+  std::string program_dialect = "auto";
+  // Sinumerik: statements known to have no motion that vmsim does not model are warnings, not errors.
+  bool program_lenient = false;
   Machine machine;
   ToolSpec tool;
   StockSpec stock;

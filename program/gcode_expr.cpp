@@ -72,6 +72,7 @@ double unary(UnaryFn fn, double x) {
       if (x < 0.0) throw ExprError("argument to SQRT is negative");
       return std::sqrt(x);
     case UnaryFn::Tan: return std::tan(deg_to_rad(x));
+    case UnaryFn::Trunc: return std::trunc(x);
   }
   return x;
 }

@@ -24,7 +24,8 @@ inline constexpr int kMaxTreeHeight = 1000;
 inline constexpr double kToleranceEqual = 1e-4;
 
 enum class ExprOp : std::uint8_t { Number, Param, NamedParam, Exists, Negate, Unary, Atan2, Binary };
-enum class UnaryFn : std::uint8_t { Abs, Acos, Asin, Cos, Exp, Fix, Fup, Round, Ln, Sin, Sqrt, Tan };  // ATAN is binary
+// Trunc (towards zero) is the Sinumerik reader's TRUNC; RS274/NGC has no such function.
+enum class UnaryFn : std::uint8_t { Abs, Acos, Asin, Cos, Exp, Fix, Fup, Round, Ln, Sin, Sqrt, Tan, Trunc };  // ATAN is binary
 // In LinuxCNC's precedence order, highest first: ** ; * / MOD ; + - ; comparisons ; AND OR XOR.
 enum class BinaryOp : std::uint8_t { Power, Times, Divide, Modulo, Plus, Minus, Eq, Ne, Gt, Ge, Lt, Le, And, Or, Xor };
 

@@ -23,6 +23,12 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
 }
 
 motion::InterpResult Chain::interpolate(const core::ToolPath& program) const {
+  // A program that sets its own tolerance (Sinumerik CYCLE832) runs with it when the job gives none.
+  if (!job_->interp.tolerance_given && program.program_tolerance_mm) {
+    motion::InterpOptions options = interp_;
+    options.tolerance_mm = *program.program_tolerance_mm;
+    return motion::interpolate(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, options);
+  }
   return motion::interpolate(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, interp_);
 }
 

@@ -1,17 +1,67 @@
 #include "sim/job_program.hpp"
 
+#include "motion/kinematics.hpp"
 #include "program/program.hpp"
+#include "program/sinumerik.hpp"
+
+#include <memory>
 
 namespace vmsim::sim {
+
+namespace {
+
+// The machine's kinematics as the Sinumerik reader needs them at TRAORI/TRAFOOF switches and CYCLE800 swivels
+// (program/sinumerik.hpp). Joint coordinates are the axes themselves: the reader's tool length offset is zero.
+class ChainTransform final : public program::MachineTransform {
+ public:
+  explicit ChainTransform(const core::Machine& machine) : machine_(machine), kin_(motion::make_kinematics(machine)) {}
+
+  Eigen::Vector3d tip_of_joint(const core::Vec6& joint) const override {
+    return kin_->forward(to_axes(joint), 0.0).tip_mm;
+  }
+  core::Vec6 joint_of_tip(const core::Vec6& tcp) const override {
+    return to_vec6(kin_->place_tip(tcp.head<3>(), 0.0, to_axes(tcp)), tcp);
+  }
+  Eigen::Vector3d rotary_for_tool_axis(const Eigen::Vector3d& tool_axis, const core::Vec6& near) const override {
+    const Eigen::VectorXd q = to_axes(near);
+    const motion::ToolPose here = kin_->forward(q, 0.0);
+    return to_vec6(kin_->inverse(motion::ToolPose{here.tip_mm, tool_axis.normalized()}, 0.0, q), near).tail<3>();
+  }
+
+ private:
+  Eigen::VectorXd to_axes(const core::Vec6& v) const {
+    Eigen::VectorXd q(static_cast<Eigen::Index>(machine_.axes.size()));
+    for (std::size_t i = 0; i < machine_.axes.size(); ++i) q[static_cast<Eigen::Index>(i)] = v[machine_.axes[i].program_axis];
+    return q;
+  }
+  core::Vec6 to_vec6(const Eigen::VectorXd& q, core::Vec6 base) const {
+    for (std::size_t i = 0; i < machine_.axes.size(); ++i) base[machine_.axes[i].program_axis] = q[static_cast<Eigen::Index>(i)];
+    return base;
+  }
+  const core::Machine& machine_;
+  std::unique_ptr<motion::Kinematics> kin_;
+};
+
+}  // namespace
 
 core::ToolPath read_job_program(const core::Job& job) {
   program::ProgramOptions popt;
   popt.tool_table = job.tool_table_file;
   popt.no_motion_mcodes = job.no_motion_mcodes;
+  popt.dialect = program::parse_dialect(job.program_dialect);
+  popt.lenient = job.program_lenient;
   if (job.start_mm) popt.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
+  std::unique_ptr<ChainTransform> transform;
+  if (job.machine.kinematics == "chain" && program::program_dialect(job.program_file, popt.dialect) ==
+                                               program::Dialect::Sinumerik) {
+    transform = std::make_unique<ChainTransform>(job.machine);
+    popt.machine = transform.get();
+  }
   core::ToolPath tp = program::read_program(job.program_file, popt);
-  // [job] tcp: the G-code's X Y Z are the tip in the workpiece frame (CL moves carry their tool axis and ignore it).
-  for (core::Move& m : tp.moves) m.tcp = job.tcp;
+  // [job] tcp: the G-code's X Y Z are the tip in the workpiece frame (CL moves carry their tool axis and ignore it;
+  // Sinumerik programs say it themselves with TRAORI, so it only adds).
+  if (job.tcp)
+    for (core::Move& m : tp.moves) m.tcp = true;
   if (job.start_mm && !tp.moves.empty()) {
     core::Move& first = tp.moves.front();
     first.start.head<3>() = *job.start_mm;
