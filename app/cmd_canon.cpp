@@ -1,6 +1,7 @@
 // vmsim canon: LinuxCNC's canonical machining calls for a G-code program, numbered as `rs274 -g` prints them; the same
 // vocabulary for Sinumerik 840D programs (positions in the workpiece frame, mm and degrees).
 #include "app/commands.hpp"
+#include "core/error.hpp"
 #include "program/gcode.hpp"
 #include "program/program.hpp"
 #include "program/sinumerik.hpp"
