@@ -283,9 +283,13 @@ TEST(SinumerikReal, ReadProgramChoosesTheDialectOfTheTxtFile) {
   EXPECT_DOUBLE_EQ(*p.program_tolerance_mm, 0.02);
   // The other real programs of ../shared (RS274/NGC from CAMotics) stay G-code.
   const fs::path ngc = fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "botomata_bottom.nc";
-  if (fs::exists(ngc)) EXPECT_EQ(program_dialect(ngc), Dialect::Rs274ngc);
+  if (fs::exists(ngc)) {
+    EXPECT_EQ(program_dialect(ngc), Dialect::Rs274ngc);
+  }
   const fs::path flower = fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "flower_mold.nc";
-  if (fs::exists(flower)) EXPECT_EQ(program_dialect(flower), Dialect::Rs274ngc);
+  if (fs::exists(flower)) {
+    EXPECT_EQ(program_dialect(flower), Dialect::Rs274ngc);
+  }
 }
 
 }  // namespace
