@@ -103,7 +103,9 @@ TEST(SinumerikReal, CountsOfBlocksArcsAndMovesMatchTheFiles) {
       const core::Move& m = r.path.moves[i];
       ASSERT_GT(m.source_line, 0);
       ASSERT_LE(m.source_line, e.lines);
-      if (i > 0) ASSERT_LT((m.start - r.path.moves[i - 1].end).cwiseAbs().maxCoeff(), 1e-9) << m.source_line;
+      if (i > 0) {
+        ASSERT_LT((m.start - r.path.moves[i - 1].end).cwiseAbs().maxCoeff(), 1e-9) << m.source_line;
+      }
     }
     // The program's own tolerance: CYCLE832(_camtolerance, ...) with _camtolerance = .02 for every feed move.
     ASSERT_TRUE(r.contour_tolerance_mm.has_value());
@@ -222,7 +224,9 @@ TEST(SinumerikReal, ThreePlusTwoFacesComeOutWhereTheFramesPutThem) {
       if (m.source_line > from && m.source_line < to && !m.rapid) {
         d = std::min(d, m.end.head<3>().dot(axis));
         ++n;
-        if (name != "PLANEN") EXPECT_TRUE(m.tcp) << name << " line " << m.source_line;
+        if (name != "PLANEN") {
+          EXPECT_TRUE(m.tcp) << name << " line " << m.source_line;
+        }
       }
     EXPECT_GT(n, 5) << name;
     return d;
