@@ -18,6 +18,7 @@ core::ToolPath read_program(const std::filesystem::path& path, const ProgramOpti
     g.tool_table = options.tool_table;
     g.no_motion_mcodes = options.no_motion_mcodes;
     g.start_mm = options.start_mm;
+    g.max_blocks = options.max_blocks;
     return read_gcode(path, g);
   }
   throw core::Error(path.string() + ": unknown program type \"" + ext +

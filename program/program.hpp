@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <array>
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -13,6 +14,7 @@ struct ProgramOptions {
   std::optional<std::filesystem::path> tool_table;  // LinuxCNC tool table for G43 H / T words
   std::vector<int> no_motion_mcodes;                 // G-code: remapped M codes without motion (see gcode.hpp)
   std::optional<std::array<double, 3>> start_mm;     // G-code: where the tool starts (see gcode.hpp)
+  std::uint64_t max_blocks = 20'000'000;             // G-code: blocks executed before "possible endless loop"
 };
 
 // Chooses the reader by extension: .ngc .nc .gcode .tap .txt -> G-code; .apt .cl .cls .aptsource -> APT CL.
