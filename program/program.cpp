@@ -63,6 +63,7 @@ core::ToolPath read_program(const std::filesystem::path& path, const ProgramOpti
       s.no_motion_mcodes = options.no_motion_mcodes;
       s.start_mm = options.start_mm;
       s.machine = options.machine;
+      s.max_blocks = options.max_blocks;
       SinumerikResult r = interpret_sinumerik(path, s);
       r.path.warnings = std::move(r.warnings);
       r.path.program_tolerance_mm = r.contour_tolerance_mm;
@@ -75,6 +76,7 @@ core::ToolPath read_program(const std::filesystem::path& path, const ProgramOpti
   g.tool_table = options.tool_table;
   g.no_motion_mcodes = options.no_motion_mcodes;
   g.start_mm = options.start_mm;
+  g.max_blocks = options.max_blocks;
   return read_gcode(path, g);
 }
 

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <array>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -22,6 +23,7 @@ struct ProgramOptions {
   std::optional<std::filesystem::path> tool_table;  // LinuxCNC tool table for G43 H / T words
   std::vector<int> no_motion_mcodes;                 // G-code: remapped M codes without motion (see gcode.hpp)
   std::optional<std::array<double, 3>> start_mm;     // G-code and Sinumerik: where the tool starts
+  std::uint64_t max_blocks = 20'000'000;             // G-code and Sinumerik: blocks executed before "possible endless loop"
   Dialect dialect = Dialect::Auto;
   // Sinumerik: statements known to have no motion that vmsim does not model become warnings (path.warnings).
   bool lenient = false;

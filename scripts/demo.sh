@@ -25,3 +25,7 @@ for f in part part_mark deviation deviation_mark deviation_3d contour_error feed
 done
 echo "  ... and the axis, position and current charts: $out/fast/images/ and $out/reference/images/"
 echo "Setpoints and drive signals of a job: $vmsim motion $part/job_fast.toml --out DIR"
+echo
+echo "The report of the fast pass (the mark, its pictures, the charts, every figure) is one page:"
+echo "  $out/fast/report.html"
+echo "Open it with:  xdg-open $out/fast/report.html"

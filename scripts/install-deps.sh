@@ -22,14 +22,12 @@ packages=(
   libgtest-dev libgmock-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libzip-dev zipcmp zipmerge ziptool libpugixml-dev coinor-libclp-dev libglpk-dev
   libopenmpi-dev openmpi-bin libegl-dev fonts-dejavu-core libbenchmark-dev libfmt-dev python3-imath
-  zlib1g-dev
-  # Independent readers the metrology tests hold vmsim's scan readers against (they skip without them):
-  # Gwyddion 2.62 (headless --convert-to-gwy) and plain Python 3 (tests/metrology/independent_stats.py).
-  gwyddion python3
+  zlib1g-dev python3
 )
-# For the tests only: report.html validated (html5lib in strict mode, tidy) and opened in headless Chromium through
-# chromedriver (selenium), its screenshot read with PIL.
-test_packages=(chromium chromium-driver python3-selenium python3-html5lib python3-pil tidy)
+# For the tests only (`make test`; `make demo` installs none of it): report.html validated (html5lib in strict mode,
+# tidy) and opened in headless Chromium through chromedriver (selenium), its screenshot read with PIL; Gwyddion 2.62,
+# the independent reader the metrology tests hold vmsim's scan readers against (headless --convert-to-gwy).
+test_packages=(chromium chromium-driver python3-selenium python3-html5lib python3-pil tidy gwyddion)
 if [ "$with_tests" -eq 1 ]; then
   packages+=("${test_packages[@]}")
 fi
