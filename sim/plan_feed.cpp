@@ -44,7 +44,8 @@ nlohmann::json sample_job_path(const core::Job& job, const Chain& chain, methods
   r.max_feed_mm_per_s = spec.max_feed_mm_per_s.value_or(0.0);
   nlohmann::json path_json;
   if (const JobCurve* c = chain.curve()) {
-    r.program = c->path.program;
+    r.workpiece = c->path.program;
+    r.program = motion::toolpath_in_axis_space(r.workpiece, job.machine);
     r.path = c->path.path;
     player.to_path_s = [c](double s) { return c->path.path_s(s); };
     player.to_sample_s = [c](double s) { return c->path.curve_s(s); };
@@ -55,8 +56,8 @@ nlohmann::json sample_job_path(const core::Job& job, const Chain& chain, methods
                  {"quintic_pieces", c->path.path.pieces.size()},
                  {"quintic_chain_max_deviation_um", c->path.max_deviation_mm * 1e3}};
   } else {
-    const core::ToolPath workpiece = read_job_program(job);
-    r.program = motion::toolpath_in_axis_space(workpiece, job.machine);
+    r.workpiece = read_job_program(job);
+    r.program = motion::toolpath_in_axis_space(r.workpiece, job.machine);
     double programmed = 0.0;
     for (const core::Move& m : r.program.moves)
       if (!m.rapid && m.feed_mode == core::FeedMode::UnitsPerMinute)
@@ -65,7 +66,7 @@ nlohmann::json sample_job_path(const core::Job& job, const Chain& chain, methods
     if (!(r.max_feed_mm_per_s > 0))
       throw core::Error(core::located(job.file.string(), 0, "[feedplan] max_feed_mm_per_s: the program has no feed "
                                                              "move to take it from; give it"));
-    r.path = chain.smooth_path(workpiece);
+    r.path = chain.smooth_path(r.workpiece);
     r.samples = methods::sample_path(r.path, spec.sample_spacing_mm);
     path_json = {{"kind", "program"}, {"moves", r.program.moves.size()}};
   }
@@ -154,7 +155,7 @@ PlanFeedResult plan_feed(const core::Job& job, core::Progress& progress) {
   player.machine = &machine;
   player.interp = chain.interp_options();
   player.settle_s = copt.settle_s;
-  player.interpolate = [&](const motion::FeedCeiling& c) { return chain.interpolate(r.program, c); };
+  player.interpolate = [&](const motion::FeedCeiling& c) { return chain.interpolate(r.workpiece, c); };
   player.simulate = [&](const core::Setpoints& sp) { return chain.simulate(sp).position; };
   progress.done();
   r.timings["path"] = seconds_since(t_start);

@@ -19,7 +19,8 @@
 namespace vmsim::sim {
 
 struct PlanFeedResult {
-  core::ToolPath program;           // the moves the interpolator follows, axis space (a curve's bookkeeping moves)
+  core::ToolPath workpiece;         // the job's program as read (workpiece frame; a curve's bookkeeping moves)
+  core::ToolPath program;           // the same in axis space: the moves the interpolator follows
   motion::SmoothPath path;          // the smoothed path it follows: the arc length of `ceiling`
   methods::PathSamples samples;     // the plan's samples (a curve: its own arc length)
   Eigen::Vector3d moving;           // 1 for each of X Y Z the path moves

@@ -45,13 +45,14 @@ class TempDir {
 
 // A small XY contour programmed at 6 m/min on the Mikron UCP 710 (its cascades): 20 mm lines and R 5 arcs, which its
 // acceleration and jerk limits let it run at up to ~46 mm/s, where the contour error reaches ~19 um: a 5 um contour
-// tolerance binds. `extra`: lines added to [job].
+// tolerance binds. A tool of 50 mm gauge length (G43): the axes are not the tool tip. `extra`: lines added to [job].
 fs::path small_job(const TempDir& tmp, const std::string& extra = "", const std::string& name = "job.toml") {
-  std::ofstream(tmp.path() / "p.ngc") << "G21 G90 G94 G17\nG1 X20 Y0 F6000\nG3 X20 Y10 I0 J5\nG1 X5 Y10\n"
-                                         "G2 X5 Y20 I0 J5\nG1 X25 Y20\nM30\n";
+  std::ofstream(tmp.path() / "p.ngc") << "G21 G90 G94 G17\nT1 M6\nG43 H1\nG1 X20 Y0 F6000\nG3 X20 Y10 I0 J5\n"
+                                         "G1 X5 Y10\nG2 X5 Y20 I0 J5\nG1 X25 Y20\nM30\n";
+  std::ofstream(tmp.path() / "tools.tbl") << "T1 P1 Z50 D10\n";
   const fs::path job = tmp.path() / name;
   std::ofstream(job) << "[job]\nname = \"small\"\nmachine = \"" << kParts << "machines/mikron_ucp710.toml\"\n"
-                     << "program = \"p.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n"
+                     << "program = \"p.ngc\"\ntool_table = \"tools.tbl\"\nstart_mm = [0.0, 0.0, 0.0]\n"
                      << extra << "\n[feedplan]\ncontour_error_um = 5.0\nchord_error_um = 1.0\nservo = \"machine\"\n";
   return job;
 }
@@ -110,8 +111,8 @@ TEST(ChainFeedPlan, TheCeilingCapsTheFeedAndAPlanForAnotherPathIsRefused) {
   EXPECT_GT(sim::Chain(slow, o).interpolate(program).setpoints.path_speed_mm_per_s.maxCoeff(), 40.0);
 
   // The same plan for another program: the job's path is 5 mm longer.
-  std::ofstream(tmp.path() / "q.ngc") << "G21 G90 G94 G17\nG1 X20 Y0 F6000\nG3 X20 Y10 I0 J5\nG1 X5 Y10\n"
-                                         "G2 X5 Y20 I0 J5\nG1 X30 Y20\nM30\n";
+  std::ofstream(tmp.path() / "q.ngc") << "G21 G90 G94 G17\nT1 M6\nG43 H1\nG1 X20 Y0 F6000\nG3 X20 Y10 I0 J5\n"
+                                         "G1 X5 Y10\nG2 X5 Y20 I0 J5\nG1 X30 Y20\nM30\n";
   std::string text;
   {
     std::ifstream in(tmp.path() / "slow.toml");
