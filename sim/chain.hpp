@@ -26,7 +26,8 @@ struct ChainOptions {
   // Replaces the job's [job] axis_models (a command's --axis-models).
   std::optional<std::filesystem::path> axis_models_file;
   // Run the drives with the machine file's own gains even when the job names a gain schedule (vmsim oga computes
-  // one; a feed-scaled reference runs at other feeds than the schedule's).
+  // one; a feed-scaled reference runs at other feeds than the schedule's). Without it, a gain schedule with a feed
+  // scale other than 1 is an error: the schedule holds gains for the setpoints of the job's own feeds.
   bool ignore_gain_schedule = false;
   // Interpolate without the job's feed plan (vmsim plan-feed computes one).
   bool ignore_feed_plan = false;
@@ -46,7 +47,8 @@ class Chain {
   const core::Job& job() const { return *job_; }
   const ChainOptions& options() const { return options_; }
   double feed_scale() const { return options_.feed_scale; }
-  // Period, tolerance, feed scale and the feed plan's ceiling, as motion::interpolate takes them.
+  // Period, tolerance, feed scale and a curve job's geometry, as motion::interpolate takes them (the feed plan's
+  // ceiling is read against each program interpolated: feed_ceiling).
   const motion::InterpOptions& interp_options() const { return interp_; }
   const JobAxisModels& axis_models() const { return axis_models_; }
   // The gain schedule applied to the drives (the job's, at its own feeds), if any.
@@ -72,7 +74,8 @@ class Chain {
   motion::SmoothPath smooth_path(const core::ToolPath& program) const;
   // The setpoints through the drives: the cascades with the gain schedule (read against these setpoints), or the
   // identified models for the axes they replace, or the job's transfer-function servo; settle_s more after the last.
-  drives::AxisResponse simulate(const core::Setpoints& setpoints) const;
+  // full_rate_trace: also every current-loop sample (large).
+  drives::AxisResponse simulate(const core::Setpoints& setpoints, bool full_rate_trace = false) const;
 
  private:
   const core::Job* job_;
