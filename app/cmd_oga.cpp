@@ -1,24 +1,21 @@
-// vmsim oga JOB: offline gain adjustment (Duong et al.) on a job's biaxial profile. The job's program is interpolated
-// exactly as vmsim run and vmsim motion interpolate it, so the gain schedule written here is the one those commands
-// accept through [job] gain_schedule (drives/oga_schedule.hpp checks every setpoint).
+// vmsim oga JOB: offline gain adjustment (Duong et al.) on a job's biaxial profile (sim/oga.hpp). This file parses the
+// options, runs the library call (its best-pair search spread over the ranks under mpirun), writes the tables and
+// the gain schedules ([job] gain_schedule for vmsim run and vmsim motion), draws the charts, writes report.json and
+// prints the summary.
 #include "app/commands_oga.hpp"
-#include "sim/job_program.hpp"
 #include "app/mpi_session.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "app/result_images.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/timing.hpp"
-#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "motion/kinematics.hpp"
-#include "program/program.hpp"
-#include "core/units.hpp"
+#include "core/timing.hpp"
 #include "methods/oga.hpp"
 #include "methods/oga_schedule.hpp"
 #include "render/chart.hpp"
 #include "render/window.hpp"
+#include "sim/oga.hpp"
 
 #include <fmt/format.h>
 #include <mpi.h>
@@ -26,7 +23,6 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -39,8 +35,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using core::Clock;
-using Eigen::Index;
 using core::seconds_since;
+using Eigen::Index;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // "MIN:STEP:MAX" -> the grid MIN, MIN + STEP, ... <= MAX (as Duong et al. writes [1 : 0.5 : 9]); a single number is a
@@ -99,51 +95,13 @@ void parse_range(const std::string& text, std::map<std::string, std::pair<double
   }
 }
 
-// Linear axes: mm/s -> m/min, mm/s^2 -> m/s^2, mm/s^3 -> m/s^3 (the units of Duong et al. Table I and the machine file).
-nlohmann::json peaks_json(const methods::MotionPeaks& p, double te) {
-  const auto at = [&](const methods::Peak& q) { return q.row >= 0 ? q.row * te : kNaN; };
-  return {{"velocity_m_per_min", p.velocity.value * 60e-3},      {"velocity_t_s", at(p.velocity)},
-          {"acceleration_m_per_s2", p.acceleration.value * 1e-3}, {"acceleration_t_s", at(p.acceleration)},
-          {"jerk_m_per_s3", p.jerk.value * 1e-3},                 {"jerk_t_s", at(p.jerk)},
-          {"current_peak_A", p.current.value},                    {"current_t_s", at(p.current)}};
-}
-
-std::string csv_text(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return out + "\"";
-}
-
-// A histogram as a step line: counts per bin of width `bin` over [lo, hi].
-render::Series histogram(const std::string& name, const Eigen::ArrayXd& v, const Eigen::ArrayXd& weight, double lo,
-                         double hi, int bins, int colour) {
-  Eigen::ArrayXd count = Eigen::ArrayXd::Zero(bins);
-  for (Index k = 0; k < v.size(); ++k) {
-    if (!(weight[k] > 0) || !std::isfinite(v[k])) continue;
-    const int b = std::clamp(static_cast<int>(std::floor((v[k] - lo) / (hi - lo) * bins)), 0, bins - 1);
-    count[b] += 1;
-  }
-  Eigen::ArrayXd x(2 * bins + 2), y(2 * bins + 2);
-  const double w = (hi - lo) / bins;
-  x[0] = lo, y[0] = 0;
-  for (int b = 0; b < bins; ++b) {
-    x[2 * b + 1] = lo + b * w, y[2 * b + 1] = count[b];
-    x[2 * b + 2] = lo + (b + 1) * w, y[2 * b + 2] = count[b];
-  }
-  x[2 * bins + 1] = hi, y[2 * bins + 1] = 0;
-  return render::make_series(name, x, y, colour, 1.6);
-}
-
-}  // namespace
-
-int run_oga(const OgaArgs& args) {
-  const auto t_start = Clock::now();
-  // Options first: a typo costs no simulation.
-  methods::OgaOptions o;
+// The command line's options, checked before any simulation (a typo costs none).
+sim::OgaJobOptions oga_options(const OgaArgs& args) {
+  sim::OgaJobOptions opt;
+  methods::OgaOptions& o = opt.search;
   o.kp_grid = parse_grid(args.kp_grid, "--kp-grid");
   o.kf_grid = parse_grid(args.kf_grid, "--kf-grid");
-  std::optional<std::pair<double, double>> all_range;
-  for (const std::string& r : args.ranges) parse_range(r, o.range, all_range);
+  for (const std::string& r : args.ranges) parse_range(r, o.range, opt.range_all);
   if (!(args.gain_step > 0 && std::isfinite(args.gain_step)))
     throw core::Error(fmt::format("--dk {}: expected a gain step > 0 in (m/min)/mm", args.gain_step));
   o.gain_step = args.gain_step;
@@ -170,35 +128,7 @@ int run_oga(const OgaArgs& args) {
   o.lead_in_rows = args.lead_in_rows;
   o.settle_s = args.settle_s;
   o.from_start = args.from_start;
-  if (args.threads) {
-    if (*args.threads < 1 || *args.threads > 1024) throw core::Error("--threads: expected 1 .. 1024");
-    omp_set_num_threads(*args.threads);
-  }
-  const std::pair<int, int> image_size = parse_image_size(args.image_size);
-
-  const core::Job job = core::load_job(args.job);
-  const core::Machine& machine = job.machine;
-  // The setpoints as vmsim run and vmsim motion make them (app/cmd_run.cpp simulate_motion, feed scale 1).
-  const core::ToolPath program = sim::read_job_program(job);
-  motion::InterpOptions iopt;
-  iopt.period_s = job.interp.period_s;
-  iopt.tolerance_mm = job.interp.tolerance_mm;
-  const motion::InterpResult ir = motion::interpolate(motion::toolpath_in_axis_space(program, machine), machine, iopt);
-  const core::Setpoints& sp = ir.setpoints;
-  const Index ns = sp.samples();
-  const double te = sp.period_s;
-
-  // Rows that count in MSE(CE): those on feed moves (as vmsim motion's "cutting moves"); the settling rows take
-  // the last move.
-  const Index rows = ns + static_cast<Index>(std::llround(o.settle_s / te));
-  o.row_weight = Eigen::ArrayXd::Zero(rows);
-  for (Index k = 0; k < rows; ++k) {
-    const int mi = sp.move_index[std::min(k, ns - 1)];
-    o.row_weight[k] = mi >= 0 && !program.moves[static_cast<std::size_t>(mi)].rapid ? 1.0 : 0.0;
-  }
-  if (!(o.row_weight.sum() > 0))
-    throw core::Error(job.file.string() + ": the program has no feed move: no contour to adjust the gains on");
-
+  if (args.threads && (*args.threads < 1 || *args.threads > 1024)) throw core::Error("--threads: expected 1 .. 1024");
   // Under mpirun: the best-fixed-pair search (most of a whole run's CPU, bench/README.md) is spread over the ranks;
   // every rank then holds the same values and reaches the same result, which rank 0 alone verifies and writes.
   if (mpi_active()) {
@@ -208,344 +138,267 @@ int run_oga(const OgaArgs& args) {
       MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
     };
   }
-  TerminalProgress progress(mpi_rank() == 0);
-  bool staged = false;
-  o.progress = [&](const std::string& s) {
-    if (staged) progress.done();
-    progress.stage(job.name + ": " + s);
-    staged = true;
-  };
-  // Axis ranges given for every axis: expand to the axes that move (known once the profile is read).
-  if (all_range) {
-    for (const char* n : {"X", "Y", "Z"}) {
-      const int a = machine.axis_index(n[0] - 'X');
-      if (a >= 0 && (sp.position.col(a).array() != sp.position(0, a)).any() && !o.range.count(n)) o.range[n] = *all_range;
-    }
-  }
-  const methods::OgaResult r = methods::offline_gain_adjustment(sp, machine, o);
-  if (mpi_rank() != 0) return 0;
-  o.progress("verification on the whole path (nonlinear model)");
-  const auto t_verify0 = Clock::now();
-  const methods::OgaVerification v = methods::verify_oga(sp, machine, r, o);
-  const double t_verify = seconds_since(t_verify0);
-  progress.done();
+  opt.verify = mpi_rank() == 0;
+  return opt;
+}
 
-  // ---- files ----
-  const auto t_write0 = Clock::now();
-  const fs::path dir = args.out_dir.value_or(fs::current_path());
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
-  std::vector<std::string> files;
-  const std::size_t nq = r.axes.size();
+std::string csv_text(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
 
-  {  // the admissible sets (Duong et al. Fig. 7)
-    core::AtomicFile f(dir / "admissible.csv");
-    f.stream() << "axis,kp_1000_per_min,kf,admissible,velocity_m_per_min,acceleration_m_per_s2,jerk_m_per_s3,"
-                  "current_peak_A,violation\n";
-    for (std::size_t q = 0; q < nq; ++q)
-      for (const methods::ConfigCheck& c : r.sweep[q])
-        f.stream() << fmt::format("{},{:g},{:g},{},{:.6g},{:.6g},{:.6g},{:.6g},{}\n", r.axis_names[q], c.gains.kp,
-                                  c.gains.kf, c.admissible ? 1 : 0, c.twin.velocity.value * 60e-3,
-                                  c.twin.acceleration.value * 1e-3, c.twin.jerk.value * 1e-3, c.twin.current.value,
-                                  csv_text(c.violation));
-    f.commit();
-    files.push_back("admissible.csv");
-  }
-  {
-    std::vector<std::string> comments = {
-        fmt::format("C2 of vmsim oga: receding windows, dK {:g}, f {:g} Hz (p = {}), C1 = {}", o.gain_step,
-                    o.frequency_hz, r.sinusoid_samples, args.reference)};
-    for (std::size_t q = 0; q < nq; ++q)
-      comments.push_back(fmt::format("{}: range [{:g}, {:g}] (m/min)/mm, KF {:g} (C1's)", r.axis_names[q],
-                                     r.range[q].first, r.range[q].second, r.c1[q].kf));
-    methods::write_gain_schedule(dir / "gain_schedule.csv", r.table, sp, machine, job.name, comments);
-    methods::write_gain_schedule(dir / "gain_schedule_c1.csv", r.c1_table, sp, machine, job.name,
-                                {"C1 of vmsim oga: the fixed gains, as a schedule"});
-    files.push_back("gain_schedule.csv");
-    files.push_back("gain_schedule_c1.csv");
-  }
-  {
-    core::AtomicFile f(dir / "windows.csv");
-    std::string h = "window,first_row,end_row,t_start_s,kind";
-    for (const auto& n : r.axis_names)
-      h += fmt::format(",{0}_final_kv_1000_per_min,{0}_candidates,{0}_within_limits", n);
-    f.stream() << h << ",mse_um2,hold_mse_um2,note\n";
-    for (std::size_t w = 0; w < r.windows.size(); ++w) {
-      const methods::OgaWindowResult& x = r.windows[w];
-      std::string l = fmt::format("{},{},{},{:.6f},{}", w, x.window.begin, x.window.end, x.window.begin * te,
-                                  methods::window_kind_name(x.window.kind));
-      for (std::size_t q = 0; q < nq; ++q)
-        l += fmt::format(",{:.17g},{},{}", x.final_kp[q], x.candidates[q], x.within_limits[q]);
-      f.stream() << l << fmt::format(",{:.6g},{:.6g},{}\n", x.mse_um2, x.hold_mse_um2, csv_text(x.note));
-    }
-    f.commit();
-    files.push_back("windows.csv");
-  }
-  const Index nr = v.c1.samples();
-  Eigen::ArrayXd t(nr), s(nr), ce1(nr), ce2(nr), weight(nr);
-  for (Index k = 0; k < nr; ++k) {
-    t[k] = k * te;
-    s[k] = sp.path_length_mm[std::min(k, ns - 1)];
-    ce1[k] = v.ce_c1.signed_mm[k] * 1e3;
-    ce2[k] = v.ce_c2.signed_mm[k] * 1e3;
-    weight[k] = k < o.row_weight.size() ? o.row_weight[k] : 0.0;
-  }
-  {
-    core::AtomicFile f(dir / "comparison.csv");
-    std::string h = "t_s,path_mm";
-    for (const auto& n : r.axis_names) h += fmt::format(",{}_kv_c2_1000_per_min", n);
-    h += ",contour_error_c1_um,contour_error_c2_um,counted";
-    for (const auto& n : r.axis_names) h += fmt::format(",{0}_current_setpoint_c1_A,{0}_current_setpoint_c2_A", n);
-    f.stream() << h << '\n';
+// Per response row (setpoints, then the settling rows): time, path length, the contour error of C1 and C2 (um) and
+// whether the row counts in MSE(CE).
+struct Rows {
+  Eigen::ArrayXd t, s, ce1, ce2, weight;
+  Rows(const sim::OgaJobResult& o) {
+    const methods::OgaVerification& v = *o.verification;
+    const core::Setpoints& sp = o.interp.setpoints;
+    const Index nr = v.c1.samples(), ns = sp.samples();
+    t.resize(nr), s.resize(nr), ce1.resize(nr), ce2.resize(nr), weight.resize(nr);
     for (Index k = 0; k < nr; ++k) {
-      std::string l = fmt::format("{:.6f},{:.6f}", t[k], s[k]);
-      for (std::size_t q = 0; q < nq; ++q)
-        l += fmt::format(",{:.6f}", r.table.kv_1000_per_min(std::min(k, ns - 1), static_cast<Index>(q)));
-      l += fmt::format(",{:.6f},{:.6f},{}", ce1[k], ce2[k], weight[k] > 0 ? 1 : 0);
-      for (std::size_t q = 0; q < nq; ++q)
-        l += fmt::format(",{:.5f},{:.5f}", v.c1.current_setpoint_A(k, r.axes[q]), v.c2.current_setpoint_A(k, r.axes[q]));
-      f.stream() << l << '\n';
+      t[k] = k * sp.period_s;
+      s[k] = sp.path_length_mm[std::min(k, ns - 1)];
+      ce1[k] = v.ce_c1.signed_mm[k] * 1e3;
+      ce2[k] = v.ce_c2.signed_mm[k] * 1e3;
+      weight[k] = k < o.options.row_weight.size() ? o.options.row_weight[k] : 0.0;
     }
-    f.commit();
-    files.push_back("comparison.csv");
   }
-  const double change_pct = v.mse_c1_um2 > 0 ? (v.mse_c2_um2 - v.mse_c1_um2) / v.mse_c1_um2 * 100 : 0.0;
-  {  // Duong et al. Table II
-    core::AtomicFile f(dir / "mse_table.csv");
-    std::string h = "case";
-    for (const auto& n : r.axis_names) h += fmt::format(",{0}_kv_min_1000_per_min,{0}_kv_max_1000_per_min,{0}_kf", n);
-    f.stream() << h << ",mse_um2,max_contour_error_um,change_percent\n";
-    for (int c = 0; c < 2; ++c) {
-      const methods::GainTable& g = c == 0 ? r.c1_table : r.table;
-      std::string l = c == 0 ? "C1" : "C2";
-      for (std::size_t q = 0; q < nq; ++q)
-        l += fmt::format(",{:.6g},{:.6g},{:g}", g.kv_1000_per_min.col(static_cast<Index>(q)).minCoeff(),
-                         g.kv_1000_per_min.col(static_cast<Index>(q)).maxCoeff(), r.c1[q].kf);
-      l += c == 0 ? fmt::format(",{:.6g},{:.6g},0\n", v.mse_c1_um2, v.max_c1_mm * 1e3)
-                  : fmt::format(",{:.6g},{:.6g},{:.3f}\n", v.mse_c2_um2, v.max_c2_mm * 1e3, change_pct);
-      f.stream() << l;
-    }
-    f.commit();
-    files.push_back("mse_table.csv");
-  }
-  const double t_write = seconds_since(t_write0);
+};
 
-  // ---- charts ----
-  std::vector<std::string> images;
-  std::optional<std::string> render_error;
-  double t_render = 0;
-  if (!args.no_render) {
-    const auto t0 = Clock::now();
-    progress.stage(job.name + ": charts");
-    try {
-      render::Window window;
-      const fs::path idir = dir / "images";
-      fs::create_directories(idir, ec);
-      if (ec) throw core::Error(idir.string() + ": cannot create the directory: " + ec.message());
-      const std::string title =
-          fmt::format("{}: OGA (Duong et al.), MSE(CE) {:.3g} → {:.3g} µm² ({:+.1f} %)", job.name, v.mse_c1_um2,
-                      v.mse_c2_um2, change_pct);
-      auto save = [&](const std::string& name, render::ChartPicture pic) {
-        pic.width = image_size.first, pic.height = image_size.second;
-        render::write_png(idir / name, render::render_charts(window, pic).image);
-        images.push_back("images/" + name);
-      };
-      {
-        render::ChartPicture pic;
-        pic.caption = {title, fmt::format("position-loop gain along the path: C2 (receding windows, {} windows, eq. "
-                                          "3-4) and C1 (fixed); the curvature the windows are cut on",
-                                          r.windows.size())};
-        render::Chart c;
-        c.title = "Kv";
-        c.x_title = "s [mm]";
-        c.y_title = "Kv [(m/min)/mm]";
-        double lo = INFINITY, hi = -INFINITY;
-        for (std::size_t q = 0; q < nq; ++q) {
-          Eigen::ArrayXd k(nr);
-          for (Index i = 0; i < nr; ++i) k[i] = r.table.kv_1000_per_min(std::min(i, ns - 1), static_cast<Index>(q));
-          c.series.push_back(render::make_series(r.axis_names[q] + " C2", s, k, static_cast<int>(q), 2.0));
-          c.series.push_back(render::make_series(r.axis_names[q] + " C1", s, Eigen::ArrayXd::Constant(nr, r.c1[q].kp),
-                                    static_cast<int>(q), 1.0, true));
-          lo = std::min(lo, r.range[q].first), hi = std::max(hi, r.range[q].second);
-        }
-        c.levels.push_back({fmt::format("range [{:g}, {:g}]", lo, hi), hi, {0.5, 0.5, 0.5}});
-        c.levels.push_back({"", lo, {0.5, 0.5, 0.5}});
-        const double pad = 0.1 * (hi - lo) + 0.05;
-        c.y_range = std::pair{lo - pad, hi + pad};
-        pic.charts.push_back(c);
-        render::Chart k;
-        k.title = "curvature";
-        k.x_title = "s [mm]";
-        k.y_title = "curvature [1/mm]";
-        Eigen::MatrixXd xyz(ns, 3);
-        for (int cc = 0; cc < 3; ++cc) xyz.col(cc) = sp.position.col(machine.axis_index(cc));
-        const Eigen::ArrayXd kappa = methods::setpoint_curvature(xyz, r.plane_normal, o.windows.min_chord_mm);
-        k.series.push_back(render::make_series("curvature (+: convex)", s.head(ns), kappa, 3));
-        Eigen::ArrayXd wx(3 * r.windows.size()), wy(3 * r.windows.size());
-        const double kmax = std::max(1e-3, kappa.abs().maxCoeff());
-        for (std::size_t w = 0; w < r.windows.size(); ++w) {  // window starts as vertical ticks
-          const double x = sp.path_length_mm[r.windows[w].window.begin];
-          wx[3 * w] = wx[3 * w + 1] = x, wx[3 * w + 2] = kNaN;
-          wy[3 * w] = -kmax, wy[3 * w + 1] = kmax, wy[3 * w + 2] = kNaN;
-        }
-        k.series.push_back(render::make_series("window starts", wx, wy, 7, 0.8, true));
-        pic.charts.push_back(k);
-        save("gains.png", pic);
-      }
-      {
-        render::ChartPicture pic;
-        pic.caption = {title, "contour error along the path, C1 (fixed gains) and C2 (the schedule), simulated with "
-                              "the nonlinear model"};
-        render::Chart c;
-        c.title = "contour error";
-        c.x_title = "s [mm]";
-        c.y_title = "contour error [µm]";
-        c.series.push_back(render::make_series(fmt::format("C1 (MSE {:.3g} µm²)", v.mse_c1_um2), s, ce1, 1, 1.4));
-        c.series.push_back(render::make_series(fmt::format("C2 (MSE {:.3g} µm²)", v.mse_c2_um2), s, ce2, 0, 1.6));
-        pic.charts.push_back(c);
-        save("contour_error.png", pic);
-      }
-      {
-        render::ChartPicture pic;
-        pic.caption = {title, "histogram of the contour error on the feed moves, C1 and C2"};
-        double m = 0;
-        for (Index k = 0; k < nr; ++k)
-          if (weight[k] > 0) m = std::max({m, std::abs(ce1[k]), std::abs(ce2[k])});
-        m = m > 0 ? m * 1.02 : 1.0;
-        render::Chart c;
-        c.title = "contour error histogram";
-        c.x_title = "contour error [µm]";
-        c.y_title = "samples";
-        c.series.push_back(histogram("C1", ce1, weight, -m, m, 60, 1));
-        c.series.push_back(histogram("C2", ce2, weight, -m, m, 60, 0));
-        pic.charts.push_back(c);
-        save("contour_error_histogram.png", pic);
-      }
-      {
-        render::ChartPicture pic;
-        pic.caption = {title, "current reference (velocity-loop output) of each adjusted axis, C1 and C2 (Duong et al. "
-                              "Fig. 12)"};
-        for (std::size_t q = 0; q < nq; ++q) {
-          render::Chart c;
-          const methods::AxisVerification& av = v.axes[q];
-          c.title = fmt::format("{} current, max |C2 − C1| {:.3g} A ({:.1f} % of C1's peak)", r.axis_names[q],
-                                av.current_setpoint_max_diff_A, av.current_setpoint_max_rel_diff * 100);
-          c.x_title = "t [s]";
-          c.y_title = "current [A]";
-          c.series.push_back(render::make_series("C1", t, v.c1.current_setpoint_A.col(r.axes[q]).array(), 1, 1.4));
-          c.series.push_back(render::make_series("C2", t, v.c2.current_setpoint_A.col(r.axes[q]).array(), 0, 1.2));
-          pic.charts.push_back(c);
-        }
-        save("currents.png", pic);
-      }
-    } catch (const core::Error& e) {
-      render_error = e.what();
-    }
-    progress.done();
-    t_render = seconds_since(t0);
+// The admissible sets (Duong et al. Fig. 7) and the windows of the schedule.
+void write_search_tables(const fs::path& dir, const methods::OgaResult& r, double te) {
+  core::AtomicFile a(dir / "admissible.csv");
+  a.stream() << "axis,kp_1000_per_min,kf,admissible,velocity_m_per_min,acceleration_m_per_s2,jerk_m_per_s3,"
+                "current_peak_A,violation\n";
+  for (std::size_t q = 0; q < r.axes.size(); ++q)
+    for (const methods::ConfigCheck& c : r.sweep[q])
+      a.stream() << fmt::format("{},{:g},{:g},{},{:.6g},{:.6g},{:.6g},{:.6g},{}\n", r.axis_names[q], c.gains.kp,
+                                c.gains.kf, c.admissible ? 1 : 0, c.twin.velocity.value * 60e-3,
+                                c.twin.acceleration.value * 1e-3, c.twin.jerk.value * 1e-3, c.twin.current.value,
+                                csv_text(c.violation));
+  a.commit();
+  core::AtomicFile f(dir / "windows.csv");
+  std::string h = "window,first_row,end_row,t_start_s,kind";
+  for (const auto& n : r.axis_names) h += fmt::format(",{0}_final_kv_1000_per_min,{0}_candidates,{0}_within_limits", n);
+  f.stream() << h << ",mse_um2,hold_mse_um2,note\n";
+  for (std::size_t w = 0; w < r.windows.size(); ++w) {
+    const methods::OgaWindowResult& x = r.windows[w];
+    std::string l = fmt::format("{},{},{},{:.6f},{}", w, x.window.begin, x.window.end, x.window.begin * te,
+                                methods::window_kind_name(x.window.kind));
+    for (std::size_t q = 0; q < r.axes.size(); ++q)
+      l += fmt::format(",{:.17g},{},{}", x.final_kp[q], x.candidates[q], x.within_limits[q]);
+    f.stream() << l << fmt::format(",{:.6g},{:.6g},{}\n", x.mse_um2, x.hold_mse_um2, csv_text(x.note));
   }
+  f.commit();
+}
 
-  // ---- report.json ----
-  nlohmann::json report = report_header("oga", job);
-  report["interpolation"] = {{"period_s", te}, {"tolerance_mm", iopt.tolerance_mm}, {"setpoints", ns},
-                             {"cycle_time_s", ir.stats.cycle_time_s}};
-  report["options"] = {{"kp_grid_1000_per_min", r.kp_grid},
-                       {"kf_grid", r.kf_grid},
-                       {"gain_step_1000_per_min", o.gain_step},
-                       {"frequency_hz", o.frequency_hz},
-                       {"sinusoid_samples", r.sinusoid_samples},
-                       {"reference", args.reference},
-                       {"straight_curvature_per_mm", o.windows.straight_curvature_per_mm},
-                       {"transition_rate_per_mm2", o.windows.transition_rate_per_mm2},
-                       {"min_window_rows", o.windows.min_rows},
-                       {"lead_in_rows", o.lead_in_rows},
-                       {"settle_s", o.settle_s},
-                       {"from_start", o.from_start},
-                       {"threads", omp_get_max_threads()}};
-  nlohmann::json adm = nlohmann::json::object();
-  for (std::size_t q = 0; q < nq; ++q) {
-    int n = 0;
-    for (const auto& c : r.sweep[q]) n += c.admissible;
-    adm[r.axis_names[q]] = {{"admissible", n}, {"configurations", r.sweep[q].size()}};
-  }
-  report["admissible"] = adm;
-  nlohmann::json best = nullptr;
-  if (!r.best.empty()) {
-    best = {{"mse_um2", r.best_mse_um2}, {"pairs_evaluated", r.pairs_evaluated}};
+void write_schedules(const fs::path& dir, const core::Job& job, const sim::OgaJobResult& o,
+                     const std::string& reference) {
+  const methods::OgaResult& r = o.result;
+  const core::Setpoints& sp = o.interp.setpoints;
+  std::vector<std::string> comments = {
+      fmt::format("C2 of vmsim oga: receding windows, dK {:g}, f {:g} Hz (p = {}), C1 = {}", o.options.gain_step,
+                  o.options.frequency_hz, r.sinusoid_samples, reference)};
+  for (std::size_t q = 0; q < r.axes.size(); ++q)
+    comments.push_back(fmt::format("{}: range [{:g}, {:g}] (m/min)/mm, KF {:g} (C1's)", r.axis_names[q],
+                                   r.range[q].first, r.range[q].second, r.c1[q].kf));
+  methods::write_gain_schedule(dir / "gain_schedule.csv", r.table, sp, job.machine, job.name, comments);
+  methods::write_gain_schedule(dir / "gain_schedule_c1.csv", r.c1_table, sp, job.machine, job.name,
+                               {"C1 of vmsim oga: the fixed gains, as a schedule"});
+}
+
+// C1 against C2 row by row, and Duong et al. Table II.
+void write_comparison(const fs::path& dir, const sim::OgaJobResult& o, const Rows& rows) {
+  const methods::OgaResult& r = o.result;
+  const methods::OgaVerification& v = *o.verification;
+  const std::size_t nq = r.axes.size();
+  const Index ns = o.interp.setpoints.samples();
+  core::AtomicFile f(dir / "comparison.csv");
+  std::string h = "t_s,path_mm";
+  for (const auto& n : r.axis_names) h += fmt::format(",{}_kv_c2_1000_per_min", n);
+  h += ",contour_error_c1_um,contour_error_c2_um,counted";
+  for (const auto& n : r.axis_names) h += fmt::format(",{0}_current_setpoint_c1_A,{0}_current_setpoint_c2_A", n);
+  f.stream() << h << '\n';
+  for (Index k = 0; k < rows.t.size(); ++k) {
+    std::string l = fmt::format("{:.6f},{:.6f}", rows.t[k], rows.s[k]);
     for (std::size_t q = 0; q < nq; ++q)
-      best[r.axis_names[q]] = {{"kv_1000_per_min", r.best[q].kp}, {"kf", r.best[q].kf}};
+      l += fmt::format(",{:.6f}", r.table.kv_1000_per_min(std::min(k, ns - 1), static_cast<Index>(q)));
+    l += fmt::format(",{:.6f},{:.6f},{}", rows.ce1[k], rows.ce2[k], rows.weight[k] > 0 ? 1 : 0);
+    for (std::size_t q = 0; q < nq; ++q)
+      l += fmt::format(",{:.5f},{:.5f}", v.c1.current_setpoint_A(k, r.axes[q]), v.c2.current_setpoint_A(k, r.axes[q]));
+    f.stream() << l << '\n';
   }
-  report["best_fixed_pair"] = best;
-  nlohmann::json c1 = {{"source", args.reference == "best" ? "best fixed pair" : "machine file"}};
-  nlohmann::json c2 = nlohmann::json::object();
-  nlohmann::json verification = nlohmann::json::object();
-  for (std::size_t q = 0; q < nq; ++q) {
-    const std::string& n = r.axis_names[q];
-    const auto col = r.table.kv_1000_per_min.col(static_cast<Index>(q));
-    c1[n] = {{"kv_1000_per_min", r.c1[q].kp}, {"kf", r.c1[q].kf}};
-    c2[n] = {{"kv_min_1000_per_min", col.minCoeff()}, {"kv_max_1000_per_min", col.maxCoeff()},
-             {"range_1000_per_min", {r.range[q].first, r.range[q].second}}, {"kf", r.c1[q].kf}};
-    const methods::AxisVerification& av = v.axes[q];
-    const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(r.axes[q])];
-    verification[n] = {
-        {"limits", {{"velocity_m_per_min", ax.max_velocity * 60e-3}, {"acceleration_m_per_s2", ax.max_acceleration * 1e-3},
-                    {"jerk_m_per_s3", ax.max_jerk * 1e-3}, {"current_A", ax.drive->current_limit_A}}},
-        {"checked_c1", peaks_json(av.twin_c1, te)},
-        {"checked_c2", peaks_json(av.twin_c2, te)},
-        {"model_with_friction_c1", peaks_json(av.model_c1, te)},
-        {"model_with_friction_c2", peaks_json(av.model_c2, te)},
-        {"violation_c1", av.violation_c1},
-        {"violation_c2", av.violation_c2},
-        {"current_setpoint_peak_c1_A", av.current_setpoint_peak_c1_A},
-        {"current_setpoint_peak_c2_A", av.current_setpoint_peak_c2_A},
-        {"current_setpoint_max_diff_A", av.current_setpoint_max_diff_A},
-        {"current_setpoint_max_diff_t_s", av.current_setpoint_max_diff_row * te},
-        {"current_setpoint_max_rel_diff", av.current_setpoint_max_rel_diff},
-    };
+  f.commit();
+  core::AtomicFile m(dir / "mse_table.csv");
+  h = "case";
+  for (const auto& n : r.axis_names) h += fmt::format(",{0}_kv_min_1000_per_min,{0}_kv_max_1000_per_min,{0}_kf", n);
+  m.stream() << h << ",mse_um2,max_contour_error_um,change_percent\n";
+  for (int c = 0; c < 2; ++c) {
+    const methods::GainTable& g = c == 0 ? r.c1_table : r.table;
+    std::string l = c == 0 ? "C1" : "C2";
+    for (std::size_t q = 0; q < nq; ++q)
+      l += fmt::format(",{:.6g},{:.6g},{:g}", g.kv_1000_per_min.col(static_cast<Index>(q)).minCoeff(),
+                       g.kv_1000_per_min.col(static_cast<Index>(q)).maxCoeff(), r.c1[q].kf);
+    l += c == 0 ? fmt::format(",{:.6g},{:.6g},0\n", v.mse_c1_um2, v.max_c1_mm * 1e3)
+                : fmt::format(",{:.6g},{:.6g},{:.3f}\n", v.mse_c2_um2, v.max_c2_mm * 1e3, o.change_percent);
+    m.stream() << l;
   }
-  report["c1"] = c1;
-  report["c2"] = c2;
-  report["mse_table"] = {{"c1_mse_um2", v.mse_c1_um2},
-                         {"c2_mse_um2", v.mse_c2_um2},
-                         {"change_percent", change_pct},
-                         {"c1_max_contour_error_um", v.max_c1_mm * 1e3},
-                         {"c2_max_contour_error_um", v.max_c2_mm * 1e3},
-                         {"c2_mse_um2_search", r.c2_mse_um2},
-                         {"rows_counted", static_cast<Index>(o.row_weight.sum())}};
-  nlohmann::json wins = nlohmann::json::array();
-  int notes = 0;
-  for (const auto& w : r.windows) {
-    nlohmann::json j = {{"first_row", w.window.begin}, {"end_row", w.window.end},
-                        {"kind", methods::window_kind_name(w.window.kind)}, {"mse_um2", w.mse_um2},
-                        {"hold_mse_um2", w.hold_mse_um2}};
-    for (std::size_t q = 0; q < nq; ++q) j[r.axis_names[q] + "_final_kv_1000_per_min"] = w.final_kp[q];
-    if (!w.note.empty()) j["note"] = w.note, ++notes;
-    wins.push_back(j);
-  }
-  report["windows"] = wins;
-  report["verification"] = verification;
-  report["limits_held"] = v.limits_held;
-  report["advice"] = v.advice;
-  report["files"] = files;
-  report["images"] = images;
-  if (render_error) report["render_error"] = *render_error;
-  nlohmann::json timings = nlohmann::json::object();
-  for (const auto& [k, x] : r.timings_s) timings["search_" + k] = x;
-  timings["verification"] = t_verify;
-  timings["write"] = t_write;
-  if (!args.no_render) timings["render"] = t_render;
-  timings["total"] = seconds_since(t_start);
-  report["timings_s"] = timings;
-  report["mpi_ranks"] = mpi_active() ? mpi_size() : 1;  // the pair search's processes (the result does not depend on it)
-  write_report(dir / "report.json", report);
+  m.commit();
+}
 
-  // ---- summary ----
-  std::printf("job %s: %lld setpoints (%.3f s), axes %s and %s\n", job.name.c_str(), static_cast<long long>(ns),
-              ir.stats.cycle_time_s, r.axis_names[0].c_str(), r.axis_names[1].c_str());
+// A histogram as a step line: counts per bin of width `bin` over [lo, hi].
+render::Series histogram(const std::string& name, const Eigen::ArrayXd& v, const Eigen::ArrayXd& weight, double lo,
+                         double hi, int bins, int colour) {
+  Eigen::ArrayXd count = Eigen::ArrayXd::Zero(bins);
+  for (Index k = 0; k < v.size(); ++k) {
+    if (!(weight[k] > 0) || !std::isfinite(v[k])) continue;
+    const int b = std::clamp(static_cast<int>(std::floor((v[k] - lo) / (hi - lo) * bins)), 0, bins - 1);
+    count[b] += 1;
+  }
+  Eigen::ArrayXd x(2 * bins + 2), y(2 * bins + 2);
+  const double w = (hi - lo) / bins;
+  x[0] = lo, y[0] = 0;
+  for (int b = 0; b < bins; ++b) {
+    x[2 * b + 1] = lo + b * w, y[2 * b + 1] = count[b];
+    x[2 * b + 2] = lo + (b + 1) * w, y[2 * b + 2] = count[b];
+  }
+  x[2 * bins + 1] = hi, y[2 * bins + 1] = 0;
+  return render::make_series(name, x, y, colour, 1.6);
+}
+
+// The gains along the path (C2 and C1) over the curvature the windows are cut on (Duong et al. Fig. 8-9).
+render::ChartPicture gains_picture(const core::Machine& machine, const sim::OgaJobResult& o, const Rows& rows) {
+  const methods::OgaResult& r = o.result;
+  const core::Setpoints& sp = o.interp.setpoints;
+  const Index nr = rows.t.size(), ns = sp.samples();
+  render::ChartPicture pic;
+  pic.caption = {"", fmt::format("position-loop gain along the path: C2 (receding windows, {} windows, eq. 3-4) and C1 "
+                                 "(fixed); the curvature the windows are cut on",
+                                 r.windows.size())};
+  render::Chart c;
+  c.title = "Kv";
+  c.x_title = "s [mm]";
+  c.y_title = "Kv [(m/min)/mm]";
+  double lo = INFINITY, hi = -INFINITY;
+  for (std::size_t q = 0; q < r.axes.size(); ++q) {
+    Eigen::ArrayXd k(nr);
+    for (Index i = 0; i < nr; ++i) k[i] = r.table.kv_1000_per_min(std::min(i, ns - 1), static_cast<Index>(q));
+    c.series.push_back(render::make_series(r.axis_names[q] + " C2", rows.s, k, static_cast<int>(q), 2.0));
+    c.series.push_back(render::make_series(r.axis_names[q] + " C1", rows.s, Eigen::ArrayXd::Constant(nr, r.c1[q].kp),
+                                           static_cast<int>(q), 1.0, true));
+    lo = std::min(lo, r.range[q].first), hi = std::max(hi, r.range[q].second);
+  }
+  c.levels.push_back({fmt::format("range [{:g}, {:g}]", lo, hi), hi, {0.5, 0.5, 0.5}});
+  c.levels.push_back({"", lo, {0.5, 0.5, 0.5}});
+  const double pad = 0.1 * (hi - lo) + 0.05;
+  c.y_range = std::pair{lo - pad, hi + pad};
+  pic.charts.push_back(c);
+  render::Chart k;
+  k.title = "curvature";
+  k.x_title = "s [mm]";
+  k.y_title = "curvature [1/mm]";
+  Eigen::MatrixXd xyz(ns, 3);
+  for (int cc = 0; cc < 3; ++cc) xyz.col(cc) = sp.position.col(machine.axis_index(cc));
+  const Eigen::ArrayXd kappa = methods::setpoint_curvature(xyz, r.plane_normal, o.options.windows.min_chord_mm);
+  k.series.push_back(render::make_series("curvature (+: convex)", rows.s.head(ns), kappa, 3));
+  Eigen::ArrayXd wx(3 * r.windows.size()), wy(3 * r.windows.size());
+  const double kmax = std::max(1e-3, kappa.abs().maxCoeff());
+  for (std::size_t w = 0; w < r.windows.size(); ++w) {  // window starts as vertical ticks
+    const double x = sp.path_length_mm[r.windows[w].window.begin];
+    wx[3 * w] = wx[3 * w + 1] = x, wx[3 * w + 2] = kNaN;
+    wy[3 * w] = -kmax, wy[3 * w + 1] = kmax, wy[3 * w + 2] = kNaN;
+  }
+  k.series.push_back(render::make_series("window starts", wx, wy, 7, 0.8, true));
+  pic.charts.push_back(k);
+  return pic;
+}
+
+render::ChartPicture contour_picture(const methods::OgaVerification& v, const Rows& rows) {
+  render::ChartPicture pic;
+  pic.caption = {"", "contour error along the path, C1 (fixed gains) and C2 (the schedule), simulated with the "
+                     "nonlinear model"};
+  render::Chart c;
+  c.title = "contour error";
+  c.x_title = "s [mm]";
+  c.y_title = "contour error [µm]";
+  c.series.push_back(render::make_series(fmt::format("C1 (MSE {:.3g} µm²)", v.mse_c1_um2), rows.s, rows.ce1, 1, 1.4));
+  c.series.push_back(render::make_series(fmt::format("C2 (MSE {:.3g} µm²)", v.mse_c2_um2), rows.s, rows.ce2, 0, 1.6));
+  pic.charts.push_back(c);
+  return pic;
+}
+
+render::ChartPicture histogram_picture(const Rows& rows) {
+  render::ChartPicture pic;
+  pic.caption = {"", "histogram of the contour error on the feed moves, C1 and C2"};
+  double m = 0;
+  for (Index k = 0; k < rows.t.size(); ++k)
+    if (rows.weight[k] > 0) m = std::max({m, std::abs(rows.ce1[k]), std::abs(rows.ce2[k])});
+  m = m > 0 ? m * 1.02 : 1.0;
+  render::Chart c;
+  c.title = "contour error histogram";
+  c.x_title = "contour error [µm]";
+  c.y_title = "samples";
+  c.series.push_back(histogram("C1", rows.ce1, rows.weight, -m, m, 60, 1));
+  c.series.push_back(histogram("C2", rows.ce2, rows.weight, -m, m, 60, 0));
+  pic.charts.push_back(c);
+  return pic;
+}
+
+render::ChartPicture currents_picture(const sim::OgaJobResult& o, const Rows& rows) {
+  const methods::OgaResult& r = o.result;
+  const methods::OgaVerification& v = *o.verification;
+  render::ChartPicture pic;
+  pic.caption = {"", "current reference (velocity-loop output) of each adjusted axis, C1 and C2 (Duong et al. Fig. 12)"};
+  for (std::size_t q = 0; q < r.axes.size(); ++q) {
+    render::Chart c;
+    const methods::AxisVerification& av = v.axes[q];
+    c.title = fmt::format("{} current, max |C2 − C1| {:.3g} A ({:.1f} % of C1's peak)", r.axis_names[q],
+                          av.current_setpoint_max_diff_A, av.current_setpoint_max_rel_diff * 100);
+    c.x_title = "t [s]";
+    c.y_title = "current [A]";
+    c.series.push_back(render::make_series("C1", rows.t, v.c1.current_setpoint_A.col(r.axes[q]).array(), 1, 1.4));
+    c.series.push_back(render::make_series("C2", rows.t, v.c2.current_setpoint_A.col(r.axes[q]).array(), 0, 1.2));
+    pic.charts.push_back(c);
+  }
+  return pic;
+}
+
+// Adds the pictures drawn to `images` (those drawn before a failure stay listed).
+void draw_charts(const fs::path& dir, const core::Job& job, const sim::OgaJobResult& o, const Rows& rows,
+                 std::pair<int, int> size, std::vector<std::string>& images) {
+  const methods::OgaVerification& v = *o.verification;
+  render::Window window;
+  const fs::path idir = dir / "images";
+  std::error_code ec;
+  fs::create_directories(idir, ec);
+  if (ec) throw core::Error(idir.string() + ": cannot create the directory: " + ec.message());
+  const std::string title = fmt::format("{}: OGA (Duong et al.), MSE(CE) {:.3g} → {:.3g} µm² ({:+.1f} %)", job.name,
+                                        v.mse_c1_um2, v.mse_c2_um2, o.change_percent);
+  auto save = [&](const std::string& name, render::ChartPicture pic) {
+    pic.caption[0] = title;
+    pic.width = size.first, pic.height = size.second;
+    render::write_png(idir / name, render::render_charts(window, pic).image);
+    images.push_back("images/" + name);
+  };
+  save("gains.png", gains_picture(job.machine, o, rows));
+  save("contour_error.png", contour_picture(v, rows));
+  save("contour_error_histogram.png", histogram_picture(rows));
+  save("currents.png", currents_picture(o, rows));
+}
+
+void print_summary(const core::Job& job, const sim::OgaJobResult& o, const fs::path& dir, bool images,
+                   double total_s) {
+  const methods::OgaResult& r = o.result;
+  const methods::OgaVerification& v = *o.verification;
+  const std::size_t nq = r.axes.size();
+  std::printf("job %s: %lld setpoints (%.3f s), axes %s and %s\n", job.name.c_str(),
+              static_cast<long long>(o.interp.setpoints.samples()), o.interp.stats.cycle_time_s,
+              r.axis_names[0].c_str(), r.axis_names[1].c_str());
   for (std::size_t q = 0; q < nq; ++q)
     std::printf("admissible %s: %d of %zu configurations\n", r.axis_names[q].c_str(),
-                adm[r.axis_names[q]]["admissible"].get<int>(), r.sweep[q].size());
+                o.report["admissible"][r.axis_names[q]]["admissible"].get<int>(), r.sweep[q].size());
   if (!r.best.empty())
     std::printf("best fixed pair: %s Kv %g KF %g, %s Kv %g KF %g (MSE(CE) %.4g um^2, %lld pairs)\n",
                 r.axis_names[0].c_str(), r.best[0].kp, r.best[0].kf, r.axis_names[1].c_str(), r.best[1].kp,
@@ -556,19 +409,75 @@ int run_oga(const OgaArgs& args) {
   std::printf("\n");
   std::printf("case  MSE(CE) um^2  max |CE| um\n");
   std::printf("C1    %10.4f  %10.3f\n", v.mse_c1_um2, v.max_c1_mm * 1e3);
-  std::printf("C2    %10.4f  %10.3f   (%+.1f %%)\n", v.mse_c2_um2, v.max_c2_mm * 1e3, change_pct);
+  std::printf("C2    %10.4f  %10.3f   (%+.1f %%)\n", v.mse_c2_um2, v.max_c2_mm * 1e3, o.change_percent);
   for (std::size_t q = 0; q < nq; ++q)
     std::printf("%s current reference: max |C2 - C1| %.3g A = %.1f %% of C1's peak %.3g A\n", r.axis_names[q].c_str(),
                 v.axes[q].current_setpoint_max_diff_A, v.axes[q].current_setpoint_max_rel_diff * 100,
                 v.axes[q].current_setpoint_peak_c1_A);
   std::printf("limits held (velocity, acceleration, jerk, current): %s\n", v.limits_held ? "yes" : "NO");
   for (const std::string& a : v.advice) std::printf("  %s\n", a.c_str());
-  if (notes > 0) std::printf("%d window(s) with every candidate of an axis breaking a limit: see windows.csv\n", notes);
+  if (o.windows_with_note > 0)
+    std::printf("%d window(s) with every candidate of an axis breaking a limit: see windows.csv\n", o.windows_with_note);
   std::printf("wrote %s (gain_schedule.csv: [job] gain_schedule for vmsim run / motion)%s in %.1f s\n",
-              dir.string().c_str(), images.empty() ? "" : ", images/", seconds_since(t_start));
+              dir.string().c_str(), images ? ", images/" : "", total_s);
+}
+
+}  // namespace
+
+int run_oga(const OgaArgs& args) {
+  const auto t_start = Clock::now();
+  const sim::OgaJobOptions options = oga_options(args);
+  if (args.threads) omp_set_num_threads(*args.threads);
+  const std::pair<int, int> image_size = parse_image_size(args.image_size);
+  const core::Job job = core::load_job(args.job);
+  TerminalProgress progress(mpi_rank() == 0);
+  const sim::OgaJobResult o = sim::oga_job(job, options, progress);
+  if (!o.verification) return 0;  // another rank than 0 under mpirun: rank 0 writes
+
+  const auto t_write0 = Clock::now();
+  const fs::path dir = args.out_dir.value_or(fs::current_path());
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  write_search_tables(dir, o.result, o.interp.setpoints.period_s);
+  write_schedules(dir, job, o, args.reference);
+  const Rows rows(o);
+  write_comparison(dir, o, rows);
+  const std::vector<std::string> files = {"admissible.csv",       "gain_schedule.csv", "gain_schedule_c1.csv",
+                                          "windows.csv",          "comparison.csv",    "mse_table.csv"};
+  const double t_write = seconds_since(t_write0);
+
+  // Charts after every result file: a failure to draw loses no result.
+  std::vector<std::string> images;
+  std::optional<std::string> render_error;
+  double t_render = 0;
+  if (!args.no_render) {
+    const auto t0 = Clock::now();
+    progress.stage(job.name + ": charts");
+    try {
+      draw_charts(dir, job, o, rows, image_size, images);
+    } catch (const core::Error& e) {
+      render_error = e.what();
+    }
+    progress.done();
+    t_render = seconds_since(t0);
+  }
+
+  nlohmann::json report = report_header("oga", job);
+  report.update(o.report);
+  report["files"] = files;
+  report["images"] = images;
+  if (render_error) report["render_error"] = *render_error;
+  report["timings_s"] = o.timings;
+  report["timings_s"]["write"] = t_write;
+  if (!args.no_render) report["timings_s"]["render"] = t_render;
+  report["timings_s"]["total"] = seconds_since(t_start);
+  report["mpi_ranks"] = mpi_active() ? mpi_size() : 1;  // the pair search's processes (the result does not depend on it)
+  write_report(dir / "report.json", report);
+  print_summary(job, o, dir, !images.empty(), seconds_since(t_start));
   if (render_error)
-    throw core::Error("the results are written to " + dir.string() + ", but the charts could not be drawn "
-                      "(--no-render skips them): " + *render_error);
+    throw core::Error("the results are written to " + dir.string() +
+                      ", but the charts could not be drawn (--no-render skips them): " + *render_error);
   return 0;
 }
 

@@ -200,6 +200,7 @@ Job load_job(const std::filesystem::path& path) {
     if (auto p = jt.opt_existing_path("program")) job.program_file = *p;
     job.tool_table_file = jt.opt_existing_path("tool_table");
     job.gain_schedule_file = jt.opt_existing_path("gain_schedule");
+    job.feed_plan_file = jt.opt_existing_path("feed_plan");
     if (auto st = jt.opt_numbers("start_mm", 3)) job.start_mm = Eigen::Vector3d((*st)[0], (*st)[1], (*st)[2]);
     if (auto codes = jt.opt_numbers("no_motion_mcodes")) {
       for (double c : *codes) {

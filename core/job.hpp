@@ -108,6 +108,9 @@ struct Job {
   // A gain schedule (vmsim oga, Duong et al.): per-setpoint position-loop gains the drives run with (CSV,
   // drives/oga_schedule.hpp); vmsim run and vmsim motion apply it to the job's own motion.
   std::optional<std::filesystem::path> gain_schedule_file;
+  // A feed plan (vmsim plan-feed, Chen et al.): a feed ceiling along the path the interpolator follows (CSV,
+  // methods/feedplan_file.hpp); every command that interpolates the job follows it (sim::Chain).
+  std::optional<std::filesystem::path> feed_plan_file;
   // Identified axis models (TOML written by `vmsim identify`): these axes run as their identified transfer functions
   // instead of the machine file's [axes.drive] cascades (parts/README.md).
   std::optional<std::filesystem::path> axis_models_file;

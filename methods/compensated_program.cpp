@@ -337,4 +337,38 @@ CompensatedProgram write_compensated_tcp_gcode(const CompensatedProgramInput& in
   return out;
 }
 
+std::string write_dense_program(const Eigen::MatrixXd& setpoints, const Eigen::VectorXd& tlo_mm,
+                                const core::Machine& machine, const motion::Kinematics& kin, double te, bool five,
+                                const std::string& title) {
+  const Index ns = setpoints.rows(), na = static_cast<Index>(machine.axes.size());
+  if (ns < 1 || setpoints.cols() != na || tlo_mm.size() != ns)
+    throw core::Error(fmt::format("dense program: {} x {} setpoints, {} tool length offsets, {} machine axes", ns,
+                                  setpoints.cols(), tlo_mm.size(), na));
+  std::string s;
+  s += fmt::format("(vmsim compensate: {} - the predictive-compensation paper predictive contour-error compensation, "
+                   "dense form)\n",
+                   title);
+  s += "(one block per interpolation period Te; X Y Z: tool tip in the workpiece frame, as the original program)\n";
+  if (five) s += "(five-axis: tool-centre-point form, X Y Z the tip and A B C the rotary axes; vmsim: [job] tcp = true)\n";
+  s += "G21 G90 G17\n";
+  Eigen::VectorXd q(na);
+  std::vector<int> rotary;
+  for (Index a = 0; a < na; ++a)
+    if (machine.axes[static_cast<std::size_t>(a)].kind == core::AxisKind::Rotary) rotary.push_back(static_cast<int>(a));
+  auto words = [&](Index k) {
+    q = setpoints.row(k).transpose();
+    const motion::ToolPose pose = kin.forward(q, tlo_mm[k]);
+    std::string w = fmt::format("X{:.6f} Y{:.6f} Z{:.6f}", pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z());
+    for (int a : rotary)
+      if (five || (setpoints.col(a).array() != setpoints(0, a)).any())
+        w += fmt::format(" {}{:.6f}", machine.axes[static_cast<std::size_t>(a)].name, q[a] * core::units::kRadToDeg);
+    return w;
+  };
+  s += "G0 " + words(0) + "\nG93\n";
+  const double f = 60.0 / te;
+  for (Index k = 1; k < ns; ++k) s += fmt::format("G1 {} F{:.1f}\n", words(k), f);
+  s += "G94\nM2\n";
+  return s;
+}
+
 }  // namespace vmsim::methods

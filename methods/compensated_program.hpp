@@ -47,4 +47,12 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in);
 // M428): the original's moves, feeds and corrected points. Five-axis chains only.
 CompensatedProgram write_compensated_tcp_gcode(const CompensatedProgramInput& in);
 
+// The compensated setpoints themselves as a program (vmsim compensate --dense-program): the tool tip (and the rotary
+// words) of every setpoint, one block per Te in inverse-time feed (G93: F = 1 / block duration in minutes), for an
+// NC that replays blocks as timed. Rotary words: every rotary axis on five-axis work (`five_axis`), else those that
+// move. `tlo_mm`: each setpoint's tool length offset.
+std::string write_dense_program(const Eigen::MatrixXd& setpoints, const Eigen::VectorXd& tlo_mm,
+                                const core::Machine& machine, const motion::Kinematics& kinematics, double period_s,
+                                bool five_axis, const std::string& title);
+
 }  // namespace vmsim::methods

@@ -17,9 +17,11 @@ PlayedPlan play_plan(const PlanPlayer& player, const PathSamples& samples, const
   motion::InterpOptions io = player.interp;
   io.feed_ceiling = plan ? feed_ceiling(*plan, player.to_path_s) : motion::FeedCeiling{};
   PlayedPlan out;
-  out.interp = motion::interpolate(*player.program, machine, io);
+  out.interp = player.interpolate ? player.interpolate(io.feed_ceiling) : motion::interpolate(*player.program, machine, io);
   const core::Setpoints& sp = out.interp.setpoints;
-  if (player.servo.empty()) {
+  if (player.simulate) {
+    out.actual = player.simulate(sp);
+  } else if (player.servo.empty()) {
     drives::SimulateOptions so;
     so.settle_s = player.settle_s;
     out.actual = drives::simulate_axes(sp, machine, so).position;

@@ -28,6 +28,11 @@ struct PlanPlayer {
   // One transfer function per machine axis (Chen et al.'s servo); empty: the machine's [axes.drive] cascades.
   std::vector<TransferFunction> servo;
   double settle_s = 0.3;                     // simulated after the last setpoint
+  // The chain to play on, when given (vmsim plan-feed plays on the job's sim::Chain): the interpolator under a
+  // ceiling, and the axes' positions for the setpoints (setpoint rows, then the settling rows). Empty: the members
+  // above (motion::interpolate with `interp`; `servo` or the machine's cascades for settle_s).
+  std::function<motion::InterpResult(const motion::FeedCeiling&)> interpolate;
+  std::function<Eigen::MatrixXd(const core::Setpoints&)> simulate;
 };
 
 struct PlayedPlan {

@@ -842,4 +842,25 @@ OgaVerification verify_oga(const core::Setpoints& sp, const core::Machine& m, co
   return v;
 }
 
+Eigen::ArrayXd feed_move_row_weights(const core::Setpoints& sp, const core::ToolPath& program, double settle_s) {
+  const Eigen::Index ns = sp.samples();
+  if (ns == 0) throw core::Error("OGA: no setpoints");
+  const Eigen::Index rows = ns + static_cast<Eigen::Index>(std::llround(settle_s / sp.period_s));
+  Eigen::ArrayXd w = Eigen::ArrayXd::Zero(rows);
+  for (Eigen::Index k = 0; k < rows; ++k) {
+    const int mi = sp.move_index[std::min(k, ns - 1)];
+    w[k] = mi >= 0 && !program.moves[static_cast<std::size_t>(mi)].rapid ? 1.0 : 0.0;
+  }
+  return w;
+}
+
+void set_range_of_moving_axes(const core::Setpoints& sp, const core::Machine& machine,
+                              const std::pair<double, double>& all,
+                              std::map<std::string, std::pair<double, double>>& range) {
+  for (const char* n : {"X", "Y", "Z"}) {
+    const int a = machine.axis_index(n[0] - 'X');
+    if (a >= 0 && (sp.position.col(a).array() != sp.position(0, a)).any() && !range.count(n)) range[n] = all;
+  }
+}
+
 }  // namespace vmsim::methods

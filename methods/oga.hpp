@@ -52,6 +52,7 @@
 #include "motion/contour.hpp"
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
+#include "core/toolpath.hpp"
 #include "methods/oga_schedule.hpp"
 #include "drives/simulate.hpp"
 
@@ -220,6 +221,19 @@ struct OgaResult {
 // (every machine axis).
 OgaResult offline_gain_adjustment(const core::Setpoints& setpoints, const core::Machine& machine,
                                   const OgaOptions& options = {});
+
+// ---- set-up from a job's motion -----------------------------------------------------------------------------------
+
+// OgaOptions::row_weight for a program's setpoints: 1 on the rows of feed moves (the contour, as vmsim motion's
+// "cutting moves"), 0 on rapids and before the first move; the settle_s rows after the last setpoint take the last
+// move's. Rows: setpoints + round(settle_s / Te).
+Eigen::ArrayXd feed_move_row_weights(const core::Setpoints& setpoints, const core::ToolPath& program, double settle_s);
+
+// A Kp range given for every adjusted axis (vmsim oga --range MIN:MAX) set on each of X Y Z whose setpoints move,
+// unless `range` names that axis already (an AXIS=MIN:MAX range wins).
+void set_range_of_moving_axes(const core::Setpoints& setpoints, const core::Machine& machine,
+                              const std::pair<double, double>& all,
+                              std::map<std::string, std::pair<double, double>>& range);
 
 // ---- verification (Duong et al. Fig. 4, section IV) ------------------------------------------------------------------
 

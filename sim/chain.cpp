@@ -1,8 +1,13 @@
 #include "sim/chain.hpp"
 
 #include "core/error.hpp"
+#include "methods/feedplan_file.hpp"
+#include "methods/feedplan_job.hpp"
+#include "methods/feedplan_servo.hpp"
 #include "methods/oga_schedule.hpp"
 #include "motion/kinematics.hpp"
+
+#include <fmt/format.h>
 
 #include <algorithm>
 
@@ -20,27 +25,78 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
                         "(run vmsim oga on a job at those feeds instead)");
     gain_schedule_file_ = job.gain_schedule_file;
   }
+  if (job.feed_plan_file && !options.ignore_feed_plan) feed_plan_file_ = job.feed_plan_file;
+  // A curve job: the interpolator follows the curve's quintic chain; the job's program is its bookkeeping moves.
+  if (auto c = read_job_curve(job)) {
+    curve_ = std::make_shared<const JobCurve>(std::move(*c));
+    interp_.geometry = std::make_shared<const motion::SmoothPath>(curve_->path.path);
+  }
+  // Chen et al.'s servo is given in the job, not the machine file (parts/feedplan): every command runs it.
+  if (job.feedplan && job.feedplan->servo != core::FeedPlanSpec::Servo::Machine) {
+    const std::string f = job.file.string();
+    if (axis_models_.any())
+      throw core::Error(core::located(f, 0, "[feedplan] servo = \"pid\" or \"transfer_function\" models the axes "
+                                            "already; identified axis models ([job] axis_models, --axis-models) "
+                                            "cannot replace them too"));
+    if (gain_schedule_file_)
+      throw core::Error(core::located(f, 0, "[job] gain_schedule: the [feedplan] transfer-function servo has no "
+                                            "position-loop gain to schedule"));
+    for (const methods::TransferFunction& tf :
+         methods::feed_plan_transfer_functions(*job.feedplan, job.machine, f, &servo_given_)) {
+      servo_owned_.push_back(std::make_unique<methods::TransferFunctionAxis>(tf, job.interp.period_s));
+      servo_per_axis_.push_back(servo_owned_.back().get());
+    }
+  }
+}
+
+motion::SmoothPath Chain::smooth_path(const core::ToolPath& program) const {
+  return motion::smooth_path_for(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, interp_);
+}
+
+motion::FeedCeiling Chain::feed_ceiling(const core::ToolPath& program) const {
+  if (!feed_plan_file_) return {};
+  try {
+    return methods::read_feed_plan(*feed_plan_file_, smooth_path(program), interp_.period_s);
+  } catch (const core::Error& e) {
+    throw core::Error(fmt::format("{}: [job] feed_plan: {}", job_->file.string(), e.what()));
+  }
 }
 
 motion::InterpResult Chain::interpolate(const core::ToolPath& program) const {
+  return interpolate(program, feed_ceiling(program));
+}
+
+motion::InterpResult Chain::interpolate(const core::ToolPath& program, const motion::FeedCeiling& ceiling) const {
+  motion::InterpOptions o = interp_;
+  o.feed_ceiling = ceiling;
   // A program that sets its own tolerance (Sinumerik CYCLE832) runs with it when the job gives none.
-  if (!job_->interp.tolerance_given && program.program_tolerance_mm) {
-    motion::InterpOptions options = interp_;
-    options.tolerance_mm = *program.program_tolerance_mm;
-    return motion::interpolate(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, options);
-  }
-  return motion::interpolate(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, interp_);
+  if (!job_->interp.tolerance_given && program.program_tolerance_mm) o.tolerance_mm = *program.program_tolerance_mm;
+  return motion::interpolate(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, o);
 }
 
 drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace) const {
   drives::SimulateOptions sopt;
+  sopt.settle_s = options_.settle_s;
   sopt.full_rate_trace = full_rate_trace;
   drives::GainSchedule schedule;
   if (gain_schedule_file_) {
     schedule = methods::read_gain_schedule(*gain_schedule_file_, setpoints, job_->machine);
     sopt.gains = &schedule;
   }
-  if (axis_models_.any()) sopt.axis_models = &axis_models_.per_axis;
+  if (!servo_per_axis_.empty()) {
+    for (std::size_t a = 0; a < servo_given_.size(); ++a) {
+      const Eigen::Index c = static_cast<Eigen::Index>(a);
+      if (!servo_given_[a] && c < setpoints.position.cols() &&
+          (setpoints.position.col(c).array() != setpoints.position(0, c)).any())
+        throw core::Error(core::located(job_->file.string(), 0,
+                                        fmt::format("axis {} moves but [feedplan] has no [[feedplan.axis]] with name = "
+                                                    "\"{}\"",
+                                                    job_->machine.axes[a].name, job_->machine.axes[a].name)));
+    }
+    sopt.axis_models = &servo_per_axis_;
+  } else if (axis_models_.any()) {
+    sopt.axis_models = &axis_models_.per_axis;
+  }
   return drives::simulate_axes(setpoints, job_->machine, sopt);
 }
 

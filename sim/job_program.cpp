@@ -1,5 +1,6 @@
 #include "sim/job_program.hpp"
 
+#include "core/error.hpp"
 #include "motion/kinematics.hpp"
 #include "program/program.hpp"
 #include "program/sinumerik.hpp"
@@ -44,7 +45,22 @@ class ChainTransform final : public program::MachineTransform {
 
 }  // namespace
 
+std::optional<JobCurve> read_job_curve(const core::Job& job) {
+  if (!job.program_file.empty() || !job.feedplan || !job.feedplan->nurbs) return std::nullopt;
+  const core::FeedPlanSpec& spec = *job.feedplan;
+  if (!spec.max_feed_mm_per_s)
+    throw core::Error(core::located(job.file.string(), 0,
+                                    "[feedplan] max_feed_mm_per_s is required with a [feedplan.nurbs] path"));
+  JobCurve c;
+  c.curve = motion::read_nurbs_csv(spec.nurbs->control_points, spec.nurbs->knots, spec.nurbs->degree);
+  motion::NurbsPathOptions no;
+  no.feed_mm_per_min = *spec.max_feed_mm_per_s * 60.0;
+  c.path = motion::nurbs_to_path(c.curve, no);
+  return c;
+}
+
 core::ToolPath read_job_program(const core::Job& job) {
+  if (auto c = read_job_curve(job)) return std::move(c->path.program);
   program::ProgramOptions popt;
   popt.tool_table = job.tool_table_file;
   popt.no_motion_mcodes = job.no_motion_mcodes;

@@ -1,13 +1,28 @@
 #pragma once
-// A job's program as every command reads it: the reader's options from the job, and the job's start position.
+// A job's program as every command reads it: the reader's options from the job, and the job's start position; or,
+// for a job whose path is a [feedplan.nurbs] curve, the curve and the chain of quintic pieces the interpolator follows.
 #include "core/job.hpp"
 #include "core/toolpath.hpp"
+#include "motion/nurbs.hpp"
+
+#include <optional>
 
 namespace vmsim::sim {
 
+// A job's path given as a NURBS curve ([feedplan.nurbs], no [job] program; Chen et al. 2016's case): the curve, and
+// its G2 chain of quintic pieces (motion::nurbs_to_path) whose bookkeeping moves run at [feedplan] max_feed_mm_per_s.
+struct JobCurve {
+  motion::NurbsCurve curve;
+  motion::NurbsPath path;
+};
+// nullopt for a job with a [job] program. Throws core::Error naming the job file when the curve has no
+// max_feed_mm_per_s, or naming the curve's files when they cannot be read.
+std::optional<JobCurve> read_job_curve(const core::Job& job);
+
 // Tool tip path in the workpiece frame. With [job] start_mm the tool starts there: the reader starts from it (the
 // program's first moves keep the axes they do not name), and the first move begins at that point (under the first
-// move's tool length offset) instead of the program's own start.
+// move's tool length offset) instead of the program's own start. A curve job's path: its chain's bookkeeping moves
+// (read_job_curve; the interpolator follows the chain itself through sim::Chain).
 core::ToolPath read_job_program(const core::Job& job);
 
 }  // namespace vmsim::sim

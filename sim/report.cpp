@@ -17,8 +17,15 @@ nlohmann::json input(const std::filesystem::path& p) {
 const char* version() { return VMSIM_VERSION; }
 
 nlohmann::json report_header(const std::string& command, const core::Job& job) {
-  nlohmann::json inputs = {{"job", input(job.file)}, {"machine", input(job.machine_file)}, {"program", input(job.program_file)}};
+  nlohmann::json inputs = {{"job", input(job.file)}, {"machine", input(job.machine_file)}};
+  if (job.program_file.empty() && job.feedplan && job.feedplan->nurbs) {  // a curve job: the curve is the path
+    inputs["nurbs_control_points"] = input(job.feedplan->nurbs->control_points);
+    inputs["nurbs_knots"] = input(job.feedplan->nurbs->knots);
+  } else {
+    inputs["program"] = input(job.program_file);
+  }
   if (job.tool_table_file) inputs["tool_table"] = input(*job.tool_table_file);
+  if (job.feed_plan_file) inputs["feed_plan"] = input(*job.feed_plan_file);
   return {{"vmsim", VMSIM_VERSION}, {"command", command}, {"job", job.name}, {"inputs", inputs}};
 }
 

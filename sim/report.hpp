@@ -8,7 +8,8 @@
 
 namespace vmsim::sim {
 
-// {"vmsim": version, "command": ..., "job": name, "inputs": {job, machine, program, tool_table: {path, sha256}}}
+// {"vmsim": version, "command": ..., "job": name, "inputs": {job, machine, program (a curve job: nurbs_control_points,
+// nurbs_knots), tool_table, feed_plan: {path, sha256}}}
 nlohmann::json report_header(const std::string& command, const core::Job& job);
 
 // vmsim's version string ("0.1.0").

@@ -377,6 +377,8 @@ TEST(Job, ErrorsNameTheFileLineAndFullKey) {
       {4, "program = \"no_such_program.ngc\"", 4, {"key 'job.program'", "no_such_program.ngc", "does not exist"}},
       {4, "program = 7", 4, {"key 'job.program'", "expected a string, found an integer"}},
       {4, "program = \"part.apt\"\ntool_table = \"tools.tbl\"", 5, {"key 'job.tool_table'", "does not exist"}},
+      {4, "program = \"part.apt\"\nfeed_plan = \"plan.csv\"", 5, {"key 'job.feed_plan'", "plan.csv", "does not exist"}},
+      {4, "program = \"part.apt\"\nfeed_plan = 3", 5, {"key 'job.feed_plan'", "expected a string, found an integer"}},
       {3, "", 1, {"key 'job.machine'", "missing (expected a file path)"}},
       {17, "[interpolaton]", 17, {"unknown key 'interpolaton'"}},
   };
@@ -385,6 +387,18 @@ TEST(Job, ErrorsNameTheFileLineAndFullKey) {
     const JobFiles f = job_files(job_with(c.line, c.replacement));
     expect_error(job_error(f), f.job, c.error_line, c.parts);
   }
+}
+
+// [job] feed_plan (vmsim plan-feed's feed_plan.csv): a path relative to the job file, read only when it exists; its
+// content is checked where the chain follows it (sim::Chain, methods/feedplan_file).
+TEST(Job, FeedPlanIsAFileBesideTheJob) {
+  const JobFiles f = job_files(job_with(4, "program = \"part.apt\"\nfeed_plan = \"plans/plan.csv\""));
+  fs::create_directories(f.dir / "plans");
+  const fs::path plan = write("plans/plan.csv", "# vmsim feed plan 1\n");
+  const Job job = load_job(f.job);
+  ASSERT_TRUE(job.feed_plan_file.has_value());
+  EXPECT_TRUE(fs::equivalent(*job.feed_plan_file, plan));
+  EXPECT_FALSE(load_job(job_files(kJob).job).feed_plan_file.has_value());
 }
 
 TEST(Job, MissingJobTableAndFiles) {
