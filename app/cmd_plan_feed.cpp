@@ -11,7 +11,7 @@
 #include "core/job.hpp"
 #include "motion/kinematics.hpp"
 #include "motion/nurbs.hpp"
-#include "core/sha256.hpp"
+#include "core/hash.hpp"
 #include "methods/feedplan.hpp"
 #include "methods/feedplan_play.hpp"
 #include "methods/feedplan_servo.hpp"

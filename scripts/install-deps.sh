@@ -22,7 +22,7 @@ packages=(
   libgtest-dev libgmock-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libzip-dev zipcmp zipmerge ziptool libpugixml-dev coinor-libclp-dev libglpk-dev
   libopenmpi-dev openmpi-bin libegl-dev fonts-dejavu-core libbenchmark-dev libfmt-dev python3-imath
-  zlib1g-dev
+  zlib1g-dev libssl-dev
   # Independent readers the metrology tests hold vmsim's scan readers against (they skip without them):
   # Gwyddion 2.62 (headless --convert-to-gwy) and plain Python 3 (tests/metrology/independent_stats.py).
   gwyddion python3
