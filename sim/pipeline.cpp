@@ -4,6 +4,7 @@
 
 #include "sim/job_program.hpp"
 #include "sim/tool_poses.hpp"
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "motion/kinematics.hpp"
 #include "core/stl.hpp"
@@ -192,29 +193,22 @@ namespace {
 
 void read_needles(const core::Job& job, Field& f) {
   const auto& file = job.removal.needles_file;
-  std::ifstream in(file);
-  if (!in) throw core::Error(file.string() + ": cannot open file");
-  std::string line;
-  int lineno = 0;
+  // Columns x,y,z,nx,ny,nz (mm) by name under a header row (others are ignored), or the first six without one.
+  core::CsvReader in(file, core::CsvReader::Header::Optional);
+  std::size_t col[6] = {0, 1, 2, 3, 4, 5};
+  if (in.has_header()) {
+    static constexpr const char* kNames[6] = {"x", "y", "z", "nx", "ny", "nz"};
+    for (int c = 0; c < 6; ++c) col[c] = static_cast<std::size_t>(in.require(kNames[c]));
+  }
   std::vector<Eigen::Vector3d> o, d;
   std::vector<double> len;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;
+  while (in.next()) {
+    if (!in.has_header() && in.cells() != 6)
+      throw in.error(fmt::format("{} values, expected 6: x,y,z,nx,ny,nz (mm)", in.cells()));
     double v[6];
-    std::stringstream ss(line);
-    std::string cell;
-    int c = 0;
-    while (c < 6 && std::getline(ss, cell, ',')) {
-      char* end = nullptr;
-      v[c] = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str() || !std::isfinite(v[c]))
-        throw core::Error(core::located(file.string(), lineno, "expected x,y,z,nx,ny,nz numbers (mm)"));
-      ++c;
-    }
-    if (c != 6) throw core::Error(core::located(file.string(), lineno, "expected 6 values x,y,z,nx,ny,nz"));
+    for (int c = 0; c < 6; ++c) v[c] = in.number(col[c]);
     const Eigen::Vector3d p(v[0], v[1], v[2]), n(v[3], v[4], v[5]);
-    if (n.norm() < 1e-9) throw core::Error(core::located(file.string(), lineno, "the normal has zero length"));
+    if (n.norm() < 1e-9) throw in.error("the normal has zero length");
     f.needle_point.push_back(p);
     f.needle_normal.push_back(n.normalized());
   }
