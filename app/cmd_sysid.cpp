@@ -1,5 +1,5 @@
-// vmsim identify --trace TRACE.csv: each axis's discrete transfer function from command to encoder position (seed
-// 001 sections 2-3): ARX, ARMAX and OE fitted on the estimation data, validated on separate data, ranked by the
+// vmsim identify --trace TRACE.csv: each axis's discrete transfer function from command to encoder position (the predictive-compensation paper
+// sections 2-3): ARX, ARMAX and OE fitted on the estimation data, validated on separate data, ranked by the
 // validation MSE as the predictive-compensation paper Table 2, the chosen one written to axis_models.toml for jobs to run on.
 #include "app/commands_sysid.hpp"
 #include "app/report.hpp"
@@ -31,8 +31,8 @@ sysid::ModelOrders parse_orders(const std::string& s, int nc, bool& automatic) {
   if (automatic) return o;
   const auto comma = s.find(',');
   const auto bad = [&] {
-    throw core::Error(fmt::format("--orders '{}': expected NB,NA (numerator and denominator orders, e.g. 2,5 as seed "
-                                  "001 section 2.2) or auto",
+    throw core::Error(fmt::format("--orders '{}': expected NB,NA (numerator and denominator orders, e.g. 2,5 as the predictive-compensation paper,"
+                                  " section 2.2) or auto",
                                   s));
   };
   if (comma == std::string::npos) bad();
