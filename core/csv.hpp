@@ -1,7 +1,7 @@
 #pragma once
 // vmsim's CSV files (position and axis traces, signals, gain schedules, needles, height grids, NURBS curves), read
 // and written in one place. The dialect is the one those files use: UTF-8 (a byte-order mark is skipped), cells
-// separated by commas and trimmed of blanks, no quoting (no file vmsim reads or writes needs a comma inside a cell),
+// separated by commas and trimmed of blanks, no quoting (none of these files has a comma inside a cell),
 // '#' lines (comments, or "# key=value" metadata) and blank lines anywhere, an optional header row naming the
 // columns, CR LF or LF line ends. Numbers are read strictly: the whole cell is a decimal number (std::from_chars:
 // optional sign, digits, optional fraction and exponent), finite. Every error names the file and line, and the
