@@ -5,7 +5,7 @@
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/machine.hpp"
-#include "core/sha256.hpp"
+#include "core/hash.hpp"
 #include "core/units.hpp"
 #include "sysid/friction_inertia.hpp"
 

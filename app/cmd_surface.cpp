@@ -1,7 +1,7 @@
 #include "app/cmd_surface.hpp"
 
 #include "core/error.hpp"
-#include "core/sha256.hpp"
+#include "core/hash.hpp"
 #include "metrology/filter.hpp"
 #include "metrology/form.hpp"
 #include "metrology/units.hpp"

@@ -5,7 +5,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/sha256.hpp"
+#include "core/hash.hpp"
 #include "sysid/axis_model_file.hpp"
 #include "sysid/position_trace.hpp"
 #include "sysid/sysid.hpp"

@@ -1,5 +1,6 @@
 #include "methods/compensated_program.hpp"
 
+#include "core/arc.hpp"
 #include "core/error.hpp"
 #include "core/units.hpp"
 
@@ -21,52 +22,24 @@ using Index = Eigen::Index;
 using core::Vec6;
 
 // The points a move is written with, in axis coordinates (Vec6 by program axis): its end, or for arcs the ends of
-// chords whose sag stays within tol (the radius and the normal coordinate, and any rotary axis, interpolated linearly
-// with the swept angle, as core/interp's arcs do).
-std::vector<Vec6> move_points(const core::Move& m, double tol, double max_angle = 0.0) {
+// chords whose sag stays within tol, or of pieces of at most max_angle (the arc's frame, core/arc: the radius, the
+// normal coordinate and any rotary axis linear in the swept angle, as the interpolator's arcs are).
+std::vector<Vec6> move_points(const core::Move& m, const std::string& file, double tol, double max_angle = 0.0) {
   if (m.kind != core::MotionKind::Arc) return {m.end};
-  int f = 0, s = 1, n = 2;
-  if (m.plane == core::ArcPlane::ZX) f = 2, s = 0, n = 1;
-  if (m.plane == core::ArcPlane::YZ) f = 1, s = 2, n = 0;
-  const Eigen::Vector2d c = m.centre_mm;
-  const double r0 = std::hypot(m.start[f] - c[0], m.start[s] - c[1]), r1 = std::hypot(m.end[f] - c[0], m.end[s] - c[1]);
-  const double a0 = std::atan2(m.start[s] - c[1], m.start[f] - c[0]);
-  double a1 = std::atan2(m.end[s] - c[1], m.end[f] - c[0]);
-  const double two_pi = 2.0 * core::units::kPi;
-  if (m.rotation >= 0) {
-    while (a1 <= a0 + 1e-12) a1 += two_pi;
-    a1 += two_pi * std::max(0, m.rotation - 1);
-  } else {
-    while (a1 >= a0 - 1e-12) a1 -= two_pi;
-    a1 -= two_pi * std::max(0, -m.rotation - 1);
-  }
-  const double sweep = a1 - a0, r = std::max(r0, r1);
-  const double step = max_angle > 0.0 ? max_angle : r > tol ? 2.0 * std::acos(1.0 - tol / r) : two_pi;
-  const int chords = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / step)));
+  const core::ArcFrame arc = core::arc_frame(m, file);
+  const int chords = arc.chords(tol, max_angle);
   std::vector<Vec6> pts;
   pts.reserve(static_cast<std::size_t>(chords));
-  for (int i = 1; i <= chords; ++i) {
-    const double t = static_cast<double>(i) / chords;
-    if (i == chords) {
-      pts.push_back(m.end);
-      break;
-    }
-    const double a = a0 + sweep * t, rr = r0 + (r1 - r0) * t;
-    Vec6 p = m.start + t * (m.end - m.start);
-    p[f] = c[0] + rr * std::cos(a);
-    p[s] = c[1] + rr * std::sin(a);
-    p[n] = m.start[n] + t * (m.end[n] - m.start[n]);
-    pts.push_back(p);
-  }
+  for (int i = 1; i <= chords; ++i) pts.push_back(arc.point_at(static_cast<double>(i) / chords));
   return pts;
 }
 
 // Points of a move of a five-axis chain program written in the workpiece frame (CL or tool-centre-point): its end, or
 // for an arc the axis-space image's own points (motion::toolpath_in_axis_space: via points on the exact image within
 // its tolerance, or chords of the axis-space arc).
-std::vector<Vec6> chain_move_points(const core::Move& am, bool arc, double tol) {
+std::vector<Vec6> chain_move_points(const core::Move& am, const std::string& file, bool arc, double tol) {
   if (!arc) return {am.end};
-  if (am.kind == core::MotionKind::Arc) return move_points(am, tol);
+  if (am.kind == core::MotionKind::Arc) return move_points(am, file, tol);
   std::vector<Vec6> pts = am.via;
   pts.push_back(am.end);
   return pts;
@@ -220,7 +193,7 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
       const core::Move& m = prog.moves[mi];
       // Arcs (CIRCLE/) as GOTOs through their image's points.
       const std::vector<Vec6> pts =
-          chain_move_points(ap.moves[mi], m.kind == core::MotionKind::Arc, in.chord_tolerance_mm);
+          chain_move_points(ap.moves[mi], ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm);
       for (std::size_t i = 0; i < pts.size(); ++i) {
         if (m.rapid) {
           s += "RAPID\n";
@@ -254,9 +227,9 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
     // the interpolator times them as the original's arcs; chords would slow it at every joint.
     const bool keep_arc = !tcp && m.kind == core::MotionKind::Arc;
     // (Arcs in pieces of at most 90 deg: a full circle's corrected end is not its corrected start.)
-    const std::vector<Vec6> pts = tcp        ? chain_move_points(am, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm)
-                                  : keep_arc ? move_points(am, in.chord_tolerance_mm, 0.5 * core::units::kPi)
-                                             : move_points(am, in.chord_tolerance_mm);
+    const std::vector<Vec6> pts = tcp        ? chain_move_points(am, ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm)
+                                  : keep_arc ? move_points(am, ap.source_path, in.chord_tolerance_mm, 0.5 * core::units::kPi)
+                                             : move_points(am, ap.source_path, in.chord_tolerance_mm);
     for (std::size_t i = 0; i < pts.size(); ++i) {
       const double tlo = m.tool_length_offset_mm;
       const Eigen::VectorXd q = c.corrected(pts[i], mi, i + 1 == pts.size(), tlo, out);
@@ -281,9 +254,8 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
       if (keep_arc) {
         // I J K: the programmed centre relative to where this arc starts (the last block's corrected point).
         static constexpr char kWord[3] = {'I', 'J', 'K'};
-        int f = 0, g = 1;
-        if (m.plane == core::ArcPlane::ZX) f = 2, g = 0;
-        if (m.plane == core::ArcPlane::YZ) f = 1, g = 2;
+        const core::PlaneAxes ax = core::plane_axes(m.plane);
+        const int f = ax.axis1, g = ax.axis2;
         w += fmt::format(" {}{:.6f} {}{:.6f}", kWord[f], m.centre_mm[0] - last[f], kWord[g], m.centre_mm[1] - last[g]);
         const char* plane = m.plane == core::ArcPlane::XY ? "G17 " : m.plane == core::ArcPlane::ZX ? "G18 " : "G19 ";
         s += fs.block(m, static_cast<int>(pts.size()), plane + std::string(m.rotation < 0 ? "G2 " : "G3 ") + w) + "\n";
@@ -323,7 +295,7 @@ CompensatedProgram write_compensated_tcp_gcode(const CompensatedProgramInput& in
   for (std::size_t mi = 0; mi < prog.moves.size(); ++mi) {
     const core::Move& m = prog.moves[mi];
     const std::vector<Vec6> pts =
-        chain_move_points(ap.moves[mi], m.kind == core::MotionKind::Arc, in.chord_tolerance_mm);
+        chain_move_points(ap.moves[mi], ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm);
     for (std::size_t i = 0; i < pts.size(); ++i) {
       const std::string motion =
           (m.rapid ? "G0 " : "G1 ") + words(c.corrected(pts[i], mi, i + 1 == pts.size(), m.tool_length_offset_mm, out),

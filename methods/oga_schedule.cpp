@@ -1,18 +1,14 @@
 #include "methods/oga_schedule.hpp"
 
-#include "core/atomic_file.hpp"
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "core/units.hpp"
 
 #include <fmt/format.h>
 
-#include <cerrno>
 #include <cmath>
-#include <cstdlib>
-#include <fstream>
 #include <limits>
 #include <map>
-#include <sstream>
 
 namespace vmsim::methods {
 
@@ -33,19 +29,6 @@ double file_unit(const core::MachineAxis& ax) { return ax.kind == core::AxisKind
 const char* unit_name(const core::MachineAxis& ax) { return ax.kind == core::AxisKind::Rotary ? "deg" : "mm"; }
 
 std::string gain(double v) { return std::isnan(v) ? "nan" : fmt::format("{:.17g}", v); }
-
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> cells;
-  std::string cell;
-  std::stringstream ss(line);
-  while (std::getline(ss, cell, ',')) {
-    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
-    while (!cell.empty() && cell.front() == ' ') cell.erase(cell.begin());
-    cells.push_back(cell);
-  }
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
-}
 
 }  // namespace
 
@@ -73,20 +56,23 @@ void write_gain_schedule(const std::filesystem::path& file, const GainTable& t, 
       t.kv_1000_per_min.cols() != static_cast<Index>(t.axis_names.size()) || t.kf.cols() != t.kv_1000_per_min.cols())
     throw core::Error(fmt::format("gain schedule {}: {} rows for {} setpoints", file.string(), t.kv_1000_per_min.rows(), n));
   std::vector<int> axes;
-  std::string header = "row,t_s";
+  std::vector<std::string> header = {"row", "t_s"};
   for (const std::string& name : t.axis_names) {
     const int a = axis_by_name(m, name);
     if (a < 0) throw core::Error(fmt::format("gain schedule {}: the machine has no axis {}", file.string(), name));
     axes.push_back(a);
-    header += fmt::format(",{0}_setpoint_{1},{0}_kv_1000_per_min,{0}_kf", name, unit_name(m.axes[static_cast<std::size_t>(a)]));
+    header.push_back(fmt::format("{}_setpoint_{}", name, unit_name(m.axes[static_cast<std::size_t>(a)])));
+    header.push_back(name + "_kv_1000_per_min");
+    header.push_back(name + "_kf");
   }
-  core::AtomicFile out(file);
-  auto& s = out.stream();
-  s << kMagic << ": position-loop gains per setpoint row (Duong et al. OGA); Kv in (m/min)/mm, KF dimensionless\n";
-  s << "# job=" << job_name << "\n";
-  s << fmt::format("# period_s={:.17g}\n# samples={}\n", sp.period_s, n);
-  for (const std::string& c : comments) s << "# " << c << "\n";
-  s << header << "\n";
+  core::CsvWriter out(file);
+  out.comment(std::string(kMagic + 2) + ": position-loop gains per setpoint row (Duong et al. OGA); Kv in (m/min)/mm, KF "
+              "dimensionless");
+  out.comment("job=" + job_name);
+  out.comment(fmt::format("period_s={:.17g}", sp.period_s));
+  out.comment(fmt::format("samples={}", n));
+  for (const std::string& c : comments) out.comment(c);
+  out.header(header);
   std::string line;
   for (Index k = 0; k < n; ++k) {
     line = fmt::format("{},{:.6f}", k, k * sp.period_s);
@@ -96,47 +82,31 @@ void write_gain_schedule(const std::filesystem::path& file, const GainTable& t, 
       line += fmt::format(",{:.9f},{},{}", sp.position(k, axes[c]) * file_unit(ax), gain(t.kv_1000_per_min(k, ci)),
                           gain(t.kf(k, ci)));
     }
-    line += '\n';
-    s << line;
+    out.row(line);
   }
   out.commit();
 }
 
 GainTable read_gain_table(const std::filesystem::path& file, const core::Setpoints& sp, const core::Machine& m) {
-  const std::string f = file.string();
-  std::ifstream in(file);
-  if (!in) throw core::Error(f + ": cannot open the gain schedule");
-  std::string line;
-  int lineno = 0;
+  core::CsvReader in(file);
+  const std::string& f = in.name();
   std::map<std::string, std::string> meta;
-  bool magic = false;
-  std::vector<std::string> head;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    if (line[0] == '#') {
-      if (lineno == 1 && line.rfind(kMagic, 0) == 0) magic = true;
-      const auto eq = line.find('=');
-      if (eq != std::string::npos && line.find(' ', 2) > eq) meta[line.substr(2, eq - 2)] = line.substr(eq + 1);
-      continue;
-    }
-    head = split(line);
-    break;
-  }
+  const std::vector<core::CsvComment>& comments = in.comments();
+  const bool magic = !comments.empty() && comments.front().line == 1 && comments.front().text.rfind(kMagic, 0) == 0;
+  for (const core::CsvComment& c : comments)
+    if (const auto kv = core::comment_key_value(c.text)) meta[std::string(kv->first)] = std::string(kv->second);
   if (!magic)
     throw core::Error(core::located(
         f, 1, std::string("not a vmsim gain schedule (expected a first line \"") + kMagic + ": ...\", as vmsim oga writes)"));
-  if (head.empty()) throw core::Error(f + ": no column header (row,t_s,<axis>_setpoint_mm,...)");
-  const int head_line = lineno;
+  if (!in.has_header()) throw core::Error(f + ": no column header (row,t_s,<axis>_setpoint_mm,...)");
+  const std::vector<std::string>& head = in.columns();
+  const int head_line = in.header_line();
   const auto number = [&](const std::string& key) {
     auto it = meta.find(key);
     if (it == meta.end()) throw core::Error(f + ": the header has no '# " + key + "=' line");
-    char* end = nullptr;
-    const double v = std::strtod(it->second.c_str(), &end);
-    if (end == it->second.c_str() || *end != '\0' || !std::isfinite(v))
-      throw core::Error(f + ": '# " + key + "=" + it->second + "' is not a number");
-    return v;
+    const auto v = core::parse_number(it->second);
+    if (!v) throw core::Error(f + ": '# " + key + "=" + it->second + "' is not a number");
+    return *v;
   };
   const double te = number("period_s");
   const double samples = number("samples");
@@ -174,49 +144,25 @@ GainTable read_gain_table(const std::filesystem::path& file, const core::Setpoin
   t.kv_1000_per_min.resize(n, na);
   t.kf.resize(n, na);
   Index k = 0;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
-    if (k >= n) throw core::Error(core::located(f, lineno, fmt::format("more than the {} rows the header announces", n)));
-    const std::vector<std::string> cells = split(line);
-    if (cells.size() != head.size())
-      throw core::Error(core::located(f, lineno, fmt::format("{} cells, expected {}", cells.size(), head.size())));
-    const auto cell = [&](std::size_t c, bool empty_is_nan) {
-      const std::string& s = cells[c];
-      if (s.empty()) {
-        if (empty_is_nan) return kNaN;
-        throw core::Error(core::located(f, lineno, fmt::format("column '{}' is empty", head[c])));
-      }
-      char* end = nullptr;
-      const double v = std::strtod(s.c_str(), &end);
-      if (end == s.c_str() || *end != '\0')
-        throw core::Error(core::located(f, lineno, fmt::format("column '{}': '{}' is not a number", head[c], s)));
-      return v;
-    };
-    if (cell(0, false) != static_cast<double>(k))
-      throw core::Error(core::located(f, lineno, fmt::format("row {} where row {} was expected (one row per setpoint, "
-                                                             "in order)",
-                                                             cells[0], k)));
+  while (in.next()) {
+    if (k >= n) throw in.error(fmt::format("more than the {} rows the header announces", n));
+    if (in.number(0) != static_cast<double>(k))
+      throw in.error(fmt::format("row {} where row {} was expected (one row per setpoint, in order)", in.cell(0), k));
     for (Index c = 0; c < na; ++c) {
       const std::size_t base = 2 + 3 * static_cast<std::size_t>(c);
       const core::MachineAxis& ax = m.axes[static_cast<std::size_t>(axes[static_cast<std::size_t>(c)])];
-      const double x = cell(base, false), own = sp.position(k, axes[static_cast<std::size_t>(c)]) * file_unit(ax);
+      const double x = in.number(base), own = sp.position(k, axes[static_cast<std::size_t>(c)]) * file_unit(ax);
       if (!(std::abs(x - own) <= kSetpointTolerance))
-        throw core::Error(core::located(
-            f, lineno,
-            fmt::format("row {}: {} setpoint {} {}, the job's is {:.9f} {}: the schedule belongs to another path (run "
-                        "vmsim oga on this job again)",
-                        k, ax.name, cells[base], unit_name(ax), own, unit_name(ax))));
-      const double kv = cell(base + 1, true), kf = cell(base + 2, true);
-      if (!std::isnan(kv) && !(kv > 0.0 && std::isfinite(kv)))
-        throw core::Error(core::located(f, lineno, fmt::format("{}: {} is not a gain (expected > 0 (m/min)/mm, or nan "
-                                                               "for the drive's own)",
-                                                               head[base + 1], cells[base + 1])));
-      if (!std::isnan(kf) && !(kf >= 0.0 && std::isfinite(kf)))
-        throw core::Error(core::located(f, lineno, fmt::format("{}: {} is not a feedforward gain (expected >= 0, or "
-                                                               "nan for the drive's own)",
-                                                               head[base + 2], cells[base + 2])));
+        throw in.error(fmt::format("row {}: {} setpoint {} {}, the job's is {:.9f} {}: the schedule belongs to another "
+                                   "path (run vmsim oga on this job again)",
+                                   k, ax.name, in.cell(base), unit_name(ax), own, unit_name(ax)));
+      const double kv = in.number_or_nan(base + 1, true), kf = in.number_or_nan(base + 2, true);
+      if (!std::isnan(kv) && !(kv > 0.0))
+        throw in.error(fmt::format("{}: {} is not a gain (expected > 0 (m/min)/mm, or nan for the drive's own)",
+                                   head[base + 1], in.cell(base + 1)));
+      if (!std::isnan(kf) && !(kf >= 0.0))
+        throw in.error(fmt::format("{}: {} is not a feedforward gain (expected >= 0, or nan for the drive's own)",
+                                   head[base + 2], in.cell(base + 2)));
       t.kv_1000_per_min(k, c) = kv;
       t.kf(k, c) = kf;
     }

@@ -1,6 +1,7 @@
 #include "metrology/grid_io.hpp"
 
 #include "core/atomic_file.hpp"
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "metrology/units.hpp"
 
@@ -66,11 +67,10 @@ std::string exact(double v) { return std::isfinite(v) ? fmt::format("{}", v) : s
 }  // namespace
 
 void write_height_csv(const std::filesystem::path& file, const core::HeightGrid& g) {
-  core::AtomicFile out(file);
-  auto& s = out.stream();
-  s << "# vmsim height grid, mm; row j is y = y0 + j dy, column i is x = x0 + i dx\n";
-  s << fmt::format("# x0_mm={} y0_mm={} dx_mm={} dy_mm={} nx={} ny={}\n", g.x0_mm, g.y0_mm, g.dx_mm, g.dy_mm, g.nx(),
-                   g.ny());
+  core::CsvWriter out(file);
+  out.comment("vmsim height grid, mm; row j is y = y0 + j dy, column i is x = x0 + i dx");
+  out.comment(fmt::format("x0_mm={} y0_mm={} dx_mm={} dy_mm={} nx={} ny={}", g.x0_mm, g.y0_mm, g.dx_mm, g.dy_mm, g.nx(),
+                          g.ny()));
   std::string line;
   for (Eigen::Index j = 0; j < g.ny(); ++j) {
     line.clear();
@@ -78,56 +78,55 @@ void write_height_csv(const std::filesystem::path& file, const core::HeightGrid&
       if (i) line += ',';
       line += exact(g.z_mm(j, i));  // shortest digits that read back as the same double
     }
-    line += '\n';
-    s << line;
+    out.row(line);
   }
   out.commit();
 }
 
 core::HeightGrid read_height_csv(const std::filesystem::path& file) {
-  std::ifstream in(file);
+  std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
   return read_height_csv(in, file.string());
 }
 
-core::HeightGrid read_height_csv(std::istream& in, const std::string& file_name) {
-  const std::filesystem::path file(file_name);
+core::HeightGrid read_height_csv(std::istream& is, const std::string& file_name) {
+  core::CsvReader in(is, file_name, core::CsvReader::Header::None);
   core::HeightGrid g;
   long nx = -1, ny = -1;
-  std::string line;
-  int lineno = 0;
   std::vector<double> values;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.rfind("# x0_mm=", 0) == 0) {
-      if (nx >= 0) throw core::Error(core::located(file.string(), lineno, "a second grid header"));
-      if (std::sscanf(line.c_str(), "# x0_mm=%lf y0_mm=%lf dx_mm=%lf dy_mm=%lf nx=%ld ny=%ld", &g.x0_mm, &g.y0_mm,
+  std::size_t headers = 0;
+  // The grid header: "# x0_mm=... ny=..." among the '#' lines before the first row (and no second one after it).
+  auto grid_header = [&](std::size_t from) {
+    const std::vector<core::CsvComment>& cs = in.comments();
+    for (; from < cs.size(); ++from) {
+      const core::CsvComment& c = cs[from];
+      if (c.text.rfind("# x0_mm=", 0) != 0) continue;
+      if (nx >= 0) throw in.error("a second grid header", c.line);
+      if (std::sscanf(c.text.c_str(), "# x0_mm=%lf y0_mm=%lf dx_mm=%lf dy_mm=%lf nx=%ld ny=%ld", &g.x0_mm, &g.y0_mm,
                       &g.dx_mm, &g.dy_mm, &nx, &ny) != 6 || nx <= 0 || ny <= 0 || nx > 100000 || ny > 100000 ||
           static_cast<long long>(nx) * ny > kMaxNodes || !(g.dx_mm > 0) || !(g.dy_mm > 0) ||
           !std::isfinite(g.dx_mm) || !std::isfinite(g.dy_mm) || !std::isfinite(g.x0_mm) || !std::isfinite(g.y0_mm))
-        throw core::Error(core::located(file.string(), lineno, "bad grid header (x0_mm= y0_mm= dx_mm= dy_mm= nx= ny=)"));
+        throw in.error("bad grid header (x0_mm= y0_mm= dx_mm= dy_mm= nx= ny=)", c.line);
       // The values come with the rows; the header's size alone does not get to allocate.
       values.reserve(static_cast<std::size_t>(std::min<long long>(static_cast<long long>(nx) * ny, 1 << 20)));
-      continue;
     }
-    if (line.empty() || line[0] == '#' || line == "\r") continue;
-    if (nx < 0) throw core::Error(core::located(file.string(), lineno, "data before the grid header"));
-    std::stringstream ss(line);
-    std::string cell;
-    long count = 0;
-    while (std::getline(ss, cell, ',')) {
-      const std::string t = trim(cell);
-      const auto v = value_mm(t, -3);
-      if (!v) throw core::Error(core::located(file.string(), lineno, "not a number: \"" + t.substr(0, 40) + "\""));
+    return from;
+  };
+  while (in.next()) {
+    headers = grid_header(headers);
+    if (nx < 0) throw in.error("data before the grid header");
+    if (static_cast<long>(in.cells()) != nx) throw in.error(fmt::format("expected {} values, found {}", nx, in.cells()));
+    for (std::size_t c = 0; c < in.cells(); ++c) {
+      const auto v = value_mm(in.cell(c), -3);
+      if (!v) throw in.error("not a number: \"" + std::string(in.cell(c).substr(0, 40)) + "\"");
       values.push_back(std::isfinite(*v) ? *v : kNaN);
-      ++count;
     }
-    if (count != nx) throw core::Error(core::located(file.string(), lineno, fmt::format("expected {} values, found {}", nx, count)));
-    if (static_cast<long>(values.size()) > nx * ny) throw core::Error(core::located(file.string(), lineno, "more rows than ny"));
+    if (static_cast<long>(values.size()) > nx * ny) throw in.error("more rows than ny");
   }
-  if (nx < 0) throw core::Error(file.string() + ": no grid header");
+  grid_header(headers);
+  if (nx < 0) throw core::Error(file_name + ": no grid header");
   if (static_cast<long>(values.size()) != nx * ny)
-    throw core::Error(file.string() + fmt::format(": expected {} rows, found {}", ny, values.size() / static_cast<std::size_t>(nx)));
+    throw core::Error(file_name + fmt::format(": expected {} rows, found {}", ny, values.size() / static_cast<std::size_t>(nx)));
   g.z_mm = Eigen::Map<core::HeightArray>(values.data(), ny, nx);
   return g;
 }

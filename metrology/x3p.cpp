@@ -2,7 +2,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/md5.hpp"
+#include "core/hash.hpp"
 #include "metrology/grid_io.hpp"
 #include "metrology/units.hpp"
 

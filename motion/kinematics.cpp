@@ -1,5 +1,6 @@
 #include "motion/kinematics.hpp"
 
+#include "core/arc.hpp"
 #include "core/error.hpp"
 #include "core/units.hpp"
 
@@ -472,64 +473,17 @@ class ChainKinematics final : public Kinematics {
 
 // ---- Tool paths into axis space ----------------------------------------------------------------------------------
 
-// Arc geometry of a move, with the conventions of core/smooth_path (LinuxCNC's ARC_FEED).
-struct ArcGeom {
-  int i1 = 0, i2 = 1, iw = 2;
-  double c1 = 0, c2 = 0, t0 = 0, sweep = 0, r0 = 0, r1 = 0;
-};
-
-ArcGeom arc_geom(const core::Move& m, const std::string& file) {
-  ArcGeom g;
-  switch (m.plane) {
-    case core::ArcPlane::XY: g.i1 = core::kX, g.i2 = core::kY, g.iw = core::kZ; break;
-    case core::ArcPlane::ZX: g.i1 = core::kZ, g.i2 = core::kX, g.iw = core::kY; break;
-    case core::ArcPlane::YZ: g.i1 = core::kY, g.i2 = core::kZ, g.iw = core::kX; break;
-  }
-  g.c1 = m.centre_mm[0];
-  g.c2 = m.centre_mm[1];
-  const core::Vec6& s = m.start;
-  const core::Vec6& e = m.end;
-  g.r0 = std::hypot(s[g.i1] - g.c1, s[g.i2] - g.c2);
-  g.r1 = std::hypot(e[g.i1] - g.c1, e[g.i2] - g.c2);
-  if (!(g.r0 > 1e-9) || !(g.r1 > 1e-9) || m.rotation == 0)
-    throw core::Error(core::located(file, m.source_line, "arc with zero radius or no direction"));
-  g.t0 = std::atan2(s[g.i2] - g.c2, s[g.i1] - g.c1);
-  const double te = std::atan2(e[g.i2] - g.c2, e[g.i1] - g.c1);
-  const int turns = std::abs(m.rotation) - 1;
-  const bool full = std::hypot(e[g.i1] - s[g.i1], e[g.i2] - s[g.i2]) < 1e-9 * std::max(1.0, g.r0);
-  double sweep = m.rotation > 0 ? std::fmod(te - g.t0 + 2 * kTwoPi, kTwoPi) : std::fmod(g.t0 - te + 2 * kTwoPi, kTwoPi);
-  if (full) sweep = kTwoPi;
-  sweep += turns * kTwoPi;
-  g.sweep = m.rotation > 0 ? sweep : -sweep;
-  return g;
-}
-
 // The programmed tip at path parameter s (workpiece frame): exactly the end points at s = 0 and 1.
-Eigen::Vector3d tip_at(const core::Move& m, const ArcGeom* g, double s) {
+Eigen::Vector3d tip_at(const core::Move& m, const core::ArcFrame* g, double s) {
+  if (g) return g->point_at(s).head<3>();
   if (s <= 0) return m.start.head<3>();
   if (s >= 1) return m.end.head<3>();
-  Eigen::Vector3d p = m.start.head<3>() + s * (m.end.head<3>() - m.start.head<3>());
-  if (g) {
-    const double th = g->t0 + s * g->sweep, r = g->r0 + s * (g->r1 - g->r0);
-    p[g->i1] = g->c1 + r * std::cos(th);
-    p[g->i2] = g->c2 + r * std::sin(th);
-  }
-  return p;
+  return m.start.head<3>() + s * (m.end.head<3>() - m.start.head<3>());
 }
 
 // Length of the programmed tip path (mm).
-double tip_length(const core::Move& m, const ArcGeom* g) {
-  if (!g) return (m.end.head<3>() - m.start.head<3>()).norm();
-  const double dw = m.end[g->iw] - m.start[g->iw];
-  if (std::abs(g->r1 - g->r0) <= 1e-12 * g->r0) return std::hypot(g->r0 * g->sweep, dw);
-  double len = 0;  // a spiral: fine chords
-  Eigen::Vector3d prev = tip_at(m, g, 0);
-  for (int k = 1; k <= 1024; ++k) {
-    const Eigen::Vector3d p = tip_at(m, g, k / 1024.0);
-    len += (p - prev).norm();
-    prev = p;
-  }
-  return len;
+double tip_length(const core::Move& m, const core::ArcFrame* g) {
+  return g ? g->length_mm() : (m.end.head<3>() - m.start.head<3>()).norm();
 }
 
 // Tool axis of a CL move at s: the great circle between its end values (the shortest rotation, as a CL file's
@@ -628,9 +582,9 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
     }
     const ChainKinematics& k = kin();
     auto fail = [&](const std::string& msg) -> core::Error { return core::Error(core::located(path.source_path, pm.source_line, msg)); };
-    std::optional<ArcGeom> geom;
-    if (pm.kind == core::MotionKind::Arc) geom = arc_geom(pm, path.source_path);
-    const ArcGeom* g = geom ? &*geom : nullptr;
+    std::optional<core::ArcFrame> geom;
+    if (pm.kind == core::MotionKind::Arc) geom = core::arc_frame(pm, path.source_path);
+    const core::ArcFrame* g = geom ? &*geom : nullptr;
     Eigen::Vector3d a0 = Eigen::Vector3d::UnitZ(), a1 = a0;
     if (cl) {
       a0 = (pm.tool_axis_start ? *pm.tool_axis_start : *pm.tool_axis_end).normalized();
@@ -694,7 +648,7 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
     if (rot_const && g) {
       curved = true;
       if (ortho) {
-        const int n_prog = g->iw;  // the arc plane's normal: Z for XY, Y for ZX, X for YZ
+        const int n_prog = g->normal;  // the arc plane's normal: Z for XY, Y for ZX, X for YZ
         const Eigen::Vector3d n_axes = lm.transpose() * Eigen::Vector3d::Unit(n_prog);
         int kk = 0;
         n_axes.cwiseAbs().maxCoeff(&kk);
@@ -704,13 +658,12 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
           m.plane = kk == core::kZ ? core::ArcPlane::XY : kk == core::kY ? core::ArcPlane::ZX : core::ArcPlane::YZ;
           m.rotation = sense > 0 ? pm.rotation : -pm.rotation;
           Eigen::Vector3d c3 = pm.start.head<3>();
-          c3[g->i1] = g->c1;
-          c3[g->i2] = g->c2;
+          c3[g->axis1] = g->centre_mm[0];
+          c3[g->axis2] = g->centre_mm[1];
           const Eigen::VectorXd qc = k.place_tip(c3, tlo, q0);
           core::Vec6 c6 = to_v6(qc, pm.start);
-          m.centre_mm = m.plane == core::ArcPlane::XY   ? Eigen::Vector2d(c6[core::kX], c6[core::kY])
-                        : m.plane == core::ArcPlane::ZX ? Eigen::Vector2d(c6[core::kZ], c6[core::kX])
-                                                  : Eigen::Vector2d(c6[core::kY], c6[core::kZ]);
+          const core::PlaneAxes pa = core::plane_axes(m.plane);
+          m.centre_mm = Eigen::Vector2d(c6[pa.axis1], c6[pa.axis2]);
         }
       }
     }
@@ -719,7 +672,10 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
       // steps halved until the axis-space chord keeps the tip (and tool axis) within the tolerance at its quarter
       // points, and doubled again after.
       const double turn = cl ? std::atan2(a0.cross(a1).norm(), a0.dot(a1)) : 0.0;
-      const double h_max = 1.0 / std::max(1.0, std::ceil(turn / (2 * core::units::kDegToRad)));
+      double h_max = 1.0 / std::max(1.0, std::ceil(turn / (2 * core::units::kDegToRad)));
+      // On an arc, no step spans more than half a turn: the checks at a chord's quarter points would see whole turns
+      // (a full circle of four turns) as nothing. Halvings keep the steps the ones the tolerance picks anyway.
+      while (g && h_max * std::abs(g->sweep_rad) > core::units::kPi) h_max *= 0.5;
       auto chord_ok = [&](double sa, const Eigen::VectorXd& qa, double sb, const Eigen::VectorXd& qb) {
         for (const double f : {0.25, 0.5, 0.75}) {
           const double s = sa + f * (sb - sa);

@@ -1,5 +1,6 @@
 #include "motion/nurbs.hpp"
 
+#include "core/csv.hpp"
 #include "core/error.hpp"
 
 #include <fmt/format.h>
@@ -7,8 +8,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 namespace vmsim::motion {
 
@@ -111,7 +110,7 @@ core::Vec6 vec6(const Eigen::Vector3d& v) {
   return r;
 }
 
-// One CSV table: the header's column names and the numeric rows, with the file line of each row.
+// A curve file (core/csv): a header, then rows of numbers only (every cell, used or not), at least one.
 struct CsvTable {
   std::vector<std::string> columns;
   std::vector<std::vector<double>> rows;
@@ -123,48 +122,17 @@ struct CsvTable {
   }
 };
 
-std::string trim(const std::string& s) {
-  const auto a = s.find_first_not_of(" \t\r\n");
-  if (a == std::string::npos) return "";
-  const auto b = s.find_last_not_of(" \t\r\n");
-  return s.substr(a, b - a + 1);
-}
-
 CsvTable read_csv(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) throw core::Error(file.string() + ": cannot open the file");
+  core::CsvReader in(file);
+  if (!in.has_header()) throw core::Error(file.string() + ": no header line (expected column names)");
   CsvTable t;
-  std::string line;
-  int ln = 0;
-  bool header = false;
-  while (std::getline(in, line)) {
-    ++ln;
-    const std::string s = trim(line);
-    if (s.empty() || s[0] == '#') continue;
-    std::vector<std::string> cells;
-    std::stringstream ss(s);
-    std::string cell;
-    while (std::getline(ss, cell, ',')) cells.push_back(trim(cell));
-    if (!header) {
-      t.columns = cells;
-      header = true;
-      continue;
-    }
-    if (cells.size() != t.columns.size())
-      throw core::Error(core::located(file.string(), ln, fmt::format("expected {} values (columns {}), found {}", t.columns.size(),
-                                                         fmt::join(t.columns, ","), cells.size())));
+  t.columns = in.columns();
+  while (in.next()) {
     std::vector<double> row;
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-      char* end = nullptr;
-      const double v = std::strtod(cells[i].c_str(), &end);
-      if (cells[i].empty() || *end != '\0' || !std::isfinite(v))
-        throw core::Error(core::located(file.string(), ln, fmt::format("column {}: \"{}\" is not a number", t.columns[i], cells[i])));
-      row.push_back(v);
-    }
+    for (std::size_t i = 0; i < in.cells(); ++i) row.push_back(in.number(i));
     t.rows.push_back(std::move(row));
-    t.lines.push_back(ln);
+    t.lines.push_back(in.line());
   }
-  if (!header) throw core::Error(file.string() + ": no header line (expected column names)");
   if (t.rows.empty()) throw core::Error(file.string() + ": no data rows");
   return t;
 }

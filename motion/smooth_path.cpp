@@ -1,5 +1,6 @@
 #include "motion/smooth_path.hpp"
 
+#include "core/arc.hpp"
 #include "core/error.hpp"
 #include "core/units.hpp"
 
@@ -375,42 +376,21 @@ PathPiece piece_from_move(const core::ToolPath& path, std::size_t index, double 
     p.b = e - s;
   } else {
     p.kind = PathPiece::Kind::Arc;
-    int i1 = 0, i2 = 1;
-    switch (m.plane) {
-      case core::ArcPlane::XY: i1 = core::kX, i2 = core::kY; break;
-      case core::ArcPlane::ZX: i1 = core::kZ, i2 = core::kX; break;
-      case core::ArcPlane::YZ: i1 = core::kY, i2 = core::kZ; break;
-    }
+    const core::ArcFrame f = core::arc_frame(m, path.source_path);
+    const int i1 = f.axis1, i2 = f.axis2;
     p.arc_i1 = i1;
     p.arc_i2 = i2;
-    p.c1 = m.centre_mm[0];
-    p.c2 = m.centre_mm[1];
-    const double rs = std::hypot(s[i1] - p.c1, s[i2] - p.c2), re = std::hypot(e[i1] - p.c1, e[i2] - p.c2);
-    if (!(rs > 1e-9) || !(re > 1e-9) || m.rotation == 0)
-      throw core::Error(core::located(path.source_path, m.source_line, "arc with zero radius or no direction"));
-    const double ts = std::atan2(s[i2] - p.c2, s[i1] - p.c1), te = std::atan2(e[i2] - p.c2, e[i1] - p.c1);
-    const int turns = std::abs(m.rotation) - 1;
-    const bool full = std::hypot(e[i1] - s[i1], e[i2] - s[i2]) < 1e-9 * std::max(1.0, rs);
-    double sweep;
-    if (m.rotation > 0) {
-      sweep = std::fmod(te - ts + 2 * kTwoPi, kTwoPi);
-      if (full || sweep < 1e-12) sweep = full ? kTwoPi : sweep;
-      sweep += turns * kTwoPi;
-    } else {
-      sweep = std::fmod(ts - te + 2 * kTwoPi, kTwoPi);
-      if (full || sweep < 1e-12) sweep = full ? kTwoPi : sweep;
-      sweep = -(sweep + turns * kTwoPi);
-    }
-    if (!(std::abs(sweep) > 0))
-      throw core::Error(core::located(path.source_path, m.source_line, "arc with a zero sweep angle"));
-    p.theta0 = ts;
-    p.dtheta = sweep;
-    p.r0 = rs;
-    p.dr = re - rs;
+    p.c1 = f.centre_mm[0];
+    p.c2 = f.centre_mm[1];
+    p.theta0 = f.start_angle_rad;
+    p.dtheta = f.sweep_rad;
+    p.r0 = f.start_radius_mm;
+    p.dr = f.end_radius_mm - f.start_radius_mm;
     p.a = s;
     p.b = e - s;
     p.a[i1] = p.a[i2] = p.b[i1] = p.b[i2] = 0;
-    p.uniform = std::abs(p.dr) <= 1e-12 * rs;
+    // A circle or helix: |dp/du| is constant (the radii's last-digit difference dropped).
+    p.uniform = f.constant_radius();
     if (p.uniform) p.dr = 0;
   }
   p.finalize();

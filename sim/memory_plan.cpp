@@ -3,6 +3,7 @@
 
 #include "sim/pipeline.hpp"
 #include "sim/report.hpp"
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "core/stl.hpp"
 #include "removal/dexel_grid.hpp"
@@ -37,13 +38,11 @@ struct FieldShape {
   std::size_t needles = 0;
 };
 
+// The needles' rows as sim::read_needles reads them (core/csv), without parsing their numbers.
 std::size_t count_needles(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) throw core::Error(file.string() + ": cannot open file");
-  std::string line;
+  core::CsvReader in(file, core::CsvReader::Header::Optional);
   std::size_t n = 0;
-  while (std::getline(in, line))
-    if (!line.empty() && line[0] != '#' && !std::isalpha(static_cast<unsigned char>(line[0]))) ++n;
+  while (in.next()) ++n;
   return n;
 }
 

@@ -4,6 +4,8 @@
 
 #include "sim/job_program.hpp"
 #include "sim/tool_poses.hpp"
+#include "core/arc.hpp"
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "motion/kinematics.hpp"
 #include "core/stl.hpp"
@@ -110,35 +112,9 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
         pts.push_back(mv.end.head<3>());
         continue;
       }
-      int i1 = 0, i2 = 1, iw = 2;
-      if (mv.plane == core::ArcPlane::ZX) i1 = 2, i2 = 0, iw = 1;
-      if (mv.plane == core::ArcPlane::YZ) i1 = 1, i2 = 2, iw = 0;
-      const double c1 = mv.centre_mm[0], c2 = mv.centre_mm[1];
-      const double r0 = std::hypot(mv.start[i1] - c1, mv.start[i2] - c2), r1 = std::hypot(mv.end[i1] - c1, mv.end[i2] - c2);
-      const double t0 = std::atan2(mv.start[i2] - c2, mv.start[i1] - c1), te = std::atan2(mv.end[i2] - c2, mv.end[i1] - c1);
-      const int turns = std::abs(mv.rotation) - 1;
-      double sweep;
-      const bool full = std::hypot(mv.end[i1] - mv.start[i1], mv.end[i2] - mv.start[i2]) < 1e-9;
-      if (mv.rotation > 0) {
-        sweep = std::fmod(te - t0 + 4 * core::units::kPi, 2 * core::units::kPi);
-        if (full) sweep = 2 * core::units::kPi;
-        sweep += 2 * core::units::kPi * turns;
-      } else {
-        sweep = std::fmod(t0 - te + 4 * core::units::kPi, 2 * core::units::kPi);
-        if (full) sweep = 2 * core::units::kPi;
-        sweep = -(sweep + 2 * core::units::kPi * turns);
-      }
-      const double tol = 0.1 * job.removal.track_tolerance_mm, r = std::max(r0, r1);
-      const double dphi = 2 * std::acos(std::max(0.0, 1 - tol / std::max(r, 1e-9)));
-      const int n = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / std::max(dphi, 1e-6))));
-      for (int k = 1; k <= n; ++k) {
-        const double f = double(k) / n, th = t0 + f * sweep, rr = r0 + f * (r1 - r0);
-        Eigen::Vector3d p = (mv.start.head<3>() + f * (mv.end.head<3>() - mv.start.head<3>())).eval();
-        p[i1] = c1 + rr * std::cos(th);
-        p[i2] = c2 + rr * std::sin(th);
-        p[iw] = mv.start[iw] + f * (mv.end[iw] - mv.start[iw]);
-        pts.push_back(k == n ? Eigen::Vector3d(mv.end.head<3>()) : p);
-      }
+      const core::ArcFrame arc = core::arc_frame(mv, m.program.source_path);
+      const int n = arc.chords(0.1 * job.removal.track_tolerance_mm);
+      for (int k = 1; k <= n; ++k) pts.push_back(arc.point_at(double(k) / n).head<3>());
     }
     tr.tip_mm.resize(static_cast<Eigen::Index>(pts.size()), 3);
     for (std::size_t k = 0; k < pts.size(); ++k) tr.tip_mm.row(static_cast<Eigen::Index>(k)) = pts[k].transpose();
@@ -192,29 +168,22 @@ namespace {
 
 void read_needles(const core::Job& job, Field& f) {
   const auto& file = job.removal.needles_file;
-  std::ifstream in(file);
-  if (!in) throw core::Error(file.string() + ": cannot open file");
-  std::string line;
-  int lineno = 0;
+  // Columns x,y,z,nx,ny,nz (mm) by name under a header row (others are ignored), or the first six without one.
+  core::CsvReader in(file, core::CsvReader::Header::Optional);
+  std::size_t col[6] = {0, 1, 2, 3, 4, 5};
+  if (in.has_header()) {
+    static constexpr const char* kNames[6] = {"x", "y", "z", "nx", "ny", "nz"};
+    for (int c = 0; c < 6; ++c) col[c] = static_cast<std::size_t>(in.require(kNames[c]));
+  }
   std::vector<Eigen::Vector3d> o, d;
   std::vector<double> len;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;
+  while (in.next()) {
+    if (!in.has_header() && in.cells() != 6)
+      throw in.error(fmt::format("{} values, expected 6: x,y,z,nx,ny,nz (mm)", in.cells()));
     double v[6];
-    std::stringstream ss(line);
-    std::string cell;
-    int c = 0;
-    while (c < 6 && std::getline(ss, cell, ',')) {
-      char* end = nullptr;
-      v[c] = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str() || !std::isfinite(v[c]))
-        throw core::Error(core::located(file.string(), lineno, "expected x,y,z,nx,ny,nz numbers (mm)"));
-      ++c;
-    }
-    if (c != 6) throw core::Error(core::located(file.string(), lineno, "expected 6 values x,y,z,nx,ny,nz"));
+    for (int c = 0; c < 6; ++c) v[c] = in.number(col[c]);
     const Eigen::Vector3d p(v[0], v[1], v[2]), n(v[3], v[4], v[5]);
-    if (n.norm() < 1e-9) throw core::Error(core::located(file.string(), lineno, "the normal has zero length"));
+    if (n.norm() < 1e-9) throw in.error("the normal has zero length");
     f.needle_point.push_back(p);
     f.needle_normal.push_back(n.normalized());
   }

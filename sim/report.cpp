@@ -1,6 +1,6 @@
 #include "sim/report.hpp"
 
-#include "core/sha256.hpp"
+#include "core/hash.hpp"
 
 #include <filesystem>
 

@@ -1,6 +1,6 @@
 #include "sim/signals.hpp"
 
-#include "core/atomic_file.hpp"
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "motion/kinematics.hpp"
 #include "core/units.hpp"
@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -167,20 +166,26 @@ BinnedSignals motion_signals(const core::Job& job, const core::ToolPath& program
 }
 
 void write_signals(const std::filesystem::path& file, const BinnedSignals& s) {
-  core::AtomicFile out(file);
-  auto& o = out.stream();
-  o << "# vmsim signals 1: per-bin minimum and maximum of each signal (columns NAME.min, NAME.max) over bins of "
-       "bin_samples consecutive samples, so that peaks survive the decimation; nan: undefined over the whole bin\n";
-  o << "# job=" << s.job << '\n';
-  o << fmt::format("# period_s={:.9g}\n# samples={}\n# bin_samples={}\n", s.period_s, s.samples, s.bin_samples);
+  core::CsvWriter out(file);
+  out.comment("vmsim signals 1: per-bin minimum and maximum of each signal (columns NAME.min, NAME.max) over bins of "
+              "bin_samples consecutive samples, so that peaks survive the decimation; nan: undefined over the whole bin");
+  out.comment("job=" + s.job);
+  out.comment(fmt::format("period_s={:.9g}", s.period_s));
+  out.comment(fmt::format("samples={}", s.samples));
+  out.comment(fmt::format("bin_samples={}", s.bin_samples));
   std::string axes, held;
   for (const auto& [name, unit] : s.axes) axes += (axes.empty() ? "" : ",") + name + ":" + unit;
   for (const auto& name : s.held_axes) held += (held.empty() ? "" : ",") + name;
-  o << "# axes=" << axes << "\n# held_axes=" << held << '\n';
-  for (const auto& [name, v] : s.limits) o << "# limit " << name << '=' << fmt::format("{:.9g}", v) << '\n';
+  out.comment("axes=" + axes);
+  out.comment("held_axes=" + held);
+  for (const auto& [name, v] : s.limits) out.comment("limit " + name + '=' + fmt::format("{:.9g}", v));
+  std::vector<std::string> header;
+  for (const std::string& n : s.names) {
+    header.push_back(n + ".min");
+    header.push_back(n + ".max");
+  }
+  out.header(header);
   std::string line;
-  for (std::size_t c = 0; c < s.names.size(); ++c) line += (c ? "," : "") + s.names[c] + ".min," + s.names[c] + ".max";
-  o << line << '\n';
   for (Eigen::Index b = 0; b < s.bins(); ++b) {
     line.clear();
     for (Eigen::Index c = 0; c < static_cast<Eigen::Index>(s.names.size()); ++c) {
@@ -189,106 +194,76 @@ void write_signals(const std::filesystem::path& file, const BinnedSignals& s) {
       line += ',';
       line += number(s.max(b, c));
     }
-    line += '\n';
-    o << line;
+    out.row(line);
   }
   out.commit();
 }
 
 BinnedSignals read_signals(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) throw core::Error(file.string() + ": cannot open file");
-  const std::string fname = file.string();
+  core::CsvReader in(file);
+  const std::string& fname = in.name();
   BinnedSignals s;
-  std::string line;
-  int lineno = 0;
   bool magic = false;
-  std::vector<std::vector<double>> rows;
-  std::size_t columns = 0;
-  auto number_of = [&](const std::string& text, const char* key) {
-    char* end = nullptr;
-    const double v = std::strtod(text.c_str(), &end);
-    if (end == text.c_str() || *end != '\0')
-      throw core::Error(core::located(fname, lineno, std::string("expected a number for ") + key + ", found \"" + text + "\""));
-    return v;
-  };
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    if (line[0] == '#') {
-      if (line.rfind("# vmsim signals 1", 0) == 0) magic = true;
-      const std::string body = line.substr(std::min<std::size_t>(2, line.size()));
-      const auto eq = body.find('=');
-      if (eq == std::string::npos) continue;
-      const std::string key = body.substr(0, eq), value = body.substr(eq + 1);
-      if (key == "job") s.job = value;
-      else if (key == "period_s") s.period_s = number_of(value, "period_s");
-      else if (key == "samples") s.samples = static_cast<Eigen::Index>(number_of(value, "samples"));
-      else if (key == "bin_samples") s.bin_samples = static_cast<Eigen::Index>(number_of(value, "bin_samples"));
-      else if (key == "axes") {
-        std::stringstream ss(value);
-        std::string item;
-        while (std::getline(ss, item, ',')) {
-          const auto colon = item.find(':');
-          if (colon == std::string::npos) throw core::Error(core::located(fname, lineno, "expected axes=NAME:UNIT,..."));
-          s.axes.emplace_back(item.substr(0, colon), item.substr(colon + 1));
-        }
-      } else if (key == "held_axes") {
-        std::stringstream ss(value);
-        std::string item;
-        while (std::getline(ss, item, ','))
-          if (!item.empty()) s.held_axes.push_back(item);
-      } else if (key.rfind("limit ", 0) == 0) {
-        s.limits[key.substr(6)] = number_of(value, key.c_str());
+  // The metadata: the '#' lines before the header.
+  for (const core::CsvComment& c : in.comments()) {
+    if (c.text.rfind("# vmsim signals 1", 0) == 0) magic = true;
+    const auto kv = core::comment_key_value(c.text);
+    if (!kv) continue;
+    const std::string key(kv->first), value(kv->second);
+    auto number_of = [&](const char* what) {
+      const auto v = core::parse_number(value);
+      if (!v) throw core::Error(core::located(fname, c.line, std::string("expected a number for ") + what + ", found \"" + value + "\""));
+      return *v;
+    };
+    if (key == "job") s.job = value;
+    else if (key == "period_s") s.period_s = number_of("period_s");
+    else if (key == "samples") s.samples = static_cast<Eigen::Index>(number_of("samples"));
+    else if (key == "bin_samples") s.bin_samples = static_cast<Eigen::Index>(number_of("bin_samples"));
+    else if (key == "axes") {
+      std::stringstream ss(value);
+      std::string item;
+      while (std::getline(ss, item, ',')) {
+        const auto colon = item.find(':');
+        if (colon == std::string::npos) throw core::Error(core::located(fname, c.line, "expected axes=NAME:UNIT,..."));
+        s.axes.emplace_back(item.substr(0, colon), item.substr(colon + 1));
       }
-      continue;
+    } else if (key == "held_axes") {
+      std::stringstream ss(value);
+      std::string item;
+      while (std::getline(ss, item, ','))
+        if (!item.empty()) s.held_axes.push_back(item);
+    } else if (key.rfind("limit ", 0) == 0) {
+      s.limits[key.substr(6)] = number_of(key.c_str());
     }
-    if (!magic) throw core::Error(core::located(fname, lineno, "not a vmsim signals file (no \"# vmsim signals 1\" line)"));
-    std::vector<std::string> cells;
-    {
-      std::stringstream ss(line);
-      std::string cell;
-      while (std::getline(ss, cell, ',')) cells.push_back(cell);
-    }
-    if (s.names.empty()) {
-      if (cells.size() % 2 != 0) throw core::Error(core::located(fname, lineno, "expected pairs of NAME.min,NAME.max columns"));
-      for (std::size_t c = 0; c < cells.size(); c += 2) {
-        const std::string& a = cells[c];
-        const std::string& b = cells[c + 1];
-        if (a.size() < 5 || a.substr(a.size() - 4) != ".min" || b != a.substr(0, a.size() - 4) + ".max")
-          throw core::Error(core::located(fname, lineno, "expected NAME.min,NAME.max, found \"" + a + "," + b + "\""));
-        s.names.push_back(a.substr(0, a.size() - 4));
-      }
-      columns = cells.size();
-      continue;
-    }
-    if (cells.size() != columns)
-      throw core::Error(core::located(fname, lineno, fmt::format("expected {} values, found {}", columns, cells.size())));
-    std::vector<double> row(columns);
-    for (std::size_t c = 0; c < columns; ++c) {
-      if (cells[c] == "nan") {
-        row[c] = kNaN;
-        continue;
-      }
-      char* end = nullptr;
-      row[c] = std::strtod(cells[c].c_str(), &end);
-      if (end == cells[c].c_str() || *end != '\0')
-        throw core::Error(core::located(fname, lineno, "not a number: \"" + cells[c] + "\""));
-    }
-    rows.push_back(std::move(row));
   }
-  if (!magic) throw core::Error(fname + ": not a vmsim signals file (no \"# vmsim signals 1\" line)");
-  if (s.names.empty()) throw core::Error(fname + ": no column header");
+  if (!magic) {
+    const int at = in.has_header() ? in.header_line() : 0;
+    throw core::Error(core::located(fname, at, "not a vmsim signals file (no \"# vmsim signals 1\" line)"));
+  }
+  if (!in.has_header()) throw core::Error(fname + ": no column header");
+  const std::vector<std::string>& cells = in.columns();
+  if (cells.size() % 2 != 0) throw in.error("expected pairs of NAME.min,NAME.max columns", in.header_line());
+  for (std::size_t c = 0; c < cells.size(); c += 2) {
+    const std::string& a = cells[c];
+    const std::string& b = cells[c + 1];
+    if (a.size() < 5 || a.substr(a.size() - 4) != ".min" || b != a.substr(0, a.size() - 4) + ".max")
+      throw in.error("expected NAME.min,NAME.max, found \"" + a + "," + b + "\"", in.header_line());
+    s.names.push_back(a.substr(0, a.size() - 4));
+  }
   if (s.find("t_s") < 0) throw core::Error(fname + ": no t_s column");
   if (!(s.period_s > 0)) throw core::Error(fname + ": period_s must be > 0");
-  const auto nb = static_cast<Eigen::Index>(rows.size()), nc = static_cast<Eigen::Index>(s.names.size());
+  const std::size_t columns = cells.size();
+  std::vector<double> values;
+  while (in.next())
+    for (std::size_t c = 0; c < columns; ++c) values.push_back(in.number_or_nan(c));
+  const auto nb = static_cast<Eigen::Index>(values.size() / std::max<std::size_t>(1, columns));
+  const auto nc = static_cast<Eigen::Index>(s.names.size());
   s.min.resize(nb, nc);
   s.max.resize(nb, nc);
   for (Eigen::Index b = 0; b < nb; ++b)
     for (Eigen::Index c = 0; c < nc; ++c) {
-      s.min(b, c) = rows[static_cast<std::size_t>(b)][static_cast<std::size_t>(2 * c)];
-      s.max(b, c) = rows[static_cast<std::size_t>(b)][static_cast<std::size_t>(2 * c + 1)];
+      s.min(b, c) = values[static_cast<std::size_t>(b) * columns + static_cast<std::size_t>(2 * c)];
+      s.max(b, c) = values[static_cast<std::size_t>(b) * columns + static_cast<std::size_t>(2 * c + 1)];
     }
   return s;
 }

@@ -1,7 +1,7 @@
 #include "sim/study.hpp"
 
 #include "core/error.hpp"
-#include "core/sha256.hpp"
+#include "core/hash.hpp"
 #include "core/toml_reader.hpp"
 
 #include <fmt/format.h>

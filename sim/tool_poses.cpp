@@ -1,5 +1,6 @@
 #include "sim/tool_poses.hpp"
 
+#include "core/arc.hpp"
 #include "core/error.hpp"
 #include "core/units.hpp"
 
@@ -8,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 namespace vmsim::sim {
@@ -23,45 +25,13 @@ Eigen::VectorXd machine_axes(const core::Vec6& v, const core::Machine& machine) 
   return q;
 }
 
-// Swept angle of an arc move (signed: > 0 counter-clockwise about the plane's normal), as LinuxCNC's ARC_FEED gives it.
-struct ArcFrame {
-  int i1 = 0, i2 = 1, iw = 2;
-  double c1 = 0, c2 = 0, r0 = 0, r1 = 0, t0 = 0, sweep = 0;
-};
-
-ArcFrame arc_frame(const core::Move& mv) {
-  ArcFrame a;
-  if (mv.plane == core::ArcPlane::ZX) a.i1 = 2, a.i2 = 0, a.iw = 1;
-  if (mv.plane == core::ArcPlane::YZ) a.i1 = 1, a.i2 = 2, a.iw = 0;
-  a.c1 = mv.centre_mm[0], a.c2 = mv.centre_mm[1];
-  a.r0 = std::hypot(mv.start[a.i1] - a.c1, mv.start[a.i2] - a.c2);
-  a.r1 = std::hypot(mv.end[a.i1] - a.c1, mv.end[a.i2] - a.c2);
-  a.t0 = std::atan2(mv.start[a.i2] - a.c2, mv.start[a.i1] - a.c1);
-  const double te = std::atan2(mv.end[a.i2] - a.c2, mv.end[a.i1] - a.c1);
-  const int turns = std::max(0, std::abs(mv.rotation) - 1);
-  const bool full = std::hypot(mv.end[a.i1] - mv.start[a.i1], mv.end[a.i2] - mv.start[a.i2]) < 1e-9;
-  if (mv.rotation >= 0) {
-    a.sweep = full ? 2 * kPi : std::fmod(te - a.t0 + 4 * kPi, 2 * kPi);
-    a.sweep += 2 * kPi * turns;
-  } else {
-    a.sweep = full ? 2 * kPi : std::fmod(a.t0 - te + 4 * kPi, 2 * kPi);
-    a.sweep = -(a.sweep + 2 * kPi * turns);
-  }
-  return a;
-}
-
-// Position (all six program axes) at parameter s of a move: lines linear, arcs at a fraction s of the swept angle
-// with the radius, the normal coordinate and the rotary axes linear in s. The ends are returned exactly.
-core::Vec6 on_move(const core::Move& mv, const ArcFrame* arc, double s) {
+// Position (all six program axes) at parameter s of a move: lines linear, arcs by their frame (core/arc). The ends are
+// returned exactly.
+core::Vec6 on_move(const core::Move& mv, const std::optional<core::ArcFrame>& arc, double s) {
+  if (arc) return arc->point_at(s);
   if (s <= 0) return mv.start;
   if (s >= 1) return mv.end;
-  core::Vec6 p = (1 - s) * mv.start + s * mv.end;
-  if (mv.kind == core::MotionKind::Arc && arc) {
-    const double th = arc->t0 + s * arc->sweep, r = arc->r0 + s * (arc->r1 - arc->r0);
-    p[arc->i1] = arc->c1 + r * std::cos(th);
-    p[arc->i2] = arc->c2 + r * std::sin(th);
-  }
-  return p;
+  return mv.start + s * (mv.end - mv.start);
 }
 
 Eigen::Vector3d slerp(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double s) {
@@ -141,23 +111,27 @@ removal::PoseTrack program_pose_track(const core::ToolPath& program, const core:
     const core::Move& mv = program.moves[m];
     const core::Move& am = axis_space.moves[m];
     const bool cl = mv.tool_axis_start.has_value() && mv.tool_axis_end.has_value();
-    const ArcFrame arc = mv.kind == core::MotionKind::Arc ? arc_frame(mv) : ArcFrame{};
-    const ArcFrame aarc = am.kind == core::MotionKind::Arc ? arc_frame(am) : ArcFrame{};
+    std::optional<core::ArcFrame> arc, aarc;
+    if (mv.kind == core::MotionKind::Arc) arc = core::arc_frame(mv, program.source_path);
+    if (am.kind == core::MotionKind::Arc) aarc = core::arc_frame(am, axis_space.source_path);
+    // The swept angle of the arc the poses follow (the program's, or the axis-space move's for joint programming).
+    const std::optional<core::ArcFrame>& followed = cl || mv.tcp ? arc : aarc;
+    const double arc_sweep = followed ? std::abs(followed->sweep_rad) : 0.0;
     // The pose at s and the rotary axes there (program axes A B C, rad).
     auto pose = [&](double s, Eigen::Vector3d& rot) -> motion::ToolPose {
       if (cl) {
-        const core::Vec6 p = on_move(mv, &arc, s);
+        const core::Vec6 p = on_move(mv, arc, s);
         rot = p.tail<3>();
         return motion::ToolPose{p.head<3>(), slerp(mv.tool_axis_start->normalized(), mv.tool_axis_end->normalized(), s)};
       }
       if (mv.tcp) {
-        const core::Vec6 p = on_move(mv, &arc, s);
+        const core::Vec6 p = on_move(mv, arc, s);
         rot = p.tail<3>();
         motion::ToolPose tp = kin.forward(machine_axes(p, machine), mv.tool_length_offset_mm);
         tp.tip_mm = p.head<3>();
         return tp;
       }
-      const core::Vec6 a = on_move(am, &aarc, s);
+      const core::Vec6 a = on_move(am, aarc, s);
       rot = a.tail<3>();
       return kin.forward(machine_axes(a, machine), am.tool_length_offset_mm);
     };
@@ -185,8 +159,11 @@ removal::PoseTrack program_pose_track(const core::ToolPath& program, const core:
       const double turn = angle_between(a0, a1);
       const double err = (pm.tip_mm - 0.5 * (pc.p0.tip_mm + pc.p1.tip_mm)).norm() +
                          reach * (pm.axis.normalized() - (a0 + a1).normalized()).norm();
+      // A piece of an arc spanning more than half a turn is split whatever its midpoint says (the midpoint of whole
+      // turns is the ends' point: a full circle of two turns would be cut as nothing).
       const bool split = pc.depth < 40 && (err > tolerance_mm || turn > kMaxTurn ||
-                                           (pc.r1 - pc.r0).cwiseAbs().maxCoeff() > kMaxRotary);
+                                           (pc.r1 - pc.r0).cwiseAbs().maxCoeff() > kMaxRotary ||
+                                           (pc.s1 - pc.s0) * arc_sweep > kPi);
       if (split) {
         stack.push_back({sm, pc.s1, pm, pc.p1, rm, pc.r1, pc.depth + 1});
         stack.push_back({pc.s0, sm, pc.p0, pm, pc.r0, rm, pc.depth + 1});

@@ -1,6 +1,7 @@
 // Friction and inertia identification (the feed-drive simulation paper section 3.1): see identify.hpp for the model and the method.
 #include "sysid/friction_inertia.hpp"
 
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "core/units.hpp"
 
@@ -8,61 +9,22 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
-#include <fstream>
-#include <string_view>
 
 namespace vmsim::sysid {
 
-namespace {
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> split(std::string_view line) {
-  std::vector<std::string_view> out;
-  std::size_t start = 0;
-  for (;;) {
-    const std::size_t comma = line.find(',', start);
-    out.push_back(trim(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start)));
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
-  }
-  return out;
-}
-
-}  // namespace
-
 AxisTrace read_axis_trace_csv(const std::filesystem::path& path, std::vector<std::string>* ignored) {
-  const std::string file = path.string();
-  if (std::filesystem::is_directory(path)) throw core::Error(core::located(file, 0, "is a directory, not a trace CSV"));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw core::Error(core::located(file, 0, "cannot open the trace file"));
-
-  std::string line;
-  int line_no = 0;
-  // Header: the first line that is neither blank nor a '#' comment.
-  std::vector<std::string> names;
-  while (std::getline(in, line)) {
-    ++line_no;
-    const std::string_view s = trim(line);
-    if (s.empty() || s.front() == '#') continue;
-    for (std::string_view n : split(s)) names.emplace_back(n);
-    break;
-  }
-  if (names.empty()) throw core::Error(core::located(file, line_no, "no header row (expected t_s, current_A and a position or velocity column)"));
+  core::CsvReader in(path);
+  const std::string& file = in.name();
+  if (!in.has_header())
+    throw core::Error(core::located(file, 0, "no header row (expected t_s, current_A and a position or velocity column)"));
+  const std::vector<std::string>& names = in.columns();
+  const int line_no = in.header_line();
 
   static constexpr const char* kMotion[] = {"position_mm", "position_deg", "velocity_mm_per_s", "velocity_deg_per_s"};
   int col_t = -1, col_i = -1, col_m = -1, motion = -1;
   for (int c = 0; c < static_cast<int>(names.size()); ++c) {
     const std::string& n = names[c];
-    for (int d = 0; d < c; ++d)
-      if (names[d] == n)
-        throw core::Error(core::located(file, line_no, fmt::format("column '{}' appears twice (columns {} and {})", n, d + 1, c + 1)));
     if (n == "t_s") {
       col_t = c;
     } else if (n == "current_A") {
@@ -92,33 +54,16 @@ AxisTrace read_axis_trace_csv(const std::filesystem::path& path, std::vector<std
   tr.rotary = motion == 1 || motion == 3;
   const double unit = tr.rotary ? core::units::kDegToRad : 1.0;
   std::vector<double> t, m, cur;
-  const std::size_t width = names.size();
-  while (std::getline(in, line)) {
-    ++line_no;
-    const std::string_view s = trim(line);
-    if (s.empty() || s.front() == '#') continue;
-    const std::vector<std::string_view> f = split(s);
-    if (f.size() != width)
-      throw core::Error(core::located(file, line_no, fmt::format("expected {} fields as in the header, found {}", width, f.size())));
-    auto number = [&](int c) {
-      double v = 0.0;
-      const std::string_view text = f[c];
-      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-      if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
-        throw core::Error(core::located(
-            file, line_no, fmt::format("column {} '{}': '{}' is not a finite number", c + 1, names[c], text)));
-      return v;
-    };
-    const double tv = number(col_t);
+  while (in.next()) {
+    const double tv = in.number(static_cast<std::size_t>(col_t));
     if (!t.empty() && !(tv > t.back()))
-      throw core::Error(core::located(file, line_no,
-                                      fmt::format("column {} 't_s': {} does not increase (previous row: {})", col_t + 1,
-                                                  tv, t.back())));
+      throw in.error(fmt::format("column {} 't_s': {} does not increase (previous row: {})", col_t + 1, tv, t.back()));
     t.push_back(tv);
-    m.push_back(number(col_m) * unit);
-    cur.push_back(number(col_i));
+    m.push_back(in.number(static_cast<std::size_t>(col_m)) * unit);
+    cur.push_back(in.number(static_cast<std::size_t>(col_i)));
   }
-  if (t.size() < 3) throw core::Error(core::located(file, line_no, fmt::format("only {} data rows; a trace needs many more", t.size())));
+  if (t.size() < 3)
+    throw core::Error(core::located(file, 0, fmt::format("only {} data rows; a trace needs many more", t.size())));
   const auto n = static_cast<Eigen::Index>(t.size());
   tr.t_s = Eigen::Map<Eigen::ArrayXd>(t.data(), n);
   tr.current_A = Eigen::Map<Eigen::ArrayXd>(cur.data(), n);

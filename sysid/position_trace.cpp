@@ -1,14 +1,12 @@
 #include "sysid/position_trace.hpp"
 
-#include "core/atomic_file.hpp"
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "core/units.hpp"
 
 #include <fmt/format.h>
 
-#include <charconv>
 #include <cmath>
-#include <fstream>
 #include <map>
 
 namespace vmsim::sysid {
@@ -19,49 +17,15 @@ int PositionTrace::axis_index(const std::string& name) const {
   return -1;
 }
 
-namespace {
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  return s.substr(b, s.find_last_not_of(" \t\r") - b + 1);
-}
-
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  for (;;) {
-    const auto comma = line.find(',', start);
-    out.push_back(trim(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start)));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  return out;
-}
-
-}  // namespace
-
 PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
-  const std::string file = path.string();
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw core::Error(core::located(file, 0, "cannot open the trace"));
+  core::CsvReader in(path);
+  const std::string& file = in.name();
   PositionTrace tr;
   tr.source = file;
-  std::string line;
-  int line_no = 0;
-  std::vector<std::string> header;
-  int header_line = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (line_no == 1 && line.size() >= 3 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
-    const std::string t = trim(line);
-    if (t.empty() || t[0] == '#') continue;
-    header = split(t);
-    header_line = line_no;
-    break;
-  }
-  if (header.empty())
+  if (!in.has_header())
     throw core::Error(core::located(file, 0, "no header row (expected t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ...)"));
+  const std::vector<std::string>& header = in.columns();
+  const int header_line = in.header_line();
 
   // Columns: t_s, then <AXIS>_command_<unit> / <AXIS>_actual_<unit>.
   int t_col = -1;
@@ -74,7 +38,6 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
       throw core::Error(core::located(file, header_line, fmt::format("column {} '{}': {}", c + 1, h, msg)));
     };
     if (h == "t_s") {
-      if (t_col >= 0) col_error("appears twice");
       t_col = static_cast<int>(c);
       continue;
     }
@@ -95,9 +58,7 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
     if (!cols.count(axis)) order.push_back(axis);
     Cols& cc = cols[axis];
     cc.rotary = rotary;
-    int& slot = kind == "command" ? cc.command : cc.actual;
-    if (slot >= 0) col_error("appears twice");
-    slot = static_cast<int>(c);
+    (kind == "command" ? cc.command : cc.actual) = static_cast<int>(c);
   }
   if (t_col < 0) throw core::Error(core::located(file, header_line, "no t_s column"));
   if (order.empty()) throw core::Error(core::located(file, header_line, "no axis columns (<AXIS>_command_mm, <AXIS>_actual_mm)"));
@@ -111,26 +72,10 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
   std::vector<double> values;
   std::vector<int> lines;
   const std::size_t nc = header.size();
-  while (std::getline(in, line)) {
-    ++line_no;
-    const std::string t = trim(line);
-    if (t.empty() || t[0] == '#') continue;
-    const std::vector<std::string> f = split(t);
-    if (f.size() != nc)
-      throw core::Error(core::located(file, line_no, fmt::format("{} fields, the header has {}", f.size(), nc)));
-    for (std::size_t c = 0; c < nc; ++c) {
-      double v = 0.0;
-      const char* b = f[c].data();
-      const char* e = b + f[c].size();
-      if (!f[c].empty() && *b == '+') ++b;
-      const auto r = std::from_chars(b, e, v);
-      if (f[c].empty() || r.ec != std::errc() || r.ptr != e || !std::isfinite(v))
-        throw core::Error(core::located(file, line_no, fmt::format("column {} '{}': '{}' is not a finite number", c + 1,
-                                                                   header[c], f[c])));
-      values.push_back(v);
-    }
-    lines.push_back(line_no);
-    if (values.size() > std::size_t{1} << 31) throw core::Error(core::located(file, line_no, "the trace is too large"));
+  while (in.next()) {
+    for (std::size_t c = 0; c < nc; ++c) values.push_back(in.number(c));
+    lines.push_back(in.line());
+    if (values.size() > std::size_t{1} << 31) throw in.error("the trace is too large");
   }
   const Eigen::Index n = static_cast<Eigen::Index>(lines.size());
   if (n < 2) throw core::Error(core::located(file, 0, fmt::format("{} samples; a trace needs at least 2", n)));
@@ -168,14 +113,15 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
 
 void write_position_trace_csv(const std::filesystem::path& path, const PositionTrace& tr,
                               const std::vector<std::string>& comment_lines) {
-  core::AtomicFile out(path);
-  for (const auto& l : comment_lines) out.stream() << "# " << l << '\n';
-  std::string h = "t_s";
+  core::CsvWriter out(path);
+  for (const auto& l : comment_lines) out.comment(l);
+  std::vector<std::string> h = {"t_s"};
   for (std::size_t a = 0; a < tr.axes.size(); ++a) {
     const char* u = tr.rotary[a] ? "deg" : "mm";
-    h += fmt::format(",{0}_command_{1},{0}_actual_{1}", tr.axes[a], u);
+    h.push_back(fmt::format("{}_command_{}", tr.axes[a], u));
+    h.push_back(fmt::format("{}_actual_{}", tr.axes[a], u));
   }
-  out.stream() << h << '\n';
+  out.header(h);
   std::string line;
   for (Eigen::Index k = 0; k < tr.t_s.size(); ++k) {
     line = fmt::format("{:.7f}", tr.t_s[k]);
@@ -184,8 +130,7 @@ void write_position_trace_csv(const std::filesystem::path& path, const PositionT
       const auto ai = static_cast<Eigen::Index>(a);
       line += fmt::format(",{:.10f},{:.10f}", tr.command(k, ai) * f, tr.actual(k, ai) * f);
     }
-    line += '\n';
-    out.stream() << line;
+    out.row(line);
   }
   out.commit();
 }

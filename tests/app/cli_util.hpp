@@ -1,6 +1,8 @@
 #pragma once
 // Shared by the command-line tests: a scratch directory removed at the end of the test, vmsim run as a user runs it
 // (stdout and stderr captured), and small file helpers (a whole file as a string, a file written, JSON and CSV read).
+#include "core/csv.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -97,7 +99,8 @@ inline void expect_report_html(const std::filesystem::path& dir, const std::stri
 }
 #endif
 
-// A CSV without its '#' lines: header names and rows of numbers (cells that are not numbers read as NaN).
+// A CSV file vmsim wrote, through core/csv's reader (its '#' lines skipped, every row as wide as the header): header
+// names and rows of numbers (cells that are not numbers read as NaN).
 struct Csv {
   std::vector<std::string> names;
   std::vector<std::vector<double>> rows;
@@ -111,23 +114,12 @@ struct Csv {
 
 inline Csv read_csv(const std::filesystem::path& p) {
   Csv c;
-  std::ifstream in(p);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::stringstream ss(line);
-    std::string cell;
-    if (c.names.empty()) {
-      while (std::getline(ss, cell, ',')) c.names.push_back(cell);
-      continue;
-    }
+  vmsim::core::CsvReader in(p);
+  c.names = in.columns();
+  while (in.next()) {
     std::vector<double> r;
-    while (std::getline(ss, cell, ',')) {
-      char* end = nullptr;
-      const double v = std::strtod(cell.c_str(), &end);
-      r.push_back(end == cell.c_str() ? NAN : v);
-    }
-    c.rows.push_back(r);
+    for (std::size_t i = 0; i < in.cells(); ++i) r.push_back(vmsim::core::parse_number(in.cell(i)).value_or(NAN));
+    c.rows.push_back(std::move(r));
   }
   return c;
 }

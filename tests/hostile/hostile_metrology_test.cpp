@@ -6,7 +6,7 @@
 // 1 GiB (__asan_default_options below), so a reader that sizes a buffer from a declared dimension before checking
 // it against the data aborts the run and names the input. Each input must finish within 20 s (a hang guard).
 #include "core/error.hpp"
-#include "core/md5.hpp"
+#include "core/hash.hpp"
 #include "metrology/grid_io.hpp"
 #include "metrology/sdf.hpp"
 #include "metrology/sur.hpp"

@@ -1,9 +1,10 @@
 // Hostile inputs (the issue: "Truncated, garbled or hostile G-code, CL and TOML get a clear error, never a crash
-// or hang"). Deterministic mutants of real and built-in samples go through program::read_program, load_machine and
-// load_job, compiled with AddressSanitizer and UBSan (tests/hostile/CMakeLists.txt). The only acceptable outcomes
+// or hang"). Deterministic mutants of real and built-in samples go through program::read_program, load_machine,
+// load_job and core's CSV reader, compiled with AddressSanitizer and UBSan (tests/hostile/CMakeLists.txt). The only acceptable outcomes
 // are success, or a core::Error whose message starts with the file's name; any other exception fails, a crash
 // aborts the process (the sanitizer report and the input's path are printed), and each input must finish within
 // 20 s (a hang guard, not a performance test; a watchdog ends the process after 60 s).
+#include "core/csv.hpp"
 #include "core/error.hpp"
 #include "core/job.hpp"
 #include "core/machine.hpp"
@@ -111,7 +112,7 @@ std::uint64_t fnv1a(const std::string& s) {
   return h;
 }
 
-enum class Flavor { Gcode, Apt, Toml, Stl };
+enum class Flavor { Gcode, Apt, Toml, Stl, Csv };
 
 struct Mutant {
   std::string what;  // how it was made, for failure reports
@@ -324,6 +325,18 @@ const std::vector<std::string> kTomlLines = {"[machine]\n",
                                              "[[axes]]\nname = \"X\"\n",
                                              "travel_deg = [-1e308, 1e308]\n",
                                              "x = 9223372036854775808\n"};
+const std::vector<std::string> kCsvLines = {"t_s,X_command_mm,X_actual_mm\n",
+                                            "t_s,t_s,t_s\n",
+                                            "0,1e400,1\n",
+                                            "0,nan,inf\n",
+                                            ",,\n",
+                                            ",,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,\n",
+                                            "\xEF\xBB\xBF0,1,2\n",
+                                            "# k=v\n",
+                                            "#\n",
+                                            "0x1p3,+-1,.\n",
+                                            "\"1\",\"2\",\"3\"\n",
+                                            "1\r\r\n"};
 const std::vector<std::string> kStlLines = {"solid\n",
                                             "endsolid\n",
                                             "facet normal 0 0 0\n",
@@ -356,6 +369,8 @@ std::string nested(std::size_t depth, Flavor f, Rng& rng) {
       return "x = " + s + "\n";
     case Flavor::Stl:
       return "vertex " + s + " 0 0\n";
+    case Flavor::Csv:
+      return "0," + s + ",0\n";
   }
   return s;
 }
@@ -369,6 +384,7 @@ std::vector<Mutant> make_mutants(const std::string& base, std::size_t count, con
   const std::vector<std::string>& dialect_lines = flavor == Flavor::Gcode ? kGcodeLines
                                                   : flavor == Flavor::Apt ? kAptLines
                                                   : flavor == Flavor::Stl ? kStlLines
+                                                  : flavor == Flavor::Csv ? kCsvLines
                                                                           : kTomlLines;
   // Truncation at evenly spaced points (every part of the file gets cut once), then random mutations.
   const std::size_t truncations = std::min<std::size_t>(count / 4, base.size());
@@ -781,6 +797,23 @@ TEST(Hostile, JobFile) {
   const auto mutants = make_mutants(kJob, 600, "job", Flavor::Toml);
   const Outcome o =
       run("job file", mutants, input, {(dir / "").string()}, [](const fs::path& p) { (void)load_job(p); });
+  EXPECT_EQ(o.base_error, "");
+}
+
+// CSV files (core/csv): a position trace as vmsim writes it, its mutants read cell by cell as numbers (nan allowed).
+TEST(Hostile, CsvTrace) {
+  std::string text = "# vmsim position trace\n# period_s=0.001\nt_s,X_command_mm,X_actual_mm\n";
+  for (int k = 0; k < 40; ++k)
+    text += std::to_string(k * 0.001) + "," + std::to_string(0.25 * k) + "," + std::to_string(0.25 * k - 0.001) + "\n";
+  const fs::path input = work_dir("csv") / "trace.csv";
+  const auto mutants = make_mutants(text, 600, "csv", Flavor::Csv);
+  const Outcome o = run("CSV trace", mutants, input, {input.string() + ":"}, [](const fs::path& p) {
+    CsvReader r(p);
+    if (!r.has_header()) throw Error(p.string() + ": no header");
+    (void)r.require("t_s");
+    while (r.next())
+      for (std::size_t c = 0; c < r.cells(); ++c) (void)r.number_or_nan(c);
+  });
   EXPECT_EQ(o.base_error, "");
 }
 

@@ -169,9 +169,9 @@ TEST(Signals, FileRoundTripAndErrors) {
     std::filesystem::remove(f);
   };
   bad("t_s.min,t_s.max\n0,1\n", "not a vmsim signals file");
-  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,1,2\n", ":4: expected 2 values");
+  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,1,2\n", ":4: 3 cells, the header (line 3) names 2 columns");
   bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,x.max\n", ":3: expected NAME.min,NAME.max");
-  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,abc\n", ":4: not a number");
+  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,abc\n", ":4: column 2 't_s.max': 'abc' is not a finite number (nor nan)");
   bad("# vmsim signals 1\n# period_s=fast\n", ":2: expected a number for period_s");
   EXPECT_THROW(sim::read_signals(temp_file("missing.csv")), core::Error);
 }
