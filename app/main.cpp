@@ -55,7 +55,7 @@ int run_command(int argc, char** argv) {
   interp->add_flag("--summary-only", interp_args.summary_only,
                    "print the cycle time and the axis peaks, write no setpoints.csv");
 
-  vmsim::app::IdentifyArgs id_args;
+  vmsim::app::IdentifyFrictionArgs id_args;
   auto* identify = app.add_subcommand(
       "identify-friction", "Identify an axis' friction law and inertia from a trace of time, position or velocity, current");
   identify->add_option("TRACE", id_args.trace, "CSV: t_s, current_A, position_mm|position_deg|velocity_mm_per_s|velocity_deg_per_s")
@@ -284,7 +284,7 @@ int run_command(int argc, char** argv) {
   excite->add_option("--simulate", excite_args.simulate,
                      "also run the setpoints through the axis's [axes.drive] and write this position trace CSV");
 
-  vmsim::app::SysidArgs sysid_args;
+  vmsim::app::IdentifyArgs sysid_args;
   auto* sysid = app.add_subcommand(
       "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; the predictive-compensation paper), "
                   "validate, rank, and write axis_models.toml for jobs to run on");
@@ -333,7 +333,7 @@ int run_command(int argc, char** argv) {
     if (*motion) return vmsim::app::run_motion(motion_args);
     if (*oga) return vmsim::app::run_oga(oga_args);
     if (*excite) return vmsim::app::run_excite(excite_args);
-    if (*sysid) return vmsim::app::run_sysid(sysid_args);
+    if (*sysid) return vmsim::app::run_identify(sysid_args);
     if (*compensate) return vmsim::app::run_compensate(comp_args);
     if (*run) return vmsim::app::run_run(run_args);
     if (*study) return vmsim::app::run_study(study_args);
