@@ -28,7 +28,7 @@ std::optional<sysid::ModelOrders> parse_orders(const std::string& s, int nc) {
   const auto comma = s.find(',');
   const auto bad = [&] {
     throw core::Error(fmt::format("--orders '{}': expected NB,NA (numerator and denominator orders, e.g. 2,5 as the "
-                                  "predictive-compensation paper section 2.2) or auto",
+                                  "predictive-compensation paper, section 2.2) or auto",
                                   s));
   };
   if (comma == std::string::npos) bad();

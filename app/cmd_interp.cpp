@@ -1,5 +1,6 @@
 // vmsim interp JOB: the interpolator alone, so users can look at setpoints before the drives act on them.
 #include "app/commands.hpp"
+#include "sim/chain.hpp"
 #include "sim/job_program.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -39,12 +40,13 @@ void write_setpoints_csv(const std::filesystem::path& file, const core::Setpoint
 
 int run_interp(const InterpArgs& args) {
   const core::Job job = core::load_job(args.job);
-  const core::ToolPath path = motion::toolpath_in_axis_space(sim::read_job_program(job), job.machine);
-  motion::InterpOptions iopt;
-  iopt.period_s = job.interp.period_s;
-  iopt.tolerance_mm = job.interp.tolerance_mm;
-  iopt.feed_scale = args.feed_scale.value_or(1.0);
-  const motion::InterpResult r = motion::interpolate(path, job.machine, iopt);
+  sim::ChainOptions copt;
+  copt.feed_scale = args.feed_scale.value_or(1.0);
+  copt.ignore_gain_schedule = true;  // the drives do not run here
+  const sim::Chain chain(job, copt);
+  const core::ToolPath program = sim::read_job_program(job);
+  const core::ToolPath path = motion::toolpath_in_axis_space(program, job.machine);
+  const motion::InterpResult r = chain.interpolate(program);
 
   std::printf("job %s: %d moves, %d blends, %d exact stops, %lld setpoints at Te = %g ms\n", job.name.c_str(),
               r.stats.moves, r.stats.blends, r.stats.exact_stops, static_cast<long long>(r.setpoints.samples()),
@@ -63,7 +65,7 @@ int run_interp(const InterpArgs& args) {
   }
   if (programmed > 0)
     std::printf("feed on cutting moves (G94): programmed up to %.0f mm/min, reached up to %.0f mm/min\n",
-                programmed * iopt.feed_scale, reached);
+                programmed * chain.feed_scale(), reached);
   const core::AxisPeaks peaks = core::finite_difference_peaks(r.setpoints);
   std::printf("axis  peak velocity        peak acceleration      peak jerk              (finite differences; limit)\n");
   for (std::size_t a = 0; a < job.machine.axes.size(); ++a) {

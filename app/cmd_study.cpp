@@ -5,7 +5,7 @@
 #include "app/commands.hpp"
 #include "app/commands_study.hpp"
 #include "app/mpi_session.hpp"
-#include "app/study.hpp"
+#include "sim/study.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/timing.hpp"
@@ -78,17 +78,17 @@ class OutputToFile {
 };
 
 // One variation, as rank 0 hands it out: everything a rank needs, so workers never read the study file.
-nlohmann::json make_task(const Study& study, const StudyVariation& v, const PreparedVariation& p, const fs::path& out,
+nlohmann::json make_task(const sim::Study& study, const sim::StudyVariation& v, const sim::PreparedVariation& p, const fs::path& out,
                          const std::string& keep) {
   nlohmann::json t = {{"index", v.index},
                       {"label", fmt::format("{}: variation {} ({})", study.file.string(), v.index, v.name)},
-                      {"dir", fs::absolute(variation_dir(out, study, v)).string()},
+                      {"dir", fs::absolute(sim::variation_dir(out, study, v)).string()},
                       {"job_toml", p.job_toml},
                       {"feed_scale", p.feed_scale},
                       {"keep", keep}};
   if (p.machine_toml) t["machine_toml"] = *p.machine_toml;
   nlohmann::json ov = nlohmann::json::array();
-  for (const StudyOverride& o : v.overrides) ov.push_back({{"key", o.key}, {"where", o.where}});
+  for (const sim::StudyOverride& o : v.overrides) ov.push_back({{"key", o.key}, {"where", o.where}});
   t["overrides"] = ov;
   return t;
 }
@@ -108,8 +108,8 @@ std::string with_study_key(const std::string& message, const nlohmann::json& tas
 }
 
 // Runs one variation in its own directory through vmsim run (no pictures); every error stays in its row.
-StudyResult run_variation(const nlohmann::json& task, int rank) {
-  StudyResult r;
+sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
+  sim::StudyResult r;
   r.rank = rank;
   const auto t0 = Clock::now();
   const double c0 = process_cpu_s();
@@ -138,8 +138,8 @@ StudyResult run_variation(const nlohmann::json& task, int rank) {
     std::ifstream in(dir / "report.json");
     if (!in) throw core::Error((dir / "report.json").string() + ": the run wrote no report");
     const nlohmann::json report = nlohmann::json::parse(in);
-    r.figures = figures_from_report(report);
-    r.status = StudyResult::Status::Ok;
+    r.figures = sim::figures_from_report(report);
+    r.status = sim::StudyResult::Status::Ok;
     if (task.value("keep", std::string("all")) == "summary") {
       for (const auto& e : fs::directory_iterator(dir)) {
         const std::string n = e.path().filename().string();
@@ -148,13 +148,13 @@ StudyResult run_variation(const nlohmann::json& task, int rank) {
       render::write_report_html(dir, report);  // again: its links to the files just removed go
     }
   } catch (const core::Error& e) {
-    r.status = StudyResult::Status::Failed;
+    r.status = sim::StudyResult::Status::Failed;
     r.error = with_study_key(label + ": " + e.what(), task);
   } catch (const std::exception& e) {
-    r.status = StudyResult::Status::Failed;
+    r.status = sim::StudyResult::Status::Failed;
     r.error = label + ": internal error: " + e.what();
   } catch (...) {
-    r.status = StudyResult::Status::Failed;
+    r.status = sim::StudyResult::Status::Failed;
     r.error = label + ": internal error";
   }
   r.cpu_s = process_cpu_s() - c0;
@@ -177,6 +177,56 @@ nlohmann::json recv_json(int source, int tag) {
   return nlohmann::json::parse(s);
 }
 
+// Variation i as a task for a rank; one whose overrides cannot be applied is `failed` (its row) instead.
+std::optional<nlohmann::json> prepare_task(const sim::Study& study, std::size_t i, const StudyArgs& args,
+                                           sim::StudyResult& failed) {
+  try {
+    return make_task(study, study.variations[i], sim::prepare_variation(study, study.variations[i]), args.out_dir,
+                     args.keep);
+  } catch (const std::exception& e) {  // core::Error names the study file, the variation and the key
+    failed.status = sim::StudyResult::Status::Failed;
+    failed.error = dynamic_cast<const core::Error*>(&e)
+                       ? std::string(e.what())
+                       : fmt::format("{}: variation {} ({}): {}", study.file.string(), study.variations[i].index,
+                                     study.variations[i].name, e.what());
+    return std::nullopt;
+  }
+}
+
+// A worker's message to rank 0: its request for work, with the result of the variation it just ran.
+struct Request {
+  int rank = 0;
+  std::size_t index = 0;                    // 1-based; 0: no result (its first request)
+  std::optional<sim::StudyResult> result;
+};
+std::optional<Request> poll_request(std::size_t n) {
+  int flag = 0;
+  MPI_Status st;
+  MPI_Iprobe(MPI_ANY_SOURCE, kTagToCoordinator, MPI_COMM_WORLD, &flag, &st);
+  if (!flag) return std::nullopt;
+  Request r;
+  r.rank = st.MPI_SOURCE;
+  const nlohmann::json msg = recv_json(r.rank, kTagToCoordinator);
+  if (msg.contains("index")) {
+    r.index = msg["index"].get<std::size_t>();
+    if (r.index < 1 || r.index > n) throw core::Error(fmt::format("rank {} sent a result for variation {}", r.rank, r.index));
+    r.result = sim::result_from_json(msg["result"]);
+  }
+  return r;
+}
+
+// The progress line of a finished variation.
+std::string finished_line(std::size_t shown, std::size_t n, const sim::StudyVariation& v, const sim::StudyResult& r) {
+  if (r.status != sim::StudyResult::Status::Ok)
+    return fmt::format("[{}/{}] variation {} ({}): FAILED: {}", shown, n, v.index, v.name, r.error);
+  const sim::StudyFigures& f = r.figures;
+  return fmt::format("[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}",
+                     shown, n, v.index, v.name,
+                     f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
+                     f.contour_error_max_mm ? fmt::format("{:.2f} um", *f.contour_error_max_mm * 1e3) : std::string("-"),
+                     r.cpu_s, r.rank);
+}
+
 // Ranks 1..N-1: ask rank 0 for a variation, run it, send its result with the next request, until told to stop.
 int worker_loop(int rank) {
   nlohmann::json msg = {{"rank", rank}};
@@ -184,8 +234,8 @@ int worker_loop(int rank) {
     send_json(msg, 0, kTagToCoordinator);
     const nlohmann::json task = recv_json(0, kTagToWorker);
     if (task.contains("stop")) return 0;
-    const StudyResult r = run_variation(task, rank);
-    msg = {{"rank", rank}, {"index", task.at("index")}, {"result", result_to_json(r)}};
+    const sim::StudyResult r = run_variation(task, rank);
+    msg = {{"rank", rank}, {"index", task.at("index")}, {"result", sim::result_to_json(r)}};
   }
 }
 
@@ -198,7 +248,7 @@ int run_study(const StudyArgs& args) {
   if (rank != 0) return worker_loop(rank);
 
   const auto t_start = Clock::now();
-  const Study study = load_study(args.study);
+  const sim::Study study = sim::load_study(args.study);
   std::error_code ec;
   fs::create_directories(args.out_dir, ec);
   if (ec) throw core::Error(args.out_dir.string() + ": cannot create the output directory: " + ec.message());
@@ -209,9 +259,9 @@ int run_study(const StudyArgs& args) {
   std::mutex mu;
   std::deque<std::size_t> queue;
   for (std::size_t i = 0; i < n; ++i) queue.push_back(i);
-  std::vector<StudyResult> results(n);
+  std::vector<sim::StudyResult> results(n);
   std::vector<std::size_t> finished;  // in the order they finished, for the progress lines
-  auto store = [&](std::size_t i, const StudyResult& r) {
+  auto store = [&](std::size_t i, const sim::StudyResult& r) {
     std::lock_guard<std::mutex> lock(mu);
     results[i] = r;
     finished.push_back(i);
@@ -226,18 +276,9 @@ int run_study(const StudyArgs& args) {
         i = queue.front();
         queue.pop_front();
       }
-      try {
-        return make_task(study, study.variations[i], prepare_variation(study, study.variations[i]), args.out_dir,
-                         args.keep);
-      } catch (const std::exception& e) {  // core::Error names the study file, the variation and the key
-        StudyResult r;
-        r.status = StudyResult::Status::Failed;
-        r.error = dynamic_cast<const core::Error*>(&e)
-                      ? std::string(e.what())
-                      : fmt::format("{}: variation {} ({}): {}", study.file.string(), study.variations[i].index,
-                                    study.variations[i].name, e.what());
-        store(i, r);
-      }
+      sim::StudyResult failed;
+      if (auto task = prepare_task(study, i, args, failed)) return task;
+      store(i, failed);
     }
   };
 
@@ -258,13 +299,13 @@ int run_study(const StudyArgs& args) {
   });
 
   auto write_tables = [&]() {
-    std::vector<StudyResult> copy;
+    std::vector<sim::StudyResult> copy;
     {
       std::lock_guard<std::mutex> lock(mu);
       copy = results;
     }
-    core::write_file_atomic(args.out_dir / "results.csv", results_csv(study, copy));
-    const nlohmann::json sj = study_json(study, copy, size, seconds_since(t_start));
+    core::write_file_atomic(args.out_dir / "results.csv", sim::results_csv(study, copy));
+    const nlohmann::json sj = sim::study_json(study, copy, size, seconds_since(t_start));
     core::write_file_atomic(args.out_dir / "study.json", sj.dump(2) + "\n");
     render::write_report_html(args.out_dir, sj);
   };
@@ -276,22 +317,15 @@ int run_study(const StudyArgs& args) {
     while (true) {
       bool busy = false;
       if (remote_active > 0) {
-        int flag = 0;
-        MPI_Status st;
-        MPI_Iprobe(MPI_ANY_SOURCE, kTagToCoordinator, MPI_COMM_WORLD, &flag, &st);
-        if (flag) {
+        // A worker's request (with the result of its last variation): its next variation, or stop.
+        const std::optional<Request> req = poll_request(n);
+        if (req) {
           busy = true;
-          const int src = st.MPI_SOURCE;
-          const nlohmann::json msg = recv_json(src, kTagToCoordinator);
-          if (msg.contains("index")) {
-            const auto idx = msg["index"].get<std::size_t>();
-            if (idx < 1 || idx > n) throw core::Error(fmt::format("rank {} sent a result for variation {}", src, idx));
-            store(idx - 1, result_from_json(msg["result"]));
-          }
+          if (req->result) store(req->index - 1, *req->result);
           if (auto task = next_task()) {
-            send_json(*task, src, kTagToWorker);
+            send_json(*task, req->rank, kTagToWorker);
           } else {
-            send_json({{"stop", true}}, src, kTagToWorker);
+            send_json({{"stop", true}}, req->rank, kTagToWorker);
             --remote_active;
           }
         }
@@ -303,21 +337,8 @@ int run_study(const StudyArgs& args) {
         fresh.assign(finished.begin() + static_cast<std::ptrdiff_t>(reported), finished.end());
         reported = finished.size();
       }
-      for (std::size_t i : fresh) {
-        ++shown;
-        const StudyResult& r = results[i];  // written once, before it was listed as finished
-        const StudyVariation& v = study.variations[i];
-        if (r.status == StudyResult::Status::Ok) {
-          const StudyFigures& f = r.figures;
-          say(fmt::format("[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}",
-                          shown, n, v.index, v.name,
-                          f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
-                          f.contour_error_max_mm ? fmt::format("{:.2f} um", *f.contour_error_max_mm * 1e3) : std::string("-"),
-                          r.cpu_s, r.rank));
-        } else {
-          say(fmt::format("[{}/{}] variation {} ({}): FAILED: {}", shown, n, v.index, v.name, r.error));
-        }
-      }
+      for (std::size_t i : fresh)  // results[i] was written once, before it was listed as finished
+        say(finished_line(++shown, n, study.variations[i], results[i]));
       // The table so far, now and then: a study cut short (a killed job) keeps what it had. Every 2 s at most, and
       // never more than 5 % of the time (a study of many variations has long tables).
       if (reported > written && seconds_since(last_write) > std::max(2.0, 20 * write_s)) {
@@ -342,7 +363,7 @@ int run_study(const StudyArgs& args) {
   local.join();
   write_tables();
   int ok = 0;
-  for (const StudyResult& r : results) ok += r.status == StudyResult::Status::Ok;
+  for (const sim::StudyResult& r : results) ok += r.status == sim::StudyResult::Status::Ok;
   say(fmt::format("study {}: {} ok, {} failed of {} variations on {} rank{} in {:.1f} s; wrote {} and {}", study.name,
                   ok, static_cast<int>(n) - ok, n, size, size > 1 ? "s" : "", seconds_since(t_start),
                   (args.out_dir / "results.csv").string(), (args.out_dir / "study.json").string()));

@@ -1,310 +1,75 @@
-// vmsim run --plan JOB: the memory model of a run (app/run_plan.hpp), per process and per rank, with advice.
+// vmsim run --plan JOB: the memory model of a run (sim/memory_plan.hpp) printed, and written as plan.json.
 #include "app/run_plan.hpp"
 
 #include "app/mpi_session.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
-#include "sim/pipeline.hpp"
 #include "core/error.hpp"
-#include "core/stl.hpp"
-#include "removal/dexel_grid.hpp"
-#include "removal/fields.hpp"
-#include "removal/vdb_part.hpp"
+#include "sim/memory_plan.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
-#include <fstream>
 
 namespace vmsim::app {
 
 namespace {
 
-constexpr double kBaseBytes = 70e6;           // the process: code and libraries (bench/README.md, measured)
-constexpr double kSweepBytes = sizeof(removal::SweptTool);
-constexpr double kZmapOutputBytesPerNode = 136;  // 3 height grids (24) + part mesh with deviation (56) + writer (56)
-constexpr double kTileOutputBytesPerNode = 24;   // a tile's surface, reference and deviation grids
+std::string gb(const nlohmann::json& bytes) { return fmt::format("{:.3f} GB", bytes.get<double>() / 1e9); }
 
-// The field a job starts from, as geometry: the first job of its stock chain makes it.
-struct FieldShape {
-  core::RemovalSpec::Field kind = core::RemovalSpec::Field::ZMap;
-  bool vdb = false;
-  double spacing_mm = 0, voxel_mm = 0;
-  removal::Box region;
-  double stock_area_mm2 = 0;
-  std::vector<removal::GridShape> grids;
-  std::size_t needles = 0;
-};
-
-std::size_t count_needles(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) throw core::Error(file.string() + ": cannot open file");
-  std::string line;
-  std::size_t n = 0;
-  while (std::getline(in, line))
-    if (!line.empty() && line[0] != '#' && !std::isalpha(static_cast<unsigned char>(line[0]))) ++n;
-  return n;
-}
-
-FieldShape shape_of(const core::Job& job, int depth = 0) {
-  if (depth > 32) throw core::Error(job.file.string() + ": the stock jobs form a cycle");
-  if (job.stock.kind == core::StockSpec::Kind::Job) return shape_of(core::load_job(job.stock.job_file), depth + 1);
-  FieldShape s;
-  s.kind = job.removal.field;
-  s.vdb = job.removal.method == core::RemovalSpec::Method::Vdb;
-  s.spacing_mm = job.removal.spacing_mm;
-  s.voxel_mm = job.removal.voxel_mm;
-  if (job.stock.kind == core::StockSpec::Kind::Box) {
-    s.region = removal::Box{job.stock.min_mm, job.stock.max_mm};
-  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
-    const core::TriangleMesh mesh = core::read_stl(job.stock.mesh_file);
-    s.region.lo = mesh.vertices_mm.colwise().minCoeff().transpose();
-    s.region.hi = mesh.vertices_mm.colwise().maxCoeff().transpose();
-  } else {
-    throw core::Error(job.file.string() + ": [stock] is required to remove material (box, stl or job)");
+void print_plan(const core::Job& job, const nlohmann::json& plan) {
+  const nlohmann::json &f = plan["field"], &m = plan["motion"], &one = plan["one_process"];
+  std::printf("job %s: %s field at %g mm, %.0f rays (%s), %.0f setpoints, %.0f sweeps", job.name.c_str(),
+              f["kind"].get<std::string>().c_str(), f["spacing_mm"].get<double>(), f["rays"].get<double>(),
+              gb(f["bytes"]).c_str(), m["samples"].get<double>(), m["sweeps"].get<double>());
+  if (plan.contains("reference_field"))
+    std::printf("; reference: %.0f setpoints, %.0f sweeps", m["reference_samples"].get<double>(),
+                m["reference_sweeps"].get<double>());
+  std::printf("\none process: %s (field and its copies %s, motion %s, sweeps %s, outputs %s, base %s)\n",
+              gb(one["total_bytes"]).c_str(), gb(one["field_bytes"]).c_str(), gb(one["motion_bytes"]).c_str(),
+              gb(one["sweep_bytes"]).c_str(), gb(one["output_bytes"]).c_str(), gb(one["base_bytes"]).c_str());
+  const int ranks = plan["ranks"].get<int>();
+  for (const bool tiles_out : {false, true}) {
+    const char* key = tiles_out ? "tiles_out" : "gathered";
+    if (!plan.contains(key)) continue;
+    const nlohmann::json& p = plan[key];
+    std::printf("%d rank%s%s: largest rank %s", ranks, ranks > 1 ? "s" : "",
+                ranks == 1 ? "" : tiles_out ? ", --tiles-out" : ", gathered to rank 0",
+                gb(p["largest_rank_bytes"]).c_str());
+    if (ranks > 1) std::printf(" (rank %d: %s)", ranks - 1, gb(p["per_rank"].back()["total_bytes"]).c_str());
+    std::printf("\n");
   }
-  const Eigen::Vector3d e = s.region.hi - s.region.lo;
-  s.stock_area_mm2 = 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
-  if (s.kind == core::RemovalSpec::Field::NBuffer) {
-    s.needles = count_needles(job.removal.needles_file);
-  } else {
-    s.grids = removal::field_shape(s.region, s.spacing_mm, s.kind == core::RemovalSpec::Field::TriDexel);
-  }
-  return s;
+  if (!plan.contains("advice")) return;
+  const nlohmann::json& a = plan["advice"];
+  const int ng = a["ranks_gathered"].get<int>(), nt = a["ranks_tiles_out"].get<int>();
+  std::printf("advice for %s per rank: ", gb(a["memory_per_rank_bytes"]).c_str());
+  if (ng > 0)
+    std::printf("%d rank%s gathered; ", ng, ng > 1 ? "s" : "");
+  else
+    std::printf("no rank count gathers it (rank 0 holds the whole part); ");
+  if (nt > 0)
+    std::printf("%d ranks with --tiles-out", nt);
+  else
+    std::printf("no rank count fits with --tiles-out (the motion and sweeps alone: %s)",
+                gb(nlohmann::json(one["base_bytes"].get<double>() + one["motion_bytes"].get<double>() +
+                                  one["sweep_bytes"].get<double>())).c_str());
+  if (a.contains("one_process_spacing_mm"))
+    std::printf("; one process fits at spacing_mm >= %.3g", a["one_process_spacing_mm"].get<double>());
+  std::printf("\n");
 }
-
-// Bytes of a tile's field before any cut splits a ray, and its rays.
-struct TileSize {
-  double rays = 0, bytes = 0;
-  std::vector<int> rows;
-};
-TileSize tile_size(const FieldShape& s, const removal::Tile& t) {
-  TileSize z;
-  if (s.kind == core::RemovalSpec::Field::NBuffer) {
-    const std::size_t block = removal::NeedleSet::kBlock, n = s.needles;
-    std::size_t k0 = 0, k1 = n;
-    if (!t.whole()) {
-      const auto [b0, b1] = removal::tile_rows(static_cast<int>((n + block - 1) / block), t);
-      k0 = static_cast<std::size_t>(b0) * block, k1 = std::min(n, static_cast<std::size_t>(b1) * block);
-    }
-    z.rays = double(k1 - k0);
-    z.bytes = double(removal::IntervalStore::initial_bytes(k1 - k0, block));
-    z.rows.push_back(static_cast<int>(k1 - k0));
-    return z;
-  }
-  for (const auto& g : s.grids) {
-    const auto [first, end] = removal::tile_rows(g.nv, t);
-    const std::size_t rays = static_cast<std::size_t>(g.nu) * static_cast<std::size_t>(end - first);
-    z.rays += double(rays);
-    z.bytes += double(removal::IntervalStore::initial_bytes(rays, static_cast<std::size_t>(g.nu)));
-    z.rows.push_back(end - first);
-  }
-  return z;
-}
-
-// Height-grid nodes of a field's surface (z-map, or the tri-dexel's z grid), for `rows` of them.
-double surface_nodes(const FieldShape& s, int rows) {
-  if (s.kind == core::RemovalSpec::Field::NBuffer) return 0;
-  return double(s.grids.back().nu) * rows;
-}
-
-double motion_bytes(double samples, int axes, bool turning) {
-  return samples * (8.0 * axes + 20 + 64.0 * axes + 60 + 48 + (turning ? 24 : 0) + 8.0 * (4 * axes + 6));
-}
-
-struct MotionCounts {
-  double samples = 0, sweeps = 0;
-  bool turning = false;
-};
-MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress) {
-  sim::ChainOptions copt;
-  copt.feed_scale = feed_scale;
-  const sim::Motion m = sim::simulate_motion(sim::Chain(job, copt), kind, progress);
-  const removal::PoseTrack track = sim::track_of(m, job, kind);
-  MotionCounts c;
-  c.samples = kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());
-  c.sweeps = double(sim::sweeps_of(job, track).sweeps.size());
-  c.turning = track.axis_per_sample.rows() > 0;
-  return c;
-}
-
-std::string gb(double bytes) { return fmt::format("{:.3f} GB", bytes / 1e9); }
 
 }  // namespace
 
 int run_plan(const core::Job& job, const RunArgs& args) {
   if (mpi_rank() != 0) return 0;  // the plan is one process's arithmetic
-  const int ranks = args.ranks.value_or(mpi_size());
-  if (ranks < 1) throw core::Error("--ranks: expected a whole number >= 1");
   TerminalProgress progress(!args.quiet);
-  const FieldShape shape = shape_of(job);
-  const double feed_scale = args.feed_scale.value_or(1.0);
-
-  // The motion and the reference: exact sample and sweep counts.
-  const MotionCounts own = motion_counts(job, feed_scale, job.removal.motion, progress);
-  MotionCounts refm;
-  std::optional<FieldShape> ref_shape;
-  switch (job.reference.kind) {
-    case core::ReferenceSpec::Kind::Feed:
-      refm = motion_counts(job, feed_scale * job.reference.feed_scale, job.removal.motion, progress);
-      ref_shape = shape;
-      break;
-    case core::ReferenceSpec::Kind::Program:
-      refm = motion_counts(job, feed_scale, core::RemovalSpec::Motion::Program, progress);
-      ref_shape = shape;
-      break;
-    case core::ReferenceSpec::Kind::Stock: ref_shape = shape; break;
-    case core::ReferenceSpec::Kind::Job: {
-      const core::Job rj = core::load_job(job.reference.job_file);
-      refm = motion_counts(rj, 1.0, rj.removal.motion, progress);
-      ref_shape = shape_of(rj);
-      break;
-    }
-    case core::ReferenceSpec::Kind::None: break;
-  }
-  const int axes = static_cast<int>(job.machine.axes.size());
-  const double b_motion = motion_bytes(own.samples, axes, own.turning) + motion_bytes(refm.samples, axes, refm.turning);
-  const double b_sweeps = kSweepBytes * (own.sweeps + refm.sweeps);
-
-  // Outputs of the whole part (one process, or rank 0 when gathered).
-  double b_outputs_whole = 0;
-  if (shape.vdb || shape.kind == core::RemovalSpec::Field::TriDexel) {
-    const double h = shape.vdb ? shape.voxel_mm : shape.spacing_mm;
-    // Twice the stock's area at the worst orientation (projections sqrt(3) times the area): the plan's upper bound.
-    const removal::SurfaceArea sa{2 * shape.stock_area_mm2, 2 * std::sqrt(3.0) * shape.stock_area_mm2};
-    b_outputs_whole = 2 * (removal::estimate_level_set_bytes(sa, h) + removal::estimate_mesh_bytes(2 * shape.stock_area_mm2, h));
-  }
-  if (shape.kind != core::RemovalSpec::Field::NBuffer && !shape.vdb)
-    b_outputs_whole += kZmapOutputBytesPerNode * surface_nodes(shape, shape.grids.back().nv);
-  if (shape.kind == core::RemovalSpec::Field::NBuffer) b_outputs_whole += 200.0 * double(shape.needles);  // CSV rows
-
-  const TileSize whole = tile_size(shape, {});
-  const TileSize ref_whole = ref_shape ? tile_size(*ref_shape, {}) : TileSize{};
-  // Copies a run holds: the field, the stock it started from, the reference.
-  auto per_process = [&](const TileSize& t, const TileSize& rt) { return 2 * t.bytes + rt.bytes; };
-
-  nlohmann::json plan = report_header("run --plan", job);
-  nlohmann::json grids = nlohmann::json::array();
-  for (const auto& g : shape.grids) grids.push_back({{"nu", g.nu}, {"nv", g.nv}, {"rays", double(g.nu) * g.nv}});
-  plan["field"] = {{"kind", shape.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
-                            : shape.kind == core::RemovalSpec::Field::TriDexel ? "tridexel"
-                                                                                : "nbuffer"},
-                   {"method", shape.vdb ? "vdb" : "dexel"},
-                   {"spacing_mm", shape.spacing_mm},
-                   {"grids", grids},
-                   {"rays", whole.rays},
-                   {"bytes", whole.bytes}};
-  if (ref_shape) plan["reference_field"] = {{"rays", ref_whole.rays}, {"bytes", ref_whole.bytes}};
-  plan["motion"] = {{"samples", own.samples}, {"sweeps", own.sweeps}, {"axes", axes},
-                    {"reference_samples", refm.samples}, {"reference_sweeps", refm.sweeps},
-                    {"bytes", b_motion}, {"sweep_bytes", b_sweeps}};
-
-  const double one = kBaseBytes + per_process(whole, ref_whole) + b_motion + b_sweeps + b_outputs_whole;
-  plan["one_process"] = {{"field_bytes", per_process(whole, ref_whole)}, {"motion_bytes", b_motion},
-                         {"sweep_bytes", b_sweeps}, {"output_bytes", b_outputs_whole}, {"base_bytes", kBaseBytes},
-                         {"total_bytes", one}};
-  std::printf("job %s: %s field at %g mm, %.0f rays (%s), %.0f setpoints, %.0f sweeps", job.name.c_str(),
-              plan["field"]["kind"].get<std::string>().c_str(), shape.spacing_mm, whole.rays, gb(whole.bytes).c_str(),
-              own.samples, own.sweeps);
-  if (ref_shape) std::printf("; reference: %.0f setpoints, %.0f sweeps", refm.samples, refm.sweeps);
-  std::printf("\none process: %s (field and its copies %s, motion %s, sweeps %s, outputs %s, base %s)\n", gb(one).c_str(),
-              gb(per_process(whole, ref_whole)).c_str(), gb(b_motion).c_str(), gb(b_sweeps).c_str(),
-              gb(b_outputs_whole).c_str(), gb(kBaseBytes).c_str());
-
-  // Per rank of a tiled run, gathered to rank 0 and with --tiles-out.
-  auto rank_totals = [&](int n, bool tiles_out, nlohmann::json* out) {
-    double worst = 0;
-    for (int r = 0; r < n; ++r) {
-      const removal::Tile t{r, n};
-      const TileSize ts = tile_size(shape, t);
-      const TileSize rts = ref_shape ? tile_size(*ref_shape, t) : TileSize{};
-      double gather = 0, outputs = 0;
-      if (n > 1 && !tiles_out && r == 0) {
-        double largest = 0;
-        for (const auto& g : shape.grids) largest = std::max(largest, double(g.nu) * g.nv);
-        if (shape.kind == core::RemovalSpec::Field::NBuffer) largest = double(shape.needles);
-        gather = whole.bytes + ref_whole.bytes + 12 * largest;
-      }
-      if (n == 1 || (!tiles_out && r == 0)) outputs = b_outputs_whole;
-      if (tiles_out && !ts.rows.empty()) outputs = kTileOutputBytesPerNode * surface_nodes(shape, ts.rows.back());
-      const double total = kBaseBytes + per_process(ts, rts) + b_motion + b_sweeps + gather + outputs;
-      worst = std::max(worst, total);
-      if (out)
-        out->push_back({{"rank", r}, {"rows", ts.rows}, {"rays", ts.rays}, {"field_bytes", per_process(ts, rts)},
-                        {"motion_bytes", b_motion}, {"sweep_bytes", b_sweeps}, {"gather_bytes", gather},
-                        {"output_bytes", outputs}, {"base_bytes", kBaseBytes}, {"total_bytes", total}});
-    }
-    return worst;
-  };
-  int max_ranks = 1 << 20;
-  if (shape.kind != core::RemovalSpec::Field::NBuffer)
-    for (const auto& g : shape.grids) max_ranks = std::min(max_ranks, g.nv);
-  else
-    max_ranks = static_cast<int>((shape.needles + removal::NeedleSet::kBlock - 1) / removal::NeedleSet::kBlock);
-  if (ranks > 1 && shape.vdb) throw core::Error(job.file.string() + ": [removal] method = \"vdb\" does not run tiled");
-  if (ranks > max_ranks)
-    throw core::Error(fmt::format("--ranks {}: the field has {} rows to share; use at most {} ranks", ranks, max_ranks,
-                                  max_ranks));
-  plan["ranks"] = ranks;
-  for (const bool tiles_out : {false, true}) {
-    if (ranks == 1 && tiles_out) continue;
-    nlohmann::json per = nlohmann::json::array();
-    const double worst = rank_totals(ranks, tiles_out, &per);
-    plan[tiles_out ? "tiles_out" : "gathered"] = {{"per_rank", per}, {"largest_rank_bytes", worst}};
-    std::printf("%d rank%s%s: largest rank %s", ranks, ranks > 1 ? "s" : "",
-                ranks == 1 ? "" : tiles_out ? ", --tiles-out" : ", gathered to rank 0", gb(worst).c_str());
-    if (ranks > 1) {
-      const auto& r1 = per.back();
-      std::printf(" (rank %d: %s)", ranks - 1, gb(r1["total_bytes"].get<double>()).c_str());
-    }
-    std::printf("\n");
-  }
-
-  // Advice for a memory per rank.
-  if (args.memory_per_rank_gb) {
-    const double limit = *args.memory_per_rank_gb * 1e9;
-    if (!(limit > 0)) throw core::Error("--memory-per-rank-gb: expected a positive number");
-    nlohmann::json advice;
-    auto least = [&](bool tiles_out) -> int {
-      for (int n = 1; n <= max_ranks; n = n < 8 ? n + 1 : n + std::max(1, n / 16))
-        if (rank_totals(n, tiles_out, nullptr) <= limit) return n;
-      return 0;
-    };
-    const int ng = least(false), nt = least(true);
-    advice["memory_per_rank_bytes"] = limit;
-    advice["ranks_gathered"] = ng;
-    advice["ranks_tiles_out"] = nt;
-    // One process at a coarser spacing: field and outputs scale with 1 / spacing^2 (rays on a plane).
-    const double fixed = kBaseBytes + b_motion + b_sweeps;
-    const double scaled = one - fixed;
-    if (limit > fixed && scaled > 0 && !shape.vdb) {
-      const double s = shape.spacing_mm * std::sqrt(std::max(1.0, scaled / (limit - fixed)));
-      advice["one_process_spacing_mm"] = s;
-    }
-    std::printf("advice for %s per rank: ", gb(limit).c_str());
-    if (ng > 0)
-      std::printf("%d rank%s gathered; ", ng, ng > 1 ? "s" : "");
-    else
-      std::printf("no rank count gathers it (rank 0 holds the whole part); ");
-    if (nt > 0)
-      std::printf("%d ranks with --tiles-out", nt);
-    else
-      std::printf("no rank count fits with --tiles-out (the motion and sweeps alone: %s)", gb(fixed).c_str());
-    if (advice.contains("one_process_spacing_mm"))
-      std::printf("; one process fits at spacing_mm >= %.3g", advice["one_process_spacing_mm"].get<double>());
-    std::printf("\n");
-    plan["advice"] = advice;
-  }
-  plan["assumptions"] = {
-      "field: 8 bytes per ray and 56 per row before cuts split rays (split rays add their intervals)",
-      "copies: the field, the stock it starts from, and the reference field are held together",
-      "motion: per setpoint 8 a + 20 (setpoints) + 64 a (drives) + 60 (contour) + 48 (track) + 8 (4 a + 6) (signals)",
-      "sweeps: 96 bytes each; the job's and the reference's",
-      "outputs: 136 bytes per height-grid node (z-map); tri-dexel and vdb: OpenVDB level set and mesh estimates",
-      "base: 70 MB per process (code and libraries)"};
+  sim::MemoryPlanOptions options;
+  options.feed_scale = args.feed_scale.value_or(1.0);
+  options.ranks = args.ranks.value_or(mpi_size());
+  if (args.memory_per_rank_gb) options.memory_per_rank_bytes = *args.memory_per_rank_gb * 1e9;
+  const nlohmann::json plan = sim::plan_memory(job, options, progress);
+  print_plan(job, plan);
   if (args.out_dir) {
     std::error_code ec;
     std::filesystem::create_directories(*args.out_dir, ec);

@@ -13,18 +13,22 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
   interp_.period_s = job.interp.period_s;
   interp_.tolerance_mm = job.interp.tolerance_mm;
   interp_.feed_scale = options.feed_scale;
-  // A gain schedule holds gains for the setpoints of the job's own feeds: a feed-scaled run (a reference at other
-  // feeds) runs the drives' own gains.
-  if (job.gain_schedule_file && !options.ignore_gain_schedule && options.feed_scale == 1.0)
+  // A gain schedule holds gains for the setpoints of the job's own feeds.
+  if (job.gain_schedule_file && !options.ignore_gain_schedule) {
+    if (options.feed_scale != 1.0)
+      throw core::Error(job.file.string() + ": --feed-scale changes the setpoints its gain_schedule was computed for "
+                        "(run vmsim oga on a job at those feeds instead)");
     gain_schedule_file_ = job.gain_schedule_file;
+  }
 }
 
 motion::InterpResult Chain::interpolate(const core::ToolPath& program) const {
   return motion::interpolate(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, interp_);
 }
 
-drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints) const {
+drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace) const {
   drives::SimulateOptions sopt;
+  sopt.full_rate_trace = full_rate_trace;
   drives::GainSchedule schedule;
   if (gain_schedule_file_) {
     schedule = methods::read_gain_schedule(*gain_schedule_file_, setpoints, job_->machine);

@@ -22,7 +22,8 @@ struct ChainOptions {
   // Replaces the job's [job] axis_models (a command's --axis-models).
   std::optional<std::filesystem::path> axis_models_file;
   // Run the drives with the machine file's own gains even when the job names a gain schedule (vmsim oga computes
-  // one; a feed-scaled reference runs at other feeds than the schedule's).
+  // one; a feed-scaled reference runs at other feeds than the schedule's). Without it, a gain schedule with a feed
+  // scale other than 1 is an error: the schedule holds gains for the setpoints of the job's own feeds.
   bool ignore_gain_schedule = false;
   // Interpolate without the job's feed plan (vmsim plan-feed computes one).
   bool ignore_feed_plan = false;
@@ -48,8 +49,8 @@ class Chain {
   // The program (workpiece frame, as program::read_program gives it) to axis setpoints every Te.
   motion::InterpResult interpolate(const core::ToolPath& program) const;
   // The setpoints through the drives: the cascades with the gain schedule (read against these setpoints), or the
-  // identified models for the axes they replace.
-  drives::AxisResponse simulate(const core::Setpoints& setpoints) const;
+  // identified models for the axes they replace. full_rate_trace: also every current-loop sample (large).
+  drives::AxisResponse simulate(const core::Setpoints& setpoints, bool full_rate_trace = false) const;
 
  private:
   const core::Job* job_;

@@ -430,6 +430,7 @@ Reference reference_field(const core::Job& job, const Field& start, double feed_
     ref = start;
     ChainOptions copt;
     copt.feed_scale = feed_scale * job.reference.feed_scale;
+    copt.ignore_gain_schedule = copt.feed_scale != 1.0;  // the schedule's gains are for the job's own feeds
     const Motion rm = simulate_motion(Chain(job, copt), job.removal.motion, progress);
     progress.stage(job.name + ": reference (feeds x " + fmt::format("{:g}", job.reference.feed_scale) + ")");
     cut_field(*ref, sweeps_of(job, track_of(rm, job, job.removal.motion)).sweeps);

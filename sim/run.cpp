@@ -142,9 +142,9 @@ nlohmann::json removal_json(const core::Job& job, const Cut& c) {
 }  // namespace
 
 Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& progress) {
-  if (job.gain_schedule_file && options.feed_scale != 1.0)
-    throw core::Error(job.file.string() + ": --feed-scale changes the setpoints its gain_schedule was computed for "
-                      "(run vmsim oga on a job at those feeds instead)");
+  ChainOptions copt;
+  copt.feed_scale = options.feed_scale;
+  const Chain chain(job, copt);  // first: refuses a feed scale with a gain schedule before any work
   Cut c;
   std::set<std::string> stock_chain;
   auto t0 = Clock::now();
@@ -152,9 +152,7 @@ Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& pro
   c.timings["stock"] = seconds_since(t0);
   const Field start = c.field;  // the stock this job starts from (reference "stock")
 
-  ChainOptions copt;
-  copt.feed_scale = options.feed_scale;
-  c.motion = simulate_motion(Chain(job, copt), job.removal.motion, progress);
+  c.motion = simulate_motion(chain, job.removal.motion, progress);
   add_contour_error(c.motion, job);
   for (const auto& [k, v] : c.motion.timings.items()) c.timings[k] = v;
 

@@ -21,8 +21,8 @@ path of that kind with a closed-form surface, so the simulated cut can be checke
 The program is an APT CL file (GOTO/x,y,z,i,j,k: tool tip and tool axis in the workpiece frame, mm), read through the
 machine's inverse transform. The approach: a rapid to 20 mm above the first point along its normal, a feed move in.
 
-The stock is the semi-finished dome: the sphere of radius RS + ALLOWANCE (0.05 mm of finishing allowance, as seed
-004's first part) above the plane z = STOCK_Z0, a closed triangle mesh (facets every STOCK_DTHETA deg of polar angle
+The stock is the semi-finished dome: the sphere of radius RS + ALLOWANCE (0.05 mm of finishing allowance, as the feed-drive simulation paper's
+first part) above the plane z = STOCK_Z0, a closed triangle mesh (facets every STOCK_DTHETA deg of polar angle
 and STOCK_DPHI deg of azimuth, vertices on that sphere: the facets lie at most 7 um inside it).
 
 Files written (checked in; rerun this script after changing a constant):

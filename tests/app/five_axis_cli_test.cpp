@@ -7,8 +7,8 @@
 //   the balls; the ball touches the sphere at the tip, so along the spiral the surface is the sphere itself
 //   (z = sqrt(RS^2 - x^2 - y^2)), a second, closed-form reference;
 // - actual motion (the drives) against the setpoints' cut: the rotary axes' follow-up deviations in degrees against
-//   a type-1 position loop's steady lag on a ramp, w ((1 - KF) / Kv + d Te), from the machine file's C drive (seed
-//   004 measured and simulated about 0.001 deg on its own path; parts/five_axis/README.md compares), and a surface
+//   a type-1 position loop's steady lag on a ramp, w ((1 - KF) / Kv + d Te), from the machine file's C drive (the feed-drive simulation paper
+//   measured and simulated about 0.001 deg on its own path; parts/five_axis/README.md compares), and a surface
 //   deviation bounded by the tool tip's and tool axis' own deviations (core/contour and the forward transform), plus
 //   the removal's stated bounds.
 #include "core/machine.hpp"

@@ -4,7 +4,7 @@
 // line; the study's table must hold exactly the figures of those runs' report.json, whatever the number of ranks.
 // Also: a failing variation is a row with its message and the others are kept; bad study files are errors naming
 // the file and the key. The base job is the plane-cylinder pass of the feed-drive simulation paper on a coarse 0.25 mm z-map.
-#include "app/study.hpp"
+#include "sim/study.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -388,7 +388,7 @@ interpolation.tolerance_mm = 0.01
 interpolation.tolerance_mm = [0.03, 0.04]
 feed_scale = [0.5, 1, 2]
 )");
-  const vmsim::app::Study s = vmsim::app::load_study(root / "studies" / "s.toml");
+  const vmsim::sim::Study s = vmsim::sim::load_study(root / "studies" / "s.toml");
   ASSERT_EQ(s.variations.size(), 6u);
   EXPECT_EQ(s.varied_keys, (std::vector<std::string>{"interpolation.tolerance_mm", "feed_scale"}));
   EXPECT_EQ(s.variations[0].name, "tolerance_mm=0.03 feed_scale=0.5");
@@ -396,9 +396,9 @@ feed_scale = [0.5, 1, 2]
   // Keys with the same last part are named by as much of their tail as tells them apart.
   write(root / "studies" / "xz.toml", "[study]\njob = \"../part/job.toml\"\n[grid]\n"
                                       "machine.axes.X.drive.kv_1000_per_min = [3.0]\nmachine.axes.Z.drive.kv_1000_per_min = [4.5]\n");
-  EXPECT_EQ(vmsim::app::load_study(root / "studies" / "xz.toml").variations[0].name,
+  EXPECT_EQ(vmsim::sim::load_study(root / "studies" / "xz.toml").variations[0].name,
             "X.drive.kv_1000_per_min=3 Z.drive.kv_1000_per_min=4.5");
-  const vmsim::app::PreparedVariation p = vmsim::app::prepare_variation(s, s.variations[5]);
+  const vmsim::sim::PreparedVariation p = vmsim::sim::prepare_variation(s, s.variations[5]);
   EXPECT_EQ(p.feed_scale, 2.0);
   const toml::table job = toml::parse(p.job_toml);
   EXPECT_EQ(job["interpolation"]["tolerance_mm"].value<double>(), 0.04);  // the variation's own, after [common]

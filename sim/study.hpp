@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace vmsim::app {
+namespace vmsim::sim {
 
 // One override: a dotted key ("interpolation.tolerance_mm", "machine.axes.X.drive.kv_1000_per_min", "feed_scale")
 // and its value as TOML text (what the variation's files get), with where the study file sets it.
@@ -82,4 +82,4 @@ nlohmann::json study_json(const Study& study, const std::vector<StudyResult>& re
 // The directory of variation `v` under the output directory: DIR/variations/NNN.
 std::filesystem::path variation_dir(const std::filesystem::path& out_dir, const Study& study, const StudyVariation& v);
 
-}  // namespace vmsim::app
+}  // namespace vmsim::sim

@@ -1,4 +1,4 @@
-#include "app/study.hpp"
+#include "sim/study.hpp"
 
 #include "core/error.hpp"
 #include "core/sha256.hpp"
@@ -12,7 +12,7 @@
 #include <set>
 #include <sstream>
 
-namespace vmsim::app {
+namespace vmsim::sim {
 
 namespace {
 
@@ -534,4 +534,4 @@ fs::path variation_dir(const fs::path& out_dir, const Study&, const StudyVariati
   return out_dir / "variations" / fmt::format("{:03d}", v.index);
 }
 
-}  // namespace vmsim::app
+}  // namespace vmsim::sim

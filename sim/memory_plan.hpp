@@ -1,0 +1,44 @@
+#pragma once
+// The memory a run will need, before it runs (`vmsim run --plan`): the field and the copies a run holds (the stock
+// it starts from, the reference), the motion and the sweeps (counted exactly: the program is interpolated and
+// simulated, nothing is cut), the outputs, per process and per rank of a tiled run under MPI, with advice for a
+// memory per rank. Its assumptions are listed in the plan; bench/README.md holds its ratios to measured peaks.
+//
+// The model (bytes), with R the rays of a tile, S the setpoint samples, a the machine's axes, W the sweeps:
+//   field      8 R + 56 per row (removal::IntervalStore::initial_bytes: before cuts split rays), times the copies a
+//              run holds: the field, the stock it started from (kept for reference "stock"), and the reference
+//              field (kinds feed, program, stock, job);
+//   motion     S (8 a + 20 setpoints + 64 a drives + 60 contour error + 48 pose track (+24 turning axis) +
+//              8 (4 a + 6) signals), for the job's motion and the reference's;
+//   sweeps     96 W (removal::SweptTool);
+//   gather     rank 0 of a gathered run: the whole field and reference, plus 12 B per ray of the largest grid
+//              (interval counts and ends in flight);
+//   outputs    where the whole part is written (one process, or rank 0 when gathered): 136 B per height-grid node
+//              (three grids, the part mesh with its deviation, its writer's copy) for a z-map; for a tri-dexel
+//              field its level set and mesh (removal::estimate_level_set_bytes / estimate_mesh_bytes over twice
+//              the stock's box area, for the part and the reference); --tiles-out: 24 B per node of the tile;
+//   base       the process itself (libraries, code): 70 MB, measured (bench/README.md).
+// Not modelled: rays a cut splits (their extra intervals; the report's memory_bytes shows them), the pictures'
+// renderer, the allocator's slack. bench/README.md compares the model with measured peak RSS.
+#include "core/job.hpp"
+#include "core/progress.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+
+namespace vmsim::sim {
+
+struct MemoryPlanOptions {
+  double feed_scale = 1.0;
+  int ranks = 1;                                // of a tiled run
+  std::optional<double> memory_per_rank_bytes;  // advice: ranks (gathered, tiles out) or a spacing that fit in it
+};
+
+// The plan as plan.json holds it: field (kind, grids, rays, bytes), reference_field, motion, one_process (bytes by
+// part and total_bytes), ranks, gathered and tiles_out (per_rank, largest_rank_bytes), advice, assumptions.
+// Throws core::Error for a rank count the field cannot be split into, or a job that cannot run.
+nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& options = {},
+                           core::Progress& progress = core::no_progress());
+
+}  // namespace vmsim::sim
