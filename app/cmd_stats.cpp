@@ -24,9 +24,9 @@ int run_stats(const StatsArgs& args) {
     if (args.options.outlier_sigma > 0) throw core::Error("--outliers: spike masking works on surfaces; this file holds a profile");
     out["profile"] = line_scan_json(*f.profile);
     if (!f.note.empty()) out["note"] = f.note;
-    const auto e = metrology::evaluate_profile(profile_in_range(*f.profile, args.options.profile_range),
-                                               metrology::profile_evaluation(how));
-    out["profile_parameters"] = profile_json(e, metrology::profile_evaluation(how));
+    const metrology::ProfileEvaluation pe = metrology::profile_evaluation(how);
+    const auto e = metrology::evaluate_profile(profile_in_range(*f.profile, args.options.profile_range), pe);
+    out["profile_parameters"] = profile_json(e, pe);
     std::printf("%s\n", out.dump(2).c_str());
     return 0;
   }

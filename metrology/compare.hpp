@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <cstddef>
 #include <optional>
 #include <vector>
