@@ -1,17 +1,19 @@
-// vmsim identify-friction TRACE.csv: the friction law and the inertia of one axis from a measured trace
-// (the feed-drive simulation paper section 3.1), written as the [axes.drive] keys of a machine file.
-#include "app/commands.hpp"
+// vmsim identify --trace TRACE.csv: each axis's discrete transfer function from command to encoder position (the
+// predictive-compensation paper sections 2-3) through sysid::identify_axis; the chosen models written to
+// axis_models.toml for jobs to run on, every model's figures to report.json and a table on stdout.
+#include "app/commands_sysid.hpp"
 #include "app/report.hpp"
-#include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/machine.hpp"
 #include "core/hash.hpp"
-#include "core/units.hpp"
-#include "sysid/friction_inertia.hpp"
+#include "core/timing.hpp"
+#include "sysid/axis_model_file.hpp"
+#include "sysid/identify_axes.hpp"
+#include "sysid/position_trace.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -19,189 +21,200 @@ namespace vmsim::app {
 
 namespace {
 
-sysid::GravityModel gravity_model(const std::string& name) {
-  if (name == "auto") return sysid::GravityModel::Auto;
-  if (name == "none") return sysid::GravityModel::None;
-  if (name == "constant") return sysid::GravityModel::Constant;
-  if (name == "tilting") return sysid::GravityModel::Tilting;
-  throw core::Error(fmt::format("--gravity: expected auto, none, constant or tilting, found '{}'", name));
+std::optional<sysid::ModelOrders> parse_orders(const std::string& s, int nc) {
+  if (s == "auto") return std::nullopt;
+  sysid::ModelOrders o;
+  o.nc = nc;
+  const auto comma = s.find(',');
+  const auto bad = [&] {
+    throw core::Error(fmt::format("--orders '{}': expected NB,NA (numerator and denominator orders, e.g. 2,5 as the "
+                                  "predictive-compensation paper, section 2.2) or auto",
+                                  s));
+  };
+  if (comma == std::string::npos) bad();
+  try {
+    std::size_t p1 = 0, p2 = 0;
+    const std::string a = s.substr(0, comma), b = s.substr(comma + 1);
+    o.nb = std::stoi(a, &p1);
+    o.na = std::stoi(b, &p2);
+    if (p1 != a.size() || p2 != b.size()) bad();
+  } catch (const std::logic_error&) {
+    bad();
+  }
+  if (o.nb < 1 || o.nb > 30 || o.na < 0 || o.na > 30)
+    throw core::Error(fmt::format("--orders '{}': NB must be in [1, 30] and NA in [0, 30]", s));
+  return o;
 }
 
-const char* gravity_name(sysid::GravityModel g) {
-  switch (g) {
-    case sysid::GravityModel::Auto: return "auto";
-    case sysid::GravityModel::None: return "none";
-    case sysid::GravityModel::Constant: return "constant";
-    case sysid::GravityModel::Tilting: return "tilting";
+std::optional<int> parse_delay(const std::string& s) {
+  if (s == "auto") return std::nullopt;
+  int delay = 0;
+  try {
+    std::size_t p = 0;
+    delay = std::stoi(s, &p);
+    if (p != s.size()) throw std::invalid_argument("");
+  } catch (const std::logic_error&) {
+    throw core::Error(fmt::format("--delay '{}': expected a number of samples >= 1, or auto", s));
   }
-  return "?";
+  if (delay < 1 || delay > 100) throw core::Error(fmt::format("--delay {}: expected 1 to 100 samples", delay));
+  return delay;
+}
+
+// Options first: a bad option must fail before any reading or writing.
+sysid::AxesIdentificationOptions parse_options(const IdentifyArgs& args) {
+  sysid::AxesIdentificationOptions o;
+  if (args.structure != "all") {
+    const auto s = sysid::parse_structure(args.structure);
+    if (!s) throw core::Error(fmt::format("--structure '{}': expected arx, armax, oe or all", args.structure));
+    o.structures = {*s};
+  }
+  if (args.use != "best") {
+    o.use = sysid::parse_structure(args.use);
+    if (!o.use || std::find(o.structures.begin(), o.structures.end(), *o.use) == o.structures.end())
+      throw core::Error(fmt::format("--use '{}': expected best or one of the structures identified", args.use));
+  }
+  if (args.nc < 0 || args.nc > 30) throw core::Error(fmt::format("--nc {}: expected 0 to 30", args.nc));
+  o.nc = args.nc;
+  o.orders = parse_orders(args.orders, args.nc);
+  o.delay = parse_delay(args.delay);
+  o.axes = args.axes;
+  if (args.traces.empty()) throw core::Error("--trace: at least one position trace is needed");
+  return o;
+}
+
+nlohmann::json poly_json(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+nlohmann::json inputs_json(const IdentifyArgs& args, std::size_t n_est) {
+  nlohmann::json in;
+  in["trace"] = {{"path", args.traces.front().string()}, {"sha256", core::sha256_file_hex(args.traces.front())}};
+  in["traces"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < args.traces.size(); ++i)
+    in["traces"].push_back({{"path", args.traces[i].string()},
+                            {"sha256", core::sha256_file_hex(args.traces[i])},
+                            {"use", i < n_est ? "estimation" : "validation"}});
+  if (args.validate)
+    in["validation_trace"] = {{"path", args.validate->string()}, {"sha256", core::sha256_file_hex(*args.validate)}};
+  return in;
+}
+
+nlohmann::json header_json(const IdentifyArgs& args, const sysid::IdentificationData& d) {
+  nlohmann::json report;
+  report["vmsim"] = VMSIM_VERSION;
+  report["command"] = "identify";
+  report["inputs"] = inputs_json(args, d.estimation_traces);
+  report["period_s"] = d.period_s;
+  report["conditioning"] =
+      "deviations from the first (rest) sample of command and encoder, one common scale for both; QR least squares";
+  report["orders_from"] = args.orders == "auto" ? "BIC over ARX fits (na 1-8, nb 1-4, nk 1-5)"
+                                                : "given (the predictive-compensation paper section 2.2: nb 2, na 5)";
+  report["validation"] = d.validation == sysid::ValidationData::SeparateTrace ? "separate trace"
+                         : d.validation == sysid::ValidationData::HeldOutTrace
+                             ? "the last trace, held out"
+                             : "the trace's second half (model simulated over the whole record)";
+  report["estimation"] = d.estimation_traces > 1 ? fmt::format("{} traces as separate experiments (no regressor, "
+                                                               "filter or simulation crosses a trace boundary)",
+                                                               d.estimation_traces)
+                                                 : std::string("one trace");
+  return report;
+}
+
+// One model's figures; f2 converts rad^2 to deg^2 on a rotary axis.
+nlohmann::json model_json(const sysid::ModelResult& r, double f2) {
+  const sysid::IdentifiedModel& m = r.model;
+  const sysid::Validation& v = r.validation;
+  nlohmann::json jm = {
+      {"rank", r.rank},
+      {"b", poly_json(m.g.b)},
+      {"a", poly_json(m.g.a)},
+      {"nk", m.g.nk},
+      {"static_gain", m.g.static_gain()},
+      {"largest_pole_magnitude", drives::spectral_radius(m.g.a)},
+      {"estimation_loss", m.loss * f2},
+      {"iterations", m.iterations},
+      {"converged", m.converged},
+      {"seconds", r.seconds},
+      {"validation",
+       {{"fit_percent", v.fit_percent},
+        {"tracking_fit_percent", v.tracking_fit_percent},
+        {"r2", v.r2},
+        {"one_minus_r2", 1.0 - v.r2},
+        {"mse", v.mse * f2},
+        {"max_abs_error", v.max_abs_error * std::sqrt(f2)},
+        {"whiteness",
+         {{"portmanteau_q", v.portmanteau_q},
+          {"limit_99", v.portmanteau_limit},
+          {"lags", v.lags},
+          {"max_abs_autocorrelation", v.max_abs_autocorrelation},
+          {"band_99", v.whiteness_bound},
+          {"white", v.white}}}}}};
+  if (m.c.size() > 0) jm["c"] = poly_json(m.c);
+  return jm;
+}
+
+// The axis's rows of the table on stdout, and its part of report.json.
+nlohmann::json print_axis(const sysid::AxisIdentification& a) {
+  const double f2 = a.rotary ? std::pow(180.0 / 3.14159265358979323846, 2) : 1.0;
+  nlohmann::json jaxis;
+  jaxis["unit"] = a.rotary ? "deg" : "mm";
+  jaxis["orders"] = {{"na", a.orders.na}, {"nb", a.orders.nb}, {"nc", a.orders.nc}, {"nk", a.orders.nk}};
+  for (const sysid::ModelResult& r : a.models) {
+    const sysid::IdentifiedModel& m = r.model;
+    const char* sn = sysid::structure_name(m.structure);
+    std::printf("%-4s  %-9s  %2d %2d %2s %2d   %9.5f  %9.3f       %.3e   %.3e       %-5s  %d\n", a.name.c_str(), sn,
+                m.orders.na, m.orders.nb,
+                m.structure == sysid::ModelStructure::Armax ? std::to_string(m.orders.nc).c_str() : "-", m.orders.nk,
+                r.validation.fit_percent, r.validation.tracking_fit_percent, 1.0 - r.validation.r2,
+                r.validation.mse * f2, r.validation.white ? "yes" : "no", r.rank);
+    jaxis["models"][sn] = model_json(r, f2);
+  }
+  jaxis["chosen"] = sysid::structure_name(a.models[a.chosen].model.structure);
+  return jaxis;
+}
+
+void write_model_file(const std::filesystem::path& dir, const sysid::AxisModelFile& file) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  const std::vector<std::string> comments = {
+      "Identified axis models (the predictive-compensation paper): discrete transfer functions from command to "
+      "encoder position,",
+      "A(q) y(k) = B(q) u(k - nk), A = 1 + a1 q^-1 + ..., B = b1 + b2 q^-1 + ...; u, y deviations from the rest point.",
+      "Written by vmsim identify from " + file.trace + "; keys in parts/README.md."};
+  sysid::save_axis_models(dir / "axis_models.toml", file, comments);
 }
 
 }  // namespace
 
-int run_identify_friction(const IdentifyArgs& args) {
-  std::vector<std::string> ignored;
-  const sysid::AxisTrace trace = sysid::read_axis_trace_csv(args.trace, &ignored);
-  const bool rotary = trace.rotary;
-  const char* unit = rotary ? "deg" : "mm";
-  const double to_file = rotary ? core::units::kRadToDeg : 1.0;  // axis units (mm, rad) -> the trace's units
+int run_identify(const IdentifyArgs& args) {
+  const auto t_start = core::Clock::now();
+  const sysid::AxesIdentificationOptions options = parse_options(args);
+  std::vector<sysid::PositionTrace> traces;
+  for (const auto& p : args.traces) traces.push_back(sysid::read_position_trace_csv(p));
+  std::optional<sysid::PositionTrace> vtrace;
+  if (args.validate) vtrace = sysid::read_position_trace_csv(*args.validate);
+  const sysid::IdentificationData data = sysid::prepare_identification(traces, vtrace ? &*vtrace : nullptr, options);
+  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
 
-  // Motor data: the machine file's axis, then the explicit options on top of it.
-  sysid::IdentifyOptions opt;
-  opt.gravity = gravity_model(args.gravity);
-  const bool auto_gravity = opt.gravity == sysid::GravityModel::Auto;
-  bool gravity_from_machine = false;
-  if (args.axis && !args.machine) throw core::Error("--axis names an axis of --machine FILE; give the machine file too");
-  if (args.machine) {
-    const core::Machine machine = core::load_machine(*args.machine);
-    const std::string name = args.axis.value_or("");
-    const core::MachineAxis* axis = nullptr;
-    std::string names;
-    for (const auto& ax : machine.axes) {
-      names += (names.empty() ? "" : ", ") + ax.name;
-      if (ax.name == name) axis = &ax;
-    }
-    if (!axis)
-      throw core::Error(core::located(args.machine->string(), 0,
-                                      fmt::format("no axis '{}' (the machine has {})", name, names)));
-    if ((axis->kind == core::AxisKind::Rotary) != rotary)
-      throw core::Error(fmt::format("{}: axis {} is {} but the trace {} gives {}", args.machine->string(), name,
-                                    rotary ? "linear" : "rotary", args.trace.string(),
-                                    rotary ? "degrees" : "millimetres"));
-    if (!axis->drive)
-      throw core::Error(core::located(args.machine->string(), 0,
-                                      fmt::format("axis {} has no [axes.drive] table (torque constant, lead or gear)", name)));
-    opt.torque_constant_Nm_per_A = axis->drive->torque_constant_Nm_per_A;
-    opt.axis_per_motor_rad = axis->drive->axis_per_motor_rad;
-    if (auto_gravity) {
-      switch (axis->drive->gravity) {
-        case core::DriveParams::Gravity::None: opt.gravity = sysid::GravityModel::None; break;
-        case core::DriveParams::Gravity::Constant: opt.gravity = sysid::GravityModel::Constant; break;
-        case core::DriveParams::Gravity::Tilting: opt.gravity = sysid::GravityModel::Tilting; break;
-      }
-      gravity_from_machine = true;
-    }
+  nlohmann::json report = header_json(args, data);
+  std::vector<sysid::AxisIdentification> axes;
+  std::printf("axis  structure  na nb nc nk   fit %%      tracking fit %%  1-R2        MSE (mm2|deg2)  white  rank\n");
+  for (const sysid::AxisData& a : data.axes) {
+    if (!a.starts_at_rest())
+      std::fprintf(stderr, "vmsim: warning: axis %s: the trace does not start at rest (command and encoder differ by "
+                           "%.4g); identification assumes it does\n",
+                   a.name.c_str(), a.rest_offset);
+    axes.push_back(sysid::identify_axis(a, data.source, options));
+    report["axes"][a.name] = print_axis(axes.back());
   }
-  if (args.torque_constant_Nm_per_A) opt.torque_constant_Nm_per_A = *args.torque_constant_Nm_per_A;
-  if (args.lead_mm) {
-    if (rotary) throw core::Error(fmt::format("--lead-mm is for a linear axis; {} gives degrees (use --gear-deg-per-rev)", args.trace.string()));
-    opt.axis_per_motor_rad = *args.lead_mm / (2 * core::units::kPi);
-  }
-  if (args.gear_deg_per_rev) {
-    if (!rotary) throw core::Error(fmt::format("--gear-deg-per-rev is for a rotary axis; {} gives millimetres (use --lead-mm)", args.trace.string()));
-    opt.axis_per_motor_rad = *args.gear_deg_per_rev * core::units::kDegToRad / (2 * core::units::kPi);
-  }
-  if (!(opt.torque_constant_Nm_per_A > 0.0))
-    throw core::Error("the motor's torque constant is needed (currents to torques): give --torque-constant NM_PER_A or "
-                      "--machine FILE --axis NAME");
-  if (!(opt.axis_per_motor_rad > 0.0))
-    throw core::Error(fmt::format("the {} is needed (axis to motor speed): give {} or --machine FILE --axis NAME",
-                                  rotary ? "gear ratio" : "screw lead", rotary ? "--gear-deg-per-rev DEG" : "--lead-mm MM"));
-  if (args.smoothing_ms) opt.smoothing_s = *args.smoothing_ms * 1e-3;
-
-  const sysid::IdentifiedDrive d = sysid::identify_friction_inertia(trace, opt);
-  const double kt = opt.torque_constant_Nm_per_A;
-  const Eigen::Index n = trace.t_s.size();
-  const double duration = trace.t_s[n - 1] - trace.t_s[0];
-
-  std::printf("trace %s: %lld samples over %.3f s (every %.4g ms), %s\n", args.trace.string().c_str(),
-              static_cast<long long>(n), duration, duration / static_cast<double>(n - 1) * 1e3,
-              trace.position.size() ? (rotary ? "position_deg" : "position_mm") : (rotary ? "velocity_deg_per_s" : "velocity_mm_per_s"));
-  if (!ignored.empty()) std::printf("ignored columns: %s\n", fmt::format("{}", fmt::join(ignored, ", ")).c_str());
-  std::printf("motor: Kt %.4g N m/A, %s\n", kt,
-              rotary ? fmt::format("gear {:.6g} deg per motor revolution", opt.axis_per_motor_rad * 360.0).c_str()
-                     : fmt::format("screw lead {:.6g} mm", opt.axis_per_motor_rad * 2 * core::units::kPi).c_str());
-  std::printf("peaks: |v| %.5g %s/s, |a| %.5g %s/s^2\n", d.peak_velocity * to_file, unit, d.peak_acceleration * to_file, unit);
-  std::printf("friction law (%d constant-velocity stretches: %d positive, %d negative; fit residual %.4g A rms):\n",
-              d.stretches, d.stretches_positive, d.stretches_negative, d.friction_rms_residual_A);
-  std::printf("  Coulomb friction   %.6g N m  = %.6g A\n", d.coulomb_Nm, d.coulomb_A);
-  std::printf("  viscous friction   %.6g N m s/rad  = %.6g A per (%s/s)\n", d.viscous_Nm_s_per_rad,
-              d.viscous_A_s_per_axis_unit / to_file, unit);
-  switch (d.gravity) {
-    case sysid::GravityModel::None: std::printf("  gravity offset     none (not fitted)\n"); break;
-    case sysid::GravityModel::Constant:
-      std::printf("  gravity offset     %.6g N m (+- %.2g)  = %.6g A (constant)\n", d.gravity_Nm, d.gravity_stderr_Nm,
-                  d.gravity_A);
-      break;
-    default:
-      std::printf("  gravity            %.6g N m (+- %.2g) x sin(angle - %.4g deg)  = %.6g A (tilting)\n", d.gravity_Nm,
-                  d.gravity_stderr_Nm, d.gravity_angle_offset_rad * core::units::kRadToDeg, d.gravity_A);
-  }
-  std::printf("inertia (eq. 2 on %d accelerating samples; residual %.4g A rms):\n", d.accel_samples,
-              d.inertia_rms_residual_A);
-  std::printf("  J                  %.6g kg m^2 at the motor\n", d.inertia_kg_m2);
-  if (d.coulomb_Nm < 0.0 || d.viscous_Nm_s_per_rad < 0.0 || d.inertia_kg_m2 <= 0.0)
-    std::fprintf(stderr, "vmsim: warning: a friction coefficient or the inertia came out negative: the trace does not "
-                         "determine it (machine files need values >= 0)\n");
-
-  // Gravity chosen by the fit alone (no machine file, --gravity auto) and not distinguishable from zero: a
-  // horizontal axis. Writing the noise as a gravity torque would model a load the axis does not carry.
-  const bool gravity_significant = std::abs(d.gravity_Nm) > 3.0 * d.gravity_stderr_Nm;
-  const bool write_gravity =
-      d.gravity != sysid::GravityModel::None && (!auto_gravity || gravity_from_machine || gravity_significant);
-
-  if (args.out_dir) {
-    const std::filesystem::path dir = *args.out_dir;
-    std::filesystem::create_directories(dir);
-    std::string toml = fmt::format(
-        "# vmsim identify-friction {} (the feed-drive simulation paper section 3.1)\n"
-        "# friction: {} constant-velocity stretches ({} positive, {} negative), residual {:.4g} A rms\n"
-        "# inertia: eq. 2 on {} accelerating samples, residual {:.4g} A rms\n"
-        "# The identified keys of the axis' [axes.drive] table; the loop gains and the winding stay as they are.\n"
-        "[axes.drive]\n"
-        "torque_constant_Nm_per_A = {:.9g}\n",
-        args.trace.filename().string(), d.stretches, d.stretches_positive, d.stretches_negative,
-        d.friction_rms_residual_A, d.accel_samples, d.inertia_rms_residual_A, kt);
-    if (rotary)
-      toml += fmt::format("gear_deg_per_motor_rev = {:.9g}\n", opt.axis_per_motor_rad * 360.0);
-    else
-      toml += fmt::format("screw_lead_mm = {:.9g}\n", opt.axis_per_motor_rad * 2 * core::units::kPi);
-    toml += fmt::format("inertia_kg_m2 = {:.6g}\ncoulomb_friction_Nm = {:.6g}\nviscous_friction_Nm_s_per_rad = {:.6g}\n",
-                        d.inertia_kg_m2, d.coulomb_Nm, d.viscous_Nm_s_per_rad);
-    if (write_gravity) {
-      toml += fmt::format("gravity = \"{}\"\ngravity_torque_Nm = {:.6g}            # +- {:.2g}\n", gravity_name(d.gravity),
-                          d.gravity_Nm, d.gravity_stderr_Nm);
-      if (d.gravity == sysid::GravityModel::Tilting)
-        toml += fmt::format("gravity_angle_offset_deg = {:.6g}\n", d.gravity_angle_offset_rad * core::units::kRadToDeg);
-    } else if (d.gravity != sysid::GravityModel::None) {
-      toml += fmt::format("gravity = \"none\"                  # fitted offset {:.3g} +- {:.2g} N m: not significant\n",
-                          d.gravity_Nm, d.gravity_stderr_Nm);
-    } else {
-      toml += "gravity = \"none\"\n";
-    }
-    core::write_file_atomic(dir / "drive_identified.toml", toml);
-
-    std::string csv = fmt::format("velocity_{}_per_s,measured_mean_current_A,fitted_current_A,samples,t_start_s,t_end_s\n", unit);
-    for (const sysid::FrictionPoint& p : d.points)
-      csv += fmt::format("{:.9g},{:.9g},{:.9g},{},{:.6f},{:.6f}\n", p.velocity * to_file, p.mean_current_A,
-                         p.fitted_current_A, p.samples, p.t_start_s, p.t_end_s);
-    core::write_file_atomic(dir / "friction_fit.csv", csv);
-
-    nlohmann::json report;
-    report["vmsim"] = VMSIM_VERSION;
-    report["command"] = "identify-friction";
-    report["inputs"]["trace"] = {{"path", args.trace.string()}, {"sha256", core::sha256_file_hex(args.trace)}};
-    if (args.machine)
-      report["inputs"]["machine"] = {{"path", args.machine->string()}, {"sha256", core::sha256_file_hex(*args.machine)},
-                                     {"axis", args.axis.value_or("")}};
-    report["motor"] = {{"torque_constant_Nm_per_A", kt}, {"axis_per_motor_rad", opt.axis_per_motor_rad}};
-    report["friction"] = {{"coulomb_Nm", d.coulomb_Nm},
-                          {"coulomb_A", d.coulomb_A},
-                          {"viscous_Nm_s_per_rad", d.viscous_Nm_s_per_rad},
-                          {"gravity", gravity_name(d.gravity)},
-                          {"gravity_Nm", d.gravity_Nm},
-                          {"gravity_stderr_Nm", d.gravity_stderr_Nm},
-                          {"gravity_angle_offset_deg", d.gravity_angle_offset_rad * core::units::kRadToDeg},
-                          {"stretches", d.stretches},
-                          {"rms_residual_A", d.friction_rms_residual_A}};
-    report["inertia"] = {{"inertia_kg_m2", d.inertia_kg_m2},
-                         {"accelerating_samples", d.accel_samples},
-                         {"rms_residual_A", d.inertia_rms_residual_A}};
-    report["files"] = {"drive_identified.toml", "friction_fit.csv", "report.json"};
-    write_report(dir / "report.json", report);  // and report.html
-    std::printf("wrote %s, %s, %s\n", (dir / "drive_identified.toml").string().c_str(),
-                (dir / "friction_fit.csv").string().c_str(), (dir / "report.json").string().c_str());
-  }
+  const sysid::AxisModelFile file = sysid::axis_model_file(data, axes);
+  write_model_file(dir, file);
+  report["files"] = {"axis_models.toml", "report.json"};
+  report["timings_s"] = {{"total", core::seconds_since(t_start)}};
+  write_report(dir / "report.json", report);  // and report.html
+  std::printf("chosen:");
+  for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), sysid::structure_name(a.structure));
+  std::printf(" (lowest validation MSE%s)\nwrote %s (axis_models.toml, report.json)\n",
+              options.use ? ", overridden by --use" : "", dir.string().c_str());
   return 0;
 }
 

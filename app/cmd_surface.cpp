@@ -1,9 +1,8 @@
 #include "app/cmd_surface.hpp"
 
+#include "app/commands.hpp"
 #include "core/error.hpp"
 #include "core/hash.hpp"
-#include "metrology/filter.hpp"
-#include "metrology/form.hpp"
 #include "metrology/units.hpp"
 
 #include <fmt/format.h>
@@ -45,12 +44,12 @@ int parse_level(const std::string& t) {
   throw core::Error("--level: expected none, plane or poly:N (N = 1..10), found \"" + t + "\"");
 }
 
-std::vector<FilterSpec> parse_filters(const std::vector<std::string>& texts) {
-  std::vector<FilterSpec> out;
+std::vector<metrology::SurfaceFilter> parse_filters(const std::vector<std::string>& texts) {
+  std::vector<metrology::SurfaceFilter> out;
   for (const std::string& t : texts) {
     if (t.size() < 3 || (t[0] != 'S' && t[0] != 'L' && t[0] != 's' && t[0] != 'l') || t[1] != ':')
       throw core::Error("--filter: expected S:<cut-off> or L:<cut-off> (e.g. L:0.8mm, S:2.5um), found \"" + t + "\"");
-    FilterSpec f;
+    metrology::SurfaceFilter f;
     f.kind = static_cast<char>(std::toupper(static_cast<unsigned char>(t[0])));
     f.cutoff_mm = parse_length_mm(t.substr(2), "--filter");
     if (!(f.cutoff_mm > 0)) throw core::Error("--filter: the cut-off must be positive, found \"" + t + "\"");
@@ -59,28 +58,31 @@ std::vector<FilterSpec> parse_filters(const std::vector<std::string>& texts) {
   return out;
 }
 
-core::HeightGrid level_and_filter(const core::HeightGrid& g, int level, const std::vector<FilterSpec>& filters, nlohmann::json& log) {
-  core::HeightGrid s = g;
-  if (level > 0) {
-    metrology::FormFit fit;
-    s = metrology::remove_form(g, level, &fit);
-    log["level"] = {{"form", level == 1 ? std::string("plane") : fmt::format("poly:{}", level)},
-                    {"slope_x", fit.slope_x},
-                    {"slope_y", fit.slope_y},
-                    {"z_centre_mm", fit.z_centre_mm},
-                    {"rms_residual_mm", fit.rms_residual_mm}};
+metrology::SurfaceProcessing parse_processing(const SurfaceOptions& options) {
+  metrology::SurfaceProcessing how;
+  how.level = parse_level(options.level);
+  how.filters = parse_filters(options.filters);
+  return how;
+}
+
+nlohmann::json processing_json(const metrology::SurfaceProcessing& how, const std::optional<metrology::FormFit>& form) {
+  nlohmann::json log;
+  if (how.level > 0 && form) {
+    log["level"] = {{"form", how.level == 1 ? std::string("plane") : fmt::format("poly:{}", how.level)},
+                    {"slope_x", form->slope_x},
+                    {"slope_y", form->slope_y},
+                    {"z_centre_mm", form->z_centre_mm},
+                    {"rms_residual_mm", form->rms_residual_mm}};
   } else {
     log["level"] = {{"form", "none"}};
   }
   nlohmann::json fl = nlohmann::json::array();
-  for (const FilterSpec& f : filters) {
-    s = f.kind == 'S' ? metrology::gaussian_lowpass(s, f.cutoff_mm) : metrology::gaussian_highpass(s, f.cutoff_mm);
+  for (const metrology::SurfaceFilter& f : how.filters)
     fl.push_back({{"type", f.kind == 'S' ? "S (Gaussian low-pass, ISO 16610-61)" : "L (Gaussian high-pass, ISO 16610-61)"},
                   {"cutoff_mm", f.cutoff_mm},
                   {"edges", "weights renormalised over the valid points in the window (ISO 16610-28 zero-order)"}});
-  }
   log["filters"] = fl;
-  return s;
+  return log;
 }
 
 namespace {
@@ -91,13 +93,6 @@ nlohmann::json areal_json(const metrology::ArealParameters& p) {
   return {{"points", p.points},     {"mean_mm", num(p.mean_mm)}, {"Sa_mm", num(p.Sa_mm)}, {"Sq_mm", num(p.Sq_mm)},
           {"Sp_mm", num(p.Sp_mm)},   {"Sv_mm", num(p.Sv_mm)},     {"Sz_mm", num(p.Sz_mm)}, {"Ssk", num(p.Ssk)},
           {"Sku", num(p.Sku)},       {"Sdq", num(p.Sdq)},         {"Sdr_percent", num(p.Sdr_percent)}};
-}
-
-metrology::ProfileEvaluation profile_evaluation(int level, const std::vector<FilterSpec>& filters) {
-  metrology::ProfileEvaluation how;
-  how.level = level;
-  for (const FilterSpec& f : filters) how.filters.push_back({f.kind, f.cutoff_mm});
-  return how;
 }
 
 metrology::LineScan profile_in_range(const metrology::LineScan& p, const std::string& range) {

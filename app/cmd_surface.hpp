@@ -3,12 +3,15 @@
 // the form removal and filter options, and their JSON for report.json and stdout.
 #include "core/height_grid.hpp"
 #include "metrology/areal.hpp"
+#include "metrology/form.hpp"
+#include "metrology/processing.hpp"
 #include "metrology/profile.hpp"
 #include "metrology/surface_io.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,22 +25,18 @@ int parse_level(const std::string& text);
 
 // --filter S:<cut-off> (S-filter: keeps the mean surface, removes shorter wavelengths) or L:<cut-off> (L-filter:
 // removes the mean surface, keeps the roughness), Gaussian (ISO 16610-61); cut-offs are lengths with units.
-struct FilterSpec {
-  char kind = 'L';
-  double cutoff_mm = 0.8;
-};
-std::vector<FilterSpec> parse_filters(const std::vector<std::string>& texts);
+std::vector<metrology::SurfaceFilter> parse_filters(const std::vector<std::string>& texts);
 
-// Form removal (degree 0: none) then the filters, in the order given; `log` receives what was done.
-core::HeightGrid level_and_filter(const core::HeightGrid& grid, int level, const std::vector<FilterSpec>& filters,
-                                  nlohmann::json& log);
+struct SurfaceOptions;
+// --level and --filter as one processing (metrology/processing.hpp).
+metrology::SurfaceProcessing parse_processing(const SurfaceOptions& options);
+// What the processing did, for report.json: the form removed (with its fit when `form` is given) and the filters.
+nlohmann::json processing_json(const metrology::SurfaceProcessing& how, const std::optional<metrology::FormFit>& form);
 
 nlohmann::json areal_json(const metrology::ArealParameters& p);
 
-// Profiles: --level and --filter as a profile evaluation (plane -> the least-squares line), --range "X0,X1"
-// applied (the samples from the one nearest to X0 to the one nearest to X1; an empty text keeps the whole trace),
-// and the JSON of the trace and of its ISO 21920-2 parameters.
-metrology::ProfileEvaluation profile_evaluation(int level, const std::vector<FilterSpec>& filters);
+// Profiles: --range "X0,X1" applied (the samples from the one nearest to X0 to the one nearest to X1; an empty text
+// keeps the whole trace), and the JSON of the trace and of its ISO 21920-2 parameters.
 metrology::LineScan profile_in_range(const metrology::LineScan& p, const std::string& range);
 nlohmann::json line_scan_json(const metrology::LineScan& p);
 nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrology::ProfileEvaluation& how);

@@ -28,19 +28,6 @@ struct InterpArgs {
 // vmsim interp JOB: setpoints.csv (t, each axis, path speed) and the cycle time.
 int run_interp(const InterpArgs& args);
 
-struct IdentifyArgs {
-  std::filesystem::path trace;                   // CSV: t_s, current_A, position_mm|position_deg|velocity_...
-  std::optional<double> torque_constant_Nm_per_A;
-  std::optional<double> lead_mm, gear_deg_per_rev;
-  std::optional<std::filesystem::path> machine;  // with axis: Kt, lead or gear, gravity model from the machine file
-  std::optional<std::string> axis;
-  std::string gravity = "auto";                  // auto | none | constant | tilting
-  std::optional<double> smoothing_ms;            // IdentifyOptions::smoothing_s, in ms
-  std::optional<std::filesystem::path> out_dir;  // drive_identified.toml, friction_fit.csv, report.json
-};
-// vmsim identify-friction TRACE: Coulomb and viscous friction, gravity offset and inertia of one axis (the feed-drive simulation paper 3.1).
-int run_identify_friction(const IdentifyArgs& args);
-
 struct MotionArgs {
   std::filesystem::path job;
   std::optional<std::filesystem::path> out_dir;  // default: the current directory

@@ -1,5 +1,6 @@
 #pragma once
-// The the predictive-compensation paper subcommands: excite, identify (transfer functions from a position trace), compensate.
+// The identification subcommands: excite, identify (transfer functions from a position trace) and compensate (the
+// predictive-compensation paper), identify-friction (friction and inertia: the feed-drive simulation paper).
 // main.cpp parses the command line; each returns the exit code and throws core::Error for input a user must fix.
 #include <filesystem>
 #include <optional>
@@ -26,8 +27,8 @@ struct ExciteArgs {
 };
 int run_excite(const ExciteArgs& args);
 
-struct SysidArgs {
-  // Position trace CSVs (drives/position_trace.hpp); several: estimation on all of them as separate experiments.
+struct IdentifyArgs {
+  // Position trace CSVs (sysid/position_trace.hpp); several: estimation on all of them as separate experiments.
   std::vector<std::filesystem::path> traces;
   // Separate validation trace (default: with one trace its second half, with several the last one, held out).
   std::optional<std::filesystem::path> validate;
@@ -40,7 +41,20 @@ struct SysidArgs {
   std::optional<std::filesystem::path> out_dir;  // axis_models.toml, report.json
 };
 // vmsim identify --trace TRACE.csv: ARX / ARMAX / OE per axis, validated, ranked (the predictive-compensation paper Table 2).
-int run_sysid(const SysidArgs& args);
+int run_identify(const IdentifyArgs& args);
+
+struct IdentifyFrictionArgs {
+  std::filesystem::path trace;                   // CSV: t_s, current_A, position_mm|position_deg|velocity_...
+  std::optional<double> torque_constant_Nm_per_A;
+  std::optional<double> lead_mm, gear_deg_per_rev;
+  std::optional<std::filesystem::path> machine;  // with axis: Kt, lead or gear, gravity model from the machine file
+  std::optional<std::string> axis;
+  std::string gravity = "auto";                  // auto | none | constant | tilting
+  std::optional<double> smoothing_ms;            // IdentifyOptions::smoothing_s, in ms
+  std::optional<std::filesystem::path> out_dir;  // drive_identified.toml, friction_fit.csv, report.json
+};
+// vmsim identify-friction TRACE: Coulomb and viscous friction, gravity offset and inertia of one axis (the feed-drive simulation paper 3.1).
+int run_identify_friction(const IdentifyFrictionArgs& args);
 
 struct CompensateArgs {
   std::filesystem::path job;

@@ -239,7 +239,7 @@ void add_measure(CLI::App& cli, Commands& cmds) {
 }
 
 void add_identify_friction(CLI::App& cli, Commands& cmds) {
-  auto a = std::make_shared<app::IdentifyArgs>();
+  auto a = std::make_shared<app::IdentifyFrictionArgs>();
   auto* c = cli.add_subcommand(
       "identify-friction",
       "Identify an axis' friction law and inertia from a trace of time, position or velocity, current");
@@ -337,7 +337,7 @@ void add_excite(CLI::App& cli, Commands& cmds) {
 }
 
 void add_identify(CLI::App& cli, Commands& cmds) {
-  auto a = std::make_shared<app::SysidArgs>();
+  auto a = std::make_shared<app::IdentifyArgs>();
   auto* c = cli.add_subcommand(
       "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; the "
                   "predictive-compensation paper), validate, rank, and write axis_models.toml for jobs to run on");
@@ -355,7 +355,7 @@ void add_identify(CLI::App& cli, Commands& cmds) {
   c->add_option("--use", a->use,
                 "structure written to the model file: best (lowest validation MSE, default), arx, armax or oe");
   add_out(c, a->out_dir, "output directory for axis_models.toml and report.json");
-  cmds.push_back({c, [a] { return app::run_sysid(*a); }});
+  cmds.push_back({c, [a] { return app::run_identify(*a); }});
 }
 
 void add_compensate(CLI::App& cli, Commands& cmds) {

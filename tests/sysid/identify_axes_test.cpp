@@ -1,0 +1,224 @@
+// sysid::identify_axes, what `vmsim identify` runs, on position traces simulated here from known discrete transfer
+// functions (difference equations written out below, independent of drives/discrete_tf): the reference is the
+// systems' own coefficients and delays, and the rules of the data split stated in sysid/identify_axes.hpp (second
+// half, held-out last trace, separate trace; each trace its own experiment from its own rest point).
+#include "core/error.hpp"
+#include "sysid/excite.hpp"
+#include "sysid/identify_axes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace vmsim::sysid {
+namespace {
+
+// A known system: y(k) = -a1 y(k-1) - a2 y(k-2) + b1 u(k-nk) + b2 u(k-nk-1), static gain 1 (a position loop).
+struct System {
+  double a1, a2, b1, b2;
+  int nk;
+};
+const System kX{-1.5, 0.7, 0.1, 0.1, 1};    // poles 0.75 +- 0.37i
+const System kA{-1.2, 0.36, 0.1, 0.06, 2};  // a double pole at 0.6, two samples of delay
+
+// An excitation (PRBS steps, +-amplitude, switching every 4 samples) and the system's answer plus white noise: on
+// the output (an OE system), or, with `equation_error`, inside the difference equation (an ARX system).
+void simulate(const System& s, int n, double amplitude, double noise, unsigned seed, Eigen::VectorXd& u,
+              Eigen::VectorXd& y, bool equation_error = false) {
+  const std::vector<int> m = m_sequence(9);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> e(0.0, noise);
+  u = Eigen::VectorXd::Zero(n);
+  for (int k = 10; k < n; ++k) u[k] = amplitude * (m[static_cast<std::size_t>(k / 4 + seed) % m.size()] ? 1.0 : -1.0);
+  Eigen::VectorXd clean = Eigen::VectorXd::Zero(n);
+  const auto at = [](const Eigen::VectorXd& v, int k) { return k >= 0 ? v[k] : 0.0; };
+  for (int k = 0; k < n; ++k)
+    clean[k] = -s.a1 * at(clean, k - 1) - s.a2 * at(clean, k - 2) + s.b1 * at(u, k - s.nk) +
+               s.b2 * at(u, k - s.nk - 1) + (equation_error && k > 0 ? e(rng) : 0.0);
+  y = clean;
+  if (!equation_error)
+    for (int k = 1; k < n; ++k) y[k] += e(rng);  // the first sample stays at rest
+}
+
+// A trace of axis X (mm, about `x0`) and, with `with_a`, axis A (rad, about 0.5 rad).
+PositionTrace make_trace(const std::string& source, int n, double x0, unsigned seed, bool with_a = true,
+                         double period_s = 1e-3, bool equation_error = false) {
+  PositionTrace t;
+  t.source = source;
+  t.period_s = period_s;
+  t.t_s = Eigen::ArrayXd::LinSpaced(n, 0.0, (n - 1) * period_s);
+  t.axes = {"X"};
+  t.rotary = {false};
+  if (with_a) t.axes.push_back("A"), t.rotary.push_back(true);
+  t.command.resize(n, static_cast<Eigen::Index>(t.axes.size()));
+  t.actual.resizeLike(t.command);
+  Eigen::VectorXd u, y;
+  simulate(kX, n, 1.0, 1e-4, seed, u, y, equation_error);
+  t.command.col(0) = u.array() + x0;
+  t.actual.col(0) = y.array() + x0;
+  if (with_a) {
+    simulate(kA, n, 0.01, 1e-6, seed + 7, u, y);
+    t.command.col(1) = u.array() + 0.5;
+    t.actual.col(1) = y.array() + 0.5;
+  }
+  return t;
+}
+
+AxesIdentificationOptions given_orders() {
+  AxesIdentificationOptions o;
+  o.orders = ModelOrders{2, 2, 2, 1};  // na, nb, nc, nk (nk: found per axis)
+  return o;
+}
+
+void expect_system(const IdentifiedModel& m, const System& s, double tol, const std::string& what) {
+  ASSERT_EQ(m.g.a.size(), 2) << what;
+  ASSERT_EQ(m.g.b.size(), 2) << what;
+  EXPECT_EQ(m.g.nk, s.nk) << what;
+  EXPECT_NEAR(m.g.a[0], s.a1, tol) << what;
+  EXPECT_NEAR(m.g.a[1], s.a2, tol) << what;
+  EXPECT_NEAR(m.g.b[0], s.b1, tol) << what;
+  EXPECT_NEAR(m.g.b[1], s.b2, tol) << what;
+}
+
+TEST(IdentifyAxes, OneTraceTwoAxesRecoverTheirSystemsOnTheFirstHalfValidatedOnTheSecond) {
+  const int n = 6000;
+  const PositionTrace t = make_trace("/data/run.csv", n, -150.0, 3);
+  const AxesIdentification r = identify_axes({t}, nullptr, given_orders());
+
+  EXPECT_EQ(r.data.validation, ValidationData::SecondHalf);
+  EXPECT_EQ(r.data.estimation_traces, 1u);
+  ASSERT_EQ(r.data.axes.size(), 2u);
+  const AxisData& x = r.data.axes[0];
+  EXPECT_EQ(x.name, "X");
+  EXPECT_FALSE(x.rotary);
+  EXPECT_TRUE(r.data.axes[1].rotary);
+  EXPECT_EQ(x.estimation.u.size(), n / 2);      // the first half estimates
+  EXPECT_EQ(x.validation.u.size(), n);          // the model runs over the whole record...
+  EXPECT_EQ(x.first_validation_sample, n / 2);  // ...and the second half is counted
+  // Deviations from the rest point: the -150 mm offset is gone.
+  EXPECT_EQ(x.estimation.u[0], 0.0);
+  EXPECT_NEAR(x.estimation.u.cwiseAbs().maxCoeff(), 1.0, 1e-9);
+  EXPECT_TRUE(x.starts_at_rest());
+
+  ASSERT_EQ(r.axes.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const AxisIdentification& a = r.axes[i];
+    const System& s = i == 0 ? kX : kA;
+    EXPECT_EQ(a.orders.nk, s.nk) << a.name << ": the delay with the smallest ARX loss";
+    ASSERT_EQ(a.models.size(), 3u);
+    for (const ModelResult& m : a.models) {
+      // Output noise 1e-4 of the amplitude: every structure lands on the system (OE is consistent, ARX and
+      // ARMAX nearly so at this noise), and predicts the held-out half to the noise.
+      expect_system(m.model, s, 2e-3, a.name + " " + structure_name(m.model.structure));
+      EXPECT_GT(m.validation.fit_percent, 99.9) << a.name;
+    }
+    // Ranks are the order of the validation MSE, and the chosen model is rank 1.
+    for (const ModelResult& m : a.models)
+      for (const ModelResult& o : a.models)
+        if (m.rank < o.rank) { EXPECT_LE(m.validation.mse, o.validation.mse); }
+    EXPECT_EQ(a.models[a.chosen].rank, 1);
+  }
+  // The model file: one axis each, the chosen structure, the trace's file name.
+  EXPECT_EQ(r.file.trace, "run.csv");
+  EXPECT_EQ(r.file.period_s, 1e-3);
+  ASSERT_EQ(r.file.axes.size(), 2u);
+  EXPECT_EQ(r.file.axes[1].name, "A");
+  EXPECT_EQ(r.file.axes[1].structure, r.axes[1].models[r.axes[1].chosen].model.structure);
+  EXPECT_EQ(r.file.axes[1].tf.nk, 2);
+}
+
+TEST(IdentifyAxes, SeveralTracesAreSeparateExperimentsAndTheLastIsHeldOut) {
+  const PositionTrace one = make_trace("/data/one.csv", 3000, 10.0, 1, false);
+  const PositionTrace two = make_trace("/data/two.csv", 2500, 50.0, 2, false);
+  const PositionTrace three = make_trace("/data/three.csv", 2000, -20.0, 5, false);
+  const AxesIdentification r = identify_axes({one, two, three}, nullptr, given_orders());
+  EXPECT_EQ(r.data.validation, ValidationData::HeldOutTrace);
+  EXPECT_EQ(r.data.estimation_traces, 2u);
+  const AxisData& x = r.data.axes.at(0);
+  EXPECT_EQ(x.estimation.u.size(), 5500);
+  ASSERT_EQ(x.estimation.starts.size(), 2u);
+  EXPECT_EQ(x.estimation.starts[1], 3000);
+  EXPECT_EQ(x.estimation.u[3000], 0.0) << "the second trace from its own rest point (50 mm), not the first's";
+  EXPECT_EQ(x.validation.u.size(), 2000);
+  EXPECT_EQ(x.first_validation_sample, 0);
+  EXPECT_EQ(r.file.trace, "one.csv, two.csv");
+  for (const ModelResult& m : r.axes.at(0).models) expect_system(m.model, kX, 2e-3, structure_name(m.model.structure));
+
+  // A separate validation trace: every trace estimates.
+  const PositionTrace val = make_trace("/data/val.csv", 2000, 0.0, 9, false);
+  const IdentificationData d = prepare_identification({one, two}, &val, given_orders());
+  EXPECT_EQ(d.validation, ValidationData::SeparateTrace);
+  EXPECT_EQ(d.estimation_traces, 2u);
+  EXPECT_EQ(d.axes.at(0).estimation.u.size(), 5500);
+  EXPECT_EQ(d.axes.at(0).validation.u.size(), 2000);
+}
+
+TEST(IdentifyAxes, UseOverridesTheRankingAndBicFindsTheOrders) {
+  const PositionTrace t = make_trace("run.csv", 6000, 0.0, 4, false);
+  AxesIdentificationOptions o = given_orders();
+  o.use = ModelStructure::Arx;
+  o.delay = 1;
+  const AxesIdentification r = identify_axes({t}, nullptr, o);
+  EXPECT_EQ(r.axes[0].models[r.axes[0].chosen].model.structure, ModelStructure::Arx);
+  EXPECT_EQ(r.file.axes[0].structure, ModelStructure::Arx);
+
+  // Orders by BIC over ARX fits, on an ARX system: the true na 2, nb 2, nk 1; nc as given.
+  const PositionTrace arx = make_trace("arx.csv", 6000, 0.0, 4, false, 1e-3, true);
+  o = AxesIdentificationOptions{};
+  o.orders.reset();
+  o.nc = 3;
+  o.structures = {ModelStructure::Arx};
+  const AxisIdentification a = identify_axes({arx}, nullptr, o).axes.at(0);
+  EXPECT_EQ(a.orders.na, 2);
+  EXPECT_EQ(a.orders.nb, 2);
+  EXPECT_EQ(a.orders.nk, 1);
+  EXPECT_EQ(a.orders.nc, 3);
+}
+
+TEST(IdentifyAxes, ATraceNotAtRestIsReported) {
+  PositionTrace t = make_trace("run.csv", 2000, 0.0, 6);
+  t.actual(0, 0) += 0.01;                           // X: 10 um off at the start
+  t.actual(0, 1) += 0.5e-3 * 3.14159265358979 / 180;  // A: half a thousandth of a degree, within the tolerance
+  const IdentificationData d = prepare_identification({t}, nullptr, given_orders());
+  EXPECT_FALSE(d.axes[0].starts_at_rest());
+  EXPECT_NEAR(d.axes[0].rest_offset, 0.01, 1e-12);
+  EXPECT_TRUE(d.axes[1].starts_at_rest());
+}
+
+TEST(IdentifyAxes, InconsistentInputIsAnErrorNamingTheTrace) {
+  const PositionTrace one = make_trace("/data/one.csv", 2000, 0.0, 1);
+  const PositionTrace slow = make_trace("/data/slow.csv", 2000, 0.0, 2, true, 2e-3);
+  try {
+    prepare_identification({one, slow}, nullptr, given_orders());
+    ADD_FAILURE() << "traces sampled at different periods were accepted";
+  } catch (const core::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/data/slow.csv: sampled every 0.002 s, /data/one.csv every 0.001 s"),
+              std::string::npos)
+        << e.what();
+  }
+  try {
+    prepare_identification({one}, &slow, given_orders());
+    ADD_FAILURE() << "a validation trace at another period was accepted";
+  } catch (const core::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/data/slow.csv"), std::string::npos) << e.what();
+  }
+  AxesIdentificationOptions o = given_orders();
+  o.axes = {"X", "Y"};
+  try {
+    prepare_identification({one}, nullptr, o);
+    ADD_FAILURE() << "an axis the trace lacks was accepted";
+  } catch (const core::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/data/one.csv: --axis Y: the trace has no columns for it"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(prepare_identification({}, nullptr, given_orders()), core::Error);
+  o = given_orders();
+  o.structures = {ModelStructure::Arx};
+  o.use = ModelStructure::Oe;
+  EXPECT_THROW(identify_axes({one}, nullptr, o), core::Error);
+}
+
+}  // namespace
+}  // namespace vmsim::sysid
