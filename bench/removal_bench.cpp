@@ -6,14 +6,19 @@
 // 45 mm long from the tip), stock 100 x 100 x 20. Coordinates are the exact values (the peer's G-code rounds them
 // to 0.1 um), as in peer_envelope_grid.py.
 //
-// Arguments: spacing as 1/n mm (16, 32) and the OpenMP thread count (1, 2).
-// Counters: ray-tool evaluations per second (all threads; per thread), the height error against the exact ball
+// Arguments: spacing as 1/n mm (16, 32), the OpenMP thread count (1, 2) and the kernel: 0 cut() (the AVX2 build
+// where the CPU has it), 1 cut_reference() (the kernel before issue 21's tile bounds and fused rows: the "before" of
+// one interleaved run), 2 cut() in its generic build.
+// Counters: ray-tool evaluations per second (all threads; per thread), the shares of the evaluations settled by a
+// tile's bound, by the ray's bound and by the exact cut without change, and of those that cut (cut() only), the height error against the exact ball
 // envelope of peer_envelope_grid.py (its formula, evaluated here at the 1 mm nodes x, y in [2, 98], which lie on
 // pass centres), the z-map's memory (DexelGrid::memory_bytes per dexel) and the stock set-up time (make_zmap +
 // fill_box, not in the timed region). The timed region is cut() alone.
 // VMSIM_REMOVAL_HEIGHTS=prefix writes the z-map's heights at x, y = 1..99 mm to prefix_<n>_t<threads>.xyz ("x y z"
 // lines, the layout of the peer script's .heights.xyz) for comparison with peer_envelope_grid.py's ref.xyz.
 // Figures: bench/README.md.
+#include "removal/cut_internal.hpp"
+#include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
 
 #include <benchmark/benchmark.h>
@@ -84,10 +89,13 @@ void BM_ZmapBallRaster(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const double h = 1.0 / n;  // spacing: 1/16 and 1/32 mm
   const int threads = static_cast<int>(state.range(1));
+  const int kernel = static_cast<int>(state.range(2));
   omp_set_num_threads(threads);
+  detail::generic_kernels_only() = kernel == 2;
   const std::vector<SweptTool> sw = raster(0.5);
   const Box stock{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(100, 100, 20)};
   std::size_t tests = 0, mem = 0, dexels = 0, intervals = 0;
+  CutStats stats;
   double max_err = 0, sum2 = 0, setup_ms = 0;
   int nodes = 0;
   for (auto _ : state) {
@@ -97,7 +105,8 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     fill_box(z, stock);
     setup_ms += ms_since(t0);
     state.ResumeTiming();
-    tests = cut(z, sw).ray_tests;
+    stats = kernel == 1 ? cut_reference(z, sw) : cut(z, sw);
+    tests = stats.ray_tests;
     state.PauseTiming();
     max_err = 0, sum2 = 0, nodes = 0;
     for (int xi = 2; xi <= 98; ++xi) {
@@ -113,7 +122,8 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     dexels = static_cast<std::size_t>(z.nu()) * static_cast<std::size_t>(z.nv());
     intervals = z.interval_count();
     if (const char* prefix = std::getenv("VMSIM_REMOVAL_HEIGHTS")) {
-      const std::string path = std::string(prefix) + "_" + std::to_string(n) + "_t" + std::to_string(threads) + ".xyz";
+      const std::string path = std::string(prefix) + "_" + std::to_string(n) + "_t" + std::to_string(threads) +
+                               (kernel ? "_k" + std::to_string(kernel) : std::string()) + ".xyz";
       if (std::FILE* f = std::fopen(path.c_str(), "w")) {
         for (int xi = 1; xi <= 99; ++xi)
           for (int yi = 1; yi <= 99; ++yi)
@@ -124,11 +134,19 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     state.ResumeTiming();
   }
   omp_set_num_threads(omp_get_num_procs());
+  detail::generic_kernels_only() = false;
   const double it = static_cast<double>(state.iterations());
   state.counters["ray_tests/s"] = benchmark::Counter(it * static_cast<double>(tests), benchmark::Counter::kIsRate);
   state.counters["ray_tests/s/thread"] =
       benchmark::Counter(it * static_cast<double>(tests) / threads, benchmark::Counter::kIsRate);
   state.counters["ray_tests"] = static_cast<double>(tests);
+  if (kernel != 1) {
+    const double t = static_cast<double>(tests);
+    state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
+    state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
+    state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
+    state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
+  }
   state.counters["max_err_um"] = max_err * 1e3;
   state.counters["rms_err_um"] = std::sqrt(sum2 / nodes) * 1e3;
   state.counters["sweeps"] = static_cast<double>(sw.size());
@@ -139,11 +157,15 @@ void BM_ZmapBallRaster(benchmark::State& state) {
   state.counters["B/dexel"] = static_cast<double>(mem) / static_cast<double>(dexels);
 }
 BENCHMARK(BM_ZmapBallRaster)
-    ->ArgNames({"n", "threads"})
-    ->Args({16, 1})
-    ->Args({32, 1})
-    ->Args({16, 2})
-    ->Args({32, 2})
+    ->ArgNames({"n", "threads", "kernel"})
+    ->Args({16, 1, 0})
+    ->Args({16, 1, 1})
+    ->Args({16, 1, 2})
+    ->Args({32, 1, 0})
+    ->Args({32, 1, 1})
+    ->Args({32, 1, 2})
+    ->Args({16, 2, 0})
+    ->Args({32, 2, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

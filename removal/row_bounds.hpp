@@ -1,17 +1,46 @@
 #pragma once
-// Internal to removal/cut.cpp: the vectorised row kernel of a ball-end sweep on a z-map (removal/row_bounds.inc).
+// Internal to removal/cut.cpp: the vectorised row kernel of a ball-end sweep on a z-map (removal/row_bounds.inc,
+// removal/row_cut.inc), each built twice: plain and for AVX2 (chosen at run time; both give the same bits).
+#include "removal/dexel_grid.hpp"
+
 namespace vmsim::removal {
 
 struct RowCutParams {
   double R, L;                    // ball radius, tool length
-  double cu, eu, ev, ee, inv_ee, inv_el, delta, kk;  // see AxialBall in cut.cpp
+  double cu, eu, ev, ee, inv_ee, inv_el, delta, kk;  // see AxialBall in cut_internal.hpp
   double base_w;                  // the tip's ray coordinate at the sweep's start
   double du;                      // column spacing
 };
 
+// The reference kernel's two steps (cut_reference.cpp): the square-root-free lower bound of the cut's start on rays
+// ia .. ia + n - 1, and the exact cut on the rays ia + idx[k].
 void row_prefilter_generic(const RowCutParams& p, double qv, int ia, int n, double* lb);
 void row_prefilter_avx2(const RowCutParams& p, double qv, int ia, int n, double* lb);
 void row_bounds_generic(const RowCutParams& p, double qv, int ia, const int* idx, int m, double* t0, double* t1);
 void row_bounds_avx2(const RowCutParams& p, double qv, int ia, const int* idx, int m, double* t0, double* t1);
+
+// A ray row_cut leaves to its caller (several intervals, or material above the tool's lowest top), with the exact
+// start of the cut t0 and the lower bound t1 of its end, as row_bounds gives them.
+struct RowFallback {
+  int i;
+  double t0, t1;
+};
+struct RowCutCounts {
+  long long bound_skipped = 0;  // rays the square-root-free bound settled
+  long long exact_nothing = 0;  // rays cut exactly that the sweep leaves unchanged
+  long long cut = 0;            // rays cut in place
+};
+// Both steps fused, four rays at a time, on the rays [i0, i1] of one row (head: the row's in-place intervals, indexed
+// by column), and the cut applied in place where the ray holds one interval and loses everything above t0. Returns
+// the number of rays written to fb (at most i1 - i0 + 1) for the caller to finish as cut_reference does.
+int row_cut_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, RowFallback* fb,
+                    RowCutCounts& count);
+int row_cut_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, RowFallback* fb,
+                 RowCutCounts& count);
+
+// The highest top of the rays in `rows` rows x n columns from head (rows `stride` intervals apart), or false when one
+// of them holds several intervals.
+bool tile_top_generic(const Interval* head, std::size_t stride, int rows, int n, float& top);
+bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, float& top);
 
 }  // namespace vmsim::removal
