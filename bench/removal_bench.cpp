@@ -146,6 +146,8 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
     state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
     state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
+    state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
+    state.counters["replayed_rays"] = static_cast<double>(stats.replayed);
   }
   state.counters["max_err_um"] = max_err * 1e3;
   state.counters["rms_err_um"] = std::sqrt(sum2 / nodes) * 1e3;

@@ -14,7 +14,8 @@ namespace {
 using namespace detail;
 
 constexpr int kBlock = 8;      // rows per work item: a block's rows are one thread's, and one row of tiles
-constexpr int kTileCols = 32;  // columns per tile
+constexpr int kTileShift = 5;  // columns per tile: 32
+constexpr int kTileCols = 1 << kTileShift;
 
 // A block's tiles (kBlock rows x kTileCols columns of rays): per tile, bounds of its material, tested against a
 // sweep's bound over the whole tile before any of its rays. Cutting only removes material, so a top (bottom) once
@@ -23,6 +24,7 @@ constexpr int kTileCols = 32;  // columns per tile
 struct Tiles {
   std::vector<float> top, bottom;
   std::vector<char> stale_top, stale_bottom, skip;
+  std::vector<unsigned char> cut_mark;  // tiles a kernel call cut (cleared by the caller)
   int jb0 = 0, jb1 = -1;
 
   void reset(const DexelGrid& g, int j0, int j1) {
@@ -33,9 +35,14 @@ struct Tiles {
     stale_top.assign(n, 1);
     stale_bottom.assign(n, 1);
     skip.assign(n, 0);
+    cut_mark.assign(n + 1, 0);  // a kernel's last group of four may mark the tile past the grid's last column
     jb0 = j0, jb1 = j1;
+    skip_several = false;
   }
   void cut(int tc) { stale_top[static_cast<std::size_t>(tc)] = stale_bottom[static_cast<std::size_t>(tc)] = 1; }
+
+  // Rays with several intervals left out of the tops (the order-free pass, which replays them all).
+  bool skip_several = false;
 
   // Reads tile tc's highest top (all the ball kernel needs) and, with both, its lowest bottom.
   void read(const DexelGrid& g, int tc, bool both) {
@@ -44,7 +51,7 @@ struct Tiles {
     stale_top[k] = 0;
     float t;
     if (!both && (use_avx2() ? tile_top_avx2 : tile_top_generic)(g.head_row(jb0) + c0, static_cast<std::size_t>(g.nu()),
-                                                                   jb1 - jb0 + 1, n, t)) {
+                                                                   jb1 - jb0 + 1, n, skip_several, t)) {
       top[k] = t;
       return;
     }
@@ -70,30 +77,124 @@ struct Tiles {
 // A lower bound of the ball sweep's lowest point on every ray of the rectangle qu in [qu0, qu1], qv in [qv0, qv1]
 // (relative to the centre's start): the ray kernel's bound min over l of delta l + r(l)^2 / 2R, with r^2 = perp^2 +
 // ee (l - l*)^2, split into its least perp over the rectangle and the least of delta l + ee dist(l, [s0, s1])^2 / 2R,
-// where [s0, s1] is the range of l* over it (both linear in q, so their ranges are at the corners); the second is
-// convex in l, least at the clamped stationary point.
-double tile_lower_bound(const AxialBall& b, double qu0, double qu1, double qv0, double qv1) {
-  double cr0 = 1e300, cr1 = -1e300, s0 = 1e300, s1 = -1e300;
-  for (const double qu : {qu0, qu1}) {
-    for (const double qv : {qv0, qv1}) {
-      const double cr = qu * b.ev - qv * b.eu, s = (qu * b.eu + qv * b.ev) * b.inv_ee;
-      cr0 = std::min(cr0, cr), cr1 = std::max(cr1, cr), s0 = std::min(s0, s), s1 = std::max(s1, s);
-    }
+// where [s0, s1] is the range of l* over it (perp el = qu ev - qv eu and l* ee = qu eu + qv ev are linear and
+// separable: their ranges add the ranges of the qu and qv terms); the second is convex in l, least at the clamped
+// stationary point. The qv terms are the same for every tile of a sweep's block: TileBound holds them.
+struct TileBound {
+  const AxialBall& b;
+  double cr_v0, cr_v1, s_v0, s_v1;  // ranges of -qv eu and qv ev over [qv0, qv1]
+  double shift, half_inv_r;
+  TileBound(const AxialBall& ball, double qv0, double qv1) : b(ball) {
+    cr_v0 = std::min(-qv0 * b.eu, -qv1 * b.eu), cr_v1 = std::max(-qv0 * b.eu, -qv1 * b.eu);
+    s_v0 = std::min(qv0 * b.ev, qv1 * b.ev), s_v1 = std::max(qv0 * b.ev, qv1 * b.ev);
+    shift = b.delta * b.R * b.inv_ee, half_inv_r = 0.5 / b.R;
   }
-  const double c = cr0 > 0 ? cr0 : (cr1 < 0 ? -cr1 : 0.0);
-  const double shift = b.delta * b.R * b.inv_ee;
-  const double l = std::clamp(b.delta >= 0 ? s0 - shift : s1 - shift, 0.0, 1.0);
-  const double d = l < s0 ? s0 - l : (l > s1 ? l - s1 : 0.0);
-  return (b.cw - b.R) + b.delta * l + (c * c * b.inv_ee + b.ee * d * d) * (0.5 / b.R);
-}
-
-struct Counts {
-  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0;
+  double operator()(double qu0, double qu1) const {
+    const double cr0 = std::min(qu0 * b.ev, qu1 * b.ev) + cr_v0, cr1 = std::max(qu0 * b.ev, qu1 * b.ev) + cr_v1;
+    const double s0 = (std::min(qu0 * b.eu, qu1 * b.eu) + s_v0) * b.inv_ee;
+    const double s1 = (std::max(qu0 * b.eu, qu1 * b.eu) + s_v1) * b.inv_ee;
+    const double c = cr0 > 0 ? cr0 : (cr1 < 0 ? -cr1 : 0.0);
+    const double l = std::clamp(b.delta >= 0 ? s0 - shift : s1 - shift, 0.0, 1.0);
+    const double d = l < s0 ? s0 - l : (l > s1 ? l - s1 : 0.0);
+    return (b.cw - b.R) + b.delta * l + (c * c * b.inv_ee + b.ee * d * d) * half_inv_r;
+  }
 };
 
-// One ball sweep along the rays on the rows [j0, j1] of a block.
+struct Counts {
+  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0;
+};
+
+// A ray of a block the order-free pass must leave to the replay in program order (row j, column i).
+struct Flagged {
+  int j, i;
+  bool operator<(const Flagged& o) const { return j != o.j ? j < o.j : i < o.i; }
+  bool operator==(const Flagged& o) const { return j == o.j && i == o.i; }
+};
+
+// cut_reference's steps for one sweep on the rays [s0, s1] of row j, in place; a ray cut sets its tile's cut_tiles.
+void cut_segment(DexelGrid& g, const AxialBall& b, const RowCutParams& p, int j, int s0, int s1,
+                 unsigned char* cut_tiles, RowFallback* fb, Counts& c) {
+  const double qv = g.v_of(j) - b.cv;
+  RowCutCounts rc;
+  const int nfb = (use_avx2() ? row_cut_avx2 : row_cut_generic)(p, qv, s0, s1, g.head_row(j), g.length(), cut_tiles,
+                                                                kTileShift, fb, rc);
+  c.bound += static_cast<std::size_t>(rc.bound_skipped);
+  c.nothing += static_cast<std::size_t>(rc.exact_nothing);
+  c.cuts += static_cast<std::size_t>(rc.cut);
+  // The scalar steps for the rays left over (several intervals, or material above the tool's lowest top).
+  for (int q = 0; q < nfb; ++q) {
+    const int i = fb[q].i;
+    const double t0 = fb[q].t0, top = g.top(i, j);
+    if (t0 >= top || t0 >= g.length()) {
+      ++c.nothing;
+      continue;
+    }
+    double t1 = fb[q].t1;
+    if (t1 < top) {
+      t1 = axial_ball_top(b, qv, i * g.du() - b.cu);  // material above the tool's lowest top: the exact end
+    } else {
+      t1 = std::max(top, g.length()) + 1.0;  // past the material: the cut takes everything above t0
+    }
+    if (t1 <= 0) {
+      ++c.nothing;
+      continue;
+    }
+    g.subtract(i, j, t0, t1);
+    ++c.cuts;
+    cut_tiles[i >> kTileShift] = 1;
+  }
+}
+
+// A float between t0 (exclusive) and lb (inclusive): only then can a ray's top lie where the reference's bound skips a
+// cut (lb >= top) that t0 < top would make, so that its order of sweeps matters.
+bool float_between(double t0, double lb) {
+  float f = static_cast<float>(lb);
+  if (static_cast<double>(f) > lb) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return static_cast<double>(f) > t0;
+}
+
+// Whether a run of consecutive ball sweeps along the rays (bin[q0, q1), set up in balls) may cut a block in any order
+// (see cut()): the lowest point of each one's top over its move ((cw - R) + min(0, delta) + (L - R): a floating-point
+// lower bound of every t1 the kernel computes, since delta l >= min(0, delta) for l in [0, 1] and rounding is
+// monotone) at or above the block's highest material. Fills the order (by the sweep's lower bound over the block's
+// rays, lowest first; ties in program order) and the rays holding several intervals: the order-free pass leaves them
+// alone, the replay cuts them.
+bool order_free(const DexelGrid& g, const std::vector<Footprint>& fp, const std::vector<int>& bin, std::size_t q0,
+                std::size_t q1, int jb0, int jb1, const std::vector<AxialBall>& balls,
+                std::vector<std::pair<double, int>>& order, std::vector<Flagged>& several) {
+  if (q1 < q0 + 2 || program_order_only()) return false;
+  double lowest_top = std::numeric_limits<double>::infinity();
+  for (std::size_t q = q0; q < q1; ++q) {
+    const AxialBall& b = balls[q];
+    lowest_top = std::min(lowest_top, ((b.cw - b.R) + std::min(0.0, b.delta)) + (b.L - b.R));
+  }
+  float top;
+  several.clear();
+  if (!(use_avx2() ? tile_top_avx2 : tile_top_generic)(g.head_row(jb0), static_cast<std::size_t>(g.nu()), jb1 - jb0 + 1,
+                                                        g.nu(), false, top)) {
+    top = -std::numeric_limits<float>::infinity();  // rays with several intervals: their tops too
+    for (int j = jb0; j <= jb1; ++j)
+      for (int i = 0; i < g.nu(); ++i) {
+        if (const double t = g.top(i, j); t > top) top = static_cast<float>(t);
+        if (std::isnan(g.head_row(j)[i].lo)) several.push_back({j, i});
+      }
+  }
+  if (!(lowest_top >= top)) return false;
+  order.clear();
+  for (std::size_t q = q0; q < q1; ++q) {
+    const AxialBall& b = balls[q];
+    const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
+    const TileBound bound(b, g.v_of(std::max(jb0, f.j0)) - b.cv, g.v_of(std::min(jb1, f.j1)) - b.cv);
+    order.emplace_back(bound(f.i0 * g.du() - b.cu, f.i1 * g.du() - b.cu), static_cast<int>(q));
+  }
+  std::sort(order.begin(), order.end());
+  return true;
+}
+
+// One ball sweep along the rays on the rows [j0, j1] of a block. Pure: the order-free form (see cut()), which
+// appends to `flagged` the rays the replay must redo.
 void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, int j0, int j1, Tiles& tiles,
-                          std::vector<RowFallback>& fb, Counts& c) {
+                          std::vector<RowFallback>& fb, Counts& c, bool pure, std::vector<Flagged>& flagged) {
   int ia[kBlock], ib[kBlock];
   int umin = g.nu(), umax = -1, r0 = -1, r1 = -1;
   for (int j = j0; j <= j1; ++j) {
@@ -109,67 +210,69 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
     r1 = j;
   }
   if (umax < 0) return;
-  // Tiles first: the bound over a tile against its highest top. The margin covers the round-off of the kernel's t0
-  // near a ray's rim (a square root of a difference of squares of |q| ~ the sweep's length; 1e-5 mm for 1 m moves).
-  const double qv0 = g.v_of(r0) - b.cv, qv1 = g.v_of(r1) - b.cv;
-  for (int tc = umin / kTileCols; tc <= umax / kTileCols; ++tc) {
+  // The round-off of the kernel's t0 near a ray's rim (a square root of a difference of squares of |q| <= el + R for
+  // the rays of the shadow): below 1e-5 mm for a 1 m move; the bounds below keep this margin.
+  const double margin = 1e-6 * (1 + std::sqrt(b.R * (b.el + 2 * b.R)));
+  // Tiles first: the bound over a tile against its highest top; then the runs of tiles it did not settle.
+  const TileBound bound(b, g.v_of(r0) - b.cv, g.v_of(r1) - b.cv);
+  const int tc0 = umin >> kTileShift, tc1 = umax >> kTileShift;
+  int runs[2 * 64], nruns = 0;  // [first, last] column of each run (at most 64 runs: beyond, cut per tile)
+  for (int tc = tc0; tc <= tc1; ++tc) {
     const auto k = static_cast<std::size_t>(tc);
     const int c0 = std::max(umin, tc * kTileCols), c1 = std::min(umax, tc * kTileCols + kTileCols - 1);
-    const double qu0 = c0 * g.du() - b.cu, qu1 = c1 * g.du() - b.cu;
-    const double qmax = std::max({std::abs(qu0), std::abs(qu1), std::abs(qv0), std::abs(qv1)}) + b.el;
-    const double lb = tile_lower_bound(b, qu0, qu1, qv0, qv1) - 1e-6 * (1 + std::sqrt(b.R * (qmax + b.R)));
+    const double lb = bound(c0 * g.du() - b.cu, c1 * g.du() - b.cu) - margin;
     bool skip = lb >= tiles.top[k];
     if (!skip && tiles.stale_top[k]) {
       tiles.read(g, tc, false);
       skip = lb >= tiles.top[k];
     }
-    tiles.skip[k] = skip;
+    if (skip) continue;
+    if (nruns > 0 && runs[2 * nruns - 1] == c0 - 1) {
+      runs[2 * nruns - 1] = c1;
+    } else if (nruns < 64) {
+      runs[2 * nruns] = c0, runs[2 * nruns + 1] = c1, ++nruns;
+    } else {
+      runs[2 * nruns - 1] = c1;  // the last run stretches over settled tiles: cut them too (still exact)
+    }
   }
   const RowCutParams p = row_params(g, b);
   const bool avx2 = use_avx2();
+  unsigned char* cut_tiles = tiles.cut_mark.data();
   for (int j = j0; j <= j1; ++j) {
     const int a = ia[j - j0], e = ib[j - j0];
     if (a > e) continue;
-    const double qv = g.v_of(j) - b.cv;
-    Interval* head = g.head_row(j);
-    for (int tc = a / kTileCols; tc <= e / kTileCols; ++tc) {
-      const auto k = static_cast<std::size_t>(tc);
-      const int s0 = std::max(a, tc * kTileCols), s1 = std::min(e, tc * kTileCols + kTileCols - 1);
-      if (tiles.skip[k]) {
-        c.tile += static_cast<std::size_t>(s1 - s0 + 1);
+    if (pure && replay_every_ray())
+      for (int i = a; i <= e; ++i) flagged.push_back({j, i});
+    std::size_t done = 0;
+    for (int r = 0; r < nruns; ++r) {
+      const int s0 = std::max(a, runs[2 * r]), s1 = std::min(e, runs[2 * r + 1]);
+      if (s0 > s1) continue;
+      done += static_cast<std::size_t>(s1 - s0 + 1);
+      if (!pure) {
+        cut_segment(g, b, p, j, s0, s1, cut_tiles, fb.data(), c);
         continue;
       }
       RowCutCounts rc;
-      const int nfb = (avx2 ? row_cut_avx2 : row_cut_generic)(p, qv, s0, s1, head, g.length(), fb.data(), rc);
+      Interval* head = g.head_row(j);
+      const int nfb = (avx2 ? row_cut_pure_avx2 : row_cut_pure_generic)(p, g.v_of(j) - b.cv, s0, s1, head, g.length(),
+                                                                         margin, cut_tiles, kTileShift, fb.data(), rc);
       c.bound += static_cast<std::size_t>(rc.bound_skipped);
       c.nothing += static_cast<std::size_t>(rc.exact_nothing);
       c.cuts += static_cast<std::size_t>(rc.cut);
-      bool changed = rc.cut > 0;
-      // cut_reference's scalar steps for the rays left over.
       for (int q = 0; q < nfb; ++q) {
-        const int i = fb[static_cast<std::size_t>(q)].i;
-        const double t0 = fb[static_cast<std::size_t>(q)].t0, top = g.top(i, j);
-        if (t0 >= top || t0 >= g.length()) {
-          ++c.nothing;
-          continue;
-        }
-        double t1 = fb[static_cast<std::size_t>(q)].t1;
-        if (t1 < top) {
-          t1 = axial_ball_top(b, qv, i * g.du() - b.cu);  // material above the tool's lowest top: the exact end
-        } else {
-          t1 = std::max(top, g.length()) + 1.0;  // past the material: the cut takes everything above t0
-        }
-        if (t1 <= 0) {
-          ++c.nothing;
-          continue;
-        }
-        g.subtract(i, j, t0, t1);
-        ++c.cuts;
-        changed = true;
+        const RowFallback& rf = fb[static_cast<std::size_t>(q)];
+        const Interval h = head[rf.i];
+        // Several intervals, a cut that would not go through the top (neither happens when cut() chose this form),
+        // or a bound above t0 with a float between them: the replay redoes the ray in program order.
+        const bool anomaly = std::isfinite(rf.t0) && rf.lb > rf.t0 && float_between(rf.t0, rf.lb);
+        if (std::isnan(h.lo) || (h.lo <= h.hi && rf.t1 < h.hi) || anomaly) flagged.push_back({j, rf.i});
       }
-      if (changed) tiles.cut(tc);
     }
+    c.tile += static_cast<std::size_t>(e - a + 1) - done;
   }
+  // Tiles a cut touched: their tops may have fallen.
+  for (int tc = tc0; tc <= tc1 + 1 && tc < static_cast<int>(tiles.top.size()); ++tc)
+    if (cut_tiles[tc]) cut_tiles[tc] = 0, tiles.cut(tc);
 }
 
 // Any other sweep on the rows [j0, j1] of a block: the general ray test on the rays whose material meets the sweep's
@@ -269,29 +372,83 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
     if (f.empty()) continue;
     for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b) bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
   }
-  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0;
-#pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing)
+  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0;
+#pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing, blocks, replayed)
   {
     Tiles tiles;
-    std::vector<RowFallback> fb(kTileCols);
+    std::vector<RowFallback> fb(static_cast<std::size_t>(grid.nu()) + 4);
     Counts c;
+    std::vector<AxialBall> balls;
+    std::vector<char> is_ball;
+    std::vector<std::pair<double, int>> order;
+    std::vector<Interval> before;
+    std::vector<Flagged> flagged;
 #pragma omp for schedule(dynamic, 1)
     for (int b = 0; b < nblocks; ++b) {
       const int jb0 = b * kBlock, jb1 = std::min(grid.nv() - 1, jb0 + kBlock - 1);
+      const std::vector<int>& bin = bins[static_cast<std::size_t>(b)];
       tiles.reset(grid, jb0, jb1);
-      for (int k : bins[static_cast<std::size_t>(b)]) {
-        const Footprint& f = fp[static_cast<std::size_t>(k)];
-        const SweptTool& sw = sweeps[static_cast<std::size_t>(k)];
-        const int j0 = std::max(jb0, f.j0), j1 = std::min(jb1, f.j1);
-        AxialBall ab;
-        if (axial_ball(grid, sw, ab)) {
-          cut_block_axial_ball(grid, ab, f, j0, j1, tiles, fb, c);
+      balls.resize(bin.size());
+      is_ball.resize(bin.size());
+      for (std::size_t q = 0; q < bin.size(); ++q)
+        is_ball[q] = axial_ball(grid, sweeps[static_cast<std::size_t>(bin[q])], balls[q]);
+      // Runs of consecutive ball sweeps along the rays, each followed by one other sweep (or the bin's end).
+      for (std::size_t q0 = 0; q0 < bin.size();) {
+        std::size_t q1 = q0;
+        while (q1 < bin.size() && is_ball[q1]) ++q1;
+        if (order_free(grid, fp, bin, q0, q1, jb0, jb1, balls, order, flagged)) {
+          // Every sweep of the run is a ball along the rays whose lowest top lies above all the block's material:
+          // each cut of a ray holding one interval takes its material above the cut's start t0, so such a ray ends
+          // the run as [lo, float(min t0)] (or empty) whatever the order, as long as the reference's bound never
+          // skipped a cut (it may only where a float lies between t0 and the bound above it; the kernel lists those
+          // rays). The sweeps run lowest first: those that decide the surface cut it, and the tiles' bounds settle
+          // most of the rest.
+          const std::size_t nb = static_cast<std::size_t>(jb1 - jb0 + 1) * static_cast<std::size_t>(grid.nu());
+          before.assign(grid.head_row(jb0), grid.head_row(jb0) + nb);
+          tiles.skip_several = true;  // rays with several intervals: flagged (order_free), replayed, not in the tops
+          for (const auto& [key, q] : order) {
+            const Footprint& f = fp[static_cast<std::size_t>(bin[static_cast<std::size_t>(q)])];
+            cut_block_axial_ball(grid, balls[static_cast<std::size_t>(q)], f, std::max(jb0, f.j0), std::min(jb1, f.j1),
+                                 tiles, fb, c, true, flagged);
+          }
+          // The flagged rays again from the run's start, its sweeps in program order (the reference's steps).
+          std::sort(flagged.begin(), flagged.end());
+          flagged.erase(std::unique(flagged.begin(), flagged.end()), flagged.end());
+          for (const Flagged& r : flagged) {
+            grid.head_row(r.j)[r.i] = before[static_cast<std::size_t>(r.j - jb0) * static_cast<std::size_t>(grid.nu()) +
+                                             static_cast<std::size_t>(r.i)];
+            for (std::size_t q = q0; q < q1; ++q) {
+              const AxialBall& ab = balls[q];
+              const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
+              int ia, ib;
+              if (r.j < f.j0 || r.j > f.j1 || !axial_ball_columns(grid, ab, r.j, f.i0, f.i1, ia, ib) || r.i < ia ||
+                  r.i > ib)
+                continue;
+              Counts scratch;
+              cut_segment(grid, ab, row_params(grid, ab), r.j, r.i, r.i, tiles.cut_mark.data(), fb.data(), scratch);
+            }
+          }
+          c.replayed += flagged.size();
+          ++c.blocks;
+          tiles.reset(grid, jb0, jb1);  // the replay may have raised tops the pass had lowered; and rays left out
         } else {
-          cut_block_general(grid, sw, f, wext[static_cast<std::size_t>(k)], j0, j1, tiles, c);
+          for (std::size_t q = q0; q < q1; ++q) {
+            const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
+            cut_block_axial_ball(grid, balls[q], f, std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, fb, c, false,
+                                 flagged);
+          }
         }
+        if (q1 < bin.size()) {
+          const int k = bin[q1];
+          const Footprint& f = fp[static_cast<std::size_t>(k)];
+          cut_block_general(grid, sweeps[static_cast<std::size_t>(k)], f, wext[static_cast<std::size_t>(k)],
+                            std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, c);
+        }
+        q0 = q1 + 1;
       }
     }
-    tests += c.tests, cuts += c.cuts, tile += c.tile, bound += c.bound, nothing += c.nothing;
+    tests += c.tests, cuts += c.cuts, tile += c.tile, bound += c.bound, nothing += c.nothing, blocks += c.blocks,
+        replayed += c.replayed;
   }
   CutStats s;
   s.ray_tests = tests;
@@ -299,6 +456,8 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
   s.tile_skipped = tile;
   s.bound_skipped = bound;
   s.exact_nothing = nothing;
+  s.order_free_blocks = blocks;
+  s.replayed = replayed;
   return s;
 }
 

@@ -17,6 +17,8 @@ struct CutStats {
   std::size_t tile_skipped = 0;   // a tile's bound (the sweep's lowest point over a tile of rays above its top)
   std::size_t bound_skipped = 0;  // the ray's square-root-free bound
   std::size_t exact_nothing = 0;  // the exact cut
+  std::size_t order_free_blocks = 0;  // runs of sweeps through a block of rows cut lowest sweep first (cut.cpp)
+  std::size_t replayed = 0;           // rays of those that had to be redone in program order
 };
 
 // Subtracts each swept volume from the grid. Rows are distributed over OpenMP threads in blocks; every ray sees

@@ -83,6 +83,16 @@ inline bool& generic_kernels_only() {
   static bool only = false;
   return only;
 }
+// Tests: cut() keeps every block in program order (no order-free pass), or replays every ray the order-free pass cut
+// (its exactness net, which real cuts rarely need).
+inline bool& program_order_only() {
+  static bool only = false;
+  return only;
+}
+inline bool& replay_every_ray() {
+  static bool all = false;
+  return all;
+}
 inline bool use_avx2() {
   static const bool cpu = __builtin_cpu_supports("avx2");
   return cpu && !generic_kernels_only();

@@ -23,7 +23,7 @@ void row_bounds_avx2(const RowCutParams& p, double qv, int ia, const int* idx, i
 // start of the cut t0 and the lower bound t1 of its end, as row_bounds gives them.
 struct RowFallback {
   int i;
-  double t0, t1;
+  double t0, t1, lb;  // lb: the ray's square-root-free bound
 };
 struct RowCutCounts {
   long long bound_skipped = 0;  // rays the square-root-free bound settled
@@ -31,16 +31,26 @@ struct RowCutCounts {
   long long cut = 0;            // rays cut in place
 };
 // Both steps fused, four rays at a time, on the rays [i0, i1] of one row (head: the row's in-place intervals, indexed
-// by column), and the cut applied in place where the ray holds one interval and loses everything above t0. Returns
-// the number of rays written to fb (at most i1 - i0 + 1) for the caller to finish as cut_reference does.
-int row_cut_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, RowFallback* fb,
-                    RowCutCounts& count);
-int row_cut_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, RowFallback* fb,
-                 RowCutCounts& count);
+// by column), and the cut applied in place where the ray holds one interval and loses everything above t0; a ray cut
+// in place sets cut_tiles[column >> tile_shift]. Returns the number of rays written to fb (at most i1 - i0 + 1) for
+// the caller to finish as cut_reference does.
+int row_cut_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length,
+                    unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
+int row_cut_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length,
+                 unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
+// The order-free form (removal/cut.cpp, a run of sweeps that all cut through the top of every ray): skips a ray only
+// when its bound less `margin` is at or above its top (so t0 is too), cuts wherever t0 < top, and lists in fb the rays
+// where the reference's own skip could have differed (bound > t0), any ray with several intervals and any ray the
+// cut would not take through its top (t1 < top), for the caller to check or replay.
+int row_cut_pure_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length,
+                         double margin, unsigned char* cut_tiles, int tile_shift, RowFallback* fb,
+                         RowCutCounts& count);
+int row_cut_pure_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, double margin,
+                      unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
 
 // The highest top of the rays in `rows` rows x n columns from head (rows `stride` intervals apart), or false when one
-// of them holds several intervals.
-bool tile_top_generic(const Interval* head, std::size_t stride, int rows, int n, float& top);
-bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, float& top);
+// of them holds several intervals (unless skip_several: then the top of the others).
+bool tile_top_generic(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
+bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
 
 }  // namespace vmsim::removal

@@ -2,6 +2,7 @@
 #define ROW_BOUNDS_NAME row_bounds_generic
 #define ROW_PREFILTER_NAME row_prefilter_generic
 #define ROW_CUT_NAME row_cut_generic
+#define ROW_CUT_PURE_NAME row_cut_pure_generic
 #define TILE_TOP_NAME tile_top_generic
 #include "removal/row_bounds.inc"
 #include "removal/row_cut.inc"
