@@ -17,15 +17,21 @@
 // VMSIM_REMOVAL_HEIGHTS=prefix writes the z-map's heights at x, y = 1..99 mm to prefix_<n>_t<threads>.xyz ("x y z"
 // lines, the layout of the peer script's .heights.xyz) for comparison with peer_envelope_grid.py's ref.xyz.
 // Figures: bench/README.md.
+#include "core/interp.hpp"
+#include "core/job.hpp"
+#include "core/kinematics.hpp"
+#include "core/program.hpp"
 #include "removal/cut_internal.hpp"
 #include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
+#include "removal/track.hpp"
 
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -148,6 +154,7 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
     state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
     state.counters["replayed_rays"] = static_cast<double>(stats.replayed);
+    state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
   }
   state.counters["max_err_um"] = max_err * 1e3;
   state.counters["rms_err_um"] = std::sqrt(sum2 / nodes) * 1e3;
@@ -170,5 +177,104 @@ BENCHMARK(BM_ZmapBallRaster)
     ->Args({32, 2, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+
+// A real CAM program's sweeps: CAMotics' flower_mold.nc (bench/flower_mold/job.toml, read from ../shared), read,
+// interpolated at Te 1 ms on the Mikron and put through the forward transform: the setpoints' tool track (the drives'
+// actual positions, vmsim run's default, add their following error and tip velocities, so 3.7 M track points and
+// ~349 k sweeps where this track has fewer). Built once per process; not timed.
+struct Flower {
+  Tool tool;
+  PoseTrack track;
+  std::vector<SweptTool> sweeps;
+  Box stock;
+  std::string error;
+};
+
+const Flower& flower() {
+  static const Flower f = [] {
+    Flower r;
+    const std::filesystem::path job_file = std::filesystem::path(VMSIM_SOURCE_DIR) / "bench/flower_mold/job.toml";
+    try {
+      const vmsim::core::Job job = vmsim::core::load_job(job_file);
+      vmsim::core::ProgramOptions po;
+      po.tool_table = job.tool_table_file;
+      po.no_motion_mcodes = job.no_motion_mcodes;
+      if (job.start_mm) po.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
+      const vmsim::core::ToolPath program = vmsim::core::read_program(job.program_file, po);
+      vmsim::core::InterpOptions io;
+      io.period_s = job.interp.period_s;
+      io.tolerance_mm = job.interp.tolerance_mm;
+      const vmsim::core::InterpResult ir =
+          vmsim::core::interpolate(vmsim::core::toolpath_in_axis_space(program, job.machine), job.machine, io);
+      const auto kin = vmsim::core::make_kinematics(job.machine);
+      const vmsim::core::Setpoints& sp = ir.setpoints;
+      r.track.period_s = sp.period_s;
+      r.track.tip_mm.resize(sp.samples(), 3);
+      for (Eigen::Index k = 0; k < sp.samples(); ++k) {
+        const int mi = sp.move_index[k];
+        const double tlo = mi >= 0 ? program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
+        r.track.tip_mm.row(k) = kin->forward(sp.position.row(k).transpose(), tlo).tip_mm.transpose();
+      }
+      r.tool = make_tool(job.tool);
+      r.sweeps = sweeps_from_track(r.tool, r.track).sweeps;
+      r.stock = Box{job.stock.min_mm, job.stock.max_mm};
+    } catch (const std::exception& e) {
+      r.error = std::string(e.what()) + " (the program is read from ../shared/data/real/cam)";
+    }
+    return r;
+  }();
+  return f;
+}
+
+// The track of flower_mold's setpoints to sweeps (default 0.1 um tolerance). Argument: 0 sweeps_from_track, 1 its
+// reference (removal/cut_reference.hpp).
+void BM_FlowerTrack(benchmark::State& state) {
+  const Flower& f = flower();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  std::size_t sweeps = 0;
+  for (auto _ : state) {
+    const TrackSweeps t = state.range(0) == 1 ? sweeps_from_track_reference(f.tool, f.track) : sweeps_from_track(f.tool, f.track);
+    sweeps = t.sweeps.size();
+  }
+  state.counters["poses"] = static_cast<double>(f.track.tip_mm.rows());
+  state.counters["sweeps"] = static_cast<double>(sweeps);
+  state.counters["ns/pose"] = benchmark::Counter(static_cast<double>(f.track.tip_mm.rows()) * 1e-9,
+                                                 benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_FlowerTrack)->ArgNames({"kernel"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// Those sweeps cut from the box stock on a z-map at 1/n mm, one thread. Kernel as BM_ZmapBallRaster's.
+void BM_FlowerZmap(benchmark::State& state) {
+  const Flower& f = flower();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  const double h = 1.0 / static_cast<double>(state.range(0));
+  const int kernel = static_cast<int>(state.range(1));
+  omp_set_num_threads(1);
+  detail::generic_kernels_only() = kernel == 2;
+  CutStats stats;
+  for (auto _ : state) {
+    state.PauseTiming();
+    DexelGrid z = make_zmap(f.stock, h);
+    fill_box(z, f.stock);
+    state.ResumeTiming();
+    stats = kernel == 1 ? cut_reference(z, f.sweeps) : cut(z, f.sweeps);
+  }
+  omp_set_num_threads(omp_get_num_procs());
+  detail::generic_kernels_only() = false;
+  state.counters["sweeps"] = static_cast<double>(f.sweeps.size());
+  state.counters["ray_tests"] = static_cast<double>(stats.ray_tests);
+  if (kernel != 1) {
+    const double t = static_cast<double>(stats.ray_tests);
+    state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
+    state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
+    state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
+    state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
+    state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
+    state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
+  }
+}
+BENCHMARK(BM_FlowerZmap)->ArgNames({"n", "kernel"})->Args({10, 0})->Args({10, 1})->Args({40, 0})->Args({40, 1})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace

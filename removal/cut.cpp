@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 namespace vmsim::removal {
@@ -14,8 +15,6 @@ namespace {
 using namespace detail;
 
 constexpr int kBlock = 8;      // rows per work item: a block's rows are one thread's, and one row of tiles
-constexpr int kTileShift = 5;  // columns per tile: 32
-constexpr int kTileCols = 1 << kTileShift;
 
 // A block's tiles (kBlock rows x kTileCols columns of rays): per tile, bounds of its material, tested against a
 // sweep's bound over the whole tile before any of its rays. Cutting only removes material, so a top (bottom) once
@@ -25,10 +24,15 @@ struct Tiles {
   std::vector<float> top, bottom;
   std::vector<char> stale_top, stale_bottom, skip;
   std::vector<unsigned char> cut_mark;  // tiles a kernel call cut (cleared by the caller)
+  std::vector<unsigned char> settled;   // tiles a chunk's bound settled (for its members)
   int jb0 = 0, jb1 = -1;
 
-  void reset(const DexelGrid& g, int j0, int j1) {
-    const std::size_t n = static_cast<std::size_t>((g.nu() + kTileCols - 1) / kTileCols);
+  int shift = 5;  // columns per tile: 1 << shift
+  int cols() const { return 1 << shift; }
+
+  void reset(const DexelGrid& g, int j0, int j1, int tile_shift) {
+    shift = tile_shift;
+    const std::size_t n = static_cast<std::size_t>((g.nu() + cols() - 1) / cols());
     const float inf = std::numeric_limits<float>::infinity();
     top.assign(n, inf);
     bottom.assign(n, -inf);
@@ -36,6 +40,7 @@ struct Tiles {
     stale_bottom.assign(n, 1);
     skip.assign(n, 0);
     cut_mark.assign(n + 1, 0);  // a kernel's last group of four may mark the tile past the grid's last column
+    settled.assign(n, 0);
     jb0 = j0, jb1 = j1;
     skip_several = false;
   }
@@ -46,7 +51,7 @@ struct Tiles {
 
   // Reads tile tc's highest top (all the ball kernel needs) and, with both, its lowest bottom.
   void read(const DexelGrid& g, int tc, bool both) {
-    const int c0 = tc * kTileCols, n = std::min(kTileCols, g.nu() - c0);
+    const int c0 = tc * cols(), n = std::min(cols(), g.nu() - c0);
     const auto k = static_cast<std::size_t>(tc);
     stale_top[k] = 0;
     float t;
@@ -101,7 +106,7 @@ struct TileBound {
 };
 
 struct Counts {
-  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0;
+  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0, chunk_skipped = 0;
 };
 
 // A ray of a block the order-free pass must leave to the replay in program order (row j, column i).
@@ -113,11 +118,11 @@ struct Flagged {
 
 // cut_reference's steps for one sweep on the rays [s0, s1] of row j, in place; a ray cut sets its tile's cut_tiles.
 void cut_segment(DexelGrid& g, const AxialBall& b, const RowCutParams& p, int j, int s0, int s1,
-                 unsigned char* cut_tiles, RowFallback* fb, Counts& c) {
+                 unsigned char* cut_tiles, int tile_shift, RowFallback* fb, Counts& c) {
   const double qv = g.v_of(j) - b.cv;
   RowCutCounts rc;
   const int nfb = (use_avx2() ? row_cut_avx2 : row_cut_generic)(p, qv, s0, s1, g.head_row(j), g.length(), cut_tiles,
-                                                                kTileShift, fb, rc);
+                                                                tile_shift, fb, rc);
   c.bound += static_cast<std::size_t>(rc.bound_skipped);
   c.nothing += static_cast<std::size_t>(rc.exact_nothing);
   c.cuts += static_cast<std::size_t>(rc.cut);
@@ -141,7 +146,7 @@ void cut_segment(DexelGrid& g, const AxialBall& b, const RowCutParams& p, int j,
     }
     g.subtract(i, j, t0, t1);
     ++c.cuts;
-    cut_tiles[i >> kTileShift] = 1;
+    cut_tiles[i >> tile_shift] = 1;
   }
 }
 
@@ -153,15 +158,82 @@ bool float_between(double t0, double lb) {
   return static_cast<double>(f) > t0;
 }
 
+// Consecutive ball sweeps of a run (bin entries [q0, q1), sweeps k, k + 1, ...): their balls' centres stay within dev
+// of the chord from the first one's start to the last one's end, so a ball of radius R + dev moving along the chord
+// holds each of their balls, and its bound over a tile bounds all of theirs: one test settles a tile for the chunk.
+struct Chunk {
+  std::size_t q0 = 0, q1 = 0;
+  bool fat_ok = false;  // the fat sweep is usable (a chord across the rays, a deviation below R)
+  AxialBall fat;
+  double margin = 0;    // the members' largest margin (cut_block_axial_ball)
+  int i0 = 0, i1 = -1, j0 = 0, j1 = -1;  // the members' footprint in the block
+  double key = 0;       // the bound over that footprint: chunks run lowest first
+};
+constexpr std::size_t kChunk = 16;
+
+double sweep_margin(const AxialBall& b) { return 1e-6 * (1 + std::sqrt(b.R * (b.el + 2 * b.R))); }
+
+// Distance from p to the segment a + t d, t in [0, 1] (d.d = dd > 0).
+double to_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& d, double dd) {
+  const double t = std::clamp((p - a).dot(d) / dd, 0.0, 1.0);
+  return (a + t * d - p).norm();
+}
+
+void make_chunk(const DexelGrid& g, const std::vector<Footprint>& fp, const std::vector<int>& bin,
+                const std::vector<AxialBall>& balls, int jb0, int jb1, Chunk& c) {
+  double key = std::numeric_limits<double>::infinity();
+  c.i0 = g.nu(), c.i1 = -1, c.j0 = jb1, c.j1 = jb0;
+  double rmax = 0;
+  c.margin = 0;
+  for (std::size_t q = c.q0; q < c.q1; ++q) {
+    const AxialBall& b = balls[q];
+    const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
+    const TileBound bound(b, g.v_of(std::max(jb0, f.j0)) - b.cv, g.v_of(std::min(jb1, f.j1)) - b.cv);
+    key = std::min(key, bound(f.i0 * g.du() - b.cu, f.i1 * g.du() - b.cu));
+    c.i0 = std::min(c.i0, f.i0), c.i1 = std::max(c.i1, f.i1);
+    c.j0 = std::min(c.j0, std::max(jb0, f.j0)), c.j1 = std::max(c.j1, std::min(jb1, f.j1));
+    rmax = std::max(rmax, b.R);
+    c.margin = std::max(c.margin, sweep_margin(b));
+  }
+  c.key = key;
+  c.fat_ok = false;
+  if (c.q1 - c.q0 < 2) return;
+  const AxialBall& first = balls[c.q0];
+  const AxialBall& last = balls[c.q1 - 1];
+  const Eigen::Vector3d a(first.cu, first.cv, first.cw);
+  const Eigen::Vector3d d = Eigen::Vector3d(last.cu + last.eu, last.cv + last.ev, last.cw + last.delta) - a;
+  const double ee = d.x() * d.x() + d.y() * d.y();
+  if (ee < 1e-12) return;
+  double dev = 0;
+  for (std::size_t q = c.q0; q < c.q1; ++q) {
+    const AxialBall& b = balls[q];
+    const Eigen::Vector3d s(b.cu, b.cv, b.cw);
+    dev = std::max({dev, to_segment(s, a, d, d.squaredNorm()),
+                    to_segment(s + Eigen::Vector3d(b.eu, b.ev, b.delta), a, d, d.squaredNorm())});
+  }
+  if (dev > 0.5 * rmax) return;  // a chunk round a corner: its fat ball would settle little
+  AxialBall& f = c.fat;
+  // Round-off of dev and of the chord (coordinates to ~1e3 mm): far below this slack.
+  f.R = rmax + dev + 1e-9 * (1 + a.lpNorm<Eigen::Infinity>() + d.lpNorm<Eigen::Infinity>());
+  f.L = first.L;
+  f.cu = a.x(), f.cv = a.y(), f.cw = a.z();
+  f.eu = d.x(), f.ev = d.y(), f.delta = d.z();
+  f.ee = ee, f.el = std::sqrt(ee), f.inv_ee = 1 / ee;
+  const double m = f.delta / f.el;
+  f.kk = m / std::sqrt(1 + m * m);
+  c.fat_ok = true;
+  const TileBound bound(f, g.v_of(c.j0) - f.cv, g.v_of(c.j1) - f.cv);
+  c.key = bound(c.i0 * g.du() - f.cu, c.i1 * g.du() - f.cu);
+}
+
 // Whether a run of consecutive ball sweeps along the rays (bin[q0, q1), set up in balls) may cut a block in any order
 // (see cut()): the lowest point of each one's top over its move ((cw - R) + min(0, delta) + (L - R): a floating-point
 // lower bound of every t1 the kernel computes, since delta l >= min(0, delta) for l in [0, 1] and rounding is
-// monotone) at or above the block's highest material. Fills the order (by the sweep's lower bound over the block's
-// rays, lowest first; ties in program order) and the rays holding several intervals: the order-free pass leaves them
-// alone, the replay cuts them.
+// monotone) at or above the block's highest material. Fills the chunks (lowest first; ties in program order) and the
+// rays holding several intervals: the order-free pass leaves them alone, the replay cuts them.
 bool order_free(const DexelGrid& g, const std::vector<Footprint>& fp, const std::vector<int>& bin, std::size_t q0,
-                std::size_t q1, int jb0, int jb1, const std::vector<AxialBall>& balls,
-                std::vector<std::pair<double, int>>& order, std::vector<Flagged>& several) {
+                std::size_t q1, int jb0, int jb1, const std::vector<AxialBall>& balls, std::vector<Chunk>& chunks,
+                std::vector<Flagged>& several) {
   if (q1 < q0 + 2 || program_order_only()) return false;
   double lowest_top = std::numeric_limits<double>::infinity();
   for (std::size_t q = q0; q < q1; ++q) {
@@ -180,21 +252,25 @@ bool order_free(const DexelGrid& g, const std::vector<Footprint>& fp, const std:
       }
   }
   if (!(lowest_top >= top)) return false;
-  order.clear();
-  for (std::size_t q = q0; q < q1; ++q) {
-    const AxialBall& b = balls[q];
-    const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
-    const TileBound bound(b, g.v_of(std::max(jb0, f.j0)) - b.cv, g.v_of(std::min(jb1, f.j1)) - b.cv);
-    order.emplace_back(bound(f.i0 * g.du() - b.cu, f.i1 * g.du() - b.cu), static_cast<int>(q));
+  chunks.clear();
+  for (std::size_t q = q0; q < q1;) {
+    Chunk c;
+    c.q0 = q;
+    for (++q; q < q1 && q - c.q0 < kChunk && bin[q] == bin[q - 1] + 1; ++q) {
+    }
+    c.q1 = q;
+    make_chunk(g, fp, bin, balls, jb0, jb1, c);
+    chunks.push_back(c);
   }
-  std::sort(order.begin(), order.end());
+  std::stable_sort(chunks.begin(), chunks.end(), [](const Chunk& x, const Chunk& y) { return x.key < y.key; });
   return true;
 }
 
 // One ball sweep along the rays on the rows [j0, j1] of a block. Pure: the order-free form (see cut()), which
 // appends to `flagged` the rays the replay must redo.
 void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, int j0, int j1, Tiles& tiles,
-                          std::vector<RowFallback>& fb, Counts& c, bool pure, std::vector<Flagged>& flagged) {
+                          std::vector<RowFallback>& fb, Counts& c, bool pure, std::vector<Flagged>& flagged,
+                          const unsigned char* settled = nullptr) {
   int ia[kBlock], ib[kBlock];
   int umin = g.nu(), umax = -1, r0 = -1, r1 = -1;
   for (int j = j0; j <= j1; ++j) {
@@ -212,14 +288,17 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
   if (umax < 0) return;
   // The round-off of the kernel's t0 near a ray's rim (a square root of a difference of squares of |q| <= el + R for
   // the rays of the shadow): below 1e-5 mm for a 1 m move; the bounds below keep this margin.
-  const double margin = 1e-6 * (1 + std::sqrt(b.R * (b.el + 2 * b.R)));
-  // Tiles first: the bound over a tile against its highest top; then the runs of tiles it did not settle.
+  const double margin = sweep_margin(b);
+  // Tiles first (those its chunk has not settled): the bound over a tile against its highest top; then the runs of
+  // tiles it did not settle.
   const TileBound bound(b, g.v_of(r0) - b.cv, g.v_of(r1) - b.cv);
-  const int tc0 = umin >> kTileShift, tc1 = umax >> kTileShift;
+  const int shift = tiles.shift, cols = tiles.cols();
+  const int tc0 = umin >> shift, tc1 = umax >> shift;
   int runs[2 * 64], nruns = 0;  // [first, last] column of each run (at most 64 runs: beyond, cut per tile)
   for (int tc = tc0; tc <= tc1; ++tc) {
     const auto k = static_cast<std::size_t>(tc);
-    const int c0 = std::max(umin, tc * kTileCols), c1 = std::min(umax, tc * kTileCols + kTileCols - 1);
+    const int c0 = std::max(umin, tc * cols), c1 = std::min(umax, tc * cols + cols - 1);
+    if (settled && settled[k]) continue;
     const double lb = bound(c0 * g.du() - b.cu, c1 * g.du() - b.cu) - margin;
     bool skip = lb >= tiles.top[k];
     if (!skip && tiles.stale_top[k]) {
@@ -249,13 +328,13 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
       if (s0 > s1) continue;
       done += static_cast<std::size_t>(s1 - s0 + 1);
       if (!pure) {
-        cut_segment(g, b, p, j, s0, s1, cut_tiles, fb.data(), c);
+        cut_segment(g, b, p, j, s0, s1, cut_tiles, shift, fb.data(), c);
         continue;
       }
       RowCutCounts rc;
       Interval* head = g.head_row(j);
       const int nfb = (avx2 ? row_cut_pure_avx2 : row_cut_pure_generic)(p, g.v_of(j) - b.cv, s0, s1, head, g.length(),
-                                                                         margin, cut_tiles, kTileShift, fb.data(), rc);
+                                                                         margin, cut_tiles, shift, fb.data(), rc);
       c.bound += static_cast<std::size_t>(rc.bound_skipped);
       c.nothing += static_cast<std::size_t>(rc.exact_nothing);
       c.cuts += static_cast<std::size_t>(rc.cut);
@@ -291,7 +370,8 @@ void cut_block_general(DexelGrid& g, const SweptTool& sw, const Footprint& f, st
   const auto [w0, w1] = wext;
   // A tile whose material lies wholly before or after the sweep's extent along the rays is left as it is (each of its
   // rays would be, below).
-  for (int tc = umin / kTileCols; tc <= umax / kTileCols; ++tc) {
+  const int cols = tiles.cols();
+  for (int tc = umin / cols; tc <= umax / cols; ++tc) {
     const auto k = static_cast<std::size_t>(tc);
     auto outside = [&] { return w1 <= tiles.bottom[k] || w0 >= tiles.top[k]; };
     bool skip = outside();
@@ -305,11 +385,11 @@ void cut_block_general(DexelGrid& g, const SweptTool& sw, const Footprint& f, st
   for (int j = j0; j <= j1; ++j) {
     const int a = ia[j - j0], e = ib[j - j0];
     const Interval* head = g.head_row(j);
-    for (int tc = a / kTileCols; a <= e && tc <= e / kTileCols; ++tc) {
+    for (int tc = a / cols; a <= e && tc <= e / cols; ++tc) {
       const auto k = static_cast<std::size_t>(tc);
       if (tiles.skip[k]) continue;
       bool changed = false;
-      for (int i = std::max(a, tc * kTileCols); i <= std::min(e, tc * kTileCols + kTileCols - 1); ++i) {
+      for (int i = std::max(a, tc * cols); i <= std::min(e, tc * cols + cols - 1); ++i) {
         // A ray whose material lies wholly before or after the sweep's extent along it is left as it is (subtract
         // would not change it): no exact test. Most rays across a tool's shank run through air.
         const Interval h = head[i];
@@ -372,22 +452,29 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
     if (f.empty()) continue;
     for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b) bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
   }
-  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0;
-#pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing, blocks, replayed)
+  // Tiles about a fraction of the smallest tool radius wide (powers of two, 4 to 32 columns): wider ones hold more of a
+  // sloped surface than a sweep's bound clears, narrower ones cost more tests than they settle.
+  double r_min = 1e300;
+  for (const SweptTool& s : sweeps) r_min = std::min(r_min, s.tool.radius_mm);
+  const double tile_factor = std::getenv("VMSIM_TILE_F") ? std::atof(std::getenv("VMSIM_TILE_F")) : 2.0;
+  const int tile_shift =
+      sweeps.empty() ? 5 : std::clamp(static_cast<int>(std::lround(std::log2(r_min / (tile_factor * grid.du())))), 2, 5);
+  std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0, chunked = 0;
+#pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing, blocks, replayed, chunked)
   {
     Tiles tiles;
     std::vector<RowFallback> fb(static_cast<std::size_t>(grid.nu()) + 4);
     Counts c;
     std::vector<AxialBall> balls;
     std::vector<char> is_ball;
-    std::vector<std::pair<double, int>> order;
+    std::vector<Chunk> chunks;
     std::vector<Interval> before;
     std::vector<Flagged> flagged;
 #pragma omp for schedule(dynamic, 1)
     for (int b = 0; b < nblocks; ++b) {
       const int jb0 = b * kBlock, jb1 = std::min(grid.nv() - 1, jb0 + kBlock - 1);
       const std::vector<int>& bin = bins[static_cast<std::size_t>(b)];
-      tiles.reset(grid, jb0, jb1);
+      tiles.reset(grid, jb0, jb1, tile_shift);
       balls.resize(bin.size());
       is_ball.resize(bin.size());
       for (std::size_t q = 0; q < bin.size(); ++q)
@@ -396,20 +483,49 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
       for (std::size_t q0 = 0; q0 < bin.size();) {
         std::size_t q1 = q0;
         while (q1 < bin.size() && is_ball[q1]) ++q1;
-        if (order_free(grid, fp, bin, q0, q1, jb0, jb1, balls, order, flagged)) {
+        if (order_free(grid, fp, bin, q0, q1, jb0, jb1, balls, chunks, flagged)) {
           // Every sweep of the run is a ball along the rays whose lowest top lies above all the block's material:
           // each cut of a ray holding one interval takes its material above the cut's start t0, so such a ray ends
           // the run as [lo, float(min t0)] (or empty) whatever the order, as long as the reference's bound never
           // skipped a cut (it may only where a float lies between t0 and the bound above it; the kernel lists those
-          // rays). The sweeps run lowest first: those that decide the surface cut it, and the tiles' bounds settle
-          // most of the rest.
+          // rays). The sweeps run lowest first, in chunks: those that decide the surface cut it, and the tiles' bounds
+          // settle most of the rest, a chunk at a time where its fat ball's bound does.
           const std::size_t nb = static_cast<std::size_t>(jb1 - jb0 + 1) * static_cast<std::size_t>(grid.nu());
           before.assign(grid.head_row(jb0), grid.head_row(jb0) + nb);
           tiles.skip_several = true;  // rays with several intervals: flagged (order_free), replayed, not in the tops
-          for (const auto& [key, q] : order) {
-            const Footprint& f = fp[static_cast<std::size_t>(bin[static_cast<std::size_t>(q)])];
-            cut_block_axial_ball(grid, balls[static_cast<std::size_t>(q)], f, std::max(jb0, f.j0), std::min(jb1, f.j1),
-                                 tiles, fb, c, true, flagged);
+          for (const Chunk& ch : chunks) {
+            const unsigned char* settled = nullptr;
+            int tc0 = 0, tc1 = -1;
+            if (ch.fat_ok) {
+              const TileBound bound(ch.fat, grid.v_of(ch.j0) - ch.fat.cv, grid.v_of(ch.j1) - ch.fat.cv);
+              const int shift = tiles.shift, cols = tiles.cols();
+              tc0 = ch.i0 >> shift, tc1 = ch.i1 >> shift;
+              bool all = true;
+              for (int tc = tc0; tc <= tc1; ++tc) {
+                const auto k = static_cast<std::size_t>(tc);
+                const int c0 = std::max(ch.i0, tc * cols), c1 = std::min(ch.i1, tc * cols + cols - 1);
+                const double lb = bound(c0 * grid.du() - ch.fat.cu, c1 * grid.du() - ch.fat.cu) - ch.margin;
+                bool skip = lb >= tiles.top[k];
+                if (!skip && tiles.stale_top[k]) {
+                  tiles.read(grid, tc, false);
+                  skip = lb >= tiles.top[k];
+                }
+                tiles.settled[k] = skip;
+                all = all && skip;
+              }
+              if (all) {
+                c.chunk_skipped += ch.q1 - ch.q0;
+                for (int tc = tc0; tc <= tc1; ++tc) tiles.settled[static_cast<std::size_t>(tc)] = 0;
+                continue;
+              }
+              settled = tiles.settled.data();
+            }
+            for (std::size_t q = ch.q0; q < ch.q1; ++q) {
+              const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
+              cut_block_axial_ball(grid, balls[q], f, std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, fb, c, true,
+                                   flagged, settled);
+            }
+            for (int tc = tc0; tc <= tc1; ++tc) tiles.settled[static_cast<std::size_t>(tc)] = 0;
           }
           // The flagged rays again from the run's start, its sweeps in program order (the reference's steps).
           std::sort(flagged.begin(), flagged.end());
@@ -425,12 +541,13 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
                   r.i > ib)
                 continue;
               Counts scratch;
-              cut_segment(grid, ab, row_params(grid, ab), r.j, r.i, r.i, tiles.cut_mark.data(), fb.data(), scratch);
+              cut_segment(grid, ab, row_params(grid, ab), r.j, r.i, r.i, tiles.cut_mark.data(), tiles.shift, fb.data(),
+                          scratch);
             }
           }
           c.replayed += flagged.size();
           ++c.blocks;
-          tiles.reset(grid, jb0, jb1);  // the replay may have raised tops the pass had lowered; and rays left out
+          tiles.reset(grid, jb0, jb1, tile_shift);  // the replay may have raised tops the pass had lowered; and rays left out
         } else {
           for (std::size_t q = q0; q < q1; ++q) {
             const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
@@ -448,7 +565,7 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
       }
     }
     tests += c.tests, cuts += c.cuts, tile += c.tile, bound += c.bound, nothing += c.nothing, blocks += c.blocks,
-        replayed += c.replayed;
+        replayed += c.replayed, chunked += c.chunk_skipped;
   }
   CutStats s;
   s.ray_tests = tests;
@@ -458,6 +575,7 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
   s.exact_nothing = nothing;
   s.order_free_blocks = blocks;
   s.replayed = replayed;
+  s.chunk_skipped = chunked;
   return s;
 }
 

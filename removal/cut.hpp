@@ -19,6 +19,8 @@ struct CutStats {
   std::size_t exact_nothing = 0;  // the exact cut
   std::size_t order_free_blocks = 0;  // runs of sweeps through a block of rows cut lowest sweep first (cut.cpp)
   std::size_t replayed = 0;           // rays of those that had to be redone in program order
+  // (sweep, block of rows) pairs a chunk's bound settled before any of their evaluations (not in ray_tests)
+  std::size_t chunk_skipped = 0;
 };
 
 // Subtracts each swept volume from the grid. Rows are distributed over OpenMP threads in blocks; every ray sees
