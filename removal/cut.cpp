@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 
 namespace vmsim::removal {
@@ -456,9 +455,8 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
   // sloped surface than a sweep's bound clears, narrower ones cost more tests than they settle.
   double r_min = 1e300;
   for (const SweptTool& s : sweeps) r_min = std::min(r_min, s.tool.radius_mm);
-  const double tile_factor = std::getenv("VMSIM_TILE_F") ? std::atof(std::getenv("VMSIM_TILE_F")) : 2.0;
   const int tile_shift =
-      sweeps.empty() ? 5 : std::clamp(static_cast<int>(std::lround(std::log2(r_min / (tile_factor * grid.du())))), 2, 5);
+      sweeps.empty() ? 5 : std::clamp(static_cast<int>(std::lround(std::log2(r_min / (2 * grid.du())))), 2, 5);
   std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0, chunked = 0;
 #pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing, blocks, replayed, chunked)
   {

@@ -53,4 +53,11 @@ int row_cut_pure_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval
 bool tile_top_generic(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
 bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
 
+// The largest squared distance from the points (px, py, pz)[k], k in [k0, k1), to the segment from a along d
+// (inv = 1 / d.d, or 0 when d = 0): the track's merge (removal/track.cpp), vectorised.
+double chord_dist2_generic(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1,
+                           double ax, double ay, double az, double dx, double dy, double dz, double inv);
+double chord_dist2_avx2(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1,
+                        double ax, double ay, double az, double dx, double dy, double dz, double inv);
+
 }  // namespace vmsim::removal

@@ -327,3 +327,65 @@ TEST(CutEquivalence, OneAndTwoThreadsAgreeBitForBit) {
   }
   omp_set_num_threads(before);
 }
+
+namespace {
+
+bool same_sweep(const SweptTool& a, const SweptTool& b) {
+  return std::memcmp(a.tip0.data(), b.tip0.data(), 3 * sizeof(double)) == 0 &&
+         std::memcmp(a.axis.data(), b.axis.data(), 3 * sizeof(double)) == 0 &&
+         std::memcmp(a.d.data(), b.d.data(), 3 * sizeof(double)) == 0 && a.tool.radius_mm == b.tool.radius_mm &&
+         a.tool.corner_radius_mm == b.tool.corner_radius_mm && a.tool.length_mm == b.tool.length_mm;
+}
+
+// A sampled motion every 1 ms: a zig-zag raster at 5-25 mm/s with rounded turns and a wobble of a few um (a drive's
+// following error), optionally with tip velocities (the Hermite track) and a turning tool axis.
+PoseTrack sampled_track(unsigned seed, int n, bool velocities, bool turning, bool constant_per_sample) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0, 2e-5);
+  PoseTrack t;
+  t.period_s = 1e-3;
+  t.tip_mm.resize(n, 3);
+  if (velocities) t.tip_velocity_mm_per_s.resize(n, 3);
+  if (turning || constant_per_sample) t.axis_per_sample.resize(n, 3);
+  double x = 0, y = 0, dir = 1;
+  for (int k = 0; k < n; ++k) {
+    const double v = 5 + 20 * (0.5 + 0.5 * std::sin(k * 0.001));
+    x += dir * v * 1e-3;
+    if (x > 30 || x < 0) dir = -dir, y += 0.3;
+    const double z = 5 + 0.5 * std::sin(0.2 * x) + noise(rng);
+    t.tip_mm.row(k) << x + noise(rng), y + 0.05 * std::sin(0.01 * k), z;
+    if (velocities) t.tip_velocity_mm_per_s.row(k) << dir * v, 0.05 * 0.01 / 1e-3 * std::cos(0.01 * k), 0.1 * dir * v * std::cos(0.2 * x);
+    if (turning) t.axis_per_sample.row(k) << 0.3 * std::sin(0.0005 * k), 0.2 * std::cos(0.0007 * k), 1;
+    if (constant_per_sample) t.axis_per_sample.row(k) << 0.1, -0.2, 1;
+  }
+  return t;
+}
+
+}  // namespace
+
+// sweeps_from_track (the merge's distance test on squared distances, vectorised, with the exact test kept for tips near
+// the tolerance) against its reference copy (removal/cut_reference.cpp, the code before): the same sweeps, points and
+// error bounds, bit for bit, for chord and Hermite tracks, constant and turning axes, several tolerances.
+TEST(CutEquivalence, TrackSweepsEqualTheReferenceBitForBit) {
+  Tool t = tool(1.6, 1.6, 30);
+  int cases = 0;
+  for (const bool velocities : {false, true})
+    for (const int axes : {0, 1, 2})
+      for (const double tol : {1e-4, 1e-3, 1e-2}) {
+        if (axes == 1 && tol < 1e-3) continue;  // a turning axis at 0.1 um: ~40 sub-steps per sample
+        const PoseTrack tr = sampled_track(41 + cases, axes == 1 ? 5000 : 20000, velocities, axes == 1, axes == 2);
+        TrackOptions o;
+        o.tolerance_mm = tol;
+        const TrackSweeps a = sweeps_from_track_reference(t, tr, o), b = sweeps_from_track(t, tr, o);
+        const std::string what = "velocities " + std::to_string(velocities) + ", axes " + std::to_string(axes) +
+                                 ", tolerance " + std::to_string(tol);
+        ASSERT_EQ(a.sweeps.size(), b.sweeps.size()) << what;
+        EXPECT_GT(a.sweeps.size(), 50u) << what;
+        if (axes != 1) EXPECT_LT(a.sweeps.size(), a.points * 9 / 10) << what << ": the merge merged almost nothing";
+        for (std::size_t k = 0; k < a.sweeps.size(); ++k) ASSERT_TRUE(same_sweep(a.sweeps[k], b.sweeps[k])) << what << " " << k;
+        EXPECT_EQ(a.points, b.points) << what;
+        EXPECT_EQ(a.error_bound_mm, b.error_bound_mm) << what;
+        EXPECT_EQ(a.orientation_error_mm, b.orientation_error_mm) << what;
+        ++cases;
+      }
+}
