@@ -34,6 +34,7 @@
 #include <filesystem>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <string>
 
 namespace {
@@ -276,5 +277,69 @@ void BM_FlowerZmap(benchmark::State& state) {
 }
 BENCHMARK(BM_FlowerZmap)->ArgNames({"n", "kernel"})->Args({10, 0})->Args({10, 1})->Args({40, 0})->Args({40, 1})
     ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+namespace {
+
+double cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+// How the removal's cost grows (bench/README.md's cost-growth table): flower_mold's setpoint track repeated r times,
+// each copy 0.2 mm deeper (r x the moves, each copy cutting), to sweeps and through the z-map at 1/n mm, one thread.
+// Counters: the CPU seconds of sweeps_from_track and of cut(), and the memory the removal holds: the z-map, the
+// sweeps (96 B each) and the track's tips (24 B per pose).
+void BM_FlowerGrowth(benchmark::State& state) {
+  const Flower& f = flower();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  const double h = 1.0 / static_cast<double>(state.range(0));
+  const int copies = static_cast<int>(state.range(1));
+  PoseTrack tr;
+  tr.period_s = f.track.period_s;
+  const Eigen::Index n = f.track.tip_mm.rows();
+  tr.tip_mm.resize(n * copies, 3);
+  for (int c = 0; c < copies; ++c) {
+    tr.tip_mm.middleRows(c * n, n) = f.track.tip_mm;
+    tr.tip_mm.middleRows(c * n, n).col(2).array() -= 0.2 * c;
+  }
+  omp_set_num_threads(1);
+  double track_s = 0, cut_s = 0;
+  std::size_t sweeps = 0, zmap_bytes = 0;
+  for (auto _ : state) {
+    double t0 = cpu_seconds();
+    const TrackSweeps ts = sweeps_from_track(f.tool, tr);
+    track_s = cpu_seconds() - t0;
+    state.PauseTiming();
+    DexelGrid z = make_zmap(f.stock, h);
+    fill_box(z, f.stock);
+    state.ResumeTiming();
+    t0 = cpu_seconds();
+    cut(z, ts.sweeps);
+    cut_s = cpu_seconds() - t0;
+    sweeps = ts.sweeps.size();
+    zmap_bytes = z.memory_bytes();
+  }
+  omp_set_num_threads(omp_get_num_procs());
+  state.counters["poses"] = static_cast<double>(tr.tip_mm.rows());
+  state.counters["sweeps"] = static_cast<double>(sweeps);
+  state.counters["track_cpu_s"] = track_s;
+  state.counters["cut_cpu_s"] = cut_s;
+  state.counters["zmap_MB"] = static_cast<double>(zmap_bytes) / 1e6;
+  state.counters["sweeps_MB"] = static_cast<double>(sweeps * sizeof(SweptTool)) / 1e6;
+  state.counters["track_MB"] = static_cast<double>(tr.tip_mm.size() * sizeof(double)) / 1e6;
+}
+BENCHMARK(BM_FlowerGrowth)
+    ->ArgNames({"n", "copies"})
+    ->Args({5, 1})
+    ->Args({10, 1})
+    ->Args({20, 1})
+    ->Args({40, 1})
+    ->Args({10, 4})
+    ->Args({10, 16})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 }  // namespace

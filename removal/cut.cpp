@@ -353,6 +353,47 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
     if (cut_tiles[tc]) cut_tiles[tc] = 0, tiles.cut(tc);
 }
 
+// A lower bound of where any sweep's body starts along a ray (its entry t0), for every tool and axis: the body lies
+// within R of the parallelogram its core segment sweeps, P(s, l) = c + s A + l D with the segment [tip + rc a,
+// tip + (L - rc) a] (which holds disk(R - rc) + ball(rc) within R) and the move D, so a body point on the ray through
+// q lies at w >= P_w - sqrt(R^2 - r^2) >= P_w - R + r^2 / 2R, r the distance from q to P across the rays: the least of
+// a convex quadratic over the unit square (an interior stationary point or an edge's least), about 60 flops where
+// ray_interval takes hundreds. The z-map's ball kernel has the same bound in closed form (row_bounds.inc).
+struct CoreBound {
+  double cu, cv, cw, au, av, aw, du, dv, dw, k, R, AA, AD, DD, det;
+  CoreBound(const DexelGrid& g, const SweptTool& s) {
+    const double rc = s.tool.corner_radius_mm;
+    const Eigen::Vector3d c = s.tip0 + rc * s.axis - g.origin(), A = std::max(0.0, s.tool.length_mm - 2 * rc) * s.axis;
+    cu = c.dot(g.U()), cv = c.dot(g.V()), cw = c.dot(g.W());
+    au = A.dot(g.U()), av = A.dot(g.V()), aw = A.dot(g.W());
+    du = s.d.dot(g.U()), dv = s.d.dot(g.V()), dw = s.d.dot(g.W());
+    R = s.tool.radius_mm, k = 0.5 / R;
+    AA = au * au + av * av, AD = au * du + av * dv, DD = du * du + dv * dv;
+    det = AA * DD - AD * AD;
+  }
+  // The least of c0 + c1 t + c2 t^2 over [0, 1] (c2 >= 0).
+  static double least(double c0, double c1, double c2) {
+    const double t = c2 > 0 ? std::clamp(-c1 / (2 * c2), 0.0, 1.0) : (c1 >= 0 ? 0.0 : 1.0);
+    return c0 + t * (c1 + t * c2);
+  }
+  double operator()(double qu, double qv) const {
+    const double eu = cu - qu, ev = cv - qv, ee = eu * eu + ev * ev, Ae = au * eu + av * ev, De = du * eu + dv * ev;
+    double m = std::min({least(cw + k * ee, dw + 2 * k * De, k * DD),                                  // s = 0
+                         least(cw + aw + k * (ee + 2 * Ae + AA), dw + 2 * k * (De + AD), k * DD),     // s = 1
+                         least(cw + k * ee, aw + 2 * k * Ae, k * AA),                                 // l = 0
+                         least(cw + dw + k * (ee + 2 * De + DD), aw + 2 * k * (Ae + AD), k * AA)});   // l = 1
+    if (det > 1e-12 * AA * DD) {  // the stationary point, when the quadratic is strictly convex
+      const double gs = -(aw + 2 * k * Ae) / (2 * k), gl = -(dw + 2 * k * De) / (2 * k);
+      const double s = (DD * gs - AD * gl) / det, l = (AA * gl - AD * gs) / det;
+      if (s >= 0 && s <= 1 && l >= 0 && l <= 1) {
+        const double ru = eu + s * au + l * du, rv = ev + s * av + l * dv;
+        m = std::min(m, cw + s * aw + l * dw + k * (ru * ru + rv * rv));
+      }
+    }
+    return m - R;
+  }
+};
+
 // Any other sweep on the rows [j0, j1] of a block: the general ray test on the rays whose material meets the sweep's
 // extent along them, tiles first.
 void cut_block_general(DexelGrid& g, const SweptTool& sw, const Footprint& f, std::pair<double, double> wext, int j0,
@@ -381,9 +422,13 @@ void cut_block_general(DexelGrid& g, const SweptTool& sw, const Footprint& f, st
     tiles.skip[k] = skip;
   }
   const Eigen::Vector3d W = g.W();
+  const CoreBound bound(g, sw);
+  // The solvers' entry points lie within ~1e-9 mm of the body (their slack): far inside this margin.
+  const double margin = 1e-5 * (1 + bound.R);
   for (int j = j0; j <= j1; ++j) {
     const int a = ia[j - j0], e = ib[j - j0];
     const Interval* head = g.head_row(j);
+    const double qv = g.v_of(j);
     for (int tc = a / cols; a <= e && tc <= e / cols; ++tc) {
       const auto k = static_cast<std::size_t>(tc);
       if (tiles.skip[k]) continue;
@@ -395,6 +440,11 @@ void cut_block_general(DexelGrid& g, const SweptTool& sw, const Footprint& f, st
         if (!std::isnan(h.lo) && (!(h.lo <= h.hi) || w1 <= h.lo || w0 >= h.hi)) continue;
         double t0, t1;
         ++c.tests;
+        // All its material below where the body can start on it: the sweep leaves it as it is.
+        if (bound(i * g.du(), qv) - margin >= (std::isnan(h.lo) ? g.top(i, j) : double(h.hi))) {
+          ++c.bound;
+          continue;
+        }
         if (!ray_interval(sw, g.ray_origin(i, j), W, t0, t1)) continue;
         if (t1 <= 0 || t0 >= g.length() || t1 - t0 <= 1e-9) continue;  // zero-width contacts cut nothing
         g.subtract(i, j, t0, t1);
