@@ -6,23 +6,35 @@
 // 45 mm long from the tip), stock 100 x 100 x 20. Coordinates are the exact values (the peer's G-code rounds them
 // to 0.1 um), as in peer_envelope_grid.py.
 //
-// Arguments: spacing as 1/n mm (16, 32) and the OpenMP thread count (1, 2).
-// Counters: ray-tool evaluations per second (all threads; per thread), the height error against the exact ball
+// Arguments: spacing as 1/n mm (16, 32), the OpenMP thread count (1, 2) and the kernel: 0 cut() (the AVX2 build
+// where the CPU has it), 1 cut_reference() (the kernel before issue 21's tile bounds and fused rows: the "before" of
+// one interleaved run), 2 cut() in its generic build.
+// Counters: ray-tool evaluations per second (all threads; per thread), the shares of the evaluations settled by a
+// tile's bound, by the ray's bound and by the exact cut without change, and of those that cut (cut() only), the height error against the exact ball
 // envelope of peer_envelope_grid.py (its formula, evaluated here at the 1 mm nodes x, y in [2, 98], which lie on
 // pass centres), the z-map's memory (DexelGrid::memory_bytes per dexel) and the stock set-up time (make_zmap +
 // fill_box, not in the timed region). The timed region is cut() alone.
 // VMSIM_REMOVAL_HEIGHTS=prefix writes the z-map's heights at x, y = 1..99 mm to prefix_<n>_t<threads>.xyz ("x y z"
 // lines, the layout of the peer script's .heights.xyz) for comparison with peer_envelope_grid.py's ref.xyz.
 // Figures: bench/README.md.
+#include "core/interp.hpp"
+#include "core/job.hpp"
+#include "core/kinematics.hpp"
+#include "core/program.hpp"
+#include "removal/cut_internal.hpp"
+#include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
+#include "removal/track.hpp"
 
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <string>
 
 namespace {
@@ -84,10 +96,13 @@ void BM_ZmapBallRaster(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const double h = 1.0 / n;  // spacing: 1/16 and 1/32 mm
   const int threads = static_cast<int>(state.range(1));
+  const int kernel = static_cast<int>(state.range(2));
   omp_set_num_threads(threads);
+  detail::generic_kernels_only() = kernel == 2;
   const std::vector<SweptTool> sw = raster(0.5);
   const Box stock{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(100, 100, 20)};
   std::size_t tests = 0, mem = 0, dexels = 0, intervals = 0;
+  CutStats stats;
   double max_err = 0, sum2 = 0, setup_ms = 0;
   int nodes = 0;
   for (auto _ : state) {
@@ -97,7 +112,8 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     fill_box(z, stock);
     setup_ms += ms_since(t0);
     state.ResumeTiming();
-    tests = cut(z, sw).ray_tests;
+    stats = kernel == 1 ? cut_reference(z, sw) : cut(z, sw);
+    tests = stats.ray_tests;
     state.PauseTiming();
     max_err = 0, sum2 = 0, nodes = 0;
     for (int xi = 2; xi <= 98; ++xi) {
@@ -113,7 +129,8 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     dexels = static_cast<std::size_t>(z.nu()) * static_cast<std::size_t>(z.nv());
     intervals = z.interval_count();
     if (const char* prefix = std::getenv("VMSIM_REMOVAL_HEIGHTS")) {
-      const std::string path = std::string(prefix) + "_" + std::to_string(n) + "_t" + std::to_string(threads) + ".xyz";
+      const std::string path = std::string(prefix) + "_" + std::to_string(n) + "_t" + std::to_string(threads) +
+                               (kernel ? "_k" + std::to_string(kernel) : std::string()) + ".xyz";
       if (std::FILE* f = std::fopen(path.c_str(), "w")) {
         for (int xi = 1; xi <= 99; ++xi)
           for (int yi = 1; yi <= 99; ++yi)
@@ -124,11 +141,22 @@ void BM_ZmapBallRaster(benchmark::State& state) {
     state.ResumeTiming();
   }
   omp_set_num_threads(omp_get_num_procs());
+  detail::generic_kernels_only() = false;
   const double it = static_cast<double>(state.iterations());
   state.counters["ray_tests/s"] = benchmark::Counter(it * static_cast<double>(tests), benchmark::Counter::kIsRate);
   state.counters["ray_tests/s/thread"] =
       benchmark::Counter(it * static_cast<double>(tests) / threads, benchmark::Counter::kIsRate);
   state.counters["ray_tests"] = static_cast<double>(tests);
+  if (kernel != 1) {
+    const double t = static_cast<double>(tests);
+    state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
+    state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
+    state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
+    state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
+    state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
+    state.counters["replayed_rays"] = static_cast<double>(stats.replayed);
+    state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
+  }
   state.counters["max_err_um"] = max_err * 1e3;
   state.counters["rms_err_um"] = std::sqrt(sum2 / nodes) * 1e3;
   state.counters["sweeps"] = static_cast<double>(sw.size());
@@ -139,12 +167,179 @@ void BM_ZmapBallRaster(benchmark::State& state) {
   state.counters["B/dexel"] = static_cast<double>(mem) / static_cast<double>(dexels);
 }
 BENCHMARK(BM_ZmapBallRaster)
-    ->ArgNames({"n", "threads"})
-    ->Args({16, 1})
-    ->Args({32, 1})
-    ->Args({16, 2})
-    ->Args({32, 2})
+    ->ArgNames({"n", "threads", "kernel"})
+    ->Args({16, 1, 0})
+    ->Args({16, 1, 1})
+    ->Args({16, 1, 2})
+    ->Args({32, 1, 0})
+    ->Args({32, 1, 1})
+    ->Args({32, 1, 2})
+    ->Args({16, 2, 0})
+    ->Args({32, 2, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+
+// A real CAM program's sweeps: CAMotics' flower_mold.nc (bench/flower_mold/job.toml, read from ../shared), read,
+// interpolated at Te 1 ms on the Mikron and put through the forward transform: the setpoints' tool track (the drives'
+// actual positions, vmsim run's default, add their following error and tip velocities, so 3.7 M track points and
+// ~349 k sweeps where this track has fewer). Built once per process; not timed.
+struct Flower {
+  Tool tool;
+  PoseTrack track;
+  std::vector<SweptTool> sweeps;
+  Box stock;
+  std::string error;
+};
+
+const Flower& flower() {
+  static const Flower f = [] {
+    Flower r;
+    const std::filesystem::path job_file = std::filesystem::path(VMSIM_SOURCE_DIR) / "bench/flower_mold/job.toml";
+    try {
+      const vmsim::core::Job job = vmsim::core::load_job(job_file);
+      vmsim::core::ProgramOptions po;
+      po.tool_table = job.tool_table_file;
+      po.no_motion_mcodes = job.no_motion_mcodes;
+      if (job.start_mm) po.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
+      const vmsim::core::ToolPath program = vmsim::core::read_program(job.program_file, po);
+      vmsim::core::InterpOptions io;
+      io.period_s = job.interp.period_s;
+      io.tolerance_mm = job.interp.tolerance_mm;
+      const vmsim::core::InterpResult ir =
+          vmsim::core::interpolate(vmsim::core::toolpath_in_axis_space(program, job.machine), job.machine, io);
+      const auto kin = vmsim::core::make_kinematics(job.machine);
+      const vmsim::core::Setpoints& sp = ir.setpoints;
+      r.track.period_s = sp.period_s;
+      r.track.tip_mm.resize(sp.samples(), 3);
+      for (Eigen::Index k = 0; k < sp.samples(); ++k) {
+        const int mi = sp.move_index[k];
+        const double tlo = mi >= 0 ? program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
+        r.track.tip_mm.row(k) = kin->forward(sp.position.row(k).transpose(), tlo).tip_mm.transpose();
+      }
+      r.tool = make_tool(job.tool);
+      r.sweeps = sweeps_from_track(r.tool, r.track).sweeps;
+      r.stock = Box{job.stock.min_mm, job.stock.max_mm};
+    } catch (const std::exception& e) {
+      r.error = std::string(e.what()) + " (the program is read from ../shared/data/real/cam)";
+    }
+    return r;
+  }();
+  return f;
+}
+
+// The track of flower_mold's setpoints to sweeps (default 0.1 um tolerance). Argument: 0 sweeps_from_track, 1 its
+// reference (removal/cut_reference.hpp).
+void BM_FlowerTrack(benchmark::State& state) {
+  const Flower& f = flower();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  std::size_t sweeps = 0;
+  for (auto _ : state) {
+    const TrackSweeps t = state.range(0) == 1 ? sweeps_from_track_reference(f.tool, f.track) : sweeps_from_track(f.tool, f.track);
+    sweeps = t.sweeps.size();
+  }
+  state.counters["poses"] = static_cast<double>(f.track.tip_mm.rows());
+  state.counters["sweeps"] = static_cast<double>(sweeps);
+  state.counters["ns/pose"] = benchmark::Counter(static_cast<double>(f.track.tip_mm.rows()) * 1e-9,
+                                                 benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_FlowerTrack)->ArgNames({"kernel"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// Those sweeps cut from the box stock on a z-map at 1/n mm, one thread. Kernel as BM_ZmapBallRaster's.
+void BM_FlowerZmap(benchmark::State& state) {
+  const Flower& f = flower();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  const double h = 1.0 / static_cast<double>(state.range(0));
+  const int kernel = static_cast<int>(state.range(1));
+  omp_set_num_threads(1);
+  detail::generic_kernels_only() = kernel == 2;
+  CutStats stats;
+  for (auto _ : state) {
+    state.PauseTiming();
+    DexelGrid z = make_zmap(f.stock, h);
+    fill_box(z, f.stock);
+    state.ResumeTiming();
+    stats = kernel == 1 ? cut_reference(z, f.sweeps) : cut(z, f.sweeps);
+  }
+  omp_set_num_threads(omp_get_num_procs());
+  detail::generic_kernels_only() = false;
+  state.counters["sweeps"] = static_cast<double>(f.sweeps.size());
+  state.counters["ray_tests"] = static_cast<double>(stats.ray_tests);
+  if (kernel != 1) {
+    const double t = static_cast<double>(stats.ray_tests);
+    state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
+    state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
+    state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
+    state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
+    state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
+    state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
+  }
+}
+BENCHMARK(BM_FlowerZmap)->ArgNames({"n", "kernel"})->Args({10, 0})->Args({10, 1})->Args({40, 0})->Args({40, 1})
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+namespace {
+
+double cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+// How the removal's cost grows (bench/README.md's cost-growth table): flower_mold's setpoint track repeated r times,
+// each copy 0.2 mm deeper (r x the moves, each copy cutting), to sweeps and through the z-map at 1/n mm, one thread.
+// Counters: the CPU seconds of sweeps_from_track and of cut(), and the memory the removal holds: the z-map, the
+// sweeps (96 B each) and the track's tips (24 B per pose).
+void BM_FlowerGrowth(benchmark::State& state) {
+  const Flower& f = flower();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  const double h = 1.0 / static_cast<double>(state.range(0));
+  const int copies = static_cast<int>(state.range(1));
+  PoseTrack tr;
+  tr.period_s = f.track.period_s;
+  const Eigen::Index n = f.track.tip_mm.rows();
+  tr.tip_mm.resize(n * copies, 3);
+  for (int c = 0; c < copies; ++c) {
+    tr.tip_mm.middleRows(c * n, n) = f.track.tip_mm;
+    tr.tip_mm.middleRows(c * n, n).col(2).array() -= 0.2 * c;
+  }
+  omp_set_num_threads(1);
+  double track_s = 0, cut_s = 0;
+  std::size_t sweeps = 0, zmap_bytes = 0;
+  for (auto _ : state) {
+    double t0 = cpu_seconds();
+    const TrackSweeps ts = sweeps_from_track(f.tool, tr);
+    track_s = cpu_seconds() - t0;
+    state.PauseTiming();
+    DexelGrid z = make_zmap(f.stock, h);
+    fill_box(z, f.stock);
+    state.ResumeTiming();
+    t0 = cpu_seconds();
+    cut(z, ts.sweeps);
+    cut_s = cpu_seconds() - t0;
+    sweeps = ts.sweeps.size();
+    zmap_bytes = z.memory_bytes();
+  }
+  omp_set_num_threads(omp_get_num_procs());
+  state.counters["poses"] = static_cast<double>(tr.tip_mm.rows());
+  state.counters["sweeps"] = static_cast<double>(sweeps);
+  state.counters["track_cpu_s"] = track_s;
+  state.counters["cut_cpu_s"] = cut_s;
+  state.counters["zmap_MB"] = static_cast<double>(zmap_bytes) / 1e6;
+  state.counters["sweeps_MB"] = static_cast<double>(sweeps * sizeof(SweptTool)) / 1e6;
+  state.counters["track_MB"] = static_cast<double>(tr.tip_mm.size() * sizeof(double)) / 1e6;
+}
+BENCHMARK(BM_FlowerGrowth)
+    ->ArgNames({"n", "copies"})
+    ->Args({5, 1})
+    ->Args({10, 1})
+    ->Args({20, 1})
+    ->Args({40, 1})
+    ->Args({10, 4})
+    ->Args({10, 16})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 }  // namespace

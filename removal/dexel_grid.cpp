@@ -45,41 +45,23 @@ void IntervalStore::get(std::size_t ray, std::vector<Interval>& out) const {
   }
 }
 
-double IntervalStore::top(std::size_t ray) const {
-  const Interval& h = head_[ray];
-  if (std::isnan(h.lo)) return row_of(ray).at(ray).back().hi;
-  if (is_empty(h)) return std::numeric_limits<double>::quiet_NaN();
-  return h.hi;
-}
+double IntervalStore::top_several(std::size_t ray) const { return row_of(ray).at(ray).back().hi; }
 
-double IntervalStore::bottom(std::size_t ray) const {
-  const Interval& h = head_[ray];
-  if (std::isnan(h.lo)) return row_of(ray).at(ray).front().lo;
-  if (is_empty(h)) return std::numeric_limits<double>::quiet_NaN();
-  return h.lo;
-}
+double IntervalStore::bottom_several(std::size_t ray) const { return row_of(ray).at(ray).front().lo; }
 
-void IntervalStore::subtract(std::size_t ray, double t0, double t1) {
+void IntervalStore::split(std::size_t ray, double t0, double t1) {
   Interval& h = head_[ray];
-  if (!std::isnan(h.lo)) {
-    if (is_empty(h) || t1 <= h.lo || t0 >= h.hi) return;
-    const bool keep_low = t0 > h.lo, keep_high = t1 < h.hi;
-    if (keep_low && keep_high) {  // the cut splits the interval
-      const Interval lowp{h.lo, static_cast<float>(t0)}, highp{static_cast<float>(t1), h.hi};
-      h = Interval{kNaN, kNaN};
-      row_of(ray)[ray] = {lowp, highp};
-    } else if (keep_low) {
-      h.hi = static_cast<float>(t0);
-    } else if (keep_high) {
-      h.lo = static_cast<float>(t1);
-    } else {
-      h = kEmpty;
-    }
-    return;
-  }
-  // Several intervals: rebuild the list without [t0, t1].
+  const Interval lowp{h.lo, static_cast<float>(t0)}, highp{static_cast<float>(t1), h.hi};
+  h = Interval{kNaN, kNaN};
+  row_of(ray)[ray] = {lowp, highp};
+}
+
+void IntervalStore::subtract_several(std::size_t ray, double t0, double t1) {
   auto& row = row_of(ray);
   std::vector<Interval>& iv = row.at(ray);
+  // Nothing to remove (a sweep passing beside the material): leave the list as it is.
+  if (std::none_of(iv.begin(), iv.end(), [&](const Interval& x) { return !(t1 <= x.lo || t0 >= x.hi); })) return;
+  // Rebuild the list without [t0, t1].
   std::vector<Interval> out;
   out.reserve(iv.size() + 1);
   for (const Interval& x : iv) {
@@ -92,7 +74,7 @@ void IntervalStore::subtract(std::size_t ray, double t0, double t1) {
   }
   if (out.size() <= 1) {
     row.erase(ray);
-    h = out.empty() ? kEmpty : out.front();
+    head_[ray] = out.empty() ? kEmpty : out.front();
   } else {
     iv.swap(out);
   }

@@ -10,7 +10,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -31,11 +33,37 @@ class IntervalStore {
   void fill(double lo, double hi);
   void set(std::size_t ray, const std::vector<Interval>& iv);
   void get(std::size_t ray, std::vector<Interval>& out) const;  // sorted, disjoint
-  double top(std::size_t ray) const;                            // highest material point, NaN when empty
-  // The in-place intervals (hot loops read them directly; lo = NaN marks a ray with several intervals).
+  // Highest material point, NaN when empty. The one-interval case (nearly every ray) inline.
+  double top(std::size_t ray) const {
+    const Interval& h = head_[ray];
+    if (std::isnan(h.lo)) return top_several(ray);
+    return is_empty(h) ? std::numeric_limits<double>::quiet_NaN() : h.hi;
+  }
+  // Lowest material point, NaN when empty.
+  double bottom(std::size_t ray) const {
+    const Interval& h = head_[ray];
+    if (std::isnan(h.lo)) return bottom_several(ray);
+    return is_empty(h) ? std::numeric_limits<double>::quiet_NaN() : h.lo;
+  }
+  // The in-place intervals (hot loops read them directly; lo = NaN marks a ray with several intervals). A hot loop may
+  // rewrite a ray that holds one interval (or none) in place with one interval or none (lo > hi), never with more.
   const Interval* head() const { return head_.data(); }
-  double bottom(std::size_t ray) const;                         // lowest material point, NaN when empty
-  void subtract(std::size_t ray, double t0, double t1);
+  Interval* head() { return head_.data(); }
+  // Removes [t0, t1] from a ray. The one-interval case inline unless the cut splits it.
+  void subtract(std::size_t ray, double t0, double t1) {
+    Interval& h = head_[ray];
+    if (std::isnan(h.lo)) return subtract_several(ray, t0, t1);
+    if (is_empty(h) || t1 <= h.lo || t0 >= h.hi) return;
+    const bool keep_low = t0 > h.lo, keep_high = t1 < h.hi;
+    if (keep_low && keep_high) return split(ray, t0, t1);
+    if (keep_low) {
+      h.hi = static_cast<float>(t0);
+    } else if (keep_high) {
+      h.lo = static_cast<float>(t1);
+    } else {
+      h = Interval{1.0f, -1.0f};  // empty
+    }
+  }
   std::size_t memory_bytes() const;
   std::size_t interval_count() const;
   // memory_bytes() of a store of this size before any cut splits a ray (memory plans, app/run_plan.hpp).
@@ -43,6 +71,10 @@ class IntervalStore {
 
  private:
   static bool is_empty(const Interval& h) { return !(h.lo <= h.hi); }
+  double top_several(std::size_t ray) const;
+  double bottom_several(std::size_t ray) const;
+  void subtract_several(std::size_t ray, double t0, double t1);
+  void split(std::size_t ray, double t0, double t1);
   std::unordered_map<std::size_t, std::vector<Interval>>& row_of(std::size_t ray) { return overflow_[ray / per_row_]; }
   const std::unordered_map<std::size_t, std::vector<Interval>>& row_of(std::size_t ray) const {
     return overflow_[ray / per_row_];
@@ -81,7 +113,10 @@ class DexelGrid {
   void set_intervals(int i, int j, const std::vector<Interval>& iv) { store_.set(ray(i, j), iv); }
   void intervals(int i, int j, std::vector<Interval>& out) const { store_.get(ray(i, j), out); }
   double top(int i, int j) const { return store_.top(ray(i, j)); }
+  double bottom(int i, int j) const { return store_.bottom(ray(i, j)); }
+  // Row j's in-place intervals (IntervalStore::head: a hot loop may rewrite a one-interval ray in place).
   const Interval* head_row(int j) const { return store_.head() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_); }
+  Interval* head_row(int j) { return store_.head() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_); }
   // Removes [t0, t1] from a ray. Rows may be updated concurrently; one row must not.
   void subtract(int i, int j, double t0, double t1) { store_.subtract(ray(i, j), t0, t1); }
 

@@ -116,6 +116,11 @@ CutStats cut(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return sb[a].lo.x() < sb[b].lo.x(); });
   double max_width = 0;
   for (const Box& b : sb) max_width = std::max(max_width, b.hi.x() - b.lo.x());
+  std::vector<Box> sbw(sb.size());  // widened as removal/cut_internal.hpp widens a sweep's extent along the rays
+  for (std::size_t k = 0; k < sb.size(); ++k) {
+    const Eigen::Array3d m = 1e-6 * (1 + sb[k].lo.array().abs().max(sb[k].hi.array().abs()));
+    sbw[k] = Box{sb[k].lo - m.matrix(), sb[k].hi + m.matrix()};
+  }
   std::size_t tests = 0, cuts = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : tests, cuts)
   for (std::ptrdiff_t bi = 0; bi < static_cast<std::ptrdiff_t>(nblocks); ++bi) {
@@ -136,17 +141,34 @@ CutStats cut(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
     }
     std::sort(cand.begin(), cand.end());  // program order (the result does not depend on it, but keep it tidy)
     for (std::size_t k = k0; k < k1; ++k) {
+      // The box of the needle's material (the segment from its lowest to its highest point): a sweep whose box,
+      // widened well beyond round-off, misses it leaves the needle as it is (its cut lies in its box), so it needs no
+      // exact test. Needles are short next to the passes that reach their block, and most of those pass beside them.
+      Box mat;
+      auto material = [&] {
+        const double lo = n.store().bottom(k), hi = n.store().top(k);
+        if (std::isnan(lo)) return false;
+        const Eigen::Vector3d a = n.origin(k) + lo * n.direction(k), e = n.origin(k) + hi * n.direction(k);
+        mat = Box{a.cwiseMin(e), a.cwiseMax(e)};
+        return true;
+      };
+      if (!material()) continue;  // an empty needle stays empty
       for (std::size_t s : cand) {
+        if ((sbw[s].hi.array() < mat.lo.array()).any() || (sbw[s].lo.array() > mat.hi.array()).any()) continue;
         double t0, t1;
         ++tests;
         if (!ray_interval(sweeps[s], n.origin(k), n.direction(k), t0, t1)) continue;
         if (t1 <= 0 || t0 >= n.length(k) || t1 - t0 <= 1e-9) continue;  // zero-width contacts cut nothing
         n.store().subtract(k, t0, t1);
         ++cuts;
+        if (!material()) break;
       }
     }
   }
-  return {tests, cuts};
+  CutStats st;
+  st.ray_tests = tests;
+  st.cuts = cuts;
+  return st;
 }
 
 core::HeightGrid height_grid(const DexelGrid& g) {

@@ -1,17 +1,63 @@
 #pragma once
-// Internal to removal/cut.cpp: the vectorised row kernel of a ball-end sweep on a z-map (removal/row_bounds.inc).
+// Internal to removal/cut.cpp: the vectorised row kernel of a ball-end sweep on a z-map (removal/row_bounds.inc,
+// removal/row_cut.inc), each built twice: plain and for AVX2 (chosen at run time; both give the same bits).
+#include "removal/dexel_grid.hpp"
+
 namespace vmsim::removal {
 
 struct RowCutParams {
   double R, L;                    // ball radius, tool length
-  double cu, eu, ev, ee, inv_ee, inv_el, delta, kk;  // see AxialBall in cut.cpp
+  double cu, eu, ev, ee, inv_ee, inv_el, delta, kk;  // see AxialBall in cut_internal.hpp
   double base_w;                  // the tip's ray coordinate at the sweep's start
   double du;                      // column spacing
 };
 
+// The reference kernel's two steps (cut_reference.cpp): the square-root-free lower bound of the cut's start on rays
+// ia .. ia + n - 1, and the exact cut on the rays ia + idx[k].
 void row_prefilter_generic(const RowCutParams& p, double qv, int ia, int n, double* lb);
 void row_prefilter_avx2(const RowCutParams& p, double qv, int ia, int n, double* lb);
 void row_bounds_generic(const RowCutParams& p, double qv, int ia, const int* idx, int m, double* t0, double* t1);
 void row_bounds_avx2(const RowCutParams& p, double qv, int ia, const int* idx, int m, double* t0, double* t1);
+
+// A ray row_cut leaves to its caller (several intervals, or material above the tool's lowest top), with the exact
+// start of the cut t0 and the lower bound t1 of its end, as row_bounds gives them.
+struct RowFallback {
+  int i;
+  double t0, t1, lb;  // lb: the ray's square-root-free bound
+};
+struct RowCutCounts {
+  long long bound_skipped = 0;  // rays the square-root-free bound settled
+  long long exact_nothing = 0;  // rays cut exactly that the sweep leaves unchanged
+  long long cut = 0;            // rays cut in place
+};
+// Both steps fused, four rays at a time, on the rays [i0, i1] of one row (head: the row's in-place intervals, indexed
+// by column), and the cut applied in place where the ray holds one interval and loses everything above t0; a ray cut
+// in place sets cut_tiles[column >> tile_shift]. Returns the number of rays written to fb (at most i1 - i0 + 1) for
+// the caller to finish as cut_reference does.
+int row_cut_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length,
+                    unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
+int row_cut_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length,
+                 unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
+// The order-free form (removal/cut.cpp, a run of sweeps that all cut through the top of every ray): skips a ray only
+// when its bound less `margin` is at or above its top (so t0 is too), cuts wherever t0 < top, and lists in fb the rays
+// where the reference's own skip could have differed (bound > t0), any ray with several intervals and any ray the
+// cut would not take through its top (t1 < top), for the caller to check or replay.
+int row_cut_pure_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length,
+                         double margin, unsigned char* cut_tiles, int tile_shift, RowFallback* fb,
+                         RowCutCounts& count);
+int row_cut_pure_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, double margin,
+                      unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
+
+// The highest top of the rays in `rows` rows x n columns from head (rows `stride` intervals apart), or false when one
+// of them holds several intervals (unless skip_several: then the top of the others).
+bool tile_top_generic(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
+bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
+
+// The largest squared distance from the points (px, py, pz)[k], k in [k0, k1), to the segment from a along d
+// (inv = 1 / d.d, or 0 when d = 0): the track's merge (removal/track.cpp), vectorised.
+double chord_dist2_generic(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1,
+                           double ax, double ay, double az, double dx, double dy, double dz, double inv);
+double chord_dist2_avx2(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1,
+                        double ax, double ay, double az, double dx, double dy, double dz, double inv);
 
 }  // namespace vmsim::removal

@@ -1,4 +1,10 @@
 #include "removal/row_bounds.hpp"
 #define ROW_BOUNDS_NAME row_bounds_generic
 #define ROW_PREFILTER_NAME row_prefilter_generic
+#define ROW_CUT_NAME row_cut_generic
+#define ROW_CUT_PURE_NAME row_cut_pure_generic
+#define TILE_TOP_NAME tile_top_generic
+#define CHORD_DIST2_NAME chord_dist2_generic
 #include "removal/row_bounds.inc"
+#include "removal/row_cut.inc"
+#include "removal/track_kernel.inc"

@@ -1,6 +1,8 @@
 #include "removal/track.hpp"
 
 #include "core/error.hpp"
+#include "removal/cut_internal.hpp"
+#include "removal/row_bounds.hpp"
 
 #include <fmt/format.h>
 
@@ -46,16 +48,16 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
                                   track.axis_per_sample.rows(), track.axis_per_sample.cols(), n));
   const bool hermite = track.tip_velocity_mm_per_s.rows() == n;
 
-  // Unit axes per sample, and the turn of each interval.
-  std::vector<Eigen::Vector3d> axis(static_cast<std::size_t>(n));
-  for (Eigen::Index k = 0; k < n; ++k) {
+  // Unit axes per sample (one for a constant axis), and the turn of each interval.
+  std::vector<Eigen::Vector3d> axis(per_sample ? static_cast<std::size_t>(n) : 1);
+  for (Eigen::Index k = 0; k < static_cast<Eigen::Index>(axis.size()); ++k) {
     const Eigen::Vector3d a = per_sample ? Eigen::Vector3d(track.axis_per_sample.row(k).transpose()) : track.axis;
     const double len = a.norm();
     if (!(len > 0) || !std::isfinite(len))
       throw core::Error(fmt::format("removal: the tool axis at track sample {} is zero or not finite", k));
     axis[static_cast<std::size_t>(k)] = a.normalized();
   }
-  std::vector<double> turn(static_cast<std::size_t>(n), 0.0);
+  std::vector<double> turn(axis.size(), 0.0);
   bool turning = false;
   for (std::size_t k = 0; k + 1 < axis.size(); ++k) {
     // Bitwise equality: a constant axis must leave the 3-axis budget and sweeps untouched.
@@ -79,62 +81,105 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   // 1. Points: the samples, plus points between them where the Hermite curve bows by more than eps or the axis
   //    turns by more than phi_max. The cubic's second derivative is linear in the parameter, so its largest |p''|
   //    is at an end; a chord over 1/m of the parameter bows by at most |p''|max / (8 m^2).
-  std::vector<Eigen::Vector3d> pts, axs;
-  pts.reserve(static_cast<std::size_t>(n));
-  axs.reserve(static_cast<std::size_t>(n));
-  pts.push_back(track.tip_mm.row(0).transpose());
-  axs.push_back(axis[0]);
+  // The tips as arrays (the merge's distance checks run over them): the track's own columns when the points are the
+  // samples (no Hermite sub-samples, a constant axis), else built here. The axes only for a turning tool (a constant
+  // one is axis[0] everywhere).
+  std::vector<double> bx, by, bz;
+  std::vector<Eigen::Vector3d> axs;
+  const bool samples_only = !hermite && !turning;
   double e_hermite = 0;
-  for (Eigen::Index k = 0; k + 1 < n; ++k) {
-    const std::size_t ks = static_cast<std::size_t>(k);
-    const Eigen::Vector3d p0 = track.tip_mm.row(k).transpose(), p1 = track.tip_mm.row(k + 1).transpose();
-    Eigen::Vector3d m0 = Eigen::Vector3d::Zero(), m1 = Eigen::Vector3d::Zero();
-    int m = 1;
-    double bow = 0;  // |p''|max / 8
-    if (hermite) {
-      m0 = track.tip_velocity_mm_per_s.row(k).transpose() * track.period_s;
-      m1 = track.tip_velocity_mm_per_s.row(k + 1).transpose() * track.period_s;
-      // p''(0) = 6(p1 - p0) - 4 m0 - 2 m1, p''(1) = -6(p1 - p0) + 2 m0 + 4 m1.
-      const double a0 = (6 * (p1 - p0) - 4 * m0 - 2 * m1).norm(), a1 = (-6 * (p1 - p0) + 2 * m0 + 4 * m1).norm();
-      bow = std::max(a0, a1) / 8;
-      m = std::clamp(static_cast<int>(std::ceil(std::sqrt(std::max(a0, a1) / (8 * eps)))), 1, 1000);
-    }
-    if (turn[ks] > 0) {
-      const double need = std::ceil(turn[ks] / phi_max);
-      if (need > 1e6)
-        throw core::Error(fmt::format("removal: the tool axis turns by {:.3g} degrees between track samples {} and {}: "
-                                      "holding it within {:.3g} mm of a {:.3g} mm tool takes {:.3g} sub-steps (over 1e6); "
-                                      "raise the tolerance or sample the track more finely",
-                                      turn[ks] * 180 / kPi, k, k + 1, e_orient, reach, need));
-      m = std::max(m, static_cast<int>(need));
-    }
-    e_hermite = std::max(e_hermite, bow / (double(m) * m));
-    for (int s = 1; s < m; ++s) {
-      const double u = double(s) / m, u2 = u * u, u3 = u2 * u;
+  if (!samples_only) {
+    bx.reserve(static_cast<std::size_t>(n)), by.reserve(static_cast<std::size_t>(n)), bz.reserve(static_cast<std::size_t>(n));
+    auto push = [&](const Eigen::Vector3d& p) { bx.push_back(p.x()), by.push_back(p.y()), bz.push_back(p.z()); };
+    push(track.tip_mm.row(0).transpose());
+    if (turning) axs.reserve(static_cast<std::size_t>(n)), axs.push_back(axis[0]);
+    for (Eigen::Index k = 0; k + 1 < n; ++k) {
+      const std::size_t ks = static_cast<std::size_t>(k);
+      const Eigen::Vector3d p0 = track.tip_mm.row(k).transpose(), p1 = track.tip_mm.row(k + 1).transpose();
+      Eigen::Vector3d m0 = Eigen::Vector3d::Zero(), m1 = Eigen::Vector3d::Zero();
+      int m = 1;
+      double bow = 0;  // |p''|max / 8
       if (hermite) {
-        pts.push_back((2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1);
-      } else {
-        pts.push_back((1 - u) * p0 + u * p1);
+        m0 = track.tip_velocity_mm_per_s.row(k).transpose() * track.period_s;
+        m1 = track.tip_velocity_mm_per_s.row(k + 1).transpose() * track.period_s;
+        // p''(0) = 6(p1 - p0) - 4 m0 - 2 m1, p''(1) = -6(p1 - p0) + 2 m0 + 4 m1.
+        const double a0 = (6 * (p1 - p0) - 4 * m0 - 2 * m1).norm(), a1 = (-6 * (p1 - p0) + 2 * m0 + 4 * m1).norm();
+        bow = std::max(a0, a1) / 8;
+        m = std::clamp(static_cast<int>(std::ceil(std::sqrt(std::max(a0, a1) / (8 * eps)))), 1, 1000);
       }
-      axs.push_back(turn[ks] > 0 ? slerp(axis[ks], axis[ks + 1], turn[ks], u) : axis[ks]);
+      const double turn_k = per_sample ? turn[ks] : 0.0;
+      if (turn_k > 0) {
+        const double need = std::ceil(turn_k / phi_max);
+        if (need > 1e6)
+          throw core::Error(fmt::format("removal: the tool axis turns by {:.3g} degrees between track samples {} and {}: "
+                                        "holding it within {:.3g} mm of a {:.3g} mm tool takes {:.3g} sub-steps (over "
+                                        "1e6); raise the tolerance or sample the track more finely",
+                                        turn_k * 180 / kPi, k, k + 1, e_orient, reach, need));
+        m = std::max(m, static_cast<int>(need));
+      }
+      e_hermite = std::max(e_hermite, bow / (double(m) * m));
+      for (int s = 1; s < m; ++s) {
+        const double u = double(s) / m, u2 = u * u, u3 = u2 * u;
+        if (hermite) {
+          push((2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1);
+        } else {
+          push((1 - u) * p0 + u * p1);
+        }
+        if (turning) axs.push_back(turn_k > 0 ? slerp(axis[ks], axis[ks + 1], turn_k, u) : axis[ks]);
+      }
+      push(p1);
+      if (turning) axs.push_back(axis[ks + 1]);
     }
-    pts.push_back(p1);
-    axs.push_back(axis[ks + 1]);
   }
-  out.points = pts.size();
+  const double* px = samples_only ? track.tip_mm.col(0).data() : bx.data();
+  const double* py = samples_only ? track.tip_mm.col(1).data() : by.data();
+  const double* pz = samples_only ? track.tip_mm.col(2).data() : bz.data();
+  const std::size_t np = samples_only ? static_cast<std::size_t>(n) : bx.size();
+  auto pts = [&](std::size_t k) { return Eigen::Vector3d(px[k], py[k], pz[k]); };
+  out.points = np;
 
   // 2. Merge: the longest run of points whose tips all stay within eps of the chord from its first point and whose
   //    axes stay within chord_max of its mid-axis (greedy, with a doubling search for the run's end, then a
   //    bisection: O(n log n) checks of short runs). A run of two neighbouring points is always taken: its chord is
   //    the track's (or within e_hermite of it) and its axes are phi_max apart, within chord_max of their middle.
   auto run_axis = [&](std::size_t a, std::size_t b) -> Eigen::Vector3d {
+    if (!turning) return axis[0];
     return axs[a] == axs[b] ? axs[a] : Eigen::Vector3d((axs[a] + axs[b]).normalized());
+  };
+  // Each tip's squared distance to the chord (vectorised, removal/row_bounds.hpp) decides, except within a band
+  // round the threshold (far wider than the round-off by which it may differ from point_segment_distance's: ~1e-12 mm
+  // on coordinates of 1e3 mm), where the exact test decides as it always did. No square root per tip.
+  const auto dist2 = detail::use_avx2() ? chord_dist2_avx2 : chord_dist2_generic;
+  struct Chord {
+    double ax, ay, az, dx, dy, dz, inv, band;
+  };
+  auto chord_of = [&](std::size_t a, std::size_t b) {
+    Chord c{px[a], py[a], pz[a], px[b] - px[a], py[b] - py[a], pz[b] - pz[a], 0, 0};
+    const double dd = c.dx * c.dx + c.dy * c.dy + c.dz * c.dz;
+    c.inv = dd > 0 ? 1 / dd : 0.0;
+    const double scale = std::max({std::abs(c.ax), std::abs(c.ay), std::abs(c.az), std::abs(c.dx), std::abs(c.dy),
+                                   std::abs(c.dz)});
+    c.band = 1e-14 * (1 + scale);
+    return c;
+  };
+  auto tips_ok = [&](std::size_t a, std::size_t b) {
+    const Chord c = chord_of(a, b);
+    const double band = c.band + 1e-6 * eps;
+    const double lo2 = eps > band ? (eps - band) * (eps - band) : 0.0, hi2 = (eps + band) * (eps + band);
+    for (std::size_t k0 = a + 1; k0 < b; k0 += 32) {
+      const std::size_t k1 = std::min(b, k0 + 32);
+      const double m = dist2(px, py, pz, k0, k1, c.ax, c.ay, c.az, c.dx, c.dy, c.dz, c.inv);
+      if (m < lo2) continue;
+      if (m > hi2) return false;
+      for (std::size_t k = k0; k < k1; ++k)  // a tip in the band: the exact test, tip by tip
+        if (point_segment_distance(pts(k), pts(a), pts(b)) > eps) return false;
+    }
+    return true;
   };
   // Slack for round-off: sub-steps are sized to sit exactly at chord_max.
   const double chord_ok = chord_max * (1 + 1e-9);
   auto run_ok = [&](std::size_t a, std::size_t b) {
-    for (std::size_t k = a + 1; k < b; ++k)
-      if (point_segment_distance(pts[k], pts[a], pts[b]) > eps) return false;
+    if (!tips_ok(a, b)) return false;
     if (turning) {
       const Eigen::Vector3d c = run_axis(a, b);
       for (std::size_t k = a; k <= b; ++k)
@@ -146,16 +191,25 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   auto emit = [&](std::size_t a, std::size_t b) {
     SweptTool s;
     s.tool = tool;
-    s.tip0 = pts[a];
+    s.tip0 = pts(a);
     s.axis = run_axis(a, b);
-    s.d = pts[b] - pts[a];
-    for (std::size_t k = a + 1; k < b; ++k) e_merge = std::max(e_merge, point_segment_distance(pts[k], pts[a], pts[b]));
+    s.d = pts(b) - pts(a);
+    // The largest tip distance, exactly as before: only tips whose squared distance may reach the largest so far.
+    if (b > a + 1) {
+      const Chord c = chord_of(a, b);
+      for (std::size_t k0 = a + 1; k0 < b; k0 += 32) {
+        const std::size_t k1 = std::min(b, k0 + 32);
+        const double m = dist2(px, py, pz, k0, k1, c.ax, c.ay, c.az, c.dx, c.dy, c.dz, c.inv);
+        if (std::sqrt(m) + c.band < e_merge) continue;
+        for (std::size_t k = k0; k < k1; ++k) e_merge = std::max(e_merge, point_segment_distance(pts(k), pts(a), pts(b)));
+      }
+    }
     if (turning)
       for (std::size_t k = a; k <= b; ++k) chord = std::max(chord, (axs[k] - s.axis).norm());
     out.sweeps.push_back(s);
   };
   std::size_t a = 0;
-  const std::size_t last = pts.size() - 1;
+  const std::size_t last = np - 1;
   if (last == 0) emit(0, 0);
   while (a < last) {
     std::size_t good = a + 1, step = 1;
