@@ -17,6 +17,7 @@
 #include "metrology/x3p.hpp"
 #include "render/mesh_io.hpp"
 #include "sim/contour_stats.hpp"
+#include "sim/job_program.hpp"
 #include "sim/run.hpp"
 
 #include <fmt/format.h>
@@ -226,7 +227,9 @@ void print_summary(const core::Job& job, const sim::RunResult& r, const fs::path
 
 int run_run(const RunArgs& args) {
   const auto t_start = Clock::now();
-  const core::Job job = core::load_job(args.job);
+  core::Job job = core::load_job(args.job);
+  // A CL program's own tool when the job gives none (APT TLDATA/, CUTTER/).
+  if (const auto note = sim::use_program_tool(job); note && mpi_rank() == 0) std::printf("tool: %s\n", note->c_str());
   // The picture options are checked now, not after the simulation.
   ImageArgs image_args;
   image_args.size = args.image_size;
@@ -245,6 +248,10 @@ int run_run(const RunArgs& args) {
   const fs::path dir = args.out_dir.value_or(fs::current_path());
 
   sim::Cut cut = sim::cut_job(job, options, progress);
+  // What the program reader accepted without modelling it (units not given, tool changes, --lenient statements).
+  const std::vector<std::string> program_warnings = cut.motion.program.warnings;
+  if (mpi_rank() == 0)
+    for (const std::string& w : program_warnings) std::fprintf(stderr, "vmsim: warning: %s\n", w.c_str());
   nlohmann::json tiles_json;
   if (!options.tile.whole() && !gather_tiles(job, args, dir, cut, tiles_json, progress, t_start)) return 0;
   const sim::RunResult result = sim::finish_run(job, std::move(cut), options, progress);
@@ -281,6 +288,7 @@ int run_run(const RunArgs& args) {
   }
 
   nlohmann::json report = result.report;
+  if (!program_warnings.empty()) report["program_warnings"] = program_warnings;
   if (!tiles_json.is_null()) report["tiles"] = tiles_json;
   report["files"] = files;
   report["timings_s"]["write"] = t_write;

@@ -216,12 +216,20 @@ Job load_job(const std::filesystem::path& path) {
       job.program_dialect = *d;
     }
     job.program_lenient = jt.opt_boolean("program_lenient").value_or(false);
+    if (auto u = jt.opt_string("program_units")) {
+      if (*u != "mm" && *u != "inch")
+        jt.fail("program_units", "expected \"mm\" or \"inch\" (the unit of an APT CL file without UNITS/), found \"" + *u + "\"");
+      job.program_units = *u;
+    }
     // Identified axis models (vmsim identify) run instead of the drives of the machine file (drives/axis_model_file).
     job.axis_models_file = jt.opt_existing_path("axis_models");
     jt.finish();
   }
   job.machine = load_machine(job.machine_file);
-  if (auto t = top.opt_table("tool")) job.tool = read_tool(*t);
+  if (auto t = top.opt_table("tool")) {
+    job.tool = read_tool(*t);
+    job.tool_given = true;
+  }
   if (auto t = top.opt_table("stock")) job.stock = read_stock(*t);
   if (auto t = top.opt_table("interpolation")) job.interp = read_interp(*t);
   if (auto t = top.opt_table("removal")) job.removal = read_removal(*t);

@@ -119,10 +119,13 @@ struct Job {
   bool tcp = false;
   // The program's language: "auto" (by extension and content), "rs274ngc", "sinumerik" or "apt" (program/program.hpp).
   std::string program_dialect = "auto";
-  // Sinumerik: statements known to have no motion that vmsim does not model are warnings, not errors.
+  // Sinumerik and APT: statements known to have no motion that vmsim does not model are warnings, not errors.
   bool program_lenient = false;
+  // APT CL files without UNITS/ (NX CLSF): "mm" or "inch"; empty: not given (such a file is read as mm with a warning).
+  std::string program_units;
   Machine machine;
   ToolSpec tool;
+  bool tool_given = false;  // the job has a [tool]; without one a CL program's own tool cuts (sim::use_program_tool)
   StockSpec stock;
   InterpSpec interp;
   RemovalSpec removal;

@@ -83,10 +83,12 @@ struct ToolPath {
   // Tool diameter from the program or tool table when known (APT CUTTER/, LinuxCNC tool table D); 0 = unknown.
   double tool_diameter_mm = 0.0;
   double tool_corner_radius_mm = 0.0;
+  double tool_length_mm = 0.0;  // APT TLDATA/MILL's length; 0 = unknown
+  int tool_line = 0;            // the line the program's tool was read from (APT CUTTER/, TLDATA/); 0 = none
   // The interpolation tolerance the program itself sets (Sinumerik CYCLE832: the smallest in force for a feed move);
   // a job without [interpolation] tolerance_mm interpolates with it. Empty: the program sets none.
   std::optional<double> program_tolerance_mm;
-  // What the reader accepted without modelling it (Sinumerik, lenient), "file:line: what".
+  // What the reader accepted without modelling it (Sinumerik and APT, lenient; APT units), "file:line: what".
   std::vector<std::string> warnings;
 };
 

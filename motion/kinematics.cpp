@@ -186,6 +186,26 @@ class ChainKinematics final : public Kinematics {
   KinematicFamily family() const override { return family_; }
 
   Eigen::VectorXd inverse(const ToolPose& pose, double tlo, const Eigen::VectorXd& near) const override {
+    std::vector<std::string> reasons;
+    std::vector<Eigen::VectorXd> all = solutions(pose, tlo, near, reasons);
+    if (all.empty()) {
+      std::string why;
+      for (const std::string& r : reasons) why += (why.empty() ? "" : "; ") + r;
+      const Eigen::Vector3d v = pose.axis.normalized();
+      throw core::Error(fmt::format("{}: machine \"{}\" cannot reach tip ({:.4f}, {:.4f}, {:.4f}) mm with tool axis ({:.6f}, "
+                              "{:.6f}, {:.6f}): {}",
+                              file_, name_, pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z(), v.x(), v.y(), v.z(),
+                              why));
+    }
+    return std::move(all.front());
+  }
+
+  // Every solution of the inverse within the machine's travels (each rotary angle the 2 pi equivalent closest to
+  // near's), the least rotary motion from near first; `reasons` says why the others are out (travel limits). Two
+  // at most on the closed-form families (the branches (B, C) and (-B, C + 180 deg) of a B/C table), one at a
+  // singular pose.
+  std::vector<Eigen::VectorXd> solutions(const ToolPose& pose, double tlo, const Eigen::VectorXd& near,
+                                         std::vector<std::string>& reasons) const {
     require_size(near, n_, "the near vector");
     if (family_ == KinematicFamily::ForwardOnly)
       throw core::Error(fmt::format("{}: machine \"{}\" has no inverse transform (forward only): {}", file_, name_,
@@ -198,9 +218,7 @@ class ChainKinematics final : public Kinematics {
     for (Eigen::Index i = 0; i < near.size(); ++i)
       if (!std::isfinite(near[i])) throw core::Error(file_ + ": the inverse needs finite near axes");
     const Eigen::Vector3d v = pose.axis / an;
-    std::vector<std::string> reasons;
-    std::optional<Eigen::VectorXd> best;
-    double best_cost = std::numeric_limits<double>::infinity();
+    std::vector<std::pair<double, Eigen::VectorXd>> found;
     auto consider = [&](Eigen::VectorXd q) {
       // The linear axes, then every travel.
       q = place_tip(pose.tip_mm, tlo, q);
@@ -217,10 +235,7 @@ class ChainKinematics final : public Kinematics {
       // Least rotary motion from near: the sum of the rotary axes' turns (rad); ties keep the first candidate.
       double cost = 0;
       for (const Joint* j : rot_) cost += std::abs(q[j->index] - near[j->index]);
-      if (cost < best_cost - 1e-12) {
-        best_cost = cost;
-        best = std::move(q);
-      }
+      found.emplace_back(cost, std::move(q));
     };
 
     if (family_ == KinematicFamily::Cartesian) {
@@ -234,15 +249,16 @@ class ChainKinematics final : public Kinematics {
     } else {
       solve_rotary(v, near, reasons, consider);
     }
-    if (!best) {
-      std::string why;
-      for (const std::string& r : reasons) why += (why.empty() ? "" : "; ") + r;
-      throw core::Error(fmt::format("{}: machine \"{}\" cannot reach tip ({:.4f}, {:.4f}, {:.4f}) mm with tool axis ({:.6f}, "
-                              "{:.6f}, {:.6f}): {}",
-                              file_, name_, pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z(), v.x(), v.y(), v.z(),
-                              why));
-    }
-    return *best;
+    // The least cost first (a later candidate wins only by more than 1e-12), then the others in order.
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < found.size(); ++i)
+      if (found[i].first < found[best].first - 1e-12) best = i;
+    std::vector<Eigen::VectorXd> out;
+    if (found.empty()) return out;
+    out.push_back(found[best].second);
+    for (std::size_t i = 0; i < found.size(); ++i)
+      if (i != best) out.push_back(std::move(found[i].second));
+    return out;
   }
 
   // d tip / d (X, Y, Z) in the workpiece frame at the rotary axes of q (the tip is affine in the linear axes when the
@@ -554,10 +570,12 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
   const double tol = opt.tolerance_mm;
   const double axis_tol = tol / 100.0;  // rad: a point 100 mm up the tool within tol
 
-  core::Vec6 prev_end = path.initial_position;
-  for (std::size_t mi = 0; mi < path.moves.size(); ++mi) {
+  // Program move mi in axis space, joining prev_end; start_q: the axes a path's first move starts at (the branch of the
+  // inverse chosen for it), else the inverse nearest prev_end.
+  auto convert = [&](std::size_t mi, const core::Vec6& prev_end,
+                     const std::optional<Eigen::VectorXd>& start_q) -> core::Move {
     const core::Move& pm = path.moves[mi];
-    core::Move& m = out.moves[mi];
+    core::Move m = pm;
     const double tlo = pm.tool_length_offset_mm;
     const bool cl = pm.tool_axis_start.has_value() || pm.tool_axis_end.has_value();
     if (!cl && !pm.tcp) {
@@ -577,8 +595,7 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
         complete = false;
       }
       if (complete) set_gains(kin(), m, to_q);
-      prev_end = m.end;
-      continue;
+      return m;
     }
     const ChainKinematics& k = kin();
     auto fail = [&](const std::string& msg) -> core::Error { return core::Error(core::located(path.source_path, pm.source_line, msg)); };
@@ -609,7 +626,7 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
       }
     };
 
-    Eigen::VectorXd q0 = image(0.0, to_q(prev_end));
+    Eigen::VectorXd q0 = start_q ? *start_q : image(0.0, to_q(prev_end));
     if (mi > 0) {
       const core::Vec6 s6 = to_v6(q0, pm.start);
       if ((s6 - prev_end).cwiseAbs().maxCoeff() > 1e-6)
@@ -741,10 +758,15 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
           h = h_max;
           continue;
         }
+        // Why: the solution that continues this one is beyond a travel limit (the inverse's reasons at sb).
+        std::vector<std::string> reasons;
+        if (cl) (void)k.solutions(ToolPose{tip_at(pm, g, sb), axis_at(a0, a1, sb)}, tlo, q, reasons);
+        std::string why;
+        for (const std::string& r : reasons) why += (why.empty() ? "" : "; ") + r;
         throw fail(fmt::format(
             "the axes cannot follow the programmed path within {} mm at s = {:.9f}: the rotary axes would have to jump "
-            "(a travel limit forcing the other solution of the inverse)",
-            tol, s));
+            "to the other solution of the inverse ({})",
+            tol, s, why.empty() ? "a travel limit forces it" : why));
       }
       q1 = q;
       m.kind = core::MotionKind::Line;
@@ -774,8 +796,100 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
     m.start = to_v6(q0, pm.start);
     m.end = to_v6(q1, pm.end);
     set_gains(k, m, to_q);
-    if (mi == 0) out.initial_position = m.start;
-    prev_end = m.end;
+    return m;
+  };
+
+  // The branch of the inverse ((B, C) or (-B, C + 180 deg) on a B/C table) is chosen per stretch of the path between
+  // switch points: the first move, and every CL rapid, where the axes may take the other branch as a controller's
+  // orientation transformation does (the rapid then runs in axis space, straight from axes to axes: its tip leaves the
+  // programmed line). A stretch is solved on the branch the axes are on first; only when that fails (a travel limit
+  // the continuous solution meets) is it solved from the other branch, and only when every branch fails is it an
+  // error naming both reasons. Each stretch starts free, so this greedy choice finds a branch wherever one exists.
+  const std::size_t n = path.moves.size();
+  auto is_cl = [&](std::size_t mi) {
+    return path.moves[mi].tool_axis_start.has_value() || path.moves[mi].tool_axis_end.has_value();
+  };
+  auto switch_point = [&](std::size_t mi) { return is_cl(mi) && (mi == 0 || path.moves[mi].rapid); };
+  core::Vec6 prev_end = path.initial_position;
+  std::size_t mi = 0;
+  while (mi < n) {
+    std::size_t next = mi + 1;
+    while (next < n && !switch_point(next)) ++next;
+    // The stretch [mi, next) after its first move `first`.
+    auto stretch = [&](core::Move first) {
+      std::vector<core::Move> moves;
+      moves.reserve(next - mi);
+      moves.push_back(std::move(first));
+      for (std::size_t j = mi + 1; j < next; ++j) moves.push_back(convert(j, moves.back().end, std::nullopt));
+      return moves;
+    };
+    std::vector<core::Move> done;
+    if (!switch_point(mi)) {
+      done = stretch(convert(mi, prev_end, std::nullopt));
+    } else {
+      const core::Move& pm = path.moves[mi];
+      const ChainKinematics& k = kin();
+      const Eigen::Vector3d a0 = (pm.tool_axis_start ? *pm.tool_axis_start : *pm.tool_axis_end).normalized();
+      const Eigen::Vector3d a1 = (pm.tool_axis_end ? *pm.tool_axis_end : *pm.tool_axis_start).normalized();
+      // The branches at the stretch's start (first move) or at the rapid's end, the present one first.
+      std::vector<std::string> errors, reasons;
+      std::vector<Eigen::VectorXd> branches;
+      try {
+        branches = mi == 0 ? k.solutions(ToolPose{pm.start.head<3>(), a0}, pm.tool_length_offset_mm,
+                                         to_q(prev_end), reasons)
+                           : k.solutions(ToolPose{pm.end.head<3>(), a1}, pm.tool_length_offset_mm, to_q(prev_end),
+                                         reasons);
+      } catch (const core::Error&) {
+        branches.clear();  // convert() below names the problem with its line
+      }
+      if (mi > 0) {
+        try {
+          done = stretch(convert(mi, prev_end, std::nullopt));
+        } catch (const core::Error& e) {
+          errors.push_back(e.what());
+        }
+      }
+      for (std::size_t b = 0; done.empty() && b < branches.size(); ++b) {
+        try {
+          if (mi == 0) {
+            done = stretch(convert(mi, prev_end, branches[b]));
+          } else {
+            // The rapid to this branch: straight in axis space.
+            core::Move m = pm;
+            m.kind = core::MotionKind::Line;
+            m.rotation = 0;
+            m.centre_mm.setZero();
+            m.via.clear();
+            m.via_s.clear();
+            m.start = prev_end;
+            m.end = to_v6(branches[b], pm.end);
+            set_gains(k, m, to_q);
+            done = stretch(std::move(m));
+          }
+        } catch (const core::Error& e) {
+          errors.push_back(e.what());
+        }
+      }
+      if (done.empty()) {
+        if (errors.empty()) {
+          done = stretch(convert(mi, prev_end, std::nullopt));  // no branch at all: convert() names the reason
+        } else if (errors.size() == 1) {
+          throw core::Error(errors.front());
+        } else {
+          const std::string to =
+              next < n ? fmt::format("line {}", path.moves[next - 1].source_line) : std::string("the end");
+          throw core::Error(core::located(
+              path.source_path, pm.source_line,
+              fmt::format("no solution branch of the inverse keeps the axes within their travels and continuous from "
+                          "here to {}: on the branch the axes are on: {}; on the other branch: {}",
+                          to, errors.front(), errors.back())));
+        }
+      }
+    }
+    if (mi == 0 && (is_cl(0) || path.moves[0].tcp)) out.initial_position = done.front().start;
+    for (std::size_t j = 0; j < done.size(); ++j) out.moves[mi + j] = std::move(done[j]);
+    prev_end = out.moves[next - 1].end;
+    mi = next;
   }
   return out;
 }

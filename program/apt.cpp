@@ -24,21 +24,32 @@
 //   RAPID                     the next motion only is a rapid; the last FEDRAT/ applies again afterwards.
 //   FEDRAT/f[,MMPM|IPM|PERMIN], FEDRAT/MMPM|IPM,f   feed per minute (no unit word: the file's UNITS).
 //   TLAXIS/i,j,k              tool axis for GOTOs that give no i,j,k under MULTAX/OFF (default +Z).
-//   MULTAX[/ON|/OFF]          under MULTAX/ON a GOTO without i,j,k keeps the last tool axis.
-//   UNITS/MM|INCHES           lengths and feeds that follow are in that unit; converted to mm here.
-//   CUTTER/d[,r,...], TLDATA/MILL,d,r,...   tool diameter and corner radius (ToolPath::tool_*).
+//   MULTAX[/ON|/OFF]          the tool axis is modal: a GOTO without i,j,k keeps the last one given (NX CLSF writes it
+//                             only when it changes, and no MULTAX); under MULTAX/OFF such a GOTO takes TLAXIS's.
+//   UNITS/MM|INCHES           lengths and feeds that follow are in that unit; converted to mm here. A file without
+//                             it is in AptOptions::default_unit ([job] program_units), else mm with a warning.
+//   CUTTER/d[,r,...], TLDATA/MILL,d,r,l,...   tool diameter, corner radius (and length) (ToolPath::tool_*): the
+//                             first one; a later different tool is a warning (one tool per program, issue 24).
 //   LOADTL/n, LOAD/TOOL,n     active tool number of the moves that follow.
+//   MSYS/x,y,z,xi,xj,xk,yi,yj,yk   NX: the frame (origin, X and Y directions) the coordinates that follow are in.
+//                             The first MSYS/ frame is the workpiece frame; the data under a later, different one is
+//                             carried into it.
 //   INDIRV/i,j,k              checked and ignored: it aims the next GO command of part-program source, and CL
 //                             files contain only GOTOs, which do not use it.
 //   FINI                      end of the CL file; anything after it is not read.
+//   CIRCLE/ about an axis not parallel to X, Y or Z (NX on tilted planes): chords in the circle's own plane, within
+//                             kTiltedArcSag_mm (ToolPath arcs lie in XY, ZX or YZ).
 //
 // Accepted and ignored (kNonMotionWords below), because they neither move the tool nor change what the
 // coordinates mean in the workpiece frame: PARTNO MACHIN MODE SELECT SELCTL TOOLNO TPRINT PPRINT PRINT INSERT
-// SPINDL COOLNT END STOP OPSTOP OPSKIP PAINT "TOOL PATH" MSYS END-OF-PATH AUTOPS INTOL OUTTOL TOLER LINTOL
+// SPINDL COOLNT END STOP OPSTOP OPSKIP PAINT "TOOL PATH" END-OF-PATH AUTOPS INTOL OUTTOL TOLER LINTOL
 // CLEARP THICK OFSTNO SEQNO CLAMP HEAD TURRET LEADER REWIND NOPOST DISPLY PPLOT CSI_TOOL_PATH OPERATION PITCH;
-// also CUTCOM (CL files hold centre-line data: CUTCOM only arms the controller's wear offset), DELAY and DWELL
-// (ToolPath carries no time), ORIGIN (places the workpiece on the machine, not the path in the workpiece frame),
-// MSYS (the CL output frame is taken as the workpiece frame) and CYCLE/OFF.
+// CUTCOM/OFF and CYCLE/OFF. NX's information window wraps the CLSF in a listing: its header lines
+// ("Information listing created by<TAB>...", "Date<TAB>...", "Current work part<TAB>...", "Node name<TAB>...") and its
+// last line ("Tool Path Listing has N lines.") are skipped.
+// Known, without motion, but with an effect vmsim does not model (kUnmodelledWords): DELAY and DWELL (ToolPath
+// carries no time), CUTCOM other than OFF (the controller's radius offset), ORIGIN (places the workpiece on the
+// machine): errors, or warnings with AptOptions::lenient (--lenient, [job] program_lenient).
 //
 // Refused with an error naming the line and the word: words that move the tool in a way this reader does not
 // model (part-program GO commands, canned cycles, table rotations, CL transforms), and any word not listed
@@ -47,6 +58,8 @@
 
 #include "core/error.hpp"
 #include "core/units.hpp"
+
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cctype>
@@ -65,11 +78,18 @@ namespace vmsim::program {
 namespace {
 
 constexpr std::string_view kNonMotionWords[] = {
-    "PARTNO", "MACHIN",      "MODE",   "SELECT", "SELCTL", "TOOLNO",        "TPRINT",    "PPRINT", "PRINT",
-    "INSERT", "SPINDL",      "COOLNT", "END",    "STOP",   "OPSTOP",        "OPSKIP",    "PAINT",  "TOOL PATH",
-    "MSYS",   "END-OF-PATH", "CUTCOM", "DELAY",  "DWELL",  "AUTOPS",        "INTOL",     "OUTTOL", "TOLER",
-    "LINTOL", "ORIGIN",      "CLEARP", "THICK",  "OFSTNO", "SEQNO",         "CLAMP",     "HEAD",   "TURRET",
-    "LEADER", "REWIND",      "NOPOST", "DISPLY", "PPLOT",  "CSI_TOOL_PATH", "OPERATION", "PITCH"};
+    "PARTNO", "MACHIN", "MODE",   "SELECT", "SELCTL", "TOOLNO",        "TPRINT",    "PPRINT", "PRINT",
+    "INSERT", "SPINDL", "COOLNT", "END",    "STOP",   "OPSTOP",        "OPSKIP",    "PAINT",  "TOOL PATH",
+    "END-OF-PATH",      "AUTOPS", "INTOL",  "OUTTOL", "TOLER",         "LINTOL",    "CLEARP", "THICK",
+    "OFSTNO", "SEQNO",  "CLAMP",  "HEAD",   "TURRET", "LEADER",        "REWIND",    "NOPOST", "DISPLY",
+    "PPLOT",  "CSI_TOOL_PATH",    "OPERATION",        "PITCH"};
+
+// Known, without motion, with an effect vmsim does not model: errors unless AptOptions::lenient (then warnings).
+constexpr std::string_view kUnmodelledWords[] = {"DELAY", "DWELL", "CUTCOM", "ORIGIN"};
+
+// Chord sag of CIRCLE/ records about a tilted axis (as the Sinumerik reader's oblique-plane arcs): 1 um, far below
+// what a CL file's 4 decimals of an inch (2.5 um) resolve.
+constexpr double kTiltedArcSag_mm = 1e-3;
 
 // Words whose argument is free text: their arguments are not split or checked.
 constexpr std::string_view kTextWords[] = {"PARTNO", "PPRINT", "TPRINT", "PRINT", "INSERT", "OPERATION"};
@@ -113,6 +133,20 @@ std::string num(double v) {
   return os.str();
 }
 
+// NX's information window (Tool Path > List, saved as .txt) puts a header of "key<TAB>value" lines before the CLSF and
+// "Tool Path Listing has N lines." after it: part of the listing, not records.
+bool nx_listing_line(std::string_view line) {
+  for (std::string_view key : {"Information listing created by\t", "Date\t", "Current work part\t", "Node name\t"})
+    if (line.substr(0, key.size()) == key) return true;
+  line = trim(line);
+  constexpr std::string_view head = "Tool Path Listing has ", tail = " lines.";
+  if (line.size() <= head.size() + tail.size() || line.substr(0, head.size()) != head ||
+      line.substr(line.size() - tail.size()) != tail)
+    return false;
+  const std::string_view n = line.substr(head.size(), line.size() - head.size() - tail.size());
+  return std::all_of(n.begin(), n.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
 // A logical record: the text of one or more physical lines (continuations joined, comments removed).
 struct Record {
   int line = 0;  // first physical line
@@ -134,6 +168,7 @@ std::vector<Record> split_records(const std::string& content) {
     pos = eol + 1;
     if (eol < content.size() && content[eol] == '\r' && pos < content.size() && content[pos] == '\n') ++pos;
 
+    if (!continuing && nx_listing_line(line)) continue;
     if (auto c = line.find("$$"); c != std::string_view::npos) line = line.substr(0, c);
     line = trim(line);
     bool continues = false;
@@ -237,13 +272,19 @@ struct PlaneAxes {
 
 class AptReader {
  public:
-  explicit AptReader(std::string file) : file_(std::move(file)) { path_.source_path = file_; }
+  AptReader(std::string file, const AptOptions& options) : file_(std::move(file)), options_(options) {
+    path_.source_path = file_;
+    inches_ = options_.default_unit == LengthUnit::Inch;
+  }
 
   core::ToolPath read(const std::string& content) {
     for (const Record& rec : split_records(content)) {
       const Statement st = parse_statement(rec);
       if (!handle(st)) break;  // FINI
     }
+    if (!units_line_ && !options_.default_unit)
+      warn(0, "no UNITS/ record and no [job] program_units: lengths read as mm (NX CLSF files of inch parts have no "
+              "UNITS/; give program_units = \"inch\" in the job)");
     if (pending_arc_)
       fail(pending_arc_->line,
            pending_arc_->word + "/ is not followed by its GOTO/ end point (expected GOTO/x,y,z after it)");
@@ -268,6 +309,11 @@ class AptReader {
   };
 
   [[noreturn]] void fail(int line, const std::string& message) const { throw core::Error(core::located(file_, line, message)); }
+  void warn(int line, const std::string& message) { path_.warnings.push_back(core::located(file_, line, message)); }
+
+  // Into the workpiece frame (the first MSYS/ frame) from the frame of the current MSYS/.
+  Eigen::Vector3d to_work(const Eigen::Vector3d& p) const { return frame_r_ * p + frame_o_; }
+  Eigen::Vector3d to_work_dir(const Eigen::Vector3d& d) const { return frame_r_ * d; }
 
   double number(const Statement& st, std::size_t i, const char* expected) const {
     if (i >= st.args.size())
@@ -356,14 +402,14 @@ class AptReader {
     const PendingArc arc = *pending_arc_;
     pending_arc_.reset();
     const std::string where = arc.word + "/ on line " + std::to_string(arc.line);
-    // The axis must be one of the coordinate axes: ToolPath arcs lie in XY, ZX or YZ (LinuxCNC ARC_FEED).
+    // ToolPath arcs lie in XY, ZX or YZ (LinuxCNC ARC_FEED); an arc about another axis becomes chords in its plane.
     int m = 0;
     arc.axis.cwiseAbs().maxCoeff(&m);
     for (int i = 0; i < 3; ++i)
-      if (i != m && std::abs(arc.axis[i]) > 1e-6)
-        fail(arc.line, arc.word + "/ axis (" + num(arc.axis.x()) + ", " + num(arc.axis.y()) + ", " + num(arc.axis.z()) +
-                           ") is not parallel to X, Y or Z (expected an arc in the XY, ZX or YZ plane; output "
-                           "tilted-plane arcs as GOTO/ points)");
+      if (i != m && std::abs(arc.axis[i]) > 1e-6) {
+        tilted_arc_to(st, arc, target, axis);
+        return;
+      }
     static constexpr PlaneAxes kPlanes[3] = {{core::ArcPlane::YZ, 1, 2, 0}, {core::ArcPlane::ZX, 2, 0, 1}, {core::ArcPlane::XY, 0, 1, 2}};
     const PlaneAxes p = kPlanes[m];
     const Eigen::Vector2d c(arc.centre[p.first], arc.centre[p.second]);
@@ -393,6 +439,57 @@ class AptReader {
     axis_ = axis;
   }
 
+  // An arc (or helix) about a tilted axis n, counter-clockwise about n (ISO 4343): chords within kTiltedArcSag_mm of it,
+  // the height along n and the radius linear in the swept angle (as core/arc for the coordinate planes), the tool
+  // axis along the great circle between its end values.
+  void tilted_arc_to(const Statement& st, const PendingArc& arc, const Eigen::Vector3d& target,
+                     const Eigen::Vector3d& axis) {
+    const std::string where = arc.word + "/ on line " + std::to_string(arc.line);
+    const Eigen::Vector3d& n = arc.axis;
+    const Eigen::Vector3d rs3 = *position_ - arc.centre, re3 = target - arc.centre;
+    const double hs = n.dot(rs3), he = n.dot(re3);
+    const Eigen::Vector3d us = rs3 - hs * n, ue = re3 - he * n;
+    const double rs = us.norm(), re = ue.norm();
+    const double tol = std::max(0.01, 1e-3 * arc.radius);
+    if (std::abs(rs - arc.radius) > tol)
+      fail(st.line, "arc start is " + num(rs) + " mm from the axis of " + where + ", radius " + num(arc.radius) +
+                        " mm (expected the tool on the circle when the arc starts)");
+    if (std::abs(re - arc.radius) > tol)
+      fail(st.line, "GOTO/ end point is " + num(re) + " mm from the axis of " + where + ", radius " +
+                        num(arc.radius) + " mm (expected the arc's end point on its circle)");
+    // Angle from us to ue about n, counter-clockwise, in (0, 2 pi]; a whole turn when they coincide.
+    const Eigen::Vector3d e1 = us / rs, e2 = n.cross(e1);
+    double sweep = std::atan2(ue.dot(e2), ue.dot(e1));
+    if (sweep <= 1e-12) sweep += 2 * core::units::kPi;
+    if (arc.sweep_deg) {
+      const int turns = std::max(1, static_cast<int>(std::ceil(*arc.sweep_deg / 360.0 - 1e-9)));
+      sweep += 2 * core::units::kPi * (turns - 1);
+    }
+    const double r_max = std::max(rs, re);
+    const double step = 2 * std::acos(std::max(0.0, 1 - kTiltedArcSag_mm / r_max));
+    const int chords = std::max(1, static_cast<int>(std::ceil(sweep / std::max(step, 1e-6))));
+    if (chords > 10'000'000) fail(arc.line, where + " needs more than 10 million chords");
+    const Eigen::Vector3d a0 = axis_;
+    const double turn = std::atan2(a0.cross(axis).norm(), a0.dot(axis));
+    for (int k = 1; k <= chords; ++k) {
+      const double f = static_cast<double>(k) / chords, ang = f * sweep, r = rs + f * (re - rs);
+      Eigen::Vector3d p = arc.centre + (hs + f * (he - hs)) * n + r * (std::cos(ang) * e1 + std::sin(ang) * e2);
+      if (k == chords) p = target;
+      Eigen::Vector3d ax = axis;
+      if (k < chords && turn > 1e-12) {
+        // Spherical interpolation of the tool axis (a great circle, as the kinematics turn it).
+        const double st_ = std::sin(turn);
+        ax = (std::sin((1 - f) * turn) * a0 + std::sin(f * turn) * axis) / st_;
+      }
+      core::Move mv = make_move(st, false, ax);
+      mv.source_line = arc.line;
+      mv.end.head<3>() = p;
+      path_.moves.push_back(mv);
+      position_ = p;
+      axis_ = ax;
+    }
+  }
+
   // Returns false at FINI.
   bool handle(const Statement& st) {
     const std::string& w = st.word;
@@ -400,10 +497,11 @@ class AptReader {
       const std::vector<double> v = numbers(st, "x, y, z[, i, j, k]");
       if (v.size() != 3 && v.size() != 6)
         fail(st.line, w + "/ has " + std::to_string(v.size()) + " values (expected x, y, z or x, y, z, i, j, k)");
-      const Eigen::Vector3d p = Eigen::Vector3d(v[0], v[1], v[2]) * length_unit();
-      Eigen::Vector3d axis = multax_ ? last_given_axis_ : tlaxis_;
+      const Eigen::Vector3d p = to_work(Eigen::Vector3d(v[0], v[1], v[2]) * length_unit());
+      // The tool axis is modal (NX writes it only when it changes); MULTAX/OFF: TLAXIS's.
+      Eigen::Vector3d axis = multax_off_ ? tlaxis_ : last_given_axis_;
       if (v.size() == 6) {
-        axis = last_given_axis_ = unit_axis(st, v[3], v[4], v[5]);
+        axis = last_given_axis_ = to_work_dir(unit_axis(st, v[3], v[4], v[5]));
         multi_axis_file_ = true;
       }
       if (!p.allFinite()) fail(st.line, w + "/ position is out of range after the unit conversion");
@@ -430,7 +528,7 @@ class AptReader {
       const std::vector<double> v = numbers(st, "dx, dy, dz or a distance along the tool axis");
       Eigen::Vector3d d;
       if (v.size() == 3)
-        d = Eigen::Vector3d(v[0], v[1], v[2]) * length_unit();
+        d = to_work_dir(Eigen::Vector3d(v[0], v[1], v[2]) * length_unit());
       else if (v.size() == 1)
         d = axis_ * v[0] * length_unit();
       else
@@ -464,8 +562,8 @@ class AptReader {
       arc.word = w;
       double v[7];
       for (int i = 0; i < 7; ++i) v[i] = number(st, static_cast<std::size_t>(i), expected);
-      arc.centre = Eigen::Vector3d(v[0], v[1], v[2]) * length_unit();
-      arc.axis = unit_axis(st, v[3], v[4], v[5]);
+      arc.centre = to_work(Eigen::Vector3d(v[0], v[1], v[2]) * length_unit());
+      arc.axis = to_work_dir(unit_axis(st, v[3], v[4], v[5]));
       arc.radius = v[6] * length_unit();
       if (!(arc.radius > 0) || !std::isfinite(arc.radius) || !arc.centre.allFinite())
         fail(st.line, w + "/ radius " + printable(st.args[6]) + " is not a positive finite length (expected r > 0)");
@@ -499,21 +597,27 @@ class AptReader {
     }
     if (w == "UNITS") {
       if (st.args.size() != 1) fail(st.line, "UNITS/ expects one word (MM or INCHES)");
+      bool inches = false;
       if (st.args[0] == "MM")
-        inches_ = false;
+        inches = false;
       else if (st.args[0] == "INCHES" || st.args[0] == "INCH")
-        inches_ = true;
+        inches = true;
       else
         fail(st.line, "UNITS/" + printable(st.args[0]) + " is not a unit (expected UNITS/MM or UNITS/INCHES)");
+      if (!units_line_ && options_.default_unit && (*options_.default_unit == LengthUnit::Inch) != inches)
+        warn(st.line, std::string("UNITS/") + st.args[0] + " differs from [job] program_units (" +
+                          (inches ? "mm" : "inch") + "): the file's own UNITS/ is used");
+      inches_ = inches;
+      units_line_ = st.line;
       return true;
     }
     if (w == "MULTAX") {
       if (st.args.empty() && st.rest.empty())
-        multax_ = true;  // CATIA writes a bare MULTAX
+        multax_off_ = false;  // CATIA writes a bare MULTAX
       else if (st.args.size() == 1 && st.args[0] == "ON")
-        multax_ = true;
+        multax_off_ = false;
       else if (st.args.size() == 1 && st.args[0] == "OFF")
-        multax_ = false;
+        multax_off_ = true;
       else
         fail(st.line, "MULTAX/" + printable(st.rest) + " (expected MULTAX, MULTAX/ON or MULTAX/OFF)");
       return true;
@@ -522,7 +626,7 @@ class AptReader {
       if (st.args.size() != 3)
         fail(st.line, "TLAXIS/ has " + std::to_string(st.args.size()) + " values (expected the tool axis i, j, k)");
       const Eigen::Vector3d a =
-          unit_axis(st, number(st, 0, "i, j, k"), number(st, 1, "i, j, k"), number(st, 2, "i, j, k"));
+          to_work_dir(unit_axis(st, number(st, 0, "i, j, k"), number(st, 1, "i, j, k"), number(st, 2, "i, j, k")));
       tlaxis_ = last_given_axis_ = a;
       multi_axis_file_ = true;
       return true;
@@ -538,16 +642,18 @@ class AptReader {
       if (st.args.empty()) fail(st.line, std::string("CUTTER/ has no values (expected ") + expected + ")");
       const double d = number(st, 0, expected) * length_unit();
       const double r = st.args.size() > 1 && !st.args[1].empty() ? number(st, 1, expected) * length_unit() : 0.0;
-      set_tool(st, d, r, expected);
+      set_tool(st, d, r, 0.0, expected);
       return true;
     }
     if (w == "TLDATA") {
       // NX CLSF: TLDATA/MILL,d,r,length,taper,tip[,...]; other tool kinds carry no milling geometry.
       if (!st.args.empty() && st.args[0] == "MILL") {
-        const char* expected = "MILL, d, r, ... with 0 <= r <= d/2";
+        const char* expected = "MILL, d, r, length, ... with 0 <= r <= d/2";
         const double d = number(st, 1, expected) * length_unit();
         const double r = number(st, 2, expected) * length_unit();
-        set_tool(st, d, r, expected);
+        const double l = st.args.size() > 3 ? number(st, 3, expected) * length_unit() : 0.0;
+        if (!(l >= 0)) fail(st.line, "TLDATA/ tool length " + num(l) + " mm is negative (expected " + expected + ")");
+        set_tool(st, d, r, l, expected);
       }
       return true;
     }
@@ -572,6 +678,21 @@ class AptReader {
                         "' moves the tool in a way vmsim does not read (expected CL motion records: GOTO/, "
                         "GODLTA/, CIRCLE/ or MOVARC/ with GOTO/, FROM/, GOHOME; part-program source must go through "
                         "the CAM system's APT processor first)");
+    if (w == "MSYS") {
+      msys(st);
+      return true;
+    }
+    if (w == "CUTCOM" && st.args.size() == 1 && st.args[0] == "OFF") return true;
+    if (contains(kUnmodelledWords, w)) {
+      const std::string what = "'" + w + "' has an effect vmsim does not model (" +
+                               (w == "CUTCOM"   ? std::string("the controller's cutter radius offset")
+                                : w == "ORIGIN" ? std::string("the workpiece's place on the machine")
+                                                : std::string("a dwell: the cycle time leaves it out")) +
+                               ")";
+      if (!options_.lenient) fail(st.line, what + " (--lenient or [job] program_lenient = true reads it with a warning)");
+      warn(st.line, what + ": ignored");
+      return true;
+    }
     if (contains(kNonMotionWords, w)) return true;
     if (w.empty())
       fail(st.line, "record \"" + printable(trim(st.rest)) + "\" has no major word (expected WORD/values)");
@@ -580,12 +701,49 @@ class AptReader {
                       "tool is never skipped, the accepted ones are listed in core/apt.cpp)");
   }
 
-  void set_tool(const Statement& st, double d, double r, const char* expected) {
+  // The program's first tool; a later, different one is a warning: a ToolPath carries one tool (issue 24 adds tool
+  // changes).
+  void set_tool(const Statement& st, double d, double r, double length, const char* expected) {
     if (!(d >= 0) || !std::isfinite(d) || !(r >= 0) || !std::isfinite(r) || r > d / 2 + 1e-9)
       fail(st.line,
            st.word + "/ diameter " + num(d) + " mm, corner radius " + num(r) + " mm (expected " + expected + ")");
-    path_.tool_diameter_mm = d;
-    path_.tool_corner_radius_mm = r;
+    if (path_.tool_line == 0) {
+      path_.tool_diameter_mm = d;
+      path_.tool_corner_radius_mm = r;
+      path_.tool_length_mm = length;
+      path_.tool_line = st.line;
+      return;
+    }
+    if (std::abs(d - path_.tool_diameter_mm) > 1e-9 || std::abs(r - path_.tool_corner_radius_mm) > 1e-9)
+      warn(st.line, st.word + "/ changes the tool to diameter " + num(d) + " mm, corner radius " + num(r) +
+                        " mm: the whole program is cut with one tool (the job's [tool], or the program's first, line " +
+                        std::to_string(path_.tool_line) + ")");
+  }
+
+  // MSYS/x,y,z,xi,xj,xk,yi,yj,yk: the frame of the data that follows, in NX's absolute frame. The first one is the
+  // workpiece frame; a later one maps its data into it (p_work = R1^T (o + R p - o1)).
+  void msys(const Statement& st) {
+    const char* expected = "x, y, z, xi, xj, xk, yi, yj, yk: an origin and two unit directions at right angles";
+    if (st.args.size() != 9)
+      fail(st.line, "MSYS/ has " + std::to_string(st.args.size()) + " values (expected " + expected + ")");
+    double v[9];
+    for (int i = 0; i < 9; ++i) v[i] = number(st, static_cast<std::size_t>(i), expected);
+    const Eigen::Vector3d o = Eigen::Vector3d(v[0], v[1], v[2]) * length_unit();
+    const Eigen::Vector3d x(v[3], v[4], v[5]), y(v[6], v[7], v[8]);
+    // 7 decimals printed: unit length and right angle within 1e-5.
+    if (std::abs(x.norm() - 1) > 1e-5 || std::abs(y.norm() - 1) > 1e-5 || std::abs(x.dot(y)) > 1e-5)
+      fail(st.line, "MSYS/ directions are not unit vectors at right angles (expected " + std::string(expected) + ")");
+    Eigen::Matrix3d r;
+    r.col(0) = x.normalized();
+    r.col(2) = x.cross(y).normalized();
+    r.col(1) = r.col(2).cross(r.col(0));
+    if (!msys_first_) {
+      msys_first_ = std::make_pair(r, o);
+      return;
+    }
+    const auto& [r1, o1] = *msys_first_;
+    frame_r_ = r1.transpose() * r;
+    frame_o_ = r1.transpose() * (o - o1);
   }
 
   void fedrat(const Statement& st) {
@@ -621,7 +779,12 @@ class AptReader {
   Eigen::Vector3d axis_ = Eigen::Vector3d::UnitZ();             // current tool axis
   Eigen::Vector3d tlaxis_ = Eigen::Vector3d::UnitZ();           // axis of GOTOs without i,j,k under MULTAX/OFF
   Eigen::Vector3d last_given_axis_ = Eigen::Vector3d::UnitZ();  // ... and under MULTAX/ON: the last one given
-  bool multax_ = false;
+  bool multax_off_ = false;
+  AptOptions options_;
+  int units_line_ = 0;  // line of the UNITS/ record in force, 0: none yet
+  std::optional<std::pair<Eigen::Matrix3d, Eigen::Vector3d>> msys_first_;
+  Eigen::Matrix3d frame_r_ = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d frame_o_ = Eigen::Vector3d::Zero();
   bool multi_axis_file_ = false;
   bool inches_ = false;
   bool rapid_next_ = false;
@@ -632,7 +795,33 @@ class AptReader {
 
 }  // namespace
 
-core::ToolPath read_apt(const std::filesystem::path& program) {
+core::ToolPath read_apt_text(const std::string& text, const std::string& name, const AptOptions& options) {
+  return AptReader(name, options).read(text);
+}
+
+bool looks_like_apt(std::string_view text) {
+  static constexpr std::string_view kFirstWords[] = {"TOOL PATH", "TLDATA", "MSYS",   "UNITS",  "MULTAX", "CUTTER",
+                                                     "FROM",      "GOTO",   "LOADTL", "LOAD",   "MACHIN", "PPRINT",
+                                                     "FEDRAT",    "SPINDL", "TLAXIS", "PAINT",  "CLEARP", "RAPID"};
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t eol = text.find_first_of("\r\n", pos);
+    if (eol == std::string_view::npos) eol = text.size();
+    const std::string_view raw = text.substr(pos, eol - pos);
+    pos = eol + 1;
+    const std::string_view line = trim(raw);
+    if (line.empty() || line.substr(0, 2) == "$$" || nx_listing_line(raw)) continue;
+    const std::string u = upper(line.substr(0, std::min<std::size_t>(line.size(), 16)));
+    if (u.rfind("PARTNO", 0) == 0) return true;
+    const std::size_t slash = line.find('/');
+    if (slash == std::string_view::npos || slash == 0) return false;
+    Statement st = parse_statement(Record{0, std::string(line)});
+    return contains(kFirstWords, st.word);
+  }
+  return false;
+}
+
+core::ToolPath read_apt(const std::filesystem::path& program, const AptOptions& options) {
   const std::string file = program.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(program, ec))
@@ -641,7 +830,7 @@ core::ToolPath read_apt(const std::filesystem::path& program) {
   if (!in) throw core::Error(core::located(file, 0, "cannot open APT CL file for reading"));
   std::ostringstream ss;
   ss << in.rdbuf();
-  return AptReader(file).read(ss.str());
+  return AptReader(file, options).read(ss.str());
 }
 
 }  // namespace vmsim::program

@@ -47,8 +47,11 @@ Dialect program_dialect(const std::filesystem::path& path, Dialect requested) {
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   if (ext == ".mpf" || ext == ".spf") return Dialect::Sinumerik;
   if (ext == ".apt" || ext == ".cl" || ext == ".cls" || ext == ".aptsource") return Dialect::Apt;
-  if (ext == ".ngc" || ext == ".nc" || ext == ".gcode" || ext == ".tap" || ext == ".txt")
-    return looks_like_sinumerik_program(head_of(path)) ? Dialect::Sinumerik : Dialect::Rs274ngc;
+  if (ext == ".ngc" || ext == ".nc" || ext == ".gcode" || ext == ".tap" || ext == ".txt") {
+    const std::string head = head_of(path);
+    if (looks_like_apt(head)) return Dialect::Apt;
+    return looks_like_sinumerik_program(head) ? Dialect::Sinumerik : Dialect::Rs274ngc;
+  }
   throw core::Error(path.string() + ": unknown program type \"" + ext +
                     "\" (expected G-code: .ngc .nc .gcode .tap .txt, Sinumerik: .mpf .spf, or APT CL: .apt .cl .cls; "
                     "[job] program_dialect or --dialect names the dialect of other files)");
@@ -56,7 +59,12 @@ Dialect program_dialect(const std::filesystem::path& path, Dialect requested) {
 
 core::ToolPath read_program(const std::filesystem::path& path, const ProgramOptions& options) {
   switch (program_dialect(path, options.dialect)) {
-    case Dialect::Apt: return read_apt(path);
+    case Dialect::Apt: {
+      AptOptions a;
+      a.default_unit = options.program_units;
+      a.lenient = options.lenient;
+      return read_apt(path, a);
+    }
     case Dialect::Sinumerik: {
       SinumerikOptions s;
       s.lenient = options.lenient;

@@ -1,6 +1,7 @@
 #pragma once
 // Reading a CNC program into a ToolPath, whatever its dialect: RS274/NGC G-code (LinuxCNC) or APT CL files.
 #include "core/toolpath.hpp"
+#include "program/apt.hpp"
 
 #include <filesystem>
 #include <array>
@@ -25,8 +26,10 @@ struct ProgramOptions {
   std::optional<std::array<double, 3>> start_mm;     // G-code and Sinumerik: where the tool starts
   std::uint64_t max_blocks = 20'000'000;             // G-code and Sinumerik: blocks executed before "possible endless loop"
   Dialect dialect = Dialect::Auto;
-  // Sinumerik: statements known to have no motion that vmsim does not model become warnings (path.warnings).
+  // Sinumerik and APT: statements known to have no motion that vmsim does not model become warnings (path.warnings).
   bool lenient = false;
+  // APT CL: the unit of a file without UNITS/ ([job] program_units); unset: mm with a warning.
+  std::optional<LengthUnit> program_units;
   // Sinumerik: the machine's kinematics where TRAORI/TRAFOOF switch and CYCLE800 swivels (sinumerik.hpp); null:
   // the identity (exact while the rotary axes stand at zero).
   const MachineTransform* machine = nullptr;
@@ -34,7 +37,8 @@ struct ProgramOptions {
 
 // The dialect a file is read in under `requested`: Auto chooses by extension (.mpf .spf -> Sinumerik; .apt .cl .cls
 // .aptsource -> APT CL; .ngc .nc .gcode .tap .txt -> RS274/NGC unless the text reads as the 840D's: DEF, MSG(,
-// CYCLEnnn(, TRAORI, T="..", GOTOF, ...). Throws core::Error for an extension no reader takes.
+// CYCLEnnn(, TRAORI, T="..", GOTOF, ...), or as an APT CL file (its first record TOOL PATH/, TLDATA/, GOTO/, ...:
+// NX's information window saves CLSF listings as .txt). Throws core::Error for an extension no reader takes.
 Dialect program_dialect(const std::filesystem::path& path, Dialect requested = Dialect::Auto);
 
 // Reads the program in its dialect (program_dialect) into a ToolPath in the workpiece frame.

@@ -5,6 +5,10 @@
 #include "program/program.hpp"
 #include "program/sinumerik.hpp"
 
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
 #include <memory>
 
 namespace vmsim::sim {
@@ -66,6 +70,8 @@ core::ToolPath read_job_program(const core::Job& job) {
   popt.no_motion_mcodes = job.no_motion_mcodes;
   popt.dialect = program::parse_dialect(job.program_dialect);
   popt.lenient = job.program_lenient;
+  if (!job.program_units.empty())
+    popt.program_units = job.program_units == "inch" ? program::LengthUnit::Inch : program::LengthUnit::Mm;
   if (job.start_mm) popt.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
   std::unique_ptr<ChainTransform> transform;
   if (job.machine.kinematics == "chain" && program::program_dialect(job.program_file, popt.dialect) ==
@@ -88,6 +94,33 @@ core::ToolPath read_job_program(const core::Job& job) {
     tp.initial_position.head<3>() = *job.start_mm;
   }
   return tp;
+}
+
+std::optional<std::string> use_program_tool(core::Job& job) {
+  if (job.tool_given || job.program_file.empty()) return std::nullopt;
+  const core::ToolPath tp = read_job_program(job);
+  const double d = tp.tool_diameter_mm, r = tp.tool_corner_radius_mm;
+  if (tp.tool_line == 0 || !(d > 0)) return std::nullopt;
+  core::ToolSpec t;
+  t.diameter_mm = d;
+  const char* kind = "bull-nose";
+  if (std::abs(r - d / 2) <= 1e-9 * d) {
+    t.shape = core::ToolShape::Ball;
+    t.corner_radius_mm = d / 2;
+    kind = "ball";
+  } else if (r <= 1e-9 * d) {
+    t.shape = core::ToolShape::Flat;
+    t.corner_radius_mm = 0;
+    kind = "flat";
+  } else {
+    t.shape = core::ToolShape::BullNose;
+    t.corner_radius_mm = r;
+  }
+  t.flute_length_mm = tp.tool_length_mm > 0 ? tp.tool_length_mm : 2 * d;
+  t.length_mm = std::max(50.0, t.flute_length_mm);
+  job.tool = t;
+  return fmt::format("{}:{}: the job has no [tool]: the program's {} D{:.4g} R{:.4g} mm, flute length {:.4g} mm",
+                     job.program_file.string(), tp.tool_line, kind, d, t.corner_radius_mm, t.flute_length_mm);
 }
 
 }  // namespace vmsim::sim

@@ -6,6 +6,7 @@
 #include "motion/nurbs.hpp"
 
 #include <optional>
+#include <string>
 
 namespace vmsim::sim {
 
@@ -24,5 +25,10 @@ std::optional<JobCurve> read_job_curve(const core::Job& job);
 // move's tool length offset) instead of the program's own start. A curve job's path: its chain's bookkeeping moves
 // (read_job_curve; the interpolator follows the chain itself through sim::Chain).
 core::ToolPath read_job_program(const core::Job& job);
+
+// A job without [tool] whose program names its tool (APT CUTTER/ or TLDATA/MILL, the first one): that tool becomes the
+// job's (ball when r = d/2, flat when r = 0, else bull-nose; flute length the program's tool length, else 2 d).
+// Returns what was chosen and from where, for the user; nullopt when the job gives the tool or the program does not.
+std::optional<std::string> use_program_tool(core::Job& job);
 
 }  // namespace vmsim::sim
