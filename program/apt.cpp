@@ -49,7 +49,7 @@
 // last line ("Tool Path Listing has N lines.") are skipped.
 // Known, without motion, but with an effect vmsim does not model (kUnmodelledWords): DELAY and DWELL (ToolPath
 // carries no time), CUTCOM other than OFF (the controller's radius offset), ORIGIN (places the workpiece on the
-// machine): errors, or warnings with AptOptions::lenient (--lenient, [job] program_lenient).
+// machine): errors, or warnings with AptOptions::lenient ([job] program_lenient).
 //
 // Refused with an error naming the line and the word: words that move the tool in a way this reader does not
 // model (part-program GO commands, canned cycles, table rotations, CL transforms), and any word not listed
@@ -689,7 +689,7 @@ class AptReader {
                                 : w == "ORIGIN" ? std::string("the workpiece's place on the machine")
                                                 : std::string("a dwell: the cycle time leaves it out")) +
                                ")";
-      if (!options_.lenient) fail(st.line, what + " (--lenient or [job] program_lenient = true reads it with a warning)");
+      if (!options_.lenient) fail(st.line, what + " ([job] program_lenient = true reads it with a warning)");
       warn(st.line, what + ": ignored");
       return true;
     }

@@ -15,7 +15,7 @@ struct AptOptions {
   // The unit of a file without UNITS/ ([job] program_units). Unset and no UNITS/: read as mm with a warning.
   std::optional<LengthUnit> default_unit;
   // Records known not to move the tool whose effect vmsim does not model (DELAY, DWELL, CUTCOM other than OFF,
-  // ORIGIN): warnings (ToolPath::warnings) instead of errors.
+  // ORIGIN): warnings (ToolPath::warnings) instead of errors ([job] program_lenient).
   bool lenient = false;
 };
 

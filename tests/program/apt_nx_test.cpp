@@ -145,7 +145,7 @@ TEST(NxClsf, UnmodelledRecordsAreErrorsOrWarningsWhenLenient) {
   const std::string e = error_of(text);
   EXPECT_NE(e.find("nx.cls:4:"), std::string::npos) << e;
   EXPECT_NE(e.find("DELAY"), std::string::npos) << e;
-  EXPECT_NE(e.find("--lenient"), std::string::npos) << e;
+  EXPECT_NE(e.find("program_lenient"), std::string::npos) << e;
   AptOptions lenient;
   lenient.lenient = true;
   const core::ToolPath tp = read_apt_text(text, "nx.cls", lenient);
