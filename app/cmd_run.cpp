@@ -228,7 +228,7 @@ void print_summary(const core::Job& job, const sim::RunResult& r, const fs::path
 int run_run(const RunArgs& args) {
   const auto t_start = Clock::now();
   core::Job job = core::load_job(args.job);
-  // A CL program's own tool when the job gives none (APT TLDATA/, CUTTER/).
+  // A CL program's own tool when the job gives none (APT TLDATA/, CUTTER/); a note when the job's differs from it.
   if (const auto note = sim::use_program_tool(job); note && mpi_rank() == 0) std::printf("tool: %s\n", note->c_str());
   // The picture options are checked now, not after the simulation.
   ImageArgs image_args;

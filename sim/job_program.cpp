@@ -97,10 +97,21 @@ core::ToolPath read_job_program(const core::Job& job) {
 }
 
 std::optional<std::string> use_program_tool(core::Job& job) {
-  if (job.tool_given || job.program_file.empty()) return std::nullopt;
+  // Only CL programs carry their tool; others are not read twice.
+  if (job.program_file.empty() ||
+      program::program_dialect(job.program_file, program::parse_dialect(job.program_dialect)) != program::Dialect::Apt)
+    return std::nullopt;
   const core::ToolPath tp = read_job_program(job);
   const double d = tp.tool_diameter_mm, r = tp.tool_corner_radius_mm;
   if (tp.tool_line == 0 || !(d > 0)) return std::nullopt;
+  if (job.tool_given) {
+    // The job's tool cuts; say so when the program names another (a stand-in, or a tool change the job ignores).
+    if (std::abs(job.tool.diameter_mm - d) <= 1e-6 && std::abs(job.tool.corner_radius_mm - r) <= 1e-6)
+      return std::nullopt;
+    return fmt::format("{}:{}: the program's tool is D{:.4g} R{:.4g} mm; the job's [tool] D{:.4g} R{:.4g} mm cuts",
+                       job.program_file.string(), tp.tool_line, d, r, job.tool.diameter_mm,
+                       job.tool.corner_radius_mm);
+  }
   core::ToolSpec t;
   t.diameter_mm = d;
   const char* kind = "bull-nose";

@@ -28,7 +28,8 @@ core::ToolPath read_job_program(const core::Job& job);
 
 // A job without [tool] whose program names its tool (APT CUTTER/ or TLDATA/MILL, the first one): that tool becomes the
 // job's (ball when r = d/2, flat when r = 0, else bull-nose; flute length the program's tool length, else 2 d).
-// Returns what was chosen and from where, for the user; nullopt when the job gives the tool or the program does not.
+// Returns what was chosen and from where, for the user; with a [tool] that differs from the program's, a note saying
+// so (the job's cuts); nullopt when the program names no tool or names the job's.
 std::optional<std::string> use_program_tool(core::Job& job);
 
 }  // namespace vmsim::sim

@@ -92,9 +92,16 @@ TEST(HaasNx, UnitsWarnedAndToolTakenFromTheProgram) {
   ASSERT_TRUE(use_program_tool(inch));
   EXPECT_DOUBLE_EQ(inch.tool.diameter_mm, 25.4);
   EXPECT_DOUBLE_EQ(inch.tool.flute_length_mm, 76.2);
-  // A job with [tool] keeps it.
+  // A job with [tool] keeps it: silently when it is the program's, with a note when it is a stand-in.
   core::Job given = core::load_job(job_file());
   EXPECT_FALSE(use_program_tool(given));
+  core::Job stand_in = core::load_job(fs::path(VMSIM_SOURCE_DIR) / "parts" / "haas_umc750" / "chamfer_ball.toml");
+  const auto differs = use_program_tool(stand_in);
+  ASSERT_TRUE(differs);
+  EXPECT_NE(differs->find("APT_code.txt:2: the program's tool is D19.05 R3.048 mm; the job's [tool] D19.05 R9.525 mm"),
+            std::string::npos)
+      << *differs;
+  EXPECT_EQ(stand_in.tool.shape, core::ToolShape::Ball);
   fs::remove_all(dir);
 }
 
