@@ -22,7 +22,7 @@ packages=(
   libgtest-dev libgmock-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libzip-dev zipcmp zipmerge ziptool libpugixml-dev coinor-libclp-dev libglpk-dev
   libopenmpi-dev openmpi-bin libegl-dev fonts-dejavu-core libbenchmark-dev libfmt-dev python3-imath
-  zlib1g-dev libssl-dev python3
+  zlib1g-dev libssl-dev python3 libmatio-dev
 )
 # For the tests only (`make test`; `make demo` installs none of it): report.html validated (html5lib in strict mode,
 # tidy) and opened in headless Chromium through chromedriver (selenium), its screenshot read with PIL; Gwyddion 2.62,

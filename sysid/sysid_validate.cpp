@@ -46,7 +46,16 @@ Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eige
                                   2 * lags + 10));
   Validation v;
   const Eigen::Index n_val = total - first;
-  const Eigen::VectorXd sim = drives::simulate_tf(m.g, data.u);
+  Eigen::VectorXd sim = drives::simulate_tf(m.g, data.u);
+  if (data.initial_state_estimated) {
+    // The initial state and output offset fitted over the whole record: y - sim loses its component in their span.
+    Eigen::VectorXd e = data.y - sim;
+    IdData one = data;
+    one.starts.clear();
+    const detail::Segments seg(one, 0);
+    seg.project_out_initial_state(monic(m.g.a), std::max<int>(static_cast<int>(m.g.na()), static_cast<int>(m.g.nb()) + m.g.nk - 1), e, nullptr);
+    sim = data.y - e;
+  }
   v.simulated = sim.tail(n_val);
   const Eigen::VectorXd y = data.y.tail(n_val), u = data.u.tail(n_val);
   const Eigen::VectorXd err = y - v.simulated;
@@ -57,6 +66,8 @@ Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eige
   v.mse = err.squaredNorm() / n;
   v.max_abs_error = err.cwiseAbs().maxCoeff();
   v.tracking_fit_percent = fit_percent(u - y, u - v.simulated);
+  const double y_abs = (y.array() + data.y_reference).matrix().norm();
+  v.relative_error_percent = y_abs > 0.0 ? 100.0 * err.norm() / y_abs : 0.0;
 
   // Whiteness of the one-step errors, past the start-up transient.
   const Eigen::Index skip = std::max<Eigen::Index>({first, m.g.na(), m.g.nb() + m.g.nk, m.c.size()});
