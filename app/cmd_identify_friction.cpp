@@ -109,6 +109,9 @@ void print_result(const IdentifyFrictionArgs& args, const sysid::AxisTrace& trac
               trace.position.size() ? (rotary ? "position_deg" : "position_mm")
                                     : (rotary ? "velocity_deg_per_s" : "velocity_mm_per_s"));
   if (!ignored.empty()) std::printf("ignored columns: %s\n", fmt::format("{}", fmt::join(ignored, ", ")).c_str());
+  if (args.control_gain)
+    std::printf("control signal x %.6g = the %s (--control-gain); below as a virtual motor of one %s per rad\n",
+                *args.control_gain, rotary ? "torque at the axis, N m" : "force at the load, N", rotary ? "rad" : "mm");
   std::printf("motor: Kt %.4g N m/A, %s\n", opt.torque_constant_Nm_per_A,
               rotary ? fmt::format("gear {:.6g} deg per motor revolution", opt.axis_per_motor_rad * 360.0).c_str()
                      : fmt::format("screw lead {:.6g} mm", opt.axis_per_motor_rad * 2 * core::units::kPi).c_str());
