@@ -14,6 +14,7 @@
 #include "core/error.hpp"
 
 #include <gtest/gtest.h>
+#include <matio.h>
 
 #include <unistd.h>
 
@@ -165,6 +166,38 @@ TEST(MatTrace, AxisTraceForFrictionFromEmps) {
   ch.variables = parse_mat_variables("t=t,command=qg,control=vir");
   const std::string e = error_of([&] { read_axis_trace(p, ch); });
   EXPECT_NE(e.find("--mat: 'command' is not a role here"), std::string::npos) << e;
+}
+
+// .mat files written here by libmatio itself, v5 and v7.3 (HDF5), in single precision: the reader takes the
+// variables by name, converts float to double and m to mm, and finds the format by the file's header.
+TEST(MatTrace, V5AndV73FilesWrittenByLibmatio) {
+  for (const mat_ft version : {MAT_FT_MAT5, MAT_FT_MAT73}) {
+    const fs::path p = temp(version == MAT_FT_MAT5 ? "v5.mat" : "v73.mat");
+    mat_t* m = Mat_CreateVer(p.string().c_str(), nullptr, version);
+    if (!m) GTEST_SKIP() << "this libmatio cannot write " << (version == MAT_FT_MAT73 ? "v7.3 (no HDF5)" : "v5");
+    std::vector<float> t(50), c(50), a(50);
+    for (int k = 0; k < 50; ++k) t[k] = 0.002f * k, c[k] = 0.001f * k, a[k] = 0.001f * k - 0.0005f;
+    std::size_t dims[2] = {50, 1};
+    for (const auto& [name, v] : {std::pair{"time", &t}, std::pair{"ref", &c}, std::pair{"pos", &a}}) {
+      matvar_t* var = Mat_VarCreate(name, MAT_C_SINGLE, MAT_T_SINGLE, 2, dims, v->data(), 0);
+      ASSERT_EQ(Mat_VarWrite(m, var, MAT_COMPRESSION_NONE), 0);
+      Mat_VarFree(var);
+    }
+    Mat_Close(m);
+    SCOPED_TRACE(p.string());
+    EXPECT_EQ(detect_trace_format(p), TraceFormat::Mat);
+    TraceChannels ch;
+    ch.variables = parse_mat_variables("t=time,command=ref,actual=pos,axis=Y");
+    ch.unit = "m";
+    const PositionTrace tr = read_position_trace(p, ch);
+    fs::remove(p);
+    ASSERT_EQ(tr.t_s.size(), 50);
+    EXPECT_EQ(tr.axes, std::vector<std::string>{"Y"});
+    EXPECT_NEAR(tr.period_s, 0.002, 1e-9);
+    EXPECT_FALSE(tr.resampled);  // float time stamps: a jitter of about 1e-9 s
+    EXPECT_NEAR(tr.command(10, 0), 10.0, 1e-5);
+    EXPECT_NEAR(tr.actual(10, 0), 9.5, 1e-5);
+  }
 }
 
 // A small CSV trace whose time stamps step by period (1 + jitter (-1)^k): linear signals, so a resampling by linear
