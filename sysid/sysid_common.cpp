@@ -109,11 +109,37 @@ Segments::Segments(const IdData& data, Eigen::Index k0) : n_(data.u.size()) {
   bounds_ = data.starts.empty() ? std::vector<Eigen::Index>{0} : data.starts;
   bounds_.push_back(n_);
   is_valid_.assign(static_cast<std::size_t>(n_), 0);
-  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s)
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    row_bounds_.push_back(static_cast<Eigen::Index>(valid_.size()));
     for (Eigen::Index k = bounds_[s] + k0; k < bounds_[s + 1]; ++k) {
       valid_.push_back(k);
       is_valid_[static_cast<std::size_t>(k)] = 1;
     }
+  }
+  row_bounds_.push_back(static_cast<Eigen::Index>(valid_.size()));
+}
+
+void Segments::demean_gathered(Eigen::VectorXd& g) const {
+  for (std::size_t s = 0; s + 1 < row_bounds_.size(); ++s) {
+    const Eigen::Index a = row_bounds_[s], len = row_bounds_[s + 1] - a;
+    if (len > 0) g.segment(a, len).array() -= g.segment(a, len).mean();
+  }
+}
+
+void Segments::project_out_offset(const Eigen::VectorXd& c_monic, Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const {
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    const Eigen::Index a = bounds_[s], len = bounds_[s + 1] - a;
+    Eigen::VectorXd basis = drives::filter_q(Eigen::VectorXd::Ones(1), c_monic, Eigen::VectorXd::Ones(len));
+    for (Eigen::Index k = 0; k < len; ++k)
+      if (!is_valid_[static_cast<std::size_t>(a + k)]) basis[k] = 0.0;
+    const double norm = basis.norm();
+    if (!(norm > 0.0)) continue;
+    basis /= norm;
+    const auto project = [&](auto&& v) { v -= basis * basis.dot(v); };
+    project(eps.segment(a, len));
+    if (jac)
+      for (Eigen::Index c = 0; c < jac->cols(); ++c) project(jac->col(c).segment(a, len));
+  }
 }
 
 Eigen::VectorXd Segments::delayed(const Eigen::VectorXd& x, Eigen::Index shift) const {

@@ -36,10 +36,17 @@ class Segments {
   // the constant, per experiment, over the summed rows. Call after mask().
   void project_out_initial_state(const Eigen::VectorXd& f_monic, int n_free, Eigen::VectorXd& eps,
                                  Eigen::MatrixXd* jac) const;
+  // The equation-error counterparts for such experiments: a constant c per experiment in A y = B u + c (+ C e).
+  // Removes each experiment's mean from a gathered vector (rows(): a column of the ARX regression or its right-hand
+  // side; Frisch-Waugh: the least squares with the constants then need no columns for them), and from eps (and the
+  // Jacobian's columns) its least-squares fit on c / C, i.e. the constant filtered by 1/C from the experiment's start.
+  void demean_gathered(Eigen::VectorXd& gathered) const;
+  void project_out_offset(const Eigen::VectorXd& c_monic, Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const;
 
  private:
   Eigen::Index n_ = 0;
   std::vector<Eigen::Index> bounds_;  // starts, then n
+  std::vector<Eigen::Index> row_bounds_;  // each experiment's first summed row (index into valid_), then rows()
   std::vector<Eigen::Index> valid_;
   std::vector<char> is_valid_;
 };

@@ -240,6 +240,17 @@ TEST(IdentifyAxes, ATraceStartingMidMotionIsIdentifiedWithItsInitialStateAndRest
   for (const ModelResult& m : g.axes.at(0).models)
     expect_system(m.model, kX, 5e-3, std::string("given rest offset: ") + structure_name(m.model.structure));
 
+  // Neither given nor measurable (no still stretch): taken as 0, and every structure estimates the constant itself
+  // (here 50 um: an axis resting against friction under a proportional loop).
+  o.rest_offsets.clear();
+  const AxesIdentification none = identify_axes({moving_trace(6000, 500, 0.05, false, 13)}, nullptr, o);
+  EXPECT_EQ(none.data.axes.at(0).rest_offset, 0.0);
+  EXPECT_NE(none.data.axes.at(0).rest_offset_from.find("none"), std::string::npos);
+  for (const ModelResult& m : none.axes.at(0).models) {
+    expect_system(m.model, kX, 5e-3, std::string("offset estimated: ") + structure_name(m.model.structure));
+    EXPECT_GT(m.validation.fit_percent, 99.9) << structure_name(m.model.structure);
+  }
+
   // The old rule on the same capture: deviations from each signal's first sample, the model started from rest.
   AxisData old = g.data.axes.at(0);
   const auto first_sample = [&](IdData& d, const PositionTrace& tr, Eigen::Index from, Eigen::Index len) {
