@@ -97,6 +97,20 @@ TEST(RealTracesCli, IdentifyReadsEmpsMatFilesStartingMidMotion) {
     EXPECT_LT(m["validation"]["relative_error_percent"].get<double>(), 0.1) << name;  // held out, with force pulses
     EXPECT_EQ(m["marginal"], false) << name;
   }
+  // The rest offset given (mm), and a malformed one.
+  const auto g = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --mat t=t,command=qg,actual=qm "
+                           "--trace-unit m --structure arx --rest-offset X=0.015 --out " + q(tmp.path() / "g"),
+                           tmp);
+  ASSERT_EQ(g.code, 0) << g.err;
+  const auto rg = vmsim_test::read_json(tmp.path() / "g" / "report.json");
+  EXPECT_EQ(rg["axes"]["X"]["rest_offset"]["from"], "--rest-offset");
+  EXPECT_DOUBLE_EQ(rg["axes"]["X"]["rest_offset"]["value"].get<double>(), 0.015);
+  const auto b = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --mat t=t,command=qg,actual=qm "
+                           "--trace-unit m --rest-offset X:0.015 --out " + q(tmp.path() / "b"),
+                           tmp);
+  EXPECT_NE(b.code, 0);
+  EXPECT_NE(b.err.find("--rest-offset 'X:0.015': expected AXIS=VALUE"), std::string::npos) << b.err;
+
   // Without --mat the command says which variables the file has.
   const auto e = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --out " + q(tmp.path() / "e"), tmp);
   EXPECT_NE(e.code, 0);
