@@ -53,7 +53,7 @@ Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eige
     IdData one = data;
     one.starts.clear();
     const detail::Segments seg(one, 0);
-    seg.project_out_initial_state(monic(m.g.a), std::max<int>(static_cast<int>(m.g.na()), static_cast<int>(m.g.nb()) + m.g.nk - 1), e, nullptr);
+    seg.project_out_initial_state(monic(m.g.a), std::max(m.g.na(), m.g.nb() + m.g.nk - 1), e, nullptr);
     sim = data.y - e;
   }
   v.simulated = sim.tail(n_val);
@@ -71,7 +71,10 @@ Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eige
 
   // Whiteness of the one-step errors, past the start-up transient.
   const Eigen::Index skip = std::max<Eigen::Index>({first, m.g.na(), m.g.nb() + m.g.nk, m.c.size()});
-  const Eigen::VectorXd eps_all = prediction_errors(m, data);
+  // (OE's one-step errors are its simulation errors: with an estimated initial state, those of the fitted start.)
+  const Eigen::VectorXd eps_all =
+      m.structure == ModelStructure::Oe && data.initial_state_estimated ? Eigen::VectorXd(data.y - sim)
+                                                                         : prediction_errors(m, data);
   const Eigen::VectorXd eps = eps_all.tail(total - skip).array() - eps_all.tail(total - skip).mean();
   const double r0 = eps.squaredNorm();
   v.lags = lags;
