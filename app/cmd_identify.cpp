@@ -209,11 +209,11 @@ nlohmann::json print_axis(const sysid::AxisIdentification& a, const sysid::AxisD
   for (const sysid::ModelResult& r : a.models) {
     const sysid::IdentifiedModel& m = r.model;
     const char* sn = sysid::structure_name(m.structure);
-    std::printf("%-4s  %-9s  %2d %2d %2s %2d   %9.5f  %9.3f       %.3e   %.3e       %-5s  %d\n", a.name.c_str(), sn,
+    std::printf("%-4s  %-9s  %2d %2d %2s %2d   %9.5f  %9.3f       %.3e   %.3e       %-5s  %d%s\n", a.name.c_str(), sn,
                 m.orders.na, m.orders.nb,
                 m.structure == sysid::ModelStructure::Armax ? std::to_string(m.orders.nc).c_str() : "-", m.orders.nk,
                 r.validation.fit_percent, r.validation.tracking_fit_percent, 1.0 - r.validation.r2,
-                r.validation.mse * f2, r.validation.white ? "yes" : "no", r.rank);
+                r.validation.mse * f2, r.validation.white ? "yes" : "no", r.rank, r.marginal ? "  marginal" : "");
     jaxis["models"][sn] = model_json(r, f2);
   }
   jaxis["chosen"] = sysid::structure_name(a.models[a.chosen].model.structure);
@@ -278,7 +278,7 @@ int run_identify(const IdentifyArgs& args) {
   write_report(dir / "report.json", report);  // and report.html
   std::printf("chosen:");
   for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), sysid::structure_name(a.structure));
-  std::printf(" (lowest validation MSE%s)\nwrote %s (axis_models.toml, report.json)\n",
+  std::printf(" (lowest validation MSE, marginal models last%s)\nwrote %s (axis_models.toml, report.json)\n",
               options.use ? ", overridden by --use" : "", dir.string().c_str());
   return 0;
 }

@@ -371,7 +371,7 @@ void add_identify(CLI::App& cli, Commands& cmds) {
   c->add_option("--nc", a->nc, "ARMAX noise numerator order (default 2)");
   c->add_option("--delay", a->delay, "input delay nk in samples, or auto (default)");
   c->add_option("--use", a->use,
-                "structure written to the model file: best (lowest validation MSE, default), arx, armax or oe");
+                "structure written to the model file: best (lowest validation MSE, marginal models last; default), arx, armax or oe");
   add_out(c, a->out_dir, "output directory for axis_models.toml and report.json");
   cmds.push_back({c, [a] { return app::run_identify(*a); }});
 }
