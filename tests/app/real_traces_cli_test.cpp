@@ -93,6 +93,7 @@ TEST(RealTracesCli, IdentifyReadsEmpsMatFilesStartingMidMotion) {
   const auto& x = rep["axes"]["X"];
   EXPECT_EQ(x["starts_at_rest"], false);
   EXPECT_EQ(x["rest_offset"]["initial_state"], "estimated");
+  vmsim_test::expect_report_html(tmp.path() / "o");  // the new figures (sampling, rest offset) on the page too
   for (const auto& [name, m] : x["models"].items()) {
     EXPECT_LT(m["validation"]["relative_error_percent"].get<double>(), 0.1) << name;  // held out, with force pulses
     EXPECT_EQ(m["marginal"], false) << name;
@@ -130,6 +131,7 @@ TEST(RealTracesCli, IdentifyFrictionTakesTheControlSignalWithAGain) {
                            tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto rep = vmsim_test::read_json(tmp.path() / "f" / "report.json");
+  vmsim_test::expect_report_html(tmp.path() / "f");
   const auto& l = rep["load_side"];
   EXPECT_NEAR(l["mass_kg"].get<double>(), 95.1089, 0.02 * 95.1089);
   EXPECT_NEAR(l["viscous_N_s_per_m"].get<double>(), 203.5034, 0.10 * 203.5034);
