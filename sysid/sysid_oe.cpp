@@ -46,7 +46,18 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   // noise-free simulation) the passes can drift away from it.
   Eigen::MatrixXd phi;
   Eigen::VectorXd rhs;
+  // Experiments that do not start at rest: a constant per experiment in the start's regressions (the rest offset).
+  const auto demean = [&] {
+    if (!free_start) return;
+    seg.demean_gathered(rhs);
+    for (Eigen::Index j = 0; j < phi.cols(); ++j) {
+      Eigen::VectorXd col = phi.col(j);
+      seg.demean_gathered(col);
+      phi.col(j) = col;
+    }
+  };
   detail::arx_regression(u, y, nf, nb, nk, seg, phi, rhs);
+  demean();
   Eigen::VectorXd theta = detail::least_squares(phi, rhs);  // [f; b]
   theta.head(nf) = detail::reflect_into_unit_circle(theta.head(nf));
   Eigen::VectorXd best = theta;
@@ -54,6 +65,7 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   for (int pass = 0; pass < 30 && nf > 0; ++pass) {
     const Eigen::VectorXd fpoly = monic(theta.head(nf));
     detail::arx_regression(seg.filter(one, fpoly, u), seg.filter(one, fpoly, y), nf, nb, nk, seg, phi, rhs);
+    demean();
     Eigen::VectorXd next = detail::least_squares(phi, rhs);
     if (!next.allFinite()) break;
     next.head(nf) = detail::reflect_into_unit_circle(next.head(nf));
