@@ -57,7 +57,7 @@ struct AxisData {
   bool rotary = false;                   // the trace gave degrees (the data are in rad)
   IdData estimation, validation;
   Eigen::Index first_validation_sample = 0;  // the validation figures count samples from here on
-  bool at_rest = true;                   // every trace of the axis starts at rest (see above)
+  bool at_rest = true;                   // the first trace starts at rest (see above; each IdData says its own)
   // The first trace's |command - encoder| at its first sample (axis units); at rest, the encoder's offset.
   double first_sample_offset = 0.0;
   // For traces that start mid-motion: the rest offset used (encoder - command at rest, axis units) and where it came
