@@ -11,9 +11,11 @@ py::object to_python(const nlohmann::json& j) {
   return loads(py::str(j.dump()));
 }
 
-PyProgress::PyProgress(py::object callback) : callback_(std::move(callback)), last_(std::chrono::steady_clock::now()) {}
+PyProgress::PyProgress(py::object callback)
+    : owner_(std::this_thread::get_id()), callback_(std::move(callback)), last_(std::chrono::steady_clock::now()) {}
 
 void PyProgress::stage(const std::string& name, double total) {
+  if (std::this_thread::get_id() != owner_) return;
   stage_ = name;
   total_ = total;
   poll(0, true);
@@ -23,24 +25,35 @@ void PyProgress::update(double done) { poll(done, false); }
 
 void PyProgress::done() { poll(total_, true); }
 
+bool PyProgress::keep_going() {
+  if (std::this_thread::get_id() != owner_) return true;
+  return !check(0, false);
+}
+
 void PyProgress::poll(double done, bool force) {
-  if (pending_) throw Interrupted{};
+  if (std::this_thread::get_id() != owner_) return;
+  if (check(done, force)) throw Interrupted{};
+}
+
+bool PyProgress::check(double done, bool force) {
+  if (pending_) return true;
   const auto now = std::chrono::steady_clock::now();
-  if (!force && now - last_ < std::chrono::milliseconds(100)) return;
+  if (!force && now - last_ < std::chrono::milliseconds(100)) return false;
   last_ = now;
   py::gil_scoped_acquire gil;
-  // Signal handlers run only in the main thread; elsewhere this returns 0 and Ctrl-C waits for the call to end.
+  // Signal handlers run only in Python's main thread; called from another, this returns 0 and Ctrl-C waits.
   if (PyErr_CheckSignals() != 0) {
     pending_.emplace();  // takes the pending KeyboardInterrupt
-    throw Interrupted{};
+    return true;
   }
-  if (callback_.is_none()) return;
+  if (callback_.is_none()) return false;
   try {
     callback_(stage_, done, total_);
   } catch (py::error_already_set& e) {
     pending_.emplace(std::move(e));
-    throw Interrupted{};
+    return true;
   }
+  return false;
 }
 
 void PyProgress::raise_pending() {

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <optional>
 #include <string>
+#include <thread>
 #include <utility>
 
 namespace vmsim::python {
@@ -25,18 +26,24 @@ struct Interrupted {};
 
 // core::Progress for a call from Python: forwards each stage and its work to `callback(stage, done, total)` (None:
 // no callback) and checks for signals (Ctrl-C) at every stage boundary and, within a stage, at most every ~100 ms
-// with the GIL re-acquired; a pending Python exception is kept and Interrupted thrown to unwind the library call.
+// with the GIL re-acquired; a pending Python exception is kept and Interrupted thrown to unwind the library call
+// (keep_going() returns false instead, for loops in parallel regions). Calls from other threads than the caller's
+// (OpenMP workers) do nothing: Python sees signals on its main thread only, and the callback is not thread-safe.
 class PyProgress : public core::Progress {
  public:
   explicit PyProgress(py::object callback);
   void stage(const std::string& name, double total) override;
   void update(double done) override;
   void done() override;
+  bool keep_going() override;
   // The kept Python exception, raised again (after the call has unwound and the GIL is held).
   [[noreturn]] void raise_pending();
 
  private:
+  // Whether a Python exception is pending now (checks signals and calls the callback at most every ~100 ms).
+  bool check(double done, bool force);
   void poll(double done, bool force);
+  std::thread::id owner_;  // the thread that called from Python: signals are seen there only
   py::object callback_;
   std::string stage_;
   double total_ = 0;
@@ -50,6 +57,7 @@ template <class F>
 auto call_released(const py::object& callback, F&& f) {
   PyProgress progress(callback);
   try {
+    const core::AmbientProgress ambient(progress);  // the drives' loops ask it whether to go on
     py::gil_scoped_release release;
     return f(static_cast<core::Progress&>(progress));
   } catch (const Interrupted&) {

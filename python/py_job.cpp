@@ -58,7 +58,7 @@ std::string to_toml(py::handle v) {
     return out + "]";
   }
   // numpy scalars and other numbers
-  if (py::hasattr(v, "__float__")) return py::repr(py::float_(v)).cast<std::string>();
+  if (py::hasattr(v, "__float__")) return py::repr(py::float_(py::reinterpret_borrow<py::object>(v))).cast<std::string>();
   throw core::Error("job.override: cannot write a value of type " +
                     py::str(v.get_type().attr("__name__")).cast<std::string>() +
                     " as TOML (use bool, int, float, str, a path, a list or a dict)");
@@ -169,7 +169,7 @@ void PyJob::override_key(const std::string& key, py::handle value) {
   o.value_cell = py::str(value).cast<std::string>();
   o.where = "job.override('" + key + "')";
   if (key == "feed_scale") {
-    const double s = py::float_(value).cast<double>();
+    const double s = py::float_(py::reinterpret_borrow<py::object>(value)).cast<double>();
     if (!(s > 0) || !std::isfinite(s)) throw core::Error("job.override: feed_scale must be a finite number > 0");
   }
   std::vector<sim::StudyOverride> before = overrides_;

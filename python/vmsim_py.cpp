@@ -12,4 +12,5 @@ PYBIND11_MODULE(_vmsim, m) {
   vmsim::python::bind_values(m);
   vmsim::python::bind_job(m);
   vmsim::python::bind_metrology(m);
+  vmsim::python::bind_methods(m);
 }

@@ -26,7 +26,7 @@ def motion(job):
 def test_setpoints_shapes_strides_units(job, parts):
     sp = job.interpolate()
     n, axes = sp.position.shape
-    assert axes == len(sp.axis_names) == 3 and n == len(sp) == sp.samples
+    assert axes == len(sp.axis_names) and n == len(sp) == sp.samples
     # A view of the C++ matrix (column-major): each axis's samples contiguous, no copy.
     assert sp.position.dtype == np.float64 and sp.position.flags.f_contiguous and not sp.position.flags.owndata
     assert sp.position.strides == (8, 8 * n)
