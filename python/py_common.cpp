@@ -7,8 +7,8 @@
 namespace vmsim::python {
 
 py::object to_python(const nlohmann::json& j) {
-  static py::object loads = py::module_::import("json").attr("loads");
-  return loads(py::str(j.dump()));
+  // Imported per call (sys.modules caches it): a static py::object would be released after the interpreter ends.
+  return py::module_::import("json").attr("loads")(py::str(j.dump()));
 }
 
 PyProgress::PyProgress(py::object callback)
