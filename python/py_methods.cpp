@@ -5,6 +5,7 @@
 #include "sim/compensate.hpp"
 #include "sim/oga.hpp"
 #include "sim/plan_feed.hpp"
+#include "sim/report.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -37,6 +38,17 @@ py::dict table_dict(const methods::GainTable& t) {
   return d;
 }
 
+// report.json as the command writes it, but the files, pictures and write times: its header (inputs and their
+// hashes), the method's figures, the method's timings.
+py::object report_of(const std::string& command, const core::Job& job, const nlohmann::json& figures,
+                     const nlohmann::json& timings, const std::optional<std::filesystem::path>& axis_models = {}) {
+  nlohmann::json report = sim::report_header(command, job);
+  if (axis_models) report["inputs"]["axis_models"] = {{"path", axis_models->string()}};
+  report.update(figures);
+  report["timings_s"] = timings;
+  return to_python(report);
+}
+
 }  // namespace
 
 void bind_methods(py::module_& m) {
@@ -63,7 +75,7 @@ void bind_methods(py::module_& m) {
           return std::make_shared<sim::OgaJobResult>(sim::oga_job(loaded->job, o, p));
         });
         py::dict d;
-        d["report"] = to_python(r->report);
+        d["report"] = report_of("oga", loaded->job, r->report, r->timings);
         d["c2"] = table_dict(r->result.table);  // the gain schedule, one row per setpoint
         d["c1"] = table_dict(r->result.c1_table);
         d["c1_mse_um2"] = r->result.c1_mse_um2;
@@ -88,7 +100,7 @@ options: kp_grid, kf_grid as (MIN, STEP, MAX) in (m/min)/mm, gain_step dK, frequ
           return std::make_shared<sim::PlanFeedResult>(sim::plan_feed(loaded->job, p));
         });
         py::dict d;
-        d["report"] = to_python(r->report);
+        d["report"] = report_of("plan-feed", loaded->job, r->report, r->timings);
         d["ceiling_s_mm"] = py::array_t<double>(static_cast<py::ssize_t>(r->ceiling.s_mm.size()), r->ceiling.s_mm.data());
         d["ceiling_feed_mm_per_s"] =
             py::array_t<double>(static_cast<py::ssize_t>(r->ceiling.feed_mm_per_s.size()), r->ceiling.feed_mm_per_s.data());
@@ -116,7 +128,8 @@ interpolator's feed ceiling along the path's arc length), model_peak_mm, model_p
           return std::make_shared<sim::CompensateJobResult>(sim::compensate_job(loaded->job, o, p));
         });
         py::dict d;
-        d["report"] = to_python(r->report);
+        d["report"] = report_of("compensate", loaded->job, r->report, r->timings,
+                                axis_models ? axis_models : loaded->job.axis_models_file);
         d["setpoints"] = r->compensation.setpoints;  // compensated axis setpoints, samples x axes
         d["axis_names"] = r->interp.setpoints.axis_names;
         d["original_setpoints"] = py::cast(std::make_shared<motion::InterpResult>(r->interp));
