@@ -6,6 +6,8 @@
 #include "sim/oga.hpp"
 #include "sim/plan_feed.hpp"
 #include "sim/report.hpp"
+#include "sysid/identify_axes.hpp"
+#include "sysid/position_trace.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -49,9 +51,90 @@ py::object report_of(const std::string& command, const core::Job& job, const nlo
   return to_python(report);
 }
 
+// One axis's models as `vmsim identify` reports them (app/cmd_identify.cpp): rotary axes' errors in degrees.
+py::dict identified_axis(const sysid::AxisIdentification& a) {
+  const double f2 = a.rotary ? std::pow(180.0 / 3.14159265358979323846, 2) : 1.0;
+  py::dict d, models;
+  d["unit"] = a.rotary ? "deg" : "mm";
+  py::dict orders;
+  orders["na"] = a.orders.na, orders["nb"] = a.orders.nb, orders["nc"] = a.orders.nc, orders["nk"] = a.orders.nk;
+  d["orders"] = orders;
+  for (const sysid::ModelResult& r : a.models) {
+    const sysid::IdentifiedModel& m = r.model;
+    py::dict jm;
+    jm["rank"] = r.rank;
+    jm["b"] = Eigen::VectorXd(m.g.b);
+    jm["a"] = Eigen::VectorXd(m.g.a);
+    jm["c"] = Eigen::VectorXd(m.c);
+    jm["nk"] = m.g.nk;
+    jm["static_gain"] = m.g.static_gain();
+    jm["estimation_loss"] = m.loss * f2;
+    jm["converged"] = m.converged;
+    jm["fit_percent"] = r.validation.fit_percent;
+    jm["tracking_fit_percent"] = r.validation.tracking_fit_percent;
+    jm["r2"] = r.validation.r2;
+    jm["mse"] = r.validation.mse * f2;
+    jm["max_abs_error"] = r.validation.max_abs_error * std::sqrt(f2);
+    jm["white"] = r.validation.white;
+    models[sysid::structure_name(m.structure)] = jm;
+  }
+  d["models"] = models;
+  d["chosen"] = sysid::structure_name(a.models[a.chosen].model.structure);
+  return d;
+}
+
 }  // namespace
 
 void bind_methods(py::module_& m) {
+  m.def(
+      "identify",
+      [](std::vector<std::filesystem::path> traces, std::optional<std::filesystem::path> validate,
+         std::vector<std::string> structures, std::pair<int, int> orders_nb_na, int nc, std::optional<int> delay,
+         const std::string& use, std::vector<std::string> axes, std::optional<std::filesystem::path> save_to) {
+        sysid::AxesIdentificationOptions o;
+        o.structures.clear();
+        for (const std::string& s : structures) {
+          const auto st = sysid::parse_structure(s);
+          if (!st) throw core::Error("structures: '" + s + "': expected arx, armax or oe");
+          o.structures.push_back(*st);
+        }
+        if (use != "best") {
+          o.use = sysid::parse_structure(use);
+          if (!o.use || std::find(o.structures.begin(), o.structures.end(), *o.use) == o.structures.end())
+            throw core::Error("use '" + use + "': expected best or one of the structures identified");
+        }
+        if (nc < 0 || nc > 30) throw core::Error("nc: expected 0 to 30");
+        o.nc = nc;
+        o.orders = sysid::ModelOrders{orders_nb_na.second, orders_nb_na.first, nc, 1};
+        o.delay = delay;
+        o.axes = axes;
+        if (traces.empty()) throw core::Error("identify: at least one position trace is needed");
+        py::dict out;
+        std::vector<sysid::AxisIdentification> ids;
+        sysid::IdentificationData data;
+        {
+          py::gil_scoped_release release;
+          std::vector<sysid::PositionTrace> tr;
+          for (const auto& p : traces) tr.push_back(sysid::read_position_trace_csv(p));
+          std::optional<sysid::PositionTrace> vtrace;
+          if (validate) vtrace = sysid::read_position_trace_csv(*validate);
+          data = sysid::prepare_identification(tr, vtrace ? &*vtrace : nullptr, o);
+          for (const sysid::AxisData& a : data.axes) ids.push_back(sysid::identify_axis(a, data.source, o));
+          if (save_to) sysid::save_axis_models(*save_to, sysid::axis_model_file(data, ids), {"Written by vmsim.identify (Python)"});
+        }
+        for (const auto& a : ids) out[py::str(a.name)] = identified_axis(a);
+        return out;
+      },
+      py::arg("traces"), py::arg("validate") = py::none(),
+      py::arg("structures") = std::vector<std::string>{"arx", "armax", "oe"}, py::arg("orders_nb_na") = std::pair<int, int>{2, 5},
+      py::arg("nc") = 2, py::arg("delay") = py::none(), py::arg("use") = "best",
+      py::arg("axes") = std::vector<std::string>{}, py::arg("save_to") = py::none(),
+      R"(Each axis of position traces (CSV, as `vmsim motion` writes trace.csv or an NC's trace) identified as a
+discrete transfer function from command to encoder position (the predictive-compensation paper), as `vmsim identify`
+does: ARX, ARMAX, OE with orders (nb, na), ARMAX noise order nc, delay nk (None: the best ARX loss over 1..5), ranked
+by the validation MSE. Returns {axis: {unit, orders, chosen, models: {structure: {rank, b, a, c, nk, fit_percent,
+tracking_fit_percent, r2, mse, ...}}}}; save_to writes the axis-model file ([job] axis_models).)");
+
   m.def(
       "oga",
       [](const PyJob& pj, std::vector<double> kp_grid, std::vector<double> kf_grid, double gain_step,

@@ -79,3 +79,22 @@ def test_method_errors(parts):
         vmsim.oga(vmsim.load_job(parts / "oga_profile" / "job.toml"), kp_grid=(5, 1, 3))
     with pytest.raises(vmsim.Error, match="feedplan"):
         vmsim.plan_feed(vmsim.load_job(parts / "starfish" / "job.toml"))
+
+
+def test_identify(cli, parts, tmp_path):
+    """A trace `vmsim motion` writes, identified by Python and by `vmsim identify`: the same models and figures."""
+    run_cli(cli, "motion", parts / "starfish" / "job.toml", "--out", tmp_path / "motion")
+    trace = tmp_path / "motion" / "trace.csv"
+    run_cli(cli, "identify", "--trace", trace, "--out", tmp_path / "id")
+    cli_axes = json.loads((tmp_path / "id" / "report.json").read_text())["axes"]
+    py_axes = vmsim.identify([trace], save_to=tmp_path / "axis_models.toml")
+    assert set(py_axes) == set(cli_axes)
+    for name, a in py_axes.items():
+        c = cli_axes[name]
+        assert a["chosen"] == c["chosen"] and a["orders"] == c["orders"]
+        for s, m in a["models"].items():
+            cm = c["models"][s]
+            assert m["b"].tolist() == cm["b"] and m["a"].tolist() == cm["a"]
+            assert m["mse"] == cm["validation"]["mse"] and m["fit_percent"] == cm["validation"]["fit_percent"]
+    # The model file Python wrote drives a job as the CLI's does.
+    assert (tmp_path / "axis_models.toml").read_text().count("[[axes]]") == len(py_axes)
