@@ -14,3 +14,5 @@ Long calls release the GIL and stop with KeyboardInterrupt on Ctrl-C.
 """
 from ._vmsim import *  # noqa: F401,F403
 from ._vmsim import __version__, Error  # noqa: F401
+
+Error.__module__ = __name__  # tracebacks say vmsim.Error, the name users catch
