@@ -4,6 +4,7 @@
 #include "app/commands_sysid.hpp"
 #include "app/report.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/hash.hpp"
 #include "core/timing.hpp"
 #include "sysid/axis_model_file.hpp"
@@ -193,7 +194,9 @@ int run_identify(const IdentifyArgs& args) {
   std::optional<sysid::PositionTrace> vtrace;
   if (args.validate) vtrace = sysid::read_position_trace_csv(*args.validate);
   const sysid::IdentificationData data = sysid::prepare_identification(traces, vtrace ? &*vtrace : nullptr, options);
-  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
+  // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(args.out_dir.value_or(std::filesystem::current_path()), "vmsim identify");
+  const std::filesystem::path dir = out.path();
 
   nlohmann::json report = header_json(args, data);
   std::vector<sysid::AxisIdentification> axes;
@@ -211,10 +214,11 @@ int run_identify(const IdentifyArgs& args) {
   report["files"] = {"axis_models.toml", "report.json"};
   report["timings_s"] = {{"total", core::seconds_since(t_start)}};
   write_report(dir / "report.json", report);  // and report.html
+  out.commit();
   std::printf("chosen:");
   for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), sysid::structure_name(a.structure));
   std::printf(" (lowest validation MSE%s)\nwrote %s (axis_models.toml, report.json)\n",
-              options.use ? ", overridden by --use" : "", dir.string().c_str());
+              options.use ? ", overridden by --use" : "", out.target().string().c_str());
   return 0;
 }
 

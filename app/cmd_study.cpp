@@ -8,6 +8,7 @@
 #include "sim/study.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/timing.hpp"
 #include "render/report_html.hpp"
 
@@ -125,6 +126,7 @@ sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
     RunArgs ra;
     ra.job = dir / "job.toml";
     ra.out_dir = dir;
+    ra.in_place = true;  // dir is inside the study's staging directory, which is swapped into place whole
     ra.feed_scale = task.at("feed_scale").get<double>();
     ra.quiet = true;
     ra.no_render = true;
@@ -249,9 +251,11 @@ int run_study(const StudyArgs& args) {
 
   const auto t_start = Clock::now();
   const sim::Study study = sim::load_study(args.study);
-  std::error_code ec;
-  fs::create_directories(args.out_dir, ec);
-  if (ec) throw core::Error(args.out_dir.string() + ": cannot create the output directory: " + ec.message());
+  // The whole study is one result directory (core/output_dir.hpp): written in its staging directory (results.csv and
+  // study.json there as rows finish), swapped into place at the end; the tasks name the staging paths.
+  core::OutputDir out(args.out_dir, "vmsim study");
+  StudyArgs staged = args;
+  staged.out_dir = out.path();
   const std::size_t n = study.variations.size();
 
   // The queue and the table, shared by this rank's two threads: the main thread (MPI, the only one that calls it:
@@ -277,7 +281,7 @@ int run_study(const StudyArgs& args) {
         queue.pop_front();
       }
       sim::StudyResult failed;
-      if (auto task = prepare_task(study, i, args, failed)) return task;
+      if (auto task = prepare_task(study, i, staged, failed)) return task;
       store(i, failed);
     }
   };
@@ -304,10 +308,10 @@ int run_study(const StudyArgs& args) {
       std::lock_guard<std::mutex> lock(mu);
       copy = results;
     }
-    core::write_file_atomic(args.out_dir / "results.csv", sim::results_csv(study, copy));
+    core::write_file_atomic(out.path() / "results.csv", sim::results_csv(study, copy));
     const nlohmann::json sj = sim::study_json(study, copy, size, seconds_since(t_start));
-    core::write_file_atomic(args.out_dir / "study.json", sj.dump(2) + "\n");
-    render::write_report_html(args.out_dir, sj);
+    core::write_file_atomic(out.path() / "study.json", sj.dump(2) + "\n");
+    render::write_report_html(out.path(), sj);
   };
   std::size_t reported = 0, written = 0;
   auto last_write = Clock::now();
@@ -362,6 +366,7 @@ int run_study(const StudyArgs& args) {
   }
   local.join();
   write_tables();
+  out.commit();
   int ok = 0;
   for (const sim::StudyResult& r : results) ok += r.status == sim::StudyResult::Status::Ok;
   say(fmt::format("study {}: {} ok, {} failed of {} variations on {} rank{} in {:.1f} s; wrote {} and {}", study.name,
