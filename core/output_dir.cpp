@@ -117,7 +117,9 @@ std::string now_utc() {
 }
 
 // The staging directories of TARGET start with this (hidden, beside it).
-std::string staging_prefix(const fs::path& target) { return "." + target.filename().string() + ".vmsim-staging-"; }
+std::string staging_prefix(const fs::path& target) {
+  return fmt::format(".{}.vmsim-staging-", target.filename().string());
+}
 
 // Whether DIR holds a result vmsim wrote (the marker, or report.json of a version before the marker), or nothing.
 // Returns the first foreign entry's name when it holds something else.
@@ -158,7 +160,7 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command) {
   if (ec) throw Error(parent.string() + ": cannot create the directory for " + target_.string() + ": " + ec.message());
 
   // The lock: a hidden file beside the target, never removed (removing it would let two runs lock two files).
-  const fs::path lock_file = parent / ("." + target_.filename().string() + ".vmsim-lock");
+  const fs::path lock_file = parent / fmt::format(".{}.vmsim-lock", target_.filename().string());
   lock_fd_ = ::open(lock_file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
   if (lock_fd_ < 0) throw Error(fmt::format("{}: cannot open the lock file: {}", lock_file.string(), std::strerror(errno)));
   if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
