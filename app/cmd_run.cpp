@@ -24,6 +24,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <new>
@@ -262,6 +263,8 @@ std::optional<std::string> draw_pictures(const core::Job& job, const sim::RunRes
 int run_run(const RunArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
+  // Test hook (tests/app/study_cli_test.cpp, README "What you can rely on"): a crash in the run of this job.
+  if (const char* h = std::getenv("VMSIM_TEST_SEGFAULT_JOB"); h && job.name == h) std::raise(SIGSEGV);
   // The picture options are checked now, not after the simulation.
   ImageArgs image_args;
   image_args.size = args.image_size;
@@ -282,13 +285,11 @@ int run_run(const RunArgs& args) {
   std::optional<core::OutputDir> out;
   fs::path dir = args.out_dir.value_or(fs::current_path());
   const fs::path shown = dir;
-  if (!args.in_place) {
-    if (mpi_rank() == 0) {
-      out.emplace(dir, "vmsim run");
-      dir = out->path();
-    }
-    if (args.tiles_out) dir = mpi_broadcast(dir.string());
+  if (mpi_rank() == 0) {
+    out.emplace(dir, "vmsim run");
+    dir = out->path();
   }
+  if (args.tiles_out) dir = mpi_broadcast(dir.string());
 
   sim::Cut cut = sim::cut_job(job, options, progress);
   nlohmann::json tiles_json;

@@ -52,9 +52,6 @@ struct RunArgs {
   bool plan = false;
   std::optional<int> ranks;                      // --ranks N for the plan (default: the MPI world size)
   std::optional<double> memory_per_rank_gb;      // --memory-per-rank-gb for the plan's advice
-  // Not an option: vmsim study runs each variation into a directory of its own staged output directory
-  // (core/output_dir.hpp), so the run writes there directly instead of staging and swapping a directory of its own.
-  bool in_place = false;
 };
 // vmsim run JOB: the whole chain to the machined surface and its marks; report.json, height grids, part mesh,
 // signals.csv, and the pictures in DIR/images (app/result_images).
