@@ -105,7 +105,7 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
   }
   mine.peak_rss_bytes = peak_rss_bytes();
   mine.cpu_s = process_cpu_s();
-  quiet_barrier();  // ranks that finished early sleep rather than spin in the gathers
+  quiet_barrier("the gathering of the tiles (after the cut)");  // ranks that finished early sleep, not spin
   const std::vector<TileFigures> all = gather_tile_figures(mine);
   tiles_json = {{"ranks", tile.count},
                 {"split", "each dexel grid's rows (needles: blocks of 64) in equal bands, one per rank"},
@@ -128,7 +128,7 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
   if (cut.reference.field) whole_ref = gather_field(*cut.reference.field);
   progress.done();
   if (!root) {
-    quiet_barrier();  // while rank 0 writes the outputs (an error there aborts every rank)
+    quiet_barrier("the end of the run (rank 0 writes the outputs)");  // an error there aborts every rank
     return false;
   }
   cut.field = std::move(*whole);
