@@ -293,6 +293,8 @@ int run_compare(const CompareArgs& a) {
   const auto t_start = Clock::now();
   const metrology::SurfaceCompareOptions options = compare_options(a);
   // Inputs from a vmsim result directory must be listed in its report.json (not an earlier run's leftover).
+  require_utf8_input(a.measured, "--measured");
+  require_utf8_input(a.predicted, "--predicted");
   require_listed_in_report(a.measured);
   require_listed_in_report(a.predicted);
   // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).

@@ -188,6 +188,8 @@ void write_model_file(const std::filesystem::path& dir, const sysid::AxisModelFi
 
 int run_identify(const IdentifyArgs& args) {
   const auto t_start = core::Clock::now();
+  for (const auto& p : args.traces) require_utf8_input(p, "--trace");
+  if (args.validate) require_utf8_input(*args.validate, "--validate");
   const sysid::AxesIdentificationOptions options = parse_options(args);
   std::vector<sysid::PositionTrace> traces;
   for (const auto& p : args.traces) traces.push_back(sysid::read_position_trace_csv(p));

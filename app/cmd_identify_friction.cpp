@@ -143,6 +143,7 @@ nlohmann::json report_json(const IdentifyFrictionArgs& args, const sysid::Identi
 }  // namespace
 
 int run_identify_friction(const IdentifyFrictionArgs& args) {
+  require_utf8_input(args.trace, "the trace");
   std::vector<std::string> ignored;
   const sysid::AxisTrace trace = sysid::read_axis_trace_csv(args.trace, &ignored);
   bool gravity_given = false;

@@ -99,6 +99,8 @@ std::vector<std::string> write_scans(const MeasureArgs& a, const std::filesystem
 
 int run_measure(const MeasureArgs& a) {
   const auto t_start = core::Clock::now();
+  require_utf8_input(a.predicted, "the predicted surface");
+  if (a.reference) require_utf8_input(*a.reference, "--reference");
   const metrology::SensorOptions o = sensor_options(a);
   const double threshold = parse_length_mm(a.mark_threshold, "--mark-threshold");
   // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).

@@ -5,6 +5,7 @@
 #include "app/commands.hpp"
 #include "app/commands_study.hpp"
 #include "app/mpi_session.hpp"
+#include "app/report.hpp"
 #include "sim/study.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -310,6 +311,7 @@ int run_study(const StudyArgs& args) {
   if (rank != 0) return worker_loop(rank);
 
   const auto t_start = Clock::now();
+  require_utf8_input(args.study, "the study file");
   const sim::Study study = sim::load_study(args.study);
   // The whole study is one result directory (core/output_dir.hpp): written in its staging directory (results.csv and
   // study.json there as rows finish), swapped into place at the end; the tasks name the staging paths.

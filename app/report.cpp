@@ -3,6 +3,7 @@
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/output_dir.hpp"
+#include "core/utf8.hpp"
 #include "render/report_html.hpp"
 
 #include <algorithm>
@@ -36,6 +37,12 @@ std::vector<std::string> listed_files(const nlohmann::json& report) {
     for (const auto& f : report["files"])
       if (f.is_string()) names.push_back(f.get<std::string>());
   return names;
+}
+
+void require_utf8_input(const std::filesystem::path& file, const char* what) {
+  std::error_code ec;
+  const std::filesystem::path full = std::filesystem::absolute(file, ec);
+  core::require_utf8_path(ec ? file : full, what);
 }
 
 void require_listed_in_report(const std::filesystem::path& file) {

@@ -24,5 +24,8 @@ std::vector<std::string> listed_files(const nlohmann::json& report);
 // listed in its report.json: a file an earlier run left, or one of a run that did not finish, would pass for this
 // run's. Throws core::Error naming the file and what is missing; a file from anywhere else passes.
 void require_listed_in_report(const std::filesystem::path& file);
+// Refuses, before any work, an input path that report.json could not hold (not valid UTF-8 once made absolute),
+// naming WHAT (e.g. "--measured") and the path.
+void require_utf8_input(const std::filesystem::path& file, const char* what);
 
 }  // namespace vmsim::app

@@ -315,4 +315,14 @@ TEST(OutDirCli, APathThatIsNotUtf8IsRefusedBeforeTheRun) {
   const CliRun o = run_vmsim("run " + q(job_ok) + " --quiet --no-render --out " + q(tmp.path() / "out\xff"), tmp);
   EXPECT_EQ(o.code, 2) << o.out;
   EXPECT_NE(o.err.find("not valid UTF-8"), std::string::npos) << o.err;
+  // An input of vmsim compare likewise (it goes into report.json's inputs).
+  const CliRun ok = run_vmsim("run " + q(job_ok) + " --quiet --no-render --out " + q(tmp.path() / "ok"), tmp);
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  fs::copy_file(tmp.path() / "ok" / "surface.x3p", tmp.path() / "scan\xe9.x3p");
+  const CliRun c = run_vmsim("compare -m " + q(tmp.path() / "scan\xe9.x3p") + " -p " + q(tmp.path() / "ok" / "surface.x3p") +
+                                 " --no-render --out " + q(tmp.path() / "cmp"),
+                             tmp);
+  EXPECT_EQ(c.code, 2) << c.out;
+  EXPECT_NE(c.err.find("--measured is not valid UTF-8"), std::string::npos) << c.err;
+  EXPECT_FALSE(fs::exists(tmp.path() / "cmp"));
 }
