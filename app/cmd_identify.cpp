@@ -5,6 +5,7 @@
 #include "app/report.hpp"
 #include "core/csv.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/hash.hpp"
 #include "core/timing.hpp"
 #include "sysid/axis_model_file.hpp"
@@ -243,6 +244,8 @@ void write_model_file(const std::filesystem::path& dir, const sysid::AxisModelFi
 
 int run_identify(const IdentifyArgs& args) {
   const auto t_start = core::Clock::now();
+  for (const auto& p : args.traces) require_utf8_input(p, "--trace");
+  if (args.validate) require_utf8_input(*args.validate, "--validate");
   const sysid::AxesIdentificationOptions options = parse_options(args);
   const sysid::TraceChannels channels = trace_channels(args);
   std::vector<sysid::PositionTrace> traces;
@@ -257,7 +260,9 @@ int run_identify(const IdentifyArgs& args) {
     sampling_json(*vtrace);
   }
   const sysid::IdentificationData data = sysid::prepare_identification(traces, vtrace ? &*vtrace : nullptr, options);
-  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
+  // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(args.out_dir.value_or(std::filesystem::current_path()), "vmsim identify");
+  const std::filesystem::path dir = out.path();
 
   nlohmann::json report = header_json(args, data, sampling);
   std::vector<sysid::AxisIdentification> axes;
@@ -276,10 +281,11 @@ int run_identify(const IdentifyArgs& args) {
   report["files"] = {"axis_models.toml", "report.json"};
   report["timings_s"] = {{"total", core::seconds_since(t_start)}};
   write_report(dir / "report.json", report);  // and report.html
+  out.commit();
   std::printf("chosen:");
   for (const auto& a : file.axes) std::printf(" %s %s", a.name.c_str(), sysid::structure_name(a.structure));
   std::printf(" (lowest validation MSE, marginal models last%s)\nwrote %s (axis_models.toml, report.json)\n",
-              options.use ? ", overridden by --use" : "", dir.string().c_str());
+              options.use ? ", overridden by --use" : "", out.target().string().c_str());
   return 0;
 }
 

@@ -5,6 +5,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/machine.hpp"
 #include "core/hash.hpp"
 #include "core/units.hpp"
@@ -188,6 +189,7 @@ nlohmann::json report_json(const IdentifyFrictionArgs& args, const sysid::Identi
 }  // namespace
 
 int run_identify_friction(const IdentifyFrictionArgs& args) {
+  require_utf8_input(args.trace, "the trace");
   std::vector<std::string> ignored;
   sysid::TraceChannels channels;
   if (args.mat) channels.variables = sysid::parse_mat_variables(*args.mat);
@@ -199,15 +201,18 @@ int run_identify_friction(const IdentifyFrictionArgs& args) {
   print_result(args, trace, ignored, opt, d);
   if (!args.out_dir) return 0;
 
-  const std::filesystem::path dir = *args.out_dir;
-  std::filesystem::create_directories(dir);
+  // Written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(*args.out_dir, "vmsim identify-friction");
+  const std::filesystem::path dir = out.path();
   const bool write_gravity = sysid::gravity_is_written(d, gravity_given);
   core::write_file_atomic(dir / "drive_identified.toml",
                           sysid::identified_drive_toml(d, opt, trace.rotary, args.trace.filename().string(), write_gravity));
   core::write_file_atomic(dir / "friction_fit.csv", sysid::friction_points_csv(d, trace.rotary));
   write_report(dir / "report.json", report_json(args, opt, d, trace.rotary));  // and report.html
-  std::printf("wrote %s, %s, %s\n", (dir / "drive_identified.toml").string().c_str(),
-              (dir / "friction_fit.csv").string().c_str(), (dir / "report.json").string().c_str());
+  out.commit();
+  const std::filesystem::path shown = out.target();
+  std::printf("wrote %s, %s, %s\n", (shown / "drive_identified.toml").string().c_str(),
+              (shown / "friction_fit.csv").string().c_str(), (shown / "report.json").string().c_str());
   return 0;
 }
 
