@@ -298,7 +298,7 @@ int run_compare(const CompareArgs& a) {
   require_listed_in_report(a.measured);
   require_listed_in_report(a.predicted);
   // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
-  core::OutputDir out(a.out_dir.value_or(std::filesystem::current_path()), "vmsim compare");
+  core::OutputDir out(out_dir_or_default(a.out_dir, a.measured.stem().string(), "compare"), "vmsim compare");
   const std::filesystem::path dir = out.path();
 
   auto t0 = Clock::now();

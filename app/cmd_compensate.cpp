@@ -174,7 +174,7 @@ int run_compensate(const CompensateArgs& args) {
   options.dense_program = args.dense_program;
   const core::Job job = core::load_job(args.job);
   // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
-  core::OutputDir out(args.out_dir.value_or(fs::current_path()), "vmsim compensate");
+  core::OutputDir out(out_dir_or_default(args.out_dir, job.name, "compensate"), "vmsim compensate");
   TerminalProgress progress;
   const sim::CompensateJobResult r = sim::compensate_job(job, options, progress);
 

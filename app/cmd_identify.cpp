@@ -261,7 +261,7 @@ int run_identify(const IdentifyArgs& args) {
   }
   const sysid::IdentificationData data = sysid::prepare_identification(traces, vtrace ? &*vtrace : nullptr, options);
   // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
-  core::OutputDir out(args.out_dir.value_or(std::filesystem::current_path()), "vmsim identify");
+  core::OutputDir out(out_dir_or_default(args.out_dir, args.traces.front().stem().string(), "identify"), "vmsim identify");
   const std::filesystem::path dir = out.path();
 
   nlohmann::json report = header_json(args, data, sampling);

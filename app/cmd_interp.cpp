@@ -44,7 +44,7 @@ int run_interp(const InterpArgs& args) {
   const core::Job job = core::load_job(args.job);
   // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
   std::optional<core::OutputDir> out;
-  if (!args.summary_only) out.emplace(args.out_dir.value_or(std::filesystem::current_path()), "vmsim interp");
+  if (!args.summary_only) out.emplace(out_dir_or_default(args.out_dir, job.name, "interp"), "vmsim interp");
   sim::ChainOptions copt;
   copt.feed_scale = args.feed_scale.value_or(1.0);
   copt.ignore_gain_schedule = true;  // the drives do not run here

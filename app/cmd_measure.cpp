@@ -104,7 +104,7 @@ int run_measure(const MeasureArgs& a) {
   const metrology::SensorOptions o = sensor_options(a);
   const double threshold = parse_length_mm(a.mark_threshold, "--mark-threshold");
   // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
-  core::OutputDir out(a.out_dir.value_or(std::filesystem::current_path()), "vmsim measure");
+  core::OutputDir out(out_dir_or_default(a.out_dir, a.predicted.stem().string(), "measure"), "vmsim measure");
   const std::filesystem::path dir = out.path();
 
   const metrology::SurfaceFile pf = metrology::read_surface_file(a.predicted);

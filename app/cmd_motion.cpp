@@ -145,7 +145,7 @@ int run_motion(const MotionArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
   // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
-  core::OutputDir out(args.out_dir.value_or(std::filesystem::current_path()), "vmsim motion");
+  core::OutputDir out(out_dir_or_default(args.out_dir, job.name, "motion"), "vmsim motion");
   sim::MotionRunOptions options;
   options.feed_scale = args.feed_scale.value_or(1.0);
   options.full_rate_trace = args.full_rate_trace;

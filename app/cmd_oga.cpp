@@ -434,7 +434,7 @@ int run_oga(const OgaArgs& args) {
   const core::Job job = core::load_job(args.job);
   // Rank 0 writes: it locks the output directory now (core/output_dir.hpp), writes in staging, swaps at the end.
   std::optional<core::OutputDir> out;
-  if (mpi_rank() == 0) out.emplace(args.out_dir.value_or(fs::current_path()), "vmsim oga");
+  if (mpi_rank() == 0) out.emplace(out_dir_or_default(args.out_dir, job.name, "oga"), "vmsim oga");
   TerminalProgress progress(mpi_rank() == 0);
   const sim::OgaJobResult o = sim::oga_job(job, options, progress);
   if (!o.verification) return 0;  // another rank than 0 under mpirun: rank 0 writes

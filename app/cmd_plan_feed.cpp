@@ -245,7 +245,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
   // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
-  core::OutputDir out(args.out_dir.value_or(fs::current_path()), "vmsim plan-feed");
+  core::OutputDir out(out_dir_or_default(args.out_dir, job.name, "plan_feed"), "vmsim plan-feed");
   TerminalProgress progress;
   const sim::PlanFeedResult r = sim::plan_feed(job, progress);
 

@@ -219,7 +219,7 @@ int run_run(const RunArgs& args) {
   // Rank 0 owns the output directory (core/output_dir.hpp): locked now, before the run; written in its staging
   // directory; swapped into place whole at the end. With --tiles-out every rank writes its tile there.
   std::optional<core::OutputDir> out;
-  fs::path dir = args.out_dir.value_or(fs::current_path());
+  fs::path dir = out_dir_or_default(args.out_dir, job.name, "run");
   const fs::path shown = dir;
   if (mpi_rank() == 0) {
     out.emplace(dir, "vmsim run");

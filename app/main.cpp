@@ -23,7 +23,7 @@ using Path = std::filesystem::path;
 
 // ---- options several commands share ----
 
-void add_out(CLI::App* c, std::optional<Path>& out, const std::string& what = "output directory (created if absent)") {
+void add_out(CLI::App* c, std::optional<Path>& out, const std::string& what = "result directory, replaced whole at the end (new, empty or an earlier vmsim result; default: NAME_COMMAND/ here)") {
   c->add_option("--out,-o", out, what);
 }
 void add_feed_scale(CLI::App* c, std::optional<double>& scale, const std::string& what = "multiply every programmed feed (e.g. 0.5)") {
@@ -86,7 +86,7 @@ void add_interp(CLI::App& cli, Commands& cmds) {
   auto* c = cli.add_subcommand(
       "interp", "Interpolate a job's program into axis setpoints every Te (jerk-limited, within tolerance)");
   add_job(c, a->job);
-  add_out(c, a->out_dir, "output directory for setpoints.csv (created if absent)");
+  add_out(c, a->out_dir, "result directory for setpoints.csv (default: NAME_interp/ here)");
   add_feed_scale(c, a->feed_scale);
   c->add_flag("--summary-only", a->summary_only, "print the cycle time and the axis peaks, write no setpoints.csv");
   cmds.push_back({c, [a] { return app::run_interp(*a); }});

@@ -7,6 +7,7 @@
 #include "render/report_html.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <fstream>
 
 namespace vmsim::app {
@@ -52,6 +53,15 @@ void require_listed_in_report(const std::filesystem::path& file) {
   if (std::find(names.begin(), names.end(), name) == names.end())
     throw core::Error(file.string() + ": not listed in " + (dir / "report.json").string() +
                       " (\"files\"): a file an earlier run left in that directory, not a result of the run it reports");
+}
+
+std::filesystem::path out_dir_or_default(const std::optional<std::filesystem::path>& out_dir, const std::string& name,
+                                         const char* command) {
+  if (out_dir) return *out_dir;
+  std::string dir = (name.empty() ? std::string("vmsim") : name) + "_" + command;
+  for (char& c : dir)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-' && c != '_') c = '_';
+  return std::filesystem::current_path() / dir;
 }
 
 }  // namespace vmsim::app

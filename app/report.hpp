@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,5 +28,11 @@ void require_listed_in_report(const std::filesystem::path& file);
 // Refuses, before any work, an input path that report.json could not hold (not valid UTF-8 once made absolute),
 // naming WHAT (e.g. "--measured") and the path.
 void require_utf8_input(const std::filesystem::path& file, const char* what);
+// Where a command writes without --out: NAME_COMMAND in the current directory (e.g. plane_cylinder_fast_run/), so
+// a second command or job does not replace the first's result, and the current directory itself (which
+// core::OutputDir cannot swap) is never the target. NAME is the job's name or the input file's stem; characters
+// other than letters, digits, '.', '-' and '_' become '_'.
+std::filesystem::path out_dir_or_default(const std::optional<std::filesystem::path>& out_dir, const std::string& name,
+                                         const char* command);
 
 }  // namespace vmsim::app

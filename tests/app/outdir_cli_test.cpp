@@ -326,3 +326,23 @@ TEST(OutDirCli, APathThatIsNotUtf8IsRefusedBeforeTheRun) {
   EXPECT_NE(c.err.find("--measured is not valid UTF-8"), std::string::npos) << c.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "cmp"));
 }
+
+// Without --out, a command writes NAME_COMMAND/ in the current directory (the job's name for run and interp, the
+// scan's stem for compare), never the current directory itself; a second command or job gets its own directory.
+TEST(OutDirCli, WithoutOutACommandWritesNameCommandHere) {
+  TempDir tmp;
+  const fs::path job = write_job(tmp, "plain", false, 0.2);
+  CliRun r = run_vmsim("run " + q(job) + " --quiet --no-render", tmp, "cd " + q(tmp.path()) + " && ");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(tmp.path() / "plain_run" / "report.json"));
+  EXPECT_NE(r.out.find("plain_run"), std::string::npos) << r.out;
+  r = run_vmsim("interp " + q(job) + " --summary-only", tmp, "cd " + q(tmp.path()) + " && ");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(tmp.path() / "plain_interp"));  // --summary-only writes nothing
+  fs::copy_file(tmp.path() / "plain_run" / "surface.x3p", tmp.path() / "scan.x3p");
+  r = run_vmsim("compare -m scan.x3p -p " + q(tmp.path() / "plain_run" / "surface.x3p") + " --no-render", tmp,
+                "cd " + q(tmp.path()) + " && ");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(tmp.path() / "scan_compare" / "report.json"));
+  EXPECT_TRUE(fs::exists(tmp.path() / "plain_run" / "report.json"));  // the run's result is untouched
+}
