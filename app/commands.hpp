@@ -21,7 +21,7 @@ int run_canon(const CanonArgs& args);
 
 struct InterpArgs {
   std::filesystem::path job;
-  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::optional<double> feed_scale;              // multiplies every programmed feed (override, as on the NC panel)
   bool summary_only = false;                     // print the summary, write no file
 };
@@ -30,7 +30,7 @@ int run_interp(const InterpArgs& args);
 
 struct MotionArgs {
   std::filesystem::path job;
-  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::optional<double> feed_scale;
   bool full_rate_trace = false;                  // also write every current-loop sample (large)
 };
@@ -40,7 +40,7 @@ int run_motion(const MotionArgs& args);
 
 struct RunArgs {
   std::filesystem::path job;
-  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::optional<double> feed_scale;
   bool quiet = false;                            // no progress on stderr
   bool no_render = false;                        // no pictures in DIR/images
@@ -94,7 +94,7 @@ int run_stats(const StatsArgs& args);
 
 struct CompareArgs {
   std::filesystem::path measured, predicted;     // scan (any surface format); prediction (a surface, or an STL mesh)
-  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::string align = "auto";                    // auto: robust registration; none: the scan as it lies
   std::vector<double> align_init;                // X,Y,Z mm, RX,RY,RZ deg: start (auto) or the transform (none)
   std::vector<std::string> align_regions;        // XMIN,XMAX,YMIN,YMAX (mm, prediction frame): align on these only
@@ -112,7 +112,7 @@ int run_compare(const CompareArgs& args);
 struct MeasureArgs {
   std::filesystem::path predicted;
   std::optional<std::filesystem::path> reference;  // to see which marks the scan resolves (e.g. vmsim run's reference)
-  std::optional<std::filesystem::path> out_dir;    // default: the current directory
+  std::optional<std::filesystem::path> out_dir;    // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::string step = "5um", spot = "4um", noise = "0.05um";
   double max_slope_deg = 30.0;
   double dropout = 0.0;
@@ -125,7 +125,7 @@ int run_measure(const MeasureArgs& args);
 
 struct PlanFeedArgs {
   std::filesystem::path job;                     // a job with a [feedplan] table
-  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   bool no_render = false;                        // no charts
 };
 // vmsim plan-feed JOB: Chen et al.'s contour-error-constrained feed plan (drives/feedplan), played by the interpolator

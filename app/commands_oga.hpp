@@ -9,7 +9,7 @@ namespace vmsim::app {
 
 struct OgaArgs {
   std::filesystem::path job;                     // a biaxial job (two of X Y Z move)
-  std::optional<std::filesystem::path> out_dir;  // default: the current directory
+  std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::string kp_grid = "1:0.5:9";               // MIN:STEP:MAX, (m/min)/mm (Duong et al. section III.D)
   std::string kf_grid = "0:0.1:1.2";             // MIN:STEP:MAX
   std::vector<std::string> ranges;               // "MIN:MAX" (every adjusted axis) or "AXIS=MIN:MAX", repeatable

@@ -468,7 +468,7 @@ class AptReader {
     const double r_max = std::max(rs, re);
     const double step = 2 * std::acos(std::max(0.0, 1 - kTiltedArcSag_mm / r_max));
     const int chords = std::max(1, static_cast<int>(std::ceil(sweep / std::max(step, 1e-6))));
-    if (chords > 10'000'000) fail(arc.line, where + " needs more than 10 million chords");
+    if (chords > 100'000) fail(arc.line, where + " needs more than 100 000 chords of 1 um sag (expected a radius below 2 km)");
     const Eigen::Vector3d a0 = axis_;
     const double turn = std::atan2(a0.cross(axis).norm(), a0.dot(axis));
     for (int k = 1; k <= chords; ++k) {
