@@ -1,4 +1,5 @@
 // vmsim interp JOB: the interpolator alone, so users can look at setpoints before the drives act on them.
+#include "app/report.hpp"
 #include "app/commands.hpp"
 #include "sim/chain.hpp"
 #include "sim/job_program.hpp"
