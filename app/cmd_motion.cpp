@@ -162,7 +162,7 @@ int run_motion(const MotionArgs& args) {
   write_report(dir / "report.json", report);
   print_motion(job, r, report["timings_s"]["drives"].get<double>());
   std::printf("wrote %s (report.json, %zu CSV files)\n", dir.string().c_str(), files.size());
-  return 0;
+  return print_verdict(report);
 }
 
 }  // namespace vmsim::app

@@ -1,4 +1,5 @@
 #include "metrology/x3p.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -139,6 +140,7 @@ class ZipReader {
 };
 
 std::string read_whole_file(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) fail(file, "cannot open file");
   std::ostringstream ss;

@@ -20,6 +20,10 @@
 
 namespace vmsim::sim {
 
+double motion_bytes_per_setpoint(int axes, bool turning) {
+  return 8.0 * axes + 20 + 64.0 * axes + 60 + 48 + (turning ? 24 : 0) + 8.0 * (4 * axes + 6);
+}
+
 namespace {
 
 constexpr double kBaseBytes = 70e6;           // the process: code and libraries (bench/README.md, measured)
@@ -108,9 +112,7 @@ double surface_nodes(const FieldShape& s, int rows) {
   return double(s.grids.back().nu) * rows;
 }
 
-double motion_bytes(double samples, int axes, bool turning) {
-  return samples * (8.0 * axes + 20 + 64.0 * axes + 60 + 48 + (turning ? 24 : 0) + 8.0 * (4 * axes + 6));
-}
+double motion_bytes(double samples, int axes, bool turning) { return samples * motion_bytes_per_setpoint(axes, turning); }
 
 struct MotionCounts {
   double samples = 0, sweeps = 0;

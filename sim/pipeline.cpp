@@ -55,7 +55,7 @@ Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core:
   if (kind == core::RemovalSpec::Motion::Actual) {
     t0 = Clock::now();
     progress.stage(job.name + ": servo drives");
-    m.response = chain.simulate(m.interp.setpoints);
+    m.response = chain.simulate(m.interp.setpoints, false, &m.drive_checks);
     progress.done();
     m.timings["drives"] = seconds_since(t0);
   }
@@ -301,6 +301,8 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
     region = removal::Box{job.stock.min_mm, job.stock.max_mm};
   } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
     mesh = core::read_stl(job.stock.mesh_file);
+    // Before its bounding box: a mesh without triangles has none (it crashed here, issue 18).
+    core::check_closed(*mesh, job.stock.mesh_file.string());
     region.lo = mesh->vertices_mm.colwise().minCoeff().transpose();
     region.hi = mesh->vertices_mm.colwise().maxCoeff().transpose();
   } else {
