@@ -211,7 +211,7 @@ int run_compensate(const CompensateArgs& args) {
   report["timings_s"]["total"] = seconds_since(t_start);
   write_report(dir / "report.json", report);
   print_summary(job, r, dir, files);
-  return 0;
+  return print_verdict(report);
 }
 
 }  // namespace vmsim::app

@@ -475,10 +475,11 @@ int run_oga(const OgaArgs& args) {
   report["mpi_ranks"] = mpi_active() ? mpi_size() : 1;  // the pair search's processes (the result does not depend on it)
   write_report(dir / "report.json", report);
   print_summary(job, o, dir, !images.empty(), seconds_since(t_start));
+  const int verdict_code = print_verdict(report);
   if (render_error)
     throw core::Error("the results are written to " + dir.string() +
                       ", but the charts could not be drawn (--no-render skips them): " + *render_error);
-  return 0;
+  return verdict_code;
 }
 
 }  // namespace vmsim::app

@@ -272,7 +272,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
   report["timings_s"]["total"] = seconds_since(t_start);
   write_report(dir / "report.json", report);
   print_summary(job, r, dir, !images.empty());
-  return 0;
+  return print_verdict(report);
 }
 
 }  // namespace vmsim::app

@@ -4,6 +4,10 @@
 // verdict is "ok".
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
+#include <cmath>
+
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -133,6 +137,73 @@ TEST(ChecksCli, AMicrosecondPeriodIsRefusedBeforeInterpolating) {
   const CliRun r = run_vmsim("interp '" + job.string() + "' --out '" + (tmp.path() / "o").string() + "'", tmp);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("max_setpoints"), std::string::npos) << r.err;
+}
+
+// The kernel's MemAvailable (bytes), for the memory guards' tests; infinity when unknown.
+double mem_available_bytes() {
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  double kb = 0;
+  std::string unit;
+  while (in >> key >> kb >> unit)
+    if (key == "MemAvailable:") return kb * 1024;
+  return INFINITY;
+}
+
+// A z-map at 0.01 mm over a 190 x 190 mm stock: 3.6e8 rays, under the fixed ray limit (4e8) but, with the stock copy
+// and the outputs (sim/memory_plan.hpp's model: 16 B per ray, 136 B per node), 55 GB. Before issue 18 the run
+// started and died; now it is refused before the stock is made, naming the estimate, the memory and the key.
+TEST(ChecksCli, AFieldBeyondTheAvailableMemoryIsRefused) {
+  if (mem_available_bytes() > 50e9) GTEST_SKIP() << "this machine has more than 50 GB available";
+  TempDir tmp;
+  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  std::string text = slurp(job);
+  text = std::regex_replace(text, std::regex("max_mm = \\[65.0, 10.0, 0.0\\]"), "max_mm = [185.0, 190.0, 0.0]");
+  text = std::regex_replace(text, std::regex("spacing_mm = 0.2"), "spacing_mm = 0.01");
+  write_file(job, text);
+  const CliRun r = run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("spacing_mm = 0.01"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("is available"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("bad_alloc"), std::string::npos) << r.err;
+}
+
+// STL stocks without triangles (an empty binary STL, an ASCII `solid x`/`endsolid x`) crashed vmsim run (the bounding
+// box was taken before the closedness check); a mesh whose facets all bound no area gave an error naming neither the
+// file nor the cause. All three are refused naming the file and the cause.
+TEST(ChecksCli, StlStocksWithoutTrianglesAreRefused) {
+  TempDir tmp;
+  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  std::string text = slurp(job);
+  text = std::regex_replace(text, std::regex("type = \"box\"\nmin_mm = [^\n]*\nmax_mm = [^\n]*"),
+                            "type = \"stl\"\nfile = \"stock.stl\"");
+  write_file(job, text);
+  std::string empty_binary(80, ' ');
+  empty_binary += std::string(4, '\0');
+  // Two facets whose corners all coincide: each has a repeated vertex once welded.
+  std::string degenerate = "solid d\n";
+  for (int k = 0; k < 2; ++k)
+    degenerate += "facet normal 0 0 1\nouter loop\nvertex 1 1 1\nvertex 1 1 1\nvertex 1 1 1\nendloop\nendfacet\n";
+  degenerate += "endsolid d\n";
+  for (const auto& [stl, cause] : std::vector<std::pair<std::string, std::string>>{
+           {empty_binary, "no triangles"}, {"solid x\nendsolid x\n", "no triangles"}, {degenerate, "no area"}}) {
+    write_file(tmp.path() / "stock.stl", stl);
+    const CliRun r = run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("stock.stl"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(cause), std::string::npos) << r.err;
+  }
+}
+
+// A surface path that is a FIFO blocked vmsim compare forever; every reader now refuses a non-regular file.
+TEST(ChecksCli, AFifoIsRefusedNotReadForever) {
+  TempDir tmp;
+  const fs::path fifo = tmp.path() / "scan.x3p";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  // timeout: a regression would hang; 124 is timeout's exit code.
+  const CliRun r = run_vmsim("stats '" + fifo.string() + "'", tmp, "timeout 60 ");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("FIFO"), std::string::npos) << r.err;
 }
 
 }  // namespace

@@ -38,6 +38,8 @@ TEST(DriveChecks, ClosedLoopPolesMatchTheAnalyticSecondOrderLoop) {
   p.velocity_tn_s = 1e9;  // no integral action: the velocity loop is first order
   p.viscous_Nm_s_per_rad = 0.0;
   p.kv_per_s = 1000.0;
+  p.kf = 0.0;  // no feedforward and no delays: the plain P loop of the reference
+  p.position_delay_samples = p.feedforward_delay_samples = 0;
   const LinearAxisModel model(p, te);
   const Eigen::VectorXcd z = model.closed_loop_poles();
   // The dominant pair: the poles with the smallest |s| that are complex.
@@ -54,8 +56,10 @@ TEST(DriveChecks, ClosedLoopPolesMatchTheAnalyticSecondOrderLoop) {
   EXPECT_LT(d.pole_radius, 1.0);
   EXPECT_NEAR(d.min_damping, 0.707, 0.05);  // the pair is the least damped
   // Low-frequency following error of that loop: E = s (s + wv) / (s^2 + wv s + wv Kv) = s / Kv + s^2 (1/(wv Kv) -
-  // 1/Kv^2) + ...: lag 1 ms, second coefficient 1/(2e6) - 1e-6 = -0.5e-6 s^2 (with the ZOH's half-period, +Te/2).
-  EXPECT_NEAR(d.lag_s, 1e-3 + te / 2, 0.03e-3);
+  // 1/Kv^2) + ...: c1 = 1 ms (the sampled loop x[k+1] = x[k] + Te Kv e[k] has the same ramp error v / Kv), and
+  // c2 = 1/(2e6) - 1e-6 = -0.5e-6 s^2.
+  EXPECT_NEAR(d.lag_s, 1e-3, 0.01e-3);
+  EXPECT_NEAR(d.lag_s2, -0.5e-6, 0.05e-6);
 }
 
 // The Mikron's drives (Duong et al.'s C1 gains, which that paper ran on the real machine) are stable, with a gain
