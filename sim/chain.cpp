@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "core/memory.hpp"
+#include "drives/linear_model.hpp"
 #include "methods/feedplan_file.hpp"
 #include "methods/feedplan_job.hpp"
 #include "methods/feedplan_servo.hpp"
@@ -69,6 +70,22 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
          methods::feed_plan_transfer_functions(*job.feedplan, job.machine, f, &servo_given_)) {
       servo_owned_.push_back(std::make_unique<methods::TransferFunctionAxis>(tf, job.interp.period_s));
       servo_per_axis_.push_back(servo_owned_.back().get());
+    }
+  }
+  // The period must fit every cascade's loops; checked here, before any interpolation (period_ms = 0.001, us typed
+  // as ms, made millions of setpoints before the drives refused it: issue 18).
+  const std::vector<bool> cascade = cascade_axes();
+  for (std::size_t a = 0; a < job.machine.axes.size(); ++a) {
+    const core::MachineAxis& ax = job.machine.axes[a];
+    if (!ax.drive || !cascade[a]) continue;
+    try {
+      (void)drives::LinearAxisModel(*ax.drive, job.interp.period_s);
+    } catch (const core::Error& e) {
+      throw core::Error(core::located(job.file.string(), 0,
+                                      fmt::format("[interpolation] period_ms = {:g} does not fit the drive of axis {} "
+                                                  "({}): {}",
+                                                  job.interp.period_s * 1e3, ax.name, job.machine.source_file,
+                                                  e.what())));
     }
   }
 }

@@ -201,9 +201,6 @@ TEST(GcodeErrors, HostileNestingAndRecursion) {
   EXPECT_NE(msg.find("test.ngc:2: unexpected character"), std::string::npos) << msg;
 }
 
-}  // namespace
-}  // namespace vmsim::program::gcode_test
-
 // Issue 18: a bad expression on an O-word repeat, while or if line is reported on that line with its cause, not at
 // the block's end as "no matching opening O-word" (LinuxCNC's rs274 reports the line it cannot read, too).
 TEST(GcodeErrors, BadExpressionOnAnOWordLineIsReportedThere) {
@@ -217,3 +214,6 @@ TEST(GcodeErrors, BadExpressionOnAnOWordLineIsReportedThere) {
     EXPECT_EQ(msg.find("no matching opening"), std::string::npos) << msg;
   }
 }
+
+}  // namespace
+}  // namespace vmsim::program::gcode_test
