@@ -476,45 +476,6 @@ double corner_gain(const core::ToolPath& path, const PathPiece& a, const PathPie
 
 }  // namespace
 
-namespace {
-
-bool whole_line(const PathPiece& p) { return p.kind == PathPiece::Kind::Line && p.u_begin == 0.0 && p.u_end == 1.0; }
-
-// Lines far shorter than the tolerance - a G20 program's last-digit rounding against a start given in mm is 0.16 um -
-// merged into a neighbouring line: kept, each would be a corner of its own, and the blends on either side, which may
-// take at most half its length, would make the axes crawl through it (1 s and a 17 um excursion, issue 18). The path
-// moves by at most the tiny line's length.
-void merge_tiny_lines(std::vector<PathPiece>& base, double tiny) {
-  if (base.size() < 2) return;
-  std::vector<PathPiece> out;
-  out.reserve(base.size());
-  for (std::size_t i = 0; i < base.size(); ++i) {
-    PathPiece& p = base[i];
-    if (!(whole_line(p) && p.length < tiny)) {
-      out.push_back(std::move(p));
-      continue;
-    }
-    if (i + 1 < base.size() && whole_line(base[i + 1])) {  // the next line starts where the tiny one started
-      PathPiece& n = base[i + 1];
-      const core::Vec6 end = n.a + n.b;
-      n.a = p.a;
-      n.b = end - n.a;
-      n.finalize();
-      continue;
-    }
-    if (!out.empty() && whole_line(out.back())) {  // or the previous one ends where it ended
-      PathPiece& q = out.back();
-      q.b = (p.a + p.b) - q.a;
-      q.finalize();
-      continue;
-    }
-    out.push_back(std::move(p));
-  }
-  base.swap(out);
-}
-
-}  // namespace
-
 SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions& options) {
   SmoothPath out;
   out.start = to_path_space(path.initial_position);
@@ -522,7 +483,6 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   std::vector<PathPiece> base;
   base.reserve(path.moves.size());
   for (std::size_t i = 0; i < path.moves.size(); ++i) pieces_from_move(path, i, options.feed_scale, base);
-  merge_tiny_lines(base, 0.01 * options.tolerance_mm);
   if (base.empty()) return out;
   out.start = base.front().point_u(base.front().u_begin);
   out.end = base.back().point_u(base.back().u_end);

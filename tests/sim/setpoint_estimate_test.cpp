@@ -1,6 +1,8 @@
 // The setpoint count's lower bound (motion/setpoint_estimate, checked by sim::Chain before interpolating) against the
 // count the interpolator really makes on the parts' programs: never above it (the refusal is never wrong), and within
-// a factor 3 of it on every part (acceleration, jerk and corner slow-downs are what the bound leaves out).
+// a factor 5 of it on every part (measured: 1.02 to 1.4 on the long programs, up to 4.3 on the few-second passes
+// plane_cylinder/job_fast and corner/job_fast and on the 5-axis dome: acceleration, jerk and corner slow-downs are
+// what the bound leaves out).
 #include "core/error.hpp"
 #include "core/job.hpp"
 #include "motion/setpoint_estimate.hpp"
@@ -28,7 +30,7 @@ TEST(SetpointEstimate, BoundsTheInterpolatorsCountOnTheParts) {
         motion::estimate_setpoints(chain.smooth_path(program), job.machine, job.interp.period_s);
     const double n = static_cast<double>(chain.interpolate(program).setpoints.samples());
     EXPECT_LE(e.setpoints, n) << name;
-    EXPECT_GE(e.setpoints * 3.0, n) << name;
+    EXPECT_GE(e.setpoints * 5.0, n) << name;
     std::printf("%-36s estimate %10.0f  interpolated %10.0f  ratio %.3f\n", name.c_str(), e.setpoints, n, n / e.setpoints);
   }
 }
@@ -39,7 +41,9 @@ TEST(SetpointEstimate, MaxSetpointsRefusesBeforeInterpolating) {
   const core::ToolPath program = sim::read_job_program(job);
   const sim::Chain free_chain(job);
   const double n = static_cast<double>(free_chain.interpolate(program).setpoints.samples());
-  job.interp.max_setpoints = n / 4;  // under the lower bound (at least n / 3, above)
+  const motion::SetpointEstimate e =
+      motion::estimate_setpoints(free_chain.smooth_path(program), job.machine, job.interp.period_s);
+  job.interp.max_setpoints = 0.99 * e.setpoints;  // just under the lower bound
   const sim::Chain chain(job);
   try {
     (void)chain.interpolate(program);
