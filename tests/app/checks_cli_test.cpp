@@ -209,4 +209,16 @@ TEST(ChecksCli, AFifoIsRefusedNotReadForever) {
   EXPECT_NE(r.err.find("FIFO"), std::string::npos) << r.err;
 }
 
+// --plan holds its memory model against this machine's available memory (core/memory.hpp): a small job fits.
+TEST(ChecksCli, ThePlanComparesWithTheAvailableMemory) {
+  TempDir tmp;
+  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  const CliRun r = run_vmsim("run '" + job.string() + "' --plan --out '" + (tmp.path() / "p").string() + "'", tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("available on this machine"), std::string::npos) << r.out;
+  const nlohmann::json plan = read_json(tmp.path() / "p" / "plan.json");
+  EXPECT_GT(plan["available_memory"]["bytes"].get<double>(), plan["one_process"]["total_bytes"].get<double>());
+  EXPECT_TRUE(plan["one_process"]["fits_available_memory"].get<bool>());
+}
+
 }  // namespace
