@@ -7,6 +7,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/stl.hpp"
 #include "core/timing.hpp"
 #include "metrology/compare.hpp"
@@ -291,15 +292,19 @@ void print_summary(const CompareArgs& a, const metrology::SurfaceFile& ms, const
 int run_compare(const CompareArgs& a) {
   const auto t_start = Clock::now();
   const metrology::SurfaceCompareOptions options = compare_options(a);
-  const std::filesystem::path dir = a.out_dir.value_or(std::filesystem::current_path());
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  // Inputs from a vmsim result directory must be listed in its report.json (not an earlier run's leftover).
+  require_utf8_input(a.measured, "--measured");
+  require_utf8_input(a.predicted, "--predicted");
+  require_listed_in_report(a.measured);
+  require_listed_in_report(a.predicted);
+  // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(a.out_dir.value_or(std::filesystem::current_path()), "vmsim compare");
+  const std::filesystem::path dir = out.path();
 
   auto t0 = Clock::now();
   const metrology::SurfaceFile ms = metrology::read_surface_file(a.measured);
   if (!ms.note.empty()) std::fprintf(stderr, "vmsim compare: warning: %s: %s\n", a.measured.string().c_str(), ms.note.c_str());
-  if (ms.profile) return run_compare_profile(a, ms);
+  if (ms.profile) return run_compare_profile(a, ms, out);
   if (!a.profile_line.empty())
     throw core::Error("--profile-line: applies to a measured profile; " + a.measured.string() + " holds a surface");
   std::string pred_format;
@@ -339,9 +344,10 @@ int run_compare(const CompareArgs& a) {
   files.push_back("report.json");
   report["files"] = files;
   write_report(dir / "report.json", report);
+  out.commit();
 
   print_summary(a, ms, pred_format, c);
-  std::printf("wrote %s (%zu files) in %.1f s\n", dir.string().c_str(), files.size(), seconds_since(t_start));
+  std::printf("wrote %s (%zu files) in %.1f s\n", out.target().string().c_str(), files.size(), seconds_since(t_start));
   return 0;
 }
 

@@ -6,6 +6,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "metrology/compare.hpp"
 #include "metrology/profile.hpp"
 #include "metrology/surface_io.hpp"
@@ -99,16 +100,13 @@ nlohmann::json write_picture(const std::filesystem::path& dir, const CompareArgs
 
 }  // namespace
 
-int run_compare_profile(const CompareArgs& a, const metrology::SurfaceFile& ms) {
+int run_compare_profile(const CompareArgs& a, const metrology::SurfaceFile& ms, core::OutputDir& out) {
   const std::vector<double> v = parse_line(a);
   if (a.align != "auto" && a.align != "none") throw core::Error("--align: expected auto or none, found \"" + a.align + "\"");
   if (!a.align_init.empty() || !a.align_regions.empty())
     throw core::Error("--align-init and --align-region apply to surfaces; a profile is registered along its line (--align auto|none)");
   const metrology::ProfileEvaluation how = metrology::profile_evaluation(parse_processing(a.options));
-  const std::filesystem::path dir = a.out_dir.value_or(std::filesystem::current_path());
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  const std::filesystem::path dir = out.path();
 
   const metrology::SurfaceFile ps = metrology::read_surface_file(a.predicted);
   if (ps.profile) throw core::Error(a.predicted.string() + ": a profile; the prediction must be a surface");
@@ -132,6 +130,7 @@ int run_compare_profile(const CompareArgs& a, const metrology::SurfaceFile& ms) 
   files.push_back("report.json");
   report["files"] = files;
   write_report(dir / "report.json", report);
+  out.commit();
 
   const metrology::ProfileParameters &em = r.measured.parameters, &ep = r.predicted.parameters;
   std::printf("measured %s (%s profile, %ld points every %.4g um), predicted %s (%s)\n",
@@ -142,7 +141,7 @@ int run_compare_profile(const CompareArgs& a, const metrology::SurfaceFile& ms) 
               c.rms_mm * 1e3, c.min_mm * 1e3, c.max_mm * 1e3, c.points);
   std::printf("Ra measured %.4f um, predicted %.4f um; Rq %.4f / %.4f um; Rz %.4f / %.4f um\n", em.Ra_mm * 1e3,
               ep.Ra_mm * 1e3, em.Rq_mm * 1e3, ep.Rq_mm * 1e3, em.Rz_mm * 1e3, ep.Rz_mm * 1e3);
-  std::printf("wrote %s (%zu files)\n", dir.string().c_str(), files.size());
+  std::printf("wrote %s (%zu files)\n", out.target().string().c_str(), files.size());
   return 0;
 }
 

@@ -6,6 +6,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/job.hpp"
 #include "core/timing.hpp"
 #include "core/units.hpp"
@@ -172,14 +173,13 @@ int run_compensate(const CompensateArgs& args) {
   options.method.orientation = !args.tip_only;
   options.dense_program = args.dense_program;
   const core::Job job = core::load_job(args.job);
+  // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(args.out_dir.value_or(fs::current_path()), "vmsim compensate");
   TerminalProgress progress;
   const sim::CompensateJobResult r = sim::compensate_job(job, options, progress);
 
   auto t0 = Clock::now();
-  const fs::path dir = args.out_dir.value_or(fs::current_path());
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  const fs::path dir = out.path();
   std::vector<std::string> files = write_results(dir, job, r);
   const double t_write = seconds_since(t0);
 
@@ -191,7 +191,7 @@ int run_compensate(const CompensateArgs& args) {
     try {
       draw_chart(dir, job, r);
       files.push_back("images/contour_error.png");
-    } catch (const core::Error& e) {
+    } catch (const std::exception& e) {  // any failure (bad_alloc too): the report is written all the same
       render_error = e.what();
       std::fprintf(stderr, "vmsim compensate: no chart: %s\n", e.what());
     }
@@ -210,7 +210,8 @@ int run_compensate(const CompensateArgs& args) {
   report["timings_s"]["render"] = t_render;
   report["timings_s"]["total"] = seconds_since(t_start);
   write_report(dir / "report.json", report);
-  print_summary(job, r, dir, files);
+  out.commit();
+  print_summary(job, r, out.target(), files);
   return print_verdict(report);
 }
 

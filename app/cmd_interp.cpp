@@ -4,6 +4,7 @@
 #include "sim/job_program.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "motion/interp.hpp"
 #include "core/job.hpp"
 #include "motion/kinematics.hpp"
@@ -13,6 +14,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 
 namespace vmsim::app {
 
@@ -40,6 +42,9 @@ void write_setpoints_csv(const std::filesystem::path& file, const core::Setpoint
 
 int run_interp(const InterpArgs& args) {
   const core::Job job = core::load_job(args.job);
+  // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
+  std::optional<core::OutputDir> out;
+  if (!args.summary_only) out.emplace(args.out_dir.value_or(std::filesystem::current_path()), "vmsim interp");
   sim::ChainOptions copt;
   copt.feed_scale = args.feed_scale.value_or(1.0);
   copt.ignore_gain_schedule = true;  // the drives do not run here
@@ -82,12 +87,9 @@ int run_interp(const InterpArgs& args) {
                 ax.max_acceleration * fa, ua, peaks.jerk[i] * fj, ax.max_jerk * fj, uj);
   }
   if (args.summary_only) return 0;
-  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
-  write_setpoints_csv(dir / "setpoints.csv", r.setpoints, job.machine);
-  std::printf("wrote %s\n", (dir / "setpoints.csv").string().c_str());
+  write_setpoints_csv(out->path() / "setpoints.csv", r.setpoints, job.machine);
+  out->commit();
+  std::printf("wrote %s\n", (out->target() / "setpoints.csv").string().c_str());
   return 0;
 }
 

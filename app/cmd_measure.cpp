@@ -6,6 +6,7 @@
 #include "app/commands.hpp"
 #include "app/report.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/timing.hpp"
 #include "metrology/scan_plan.hpp"
 #include "metrology/surface_io.hpp"
@@ -98,12 +99,13 @@ std::vector<std::string> write_scans(const MeasureArgs& a, const std::filesystem
 
 int run_measure(const MeasureArgs& a) {
   const auto t_start = core::Clock::now();
+  require_utf8_input(a.predicted, "the predicted surface");
+  if (a.reference) require_utf8_input(*a.reference, "--reference");
   const metrology::SensorOptions o = sensor_options(a);
   const double threshold = parse_length_mm(a.mark_threshold, "--mark-threshold");
-  const std::filesystem::path dir = a.out_dir.value_or(std::filesystem::current_path());
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(a.out_dir.value_or(std::filesystem::current_path()), "vmsim measure");
+  const std::filesystem::path dir = out.path();
 
   const metrology::SurfaceFile pf = metrology::read_surface_file(a.predicted);
   std::optional<core::HeightGrid> ref;
@@ -116,6 +118,7 @@ int run_measure(const MeasureArgs& a) {
   report["files"] = files;
   report["timings_s"] = {{"total", core::seconds_since(t_start)}};
   write_report(dir / "report.json", report);
+  out.commit();
 
   const metrology::SensorReport& rep = plan.sensor;
   std::printf("scan of %s: %ld x %ld points every %.4g mm, spot %.4g mm (halves wavelengths of %.4g mm), noise %.3g um\n",
@@ -129,7 +132,7 @@ int run_measure(const MeasureArgs& a) {
     std::printf("mark %zu: %s %.2f um predicted, %.2f um seen by the scan: %s\n", k + 1,
                 plan.marks[k].mark.overcut ? "overcut" : "undercut", plan.marks[k].mark.depth_mm * 1e3,
                 plan.marks[k].scan_depth_mm * 1e3, plan.marks[k].resolved ? "resolved" : "NOT resolved");
-  std::printf("wrote %s\n", dir.string().c_str());
+  std::printf("wrote %s\n", out.target().string().c_str());
   return 0;
 }
 

@@ -4,6 +4,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/timing.hpp"
 #include "sim/contour_stats.hpp"
 #include "sim/motion_run.hpp"
@@ -143,16 +144,15 @@ void print_motion(const core::Job& job, const sim::MotionRun& r, double t_drives
 int run_motion(const MotionArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
+  // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(args.out_dir.value_or(std::filesystem::current_path()), "vmsim motion");
   sim::MotionRunOptions options;
   options.feed_scale = args.feed_scale.value_or(1.0);
   options.full_rate_trace = args.full_rate_trace;
   const sim::MotionRun r = sim::run_motion(job, options);
 
   const auto t0 = Clock::now();
-  const std::filesystem::path dir = args.out_dir.value_or(std::filesystem::current_path());
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  const std::filesystem::path dir = out.path();
   std::vector<std::string> files = write_motion_files(dir, job, r, args);
 
   nlohmann::json report = r.report;
@@ -160,8 +160,9 @@ int run_motion(const MotionArgs& args) {
   report["timings_s"]["write"] = seconds_since(t0);
   report["timings_s"]["total"] = seconds_since(t_start);
   write_report(dir / "report.json", report);
+  out.commit();
   print_motion(job, r, report["timings_s"]["drives"].get<double>());
-  std::printf("wrote %s (report.json, %zu CSV files)\n", dir.string().c_str(), files.size());
+  std::printf("wrote %s (report.json, %zu CSV files)\n", out.target().string().c_str(), files.size());
   return print_verdict(report);
 }
 

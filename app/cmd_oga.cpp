@@ -9,6 +9,7 @@
 #include "app/result_images.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/job.hpp"
 #include "core/timing.hpp"
 #include "methods/oga.hpp"
@@ -22,6 +23,7 @@
 #include <nlohmann/json.hpp>
 #include <omp.h>
 
+#include <optional>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -430,15 +432,15 @@ int run_oga(const OgaArgs& args) {
   if (args.threads) omp_set_num_threads(*args.threads);
   const std::pair<int, int> image_size = parse_image_size(args.image_size);
   const core::Job job = core::load_job(args.job);
+  // Rank 0 writes: it locks the output directory now (core/output_dir.hpp), writes in staging, swaps at the end.
+  std::optional<core::OutputDir> out;
+  if (mpi_rank() == 0) out.emplace(args.out_dir.value_or(fs::current_path()), "vmsim oga");
   TerminalProgress progress(mpi_rank() == 0);
   const sim::OgaJobResult o = sim::oga_job(job, options, progress);
   if (!o.verification) return 0;  // another rank than 0 under mpirun: rank 0 writes
 
   const auto t_write0 = Clock::now();
-  const fs::path dir = args.out_dir.value_or(fs::current_path());
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  const fs::path dir = out->path();
   write_search_tables(dir, o.result, o.interp.setpoints.period_s);
   write_schedules(dir, job, o, args.reference);
   const Rows rows(o);
@@ -456,7 +458,7 @@ int run_oga(const OgaArgs& args) {
     progress.stage(job.name + ": charts");
     try {
       draw_charts(dir, job, o, rows, image_size, images);
-    } catch (const core::Error& e) {
+    } catch (const std::exception& e) {  // any failure (bad_alloc too): the report is written all the same
       render_error = e.what();
     }
     progress.done();
@@ -474,10 +476,11 @@ int run_oga(const OgaArgs& args) {
   report["timings_s"]["total"] = seconds_since(t_start);
   report["mpi_ranks"] = mpi_active() ? mpi_size() : 1;  // the pair search's processes (the result does not depend on it)
   write_report(dir / "report.json", report);
-  print_summary(job, o, dir, !images.empty(), seconds_since(t_start));
+  out->commit();
+  print_summary(job, o, out->target(), !images.empty(), seconds_since(t_start));
   const int verdict_code = print_verdict(report);
   if (render_error)
-    throw core::Error("the results are written to " + dir.string() +
+    throw core::Error("the results are written to " + out->target().string() +
                       ", but the charts could not be drawn (--no-render skips them): " + *render_error);
   return verdict_code;
 }

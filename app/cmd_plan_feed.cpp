@@ -8,6 +8,7 @@
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/job.hpp"
 #include "core/timing.hpp"
 #include "methods/feedplan_file.hpp"
@@ -18,6 +19,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <optional>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -242,14 +244,13 @@ void print_summary(const core::Job& job, const sim::PlanFeedResult& r, const fs:
 int run_plan_feed(const PlanFeedArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
+  // Locked before the run, written in staging, swapped into place whole (core/output_dir.hpp).
+  core::OutputDir out(args.out_dir.value_or(fs::current_path()), "vmsim plan-feed");
   TerminalProgress progress;
   const sim::PlanFeedResult r = sim::plan_feed(job, progress);
 
   const auto t0 = Clock::now();
-  const fs::path dir = args.out_dir.value_or(fs::current_path());
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  const fs::path dir = out.path();
   std::vector<std::string> files = {"feed_plan.csv", "feed_profile.csv", "motion.csv"};
   // The plan as `[job] feed_plan` takes it: the ceiling the interpolator played, along the path it was made for.
   methods::write_feed_plan(dir / "feed_plan.csv", r.ceiling, r.path, job.interp.period_s, job.name,
@@ -260,19 +261,32 @@ int run_plan_feed(const PlanFeedArgs& args) {
   const PlayedAxes axes(r.verified.played.interp.setpoints, job.machine);
   write_motion(dir / "motion.csv", r, axes);
   std::vector<std::string> images;
-  if (!args.no_render) images = draw_charts(dir, job, r, axes);
+  std::optional<std::string> render_error;
+  if (!args.no_render) {
+    try {
+      images = draw_charts(dir, job, r, axes);
+    } catch (const std::exception& e) {  // any failure (bad_alloc too): the results and the report are written
+      render_error = e.what();
+    }
+  }
   const double t_write = seconds_since(t0);
 
   nlohmann::json report = report_header("plan-feed", job);
   report.update(r.report);
   report["files"] = files;
   report["images"] = images;
+  if (render_error) report["render_error"] = *render_error;
   report["timings_s"] = r.timings;
   report["timings_s"]["write"] = t_write;
   report["timings_s"]["total"] = seconds_since(t_start);
   write_report(dir / "report.json", report);
-  print_summary(job, r, dir, !images.empty());
-  return print_verdict(report);
+  out.commit();
+  print_summary(job, r, out.target(), !images.empty());
+  const int verdict_code = print_verdict(report);
+  if (render_error)
+    throw core::Error("the results are written to " + out.target().string() +
+                      ", but the charts could not be drawn (--no-render skips them): " + *render_error);
+  return verdict_code;
 }
 
 }  // namespace vmsim::app

@@ -9,21 +9,23 @@
 #include "app/result_images.hpp"
 #include "app/run_plan.hpp"
 #include "app/tiled_run.hpp"
-#include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/stl.hpp"
 #include "core/timing.hpp"
-#include "metrology/grid_io.hpp"
-#include "metrology/x3p.hpp"
 #include "render/mesh_io.hpp"
 #include "sim/contour_stats.hpp"
 #include "sim/run.hpp"
+#include "sim/run_outputs.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <new>
 #include <optional>
 
 namespace vmsim::app {
@@ -42,8 +44,8 @@ void create_out_dir(const fs::path& dir) {
 
 // --tiles-out, rank 0: report.json without the whole-part results (marks, meshes, pictures need the whole grid):
 // the motion's figures, the removal's, and every rank's tile.
-void write_tiles_report(const core::Job& job, const fs::path& dir, const sim::Cut& cut, const nlohmann::json& tiles_json,
-                        Clock::time_point t_start) {
+void write_tiles_report(const core::Job& job, const fs::path& dir, const fs::path& shown, const sim::Cut& cut,
+                        const nlohmann::json& tiles_json, Clock::time_point t_start) {
   nlohmann::json report = report_header("run", job);
   double rays = 0;
   for (const auto& r : tiles_json["per_rank"]) rays += r["rays"].get<double>();
@@ -74,14 +76,14 @@ void write_tiles_report(const core::Job& job, const fs::path& dir, const sim::Cu
   write_report(dir / "report.json", report);
   std::printf("job %s: %s motion, %zu sweeps on %.0f rays in %d tiles\n", job.name.c_str(),
               sim::motion_name(job.removal.motion), cut.sweeps.sweeps.size(), rays, tiles_json["ranks"].get<int>());
-  std::printf("wrote %s: tiles.json, report.json and tiles/ (one X3P per rank%s) in %.1f s\n", dir.string().c_str(),
+  std::printf("wrote %s: tiles.json, report.json and tiles/ (one X3P per rank%s) in %.1f s\n", shown.string().c_str(),
               cut.reference.field ? ", surface and deviation" : "", seconds_since(t_start));
 }
 
 // A tiled run (under mpirun): every rank's figures to rank 0, then the tiles themselves, gathered into the whole
 // field (rank 0 then holds what a one-process run holds) or written by each rank (--tiles-out). Returns whether
 // this process goes on to write the outputs (rank 0 of a gathered run).
-bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir, sim::Cut& cut,
+bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir, const fs::path& shown, sim::Cut& cut,
                   nlohmann::json& tiles_json, TerminalProgress& progress, Clock::time_point t_start) {
   const removal::Tile& tile = cut.field.tile;
   const bool root = mpi_rank() == 0;
@@ -103,7 +105,7 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
   }
   mine.peak_rss_bytes = peak_rss_bytes();
   mine.cpu_s = process_cpu_s();
-  quiet_barrier();  // ranks that finished early sleep rather than spin in the gathers
+  quiet_barrier("the gathering of the tiles (after the cut)");  // ranks that finished early sleep, not spin
   const std::vector<TileFigures> all = gather_tile_figures(mine);
   tiles_json = {{"ranks", tile.count},
                 {"split", "each dexel grid's rows (needles: blocks of 64) in equal bands, one per rank"},
@@ -116,7 +118,7 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
                                       {"removal_cpu_s", all[r].removal_cpu_s}, {"cpu_s", all[r].cpu_s}});
   if (args.tiles_out) {
     write_tile_manifest(dir, job.name, cut.field, *files);
-    if (root) write_tiles_report(job, dir, cut, tiles_json, t_start);
+    if (root) write_tiles_report(job, dir, shown, cut, tiles_json, t_start);
     quiet_barrier();
     return false;
   }
@@ -126,74 +128,12 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
   if (cut.reference.field) whole_ref = gather_field(*cut.reference.field);
   progress.done();
   if (!root) {
-    quiet_barrier();  // while rank 0 writes the outputs (an error there aborts every rank)
+    quiet_barrier("the end of the run (rank 0 writes the outputs)");  // an error there aborts every rank
     return false;
   }
   cut.field = std::move(*whole);
   if (cut.reference.field) cut.reference.field = std::move(*whole_ref);
   return true;
-}
-
-// The N-buffer's results: one line per needle (nominal point and normal, offsets, deviation).
-void write_needles_csv(const fs::path& file, const sim::RunResult& r) {
-  core::AtomicFile out(file);
-  out.stream() << "x_mm,y_mm,z_mm,nx,ny,nz,surface_offset_mm,reference_offset_mm,deviation_mm\n";
-  const sim::Field& field = r.cut.field;
-  for (std::size_t k = 0; k < field.needles.size(); ++k) {
-    const auto kk = static_cast<Eigen::Index>(k);
-    const Eigen::Vector3d& p = field.needle_point[k];
-    const Eigen::Vector3d& n = field.needle_normal[k];
-    out.stream() << fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f}\n", p.x(), p.y(), p.z(),
-                                n.x(), n.y(), n.z(), r.needle_offset_mm[kk], r.needle_reference_mm[kk],
-                                r.needle_deviation_mm[kk]);
-  }
-  out.commit();
-}
-
-// Every result file of a run; returns their names (relative to dir).
-std::vector<std::string> write_run_outputs(const core::Job& job, const sim::RunResult& r, const fs::path& dir) {
-  std::vector<std::string> files;
-  auto write_mesh = [&](const core::TriangleMesh& mesh) {
-    core::write_stl_binary(dir / "part.stl", mesh);
-    render::write_vtp(dir / "part.vtp", mesh);
-    files.insert(files.end(), {"part.stl", "part.vtp"});
-  };
-  if (r.surface) {
-    metrology::write_height_csv(dir / "surface.csv", *r.surface);
-    metrology::write_height_npy(dir / "surface.npy", *r.surface);
-    files.insert(files.end(), {"surface.csv", "surface.npy", "surface.npy.json"});
-    // X3P (ISO 5436-2) for metrology tools: MountainsMap, Gwyddion, vmsim compare.
-    metrology::X3pWriteOptions x3p;
-    x3p.version = std::string("vmsim ") + sim::version();
-    x3p.comment = "predicted surface of job " + job.name;
-    metrology::write_x3p(dir / "surface.x3p", *r.surface, x3p);
-    files.push_back("surface.x3p");
-    if (r.deviation) {
-      metrology::write_height_csv(dir / "reference.csv", *r.reference_surface);
-      metrology::write_height_csv(dir / "deviation.csv", *r.deviation);
-      metrology::write_height_npy(dir / "deviation.npy", *r.deviation);
-      files.insert(files.end(), {"reference.csv", "deviation.csv", "deviation.npy", "deviation.npy.json"});
-      x3p.comment = "reference surface of job " + job.name + " (" + r.cut.reference.name + ")";
-      metrology::write_x3p(dir / "reference.x3p", *r.reference_surface, x3p);
-      x3p.comment = "deviation of job " + job.name + ": predicted - reference (negative: overcut)";
-      metrology::write_x3p(dir / "deviation.x3p", *r.deviation, x3p);
-      files.insert(files.end(), {"reference.x3p", "deviation.x3p"});
-    }
-  } else {
-    write_needles_csv(dir / "needles.csv", r);
-    files.push_back("needles.csv");
-  }
-  if (r.part_mesh) write_mesh(*r.part_mesh);
-  if (r.level_set) {
-    write_mesh(r.level_set->mesh);
-    r.level_set->part.write_vdb(dir / "part.vdb");
-    files.push_back("part.vdb");
-  }
-  if (r.signals) {
-    sim::write_signals(dir / "signals.csv", *r.signals);
-    files.push_back("signals.csv");
-  }
-  return files;
 }
 
 void print_summary(const core::Job& job, const sim::RunResult& r, const fs::path& dir, std::size_t n_files,
@@ -224,11 +164,45 @@ void print_summary(const core::Job& job, const sim::RunResult& r, const fs::path
   std::printf("wrote %s (%zu files) in %.1f s\n", dir.string().c_str(), n_files, seconds_since(t_start));
 }
 
+// The pictures' failure of any kind (bad_alloc at a large --image-size included) as a message: the results and
+// report.json are written whatever the pictures do.
+std::optional<std::string> draw_pictures(const core::Job& job, const sim::RunResult& result, const fs::path& dir,
+                                         const ImageOptions& image_opt, std::vector<std::string>& files,
+                                         std::size_t& n_images) {
+  ResultData images;
+  images.job = job.name;
+  images.reference = result.cut.reference.name;
+  images.marks = result.marks;
+  images.surface = result.surface;
+  images.deviation = result.deviation;
+  images.signals = result.signals;
+  try {
+    // Test hook (tests/app/outdir_cli_test.cpp, README "What you can rely on"): the pictures run out of memory.
+    if (const char* h = std::getenv("VMSIM_TEST_PICTURES_THROW"); h && std::string(h) == "bad_alloc")
+      throw std::bad_alloc();
+    for (const std::string& f : write_result_images(images, dir / "images", image_opt)) {
+      files.push_back("images/" + f);
+      ++n_images;
+    }
+  } catch (const core::Error& e) {
+    return e.what();
+  } catch (const std::bad_alloc&) {
+    return "out of memory while drawing (a smaller --image-size needs less)";
+  } catch (const std::exception& e) {
+    return std::string("internal error while drawing: ") + e.what();
+  } catch (...) {
+    return "internal error while drawing";
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 int run_run(const RunArgs& args) {
   const auto t_start = Clock::now();
   const core::Job job = core::load_job(args.job);
+  // Test hook (tests/app/study_cli_test.cpp, README "What you can rely on"): a crash in the run of this job.
+  if (const char* h = std::getenv("VMSIM_TEST_SEGFAULT_JOB"); h && job.name == h) std::raise(SIGSEGV);
   // The picture options are checked now, not after the simulation.
   ImageArgs image_args;
   image_args.size = args.image_size;
@@ -244,16 +218,28 @@ int run_run(const RunArgs& args) {
     throw core::Error(job.file.string() + ": --tiles-out writes each tile's height grid; [removal] field = \"nbuffer\" "
                       "has none (run without --tiles-out: the needles are gathered)");
   TerminalProgress progress(!args.quiet && mpi_rank() == 0);
-  const fs::path dir = args.out_dir.value_or(fs::current_path());
+  // Rank 0 owns the output directory (core/output_dir.hpp): locked now, before the run; written in its staging
+  // directory; swapped into place whole at the end. With --tiles-out every rank writes its tile there.
+  std::optional<core::OutputDir> out;
+  fs::path dir = args.out_dir.value_or(fs::current_path());
+  const fs::path shown = dir;
+  if (mpi_rank() == 0) {
+    out.emplace(dir, "vmsim run");
+    dir = out->path();
+  }
+  if (args.tiles_out) dir = mpi_broadcast(dir.string());
 
   sim::Cut cut = sim::cut_job(job, options, progress);
   nlohmann::json tiles_json;
-  if (!options.tile.whole() && !gather_tiles(job, args, dir, cut, tiles_json, progress, t_start)) return 0;
+  if (!options.tile.whole() && !gather_tiles(job, args, dir, shown, cut, tiles_json, progress, t_start)) {
+    if (out) out->commit();  // --tiles-out: every rank's tile is written (gather_tiles ends in a barrier)
+    return 0;
+  }
   const sim::RunResult result = sim::finish_run(job, std::move(cut), options, progress);
 
   auto t0 = Clock::now();
   create_out_dir(dir);
-  std::vector<std::string> files = write_run_outputs(job, result, dir);
+  std::vector<std::string> files = sim::write_run_outputs(job, result, dir, render::write_vtp);
   const double t_write = seconds_since(t0);
 
   // Pictures, after every result file: a failure to draw loses no result.
@@ -263,21 +249,7 @@ int run_run(const RunArgs& args) {
   if (!args.no_render) {
     t0 = Clock::now();
     progress.stage(job.name + ": pictures");
-    ResultData images;
-    images.job = job.name;
-    images.reference = result.cut.reference.name;
-    images.marks = result.marks;
-    images.surface = result.surface;
-    images.deviation = result.deviation;
-    images.signals = result.signals;
-    try {
-      for (const std::string& f : write_result_images(images, dir / "images", image_opt)) {
-        files.push_back("images/" + f);
-        ++n_images;
-      }
-    } catch (const core::Error& e) {
-      render_error = e.what();
-    }
+    render_error = draw_pictures(job, result, dir, image_opt, files, n_images);
     progress.done();
     t_render = seconds_since(t0);
   }
@@ -291,11 +263,12 @@ int run_run(const RunArgs& args) {
   report["timings_s"]["total"] = seconds_since(t_start);
   write_report(dir / "report.json", report);
   files.push_back("report.json");
+  if (out) out->commit();
 
-  print_summary(job, result, dir, files.size(), n_images, t_start);
+  print_summary(job, result, shown, files.size(), n_images, t_start);
   const int verdict_code = print_verdict(report);
   if (render_error)
-    throw core::Error("the results are written to " + dir.string() + ", but the pictures could not be drawn "
+    throw core::Error("the results are written to " + shown.string() + ", but the pictures could not be drawn "
                       "(--no-render skips them): " + *render_error);
   if (!options.tile.whole()) quiet_barrier();
   return verdict_code;

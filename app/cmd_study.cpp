@@ -5,9 +5,11 @@
 #include "app/commands.hpp"
 #include "app/commands_study.hpp"
 #include "app/mpi_session.hpp"
+#include "app/report.hpp"
 #include "sim/study.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/timing.hpp"
 #include "render/report_html.hpp"
 
@@ -16,8 +18,15 @@
 #include <nlohmann/json.hpp>
 
 #include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <sstream>
 
 #include <algorithm>
 #include <atomic>
@@ -44,38 +53,90 @@ using core::seconds_since;
 
 using core::process_cpu_s;
 
-// While a variation runs, this process's stdout and stderr go to its run.log: vmsim run's pipeline prints its
-// summary with printf, and a study of many variations on several ranks would otherwise interleave them all.
-class OutputToFile {
- public:
-  explicit OutputToFile(const fs::path& log) {
-    std::fflush(stdout);
-    std::fflush(stderr);
-    std::cout.flush();
-    fd_ = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd_ < 0) return;
-    saved_out_ = ::dup(1);
-    saved_err_ = ::dup(2);
-    ::dup2(fd_, 1);
-    ::dup2(fd_, 2);
-  }
-  ~OutputToFile() {
-    if (fd_ < 0) return;
-    std::fflush(stdout);
-    std::fflush(stderr);
-    std::cout.flush();
-    ::dup2(saved_out_, 1);
-    ::dup2(saved_err_, 2);
-    ::close(saved_out_);
-    ::close(saved_err_);
-    ::close(fd_);
-  }
-  OutputToFile(const OutputToFile&) = delete;
-  OutputToFile& operator=(const OutputToFile&) = delete;
-
- private:
-  int fd_ = -1, saved_out_ = -1, saved_err_ = -1;
+// A variation runs in a child process, `vmsim run` itself (posix_spawn of /proc/self/exe): a crash of any kind in
+// it (a segfault, an abort, std::terminate, memory exhausted) ends that process only and becomes the variation's row.
+// Its stdout and stderr go to the variation's run.log; the launcher's variables (Open MPI, PMI, PMIx) are left out of
+// its environment so that it runs as one process and never joins the study's MPI job.
+struct ChildEnd {
+  int exit_code = -1;  // when it exited
+  int signal = 0;      // when a signal ended it
+  double cpu_s = 0;    // its user + system CPU time
 };
+
+std::vector<std::string> child_environment() {
+  std::vector<std::string> env;
+  for (char** e = environ; *e; ++e) {
+    const std::string v = *e;
+    if (v.rfind("OMPI_", 0) == 0 || v.rfind("PMI_", 0) == 0 || v.rfind("PMIX_", 0) == 0 || v.rfind("PRTE_", 0) == 0)
+      continue;
+    env.push_back(v);
+  }
+  return env;
+}
+
+ChildEnd run_child(const std::vector<std::string>& args, const fs::path& log) {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw core::Error("cannot find the vmsim executable (/proc/self/exe): " + ec.message());
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  std::vector<std::string> argv_s = {exe.string()};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  std::vector<char*> argv, envp;
+  for (std::string& a : argv_s) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::vector<std::string> env = child_environment();
+  for (std::string& e : env) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = ::posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), envp.data());
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0) throw core::Error(fmt::format("cannot start {}: {}", exe.string(), std::strerror(rc)));
+  int status = 0;
+  struct rusage ru {};
+  while (::wait4(pid, &status, 0, &ru) < 0) {
+    if (errno != EINTR) throw core::Error(std::string("waiting for vmsim run: ") + std::strerror(errno));
+  }
+  ChildEnd end;
+  if (WIFEXITED(status)) end.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) end.signal = WTERMSIG(status);
+  end.cpu_s = ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6 + ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6;
+  return end;
+}
+
+// The message of the run's error in its log ("vmsim: error: ..." to the end), or its last line.
+std::string error_in_log(const fs::path& log) {
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  for (const char* prefix : {"vmsim: error: ", "vmsim: internal error: "}) {
+    const auto k = text.rfind(prefix);
+    if (k == std::string::npos) continue;
+    std::string m = text.substr(k + (std::string(prefix).find("internal") != std::string::npos ? 7 : 14));
+    while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
+    return m;
+  }
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  const auto nl = text.rfind('\n');
+  return nl == std::string::npos ? text : text.substr(nl + 1);
+}
+
+// The run's files, written by the child into DIR/run (its own output directory), moved up into DIR beside the
+// variation's job and machine files.
+void move_run_files(const fs::path& dir) {
+  const fs::path run = dir / "run";
+  for (const auto& e : fs::directory_iterator(run)) {
+    const std::string n = e.path().filename().string();
+    if (n == core::kOutputMarker) continue;
+    fs::rename(e.path(), dir / n);
+  }
+  fs::remove_all(run);
+  std::error_code ec;
+  fs::remove(dir / ".run.vmsim-lock", ec);
+}
 
 // One variation, as rank 0 hands it out: everything a rank needs, so workers never read the study file.
 nlohmann::json make_task(const sim::Study& study, const sim::StudyVariation& v, const sim::PreparedVariation& p, const fs::path& out,
@@ -112,7 +173,6 @@ sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
   sim::StudyResult r;
   r.rank = rank;
   const auto t0 = Clock::now();
-  const double c0 = process_cpu_s();
   const std::string label = task.at("label").get<std::string>();
   try {
     const fs::path dir = task.at("dir").get<std::string>();
@@ -122,19 +182,23 @@ sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
     if (ec) throw core::Error(dir.string() + ": cannot create the variation's directory: " + ec.message());
     core::write_file_atomic(dir / "job.toml", task.at("job_toml").get<std::string>());
     if (task.contains("machine_toml")) core::write_file_atomic(dir / "machine.toml", task["machine_toml"].get<std::string>());
-    RunArgs ra;
-    ra.job = dir / "job.toml";
-    ra.out_dir = dir;
-    ra.feed_scale = task.at("feed_scale").get<double>();
-    ra.quiet = true;
-    ra.no_render = true;
-    int code = 0;
-    {
-      OutputToFile log(dir / "run.log");
-      const MpiSingleProcess alone;  // the variation is one process's run, not a run tiled over the study's ranks
-      code = run_run(ra);
+    std::vector<std::string> args = {"run", (dir / "job.toml").string(), "--out", (dir / "run").string(), "--quiet",
+                                     "--no-render"};
+    const double feed_scale = task.at("feed_scale").get<double>();
+    if (feed_scale != 1.0) args.insert(args.end(), {"--feed-scale", fmt::format("{:.17g}", feed_scale)});
+    const ChildEnd end = run_child(args, dir / "run.log");
+    r.cpu_s = end.cpu_s;
+    if (end.signal != 0)
+      throw core::Error(fmt::format("vmsim run was killed by signal {} ({}: {}); its output is in {}", end.signal,
+                                    sigabbrev_np(end.signal) ? std::string("SIG") + sigabbrev_np(end.signal) : "?",
+                                    strsignal(end.signal), (dir / "run.log").string()));
+    if (end.exit_code != 0) {
+      const std::string message = error_in_log(dir / "run.log");
+      if (end.exit_code == 2 && !message.empty()) throw core::Error(message);  // vmsim's own error: a user's message
+      throw core::Error(fmt::format("vmsim run ended with exit code {}: {} (see {})", end.exit_code, message,
+                                    (dir / "run.log").string()));
     }
-    if (code != 0) throw core::Error(fmt::format("vmsim run ended with exit code {} (see {})", code, (dir / "run.log").string()));
+    move_run_files(dir);
     std::ifstream in(dir / "report.json");
     if (!in) throw core::Error((dir / "report.json").string() + ": the run wrote no report");
     const nlohmann::json report = nlohmann::json::parse(in);
@@ -157,7 +221,6 @@ sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
     r.status = sim::StudyResult::Status::Failed;
     r.error = label + ": internal error";
   }
-  r.cpu_s = process_cpu_s() - c0;
   r.wall_s = seconds_since(t0);
   return r;
 }
@@ -248,10 +311,13 @@ int run_study(const StudyArgs& args) {
   if (rank != 0) return worker_loop(rank);
 
   const auto t_start = Clock::now();
+  require_utf8_input(args.study, "the study file");
   const sim::Study study = sim::load_study(args.study);
-  std::error_code ec;
-  fs::create_directories(args.out_dir, ec);
-  if (ec) throw core::Error(args.out_dir.string() + ": cannot create the output directory: " + ec.message());
+  // The whole study is one result directory (core/output_dir.hpp): written in its staging directory (results.csv and
+  // study.json there as rows finish), swapped into place at the end; the tasks name the staging paths.
+  core::OutputDir out(args.out_dir, "vmsim study");
+  StudyArgs staged = args;
+  staged.out_dir = out.path();
   const std::size_t n = study.variations.size();
 
   // The queue and the table, shared by this rank's two threads: the main thread (MPI, the only one that calls it:
@@ -277,7 +343,7 @@ int run_study(const StudyArgs& args) {
         queue.pop_front();
       }
       sim::StudyResult failed;
-      if (auto task = prepare_task(study, i, args, failed)) return task;
+      if (auto task = prepare_task(study, i, staged, failed)) return task;
       store(i, failed);
     }
   };
@@ -304,10 +370,10 @@ int run_study(const StudyArgs& args) {
       std::lock_guard<std::mutex> lock(mu);
       copy = results;
     }
-    core::write_file_atomic(args.out_dir / "results.csv", sim::results_csv(study, copy));
+    core::write_file_atomic(out.path() / "results.csv", sim::results_csv(study, copy));
     const nlohmann::json sj = sim::study_json(study, copy, size, seconds_since(t_start));
-    core::write_file_atomic(args.out_dir / "study.json", sj.dump(2) + "\n");
-    render::write_report_html(args.out_dir, sj);
+    core::write_file_atomic(out.path() / "study.json", sj.dump(2) + "\n");
+    render::write_report_html(out.path(), sj);
   };
   std::size_t reported = 0, written = 0;
   auto last_write = Clock::now();
@@ -362,6 +428,7 @@ int run_study(const StudyArgs& args) {
   }
   local.join();
   write_tables();
+  out.commit();
   int ok = 0;
   for (const sim::StudyResult& r : results) ok += r.status == sim::StudyResult::Status::Ok;
   say(fmt::format("study {}: {} ok, {} failed of {} variations on {} rank{} in {:.1f} s; wrote {} and {}", study.name,

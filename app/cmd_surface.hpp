@@ -2,6 +2,7 @@
 // Helpers shared by the surface commands (vmsim compare, stats, measure): lengths with units on the command line,
 // the form removal and filter options, and their JSON for report.json and stdout.
 #include "core/height_grid.hpp"
+#include "core/output_dir.hpp"
 #include "metrology/areal.hpp"
 #include "metrology/form.hpp"
 #include "metrology/processing.hpp"
@@ -43,7 +44,8 @@ nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrolog
 
 struct CompareArgs;
 // vmsim compare with a measured profile (cmd_compare_profile.cpp): the profile against --profile-line across PRED.
-int run_compare_profile(const CompareArgs& args, const metrology::SurfaceFile& measured);
+// OUT: the output directory run_compare locked (written in its staging directory, committed here).
+int run_compare_profile(const CompareArgs& args, const metrology::SurfaceFile& measured, core::OutputDir& out);
 nlohmann::json grid_json(const core::HeightGrid& g);  // size, spacing, origin, valid and invalid points
 // {path, sha256, format}
 nlohmann::json input_json(const std::filesystem::path& file, const std::string& format);

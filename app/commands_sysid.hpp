@@ -39,6 +39,12 @@ struct IdentifyArgs {
   std::string delay = "auto";                    // nk in samples, or auto (smallest ARX loss over 1..5)
   std::string use = "best";                      // structure written to the model file: best (validation MSE) or one
   std::optional<std::filesystem::path> out_dir;  // axis_models.toml, report.json
+  // Traces other than CSV (sysid/trace_formats.hpp): halscope pins "AXIS=CMD_PIN,ACT_PIN", .mat variables
+  // "t=VAR,command=VAR,actual=VAR[,axis=X]", their position unit (mm, m, in, deg, rad).
+  std::vector<std::string> channels;
+  std::optional<std::string> mat;
+  std::optional<std::string> trace_unit;
+  std::vector<std::string> rest_offsets;         // "AXIS=VALUE" (mm or deg): encoder - command at rest
 };
 // vmsim identify --trace TRACE.csv: ARX / ARMAX / OE per axis, validated, ranked (the predictive-compensation paper Table 2).
 int run_identify(const IdentifyArgs& args);
@@ -52,6 +58,11 @@ struct IdentifyFrictionArgs {
   std::string gravity = "auto";                  // auto | none | constant | tilting
   std::optional<double> smoothing_ms;            // IdentifyOptions::smoothing_s, in ms
   std::optional<std::filesystem::path> out_dir;  // drive_identified.toml, friction_fit.csv, report.json
+  std::optional<std::string> mat;                // .mat variables "t=VAR,position=VAR|velocity=VAR,control=VAR"
+  std::optional<std::string> trace_unit;         // .mat positions: mm, m, in, deg, rad
+  // The trace's current column (CSV) or control variable (.mat) times this is the load-side force (N, linear axis)
+  // or torque (N m, rotary axis): a controller's control signal (a voltage) instead of a motor current.
+  std::optional<double> control_gain;
 };
 // vmsim identify-friction TRACE: Coulomb and viscous friction, gravity offset and inertia of one axis (the feed-drive simulation paper 3.1).
 int run_identify_friction(const IdentifyFrictionArgs& args);

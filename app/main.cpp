@@ -243,7 +243,8 @@ void add_identify_friction(CLI::App& cli, Commands& cmds) {
   auto* c = cli.add_subcommand(
       "identify-friction",
       "Identify an axis' friction law and inertia from a trace of time, position or velocity, current");
-  c->add_option("TRACE", a->trace, "CSV: t_s, current_A, position_mm|position_deg|velocity_mm_per_s|velocity_deg_per_s")
+  c->add_option("TRACE", a->trace,
+                "CSV (t_s, current_A, position_mm|position_deg|velocity_mm_per_s|velocity_deg_per_s) or MATLAB .mat (--mat)")
       ->required()->check(CLI::ExistingFile);
   c->add_option("--torque-constant", a->torque_constant_Nm_per_A, "motor torque constant Kt (N m/A)")
       ->check(CLI::PositiveNumber);
@@ -257,6 +258,14 @@ void add_identify_friction(CLI::App& cli, Commands& cmds) {
   c->add_option("--gravity", a->gravity, "gravity model: auto (default), none, constant, tilting")
       ->check(CLI::IsMember({"auto", "none", "constant", "tilting"}));
   c->add_option("--smoothing-ms", a->smoothing_ms, "differentiation window (default 10 ms)")->check(CLI::PositiveNumber);
+  c->add_option("--mat", a->mat, ".mat trace: t=VAR,position=VAR|velocity=VAR,control=VAR (e.g. t=t,position=qm,control=vir)");
+  c->add_option("--trace-unit", a->trace_unit, "position unit of a .mat trace: mm (default), m, in, deg, rad")
+      ->check(CLI::IsMember({"mm", "m", "in", "deg", "rad"}));
+  c->add_option("--control-gain", a->control_gain,
+                "the current column (CSV) or control variable (.mat) times this is the load-side force, N (linear "
+                "axis), or torque, N m (rotary): a control signal instead of a motor current (replaces Kt and the "
+                "lead or gear; results also given at the load)")
+      ->check(CLI::PositiveNumber);
   add_out(c, a->out_dir, "write drive_identified.toml, friction_fit.csv, report.json here");
   cmds.push_back({c, [a] { return app::run_identify_friction(*a); }});
 }
@@ -342,9 +351,18 @@ void add_identify(CLI::App& cli, Commands& cmds) {
       "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; the "
                   "predictive-compensation paper), validate, rank, and write axis_models.toml for jobs to run on");
   c->add_option("--trace,-t", a->traces,
-                "position trace CSV: t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ... (vmsim motion's trace.csv); "
-                "repeat it for several experiments, identified together")
+                "position trace: CSV (t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ...: vmsim motion's trace.csv), "
+                "LinuxCNC halscope log or MATLAB .mat; repeat it for several experiments, identified together")
       ->required();
+  c->add_option("--channel", a->channels,
+                "halscope log: AXIS=COMMAND_PIN,ACTUAL_PIN, repeatable (default: joint.N.motor-pos-cmd as axis "
+                "XYZABC[N] with joint.N.motor-pos-fb or the log's one *encoder*.position pin)");
+  c->add_option("--mat", a->mat, ".mat trace: t=VAR,command=VAR,actual=VAR[,axis=X] (e.g. t=t,command=qg,actual=qm)");
+  c->add_option("--trace-unit", a->trace_unit, "position unit of halscope and .mat traces: mm (default), m, in, deg, rad")
+      ->check(CLI::IsMember({"mm", "m", "in", "deg", "rad"}));
+  c->add_option("--rest-offset", a->rest_offsets,
+                "AXIS=VALUE (mm or deg): encoder minus command at rest, for traces that start mid-motion (default: "
+                "measured on the trace's first still stretch), repeatable");
   c->add_option("--validate", a->validate,
                 "a separate validation trace (default: one trace's second half, or with several traces the last one)");
   c->add_option("--axis", a->axes, "axes to identify, repeatable (default: every axis in the trace)");
@@ -353,7 +371,7 @@ void add_identify(CLI::App& cli, Commands& cmds) {
   c->add_option("--nc", a->nc, "ARMAX noise numerator order (default 2)");
   c->add_option("--delay", a->delay, "input delay nk in samples, or auto (default)");
   c->add_option("--use", a->use,
-                "structure written to the model file: best (lowest validation MSE, default), arx, armax or oe");
+                "structure written to the model file: best (lowest validation MSE, marginal models last; default), arx, armax or oe");
   add_out(c, a->out_dir, "output directory for axis_models.toml and report.json");
   cmds.push_back({c, [a] { return app::run_identify(*a); }});
 }

@@ -3,6 +3,7 @@
 #include <mpi.h>
 
 #include <cstdlib>
+#include <string>
 
 namespace vmsim::app {
 namespace {
@@ -38,6 +39,16 @@ void mpi_finish() {
 
 void mpi_abort_all(int exit_code) {
   if (g_started && g_size > 1) MPI_Abort(MPI_COMM_WORLD, exit_code);
+}
+
+std::string mpi_broadcast(const std::string& from_rank0) {
+  if (!mpi_active()) return from_rank0;
+  std::string s = from_rank0;
+  int n = static_cast<int>(s.size());
+  MPI_Bcast(&n, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  s.resize(static_cast<std::size_t>(n));
+  MPI_Bcast(s.data(), n, MPI_CHAR, 0, MPI_COMM_WORLD);
+  return s;
 }
 
 bool mpi_active() { return !t_single && g_started && g_size > 1; }

@@ -2,6 +2,7 @@
 // MPI for vmsim's scale-out commands (tiled `vmsim run`, `vmsim study`). MPI is initialised only when the
 // process was started by an MPI launcher (mpirun/mpiexec/srun), so a plain `vmsim ...` never pays MPI's start-up
 // nor needs a launcher; every other command behaves as one process (rank 0 of 1).
+#include <string>
 
 namespace vmsim::app {
 
@@ -15,6 +16,9 @@ void mpi_finish();
 // Ends every rank at once with this exit code (MPI_Abort) when running on more than one rank, so an error on one
 // rank can never leave the others waiting in a collective; otherwise returns and the caller exits normally.
 void mpi_abort_all(int exit_code);
+
+// Rank 0's string on every rank (a collective: every rank calls it); the string itself without MPI.
+std::string mpi_broadcast(const std::string& from_rank0);
 
 bool mpi_active();   // MPI was started and the world has more than one rank
 int mpi_rank();      // 0 without MPI

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 namespace vmsim::app {
 
@@ -16,5 +18,17 @@ void write_report(const std::filesystem::path& file, const nlohmann::json& repor
 // Prints report.json's warnings on stderr, one line each, and the verdict when it is not "ok". Returns the
 // command's exit code: sim::kExitInvalid for the verdict "invalid", else 0.
 int print_verdict(const nlohmann::json& report);
+// A result directory's report.json, read back. Throws core::Error naming DIR when it is absent (the directory is not
+// a complete result of vmsim) or not JSON.
+nlohmann::json read_report(const std::filesystem::path& dir);
+// The names its "files" lists (relative to DIR; "images/part.png" for a picture).
+std::vector<std::string> listed_files(const nlohmann::json& report);
+// A file read from a result directory of vmsim (one holding report.json or the marker of core/output_dir.hpp) must be
+// listed in its report.json: a file an earlier run left, or one of a run that did not finish, would pass for this
+// run's. Throws core::Error naming the file and what is missing; a file from anywhere else passes.
+void require_listed_in_report(const std::filesystem::path& file);
+// Refuses, before any work, an input path that report.json could not hold (not valid UTF-8 once made absolute),
+// naming WHAT (e.g. "--measured") and the path.
+void require_utf8_input(const std::filesystem::path& file, const char* what);
 
 }  // namespace vmsim::app

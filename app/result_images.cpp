@@ -2,6 +2,8 @@
 // charts of its drive signals. One headless window draws them all (its context and shaders are made once).
 #include "app/result_images.hpp"
 
+#include "app/report.hpp"
+
 #include "core/error.hpp"
 #include "metrology/grid_io.hpp"
 #include "render/chart.hpp"
@@ -364,25 +366,28 @@ ResultData load_results(const fs::path& dir) {
   if (!fs::is_directory(dir, ec)) throw core::Error(dir.string() + ": not a directory");
   ResultData d;
   d.job = fs::absolute(dir).lexically_normal().filename().string();
-  if (fs::exists(dir / "report.json", ec)) {
-    std::ifstream in(dir / "report.json");
-    try {
-      const nlohmann::json r = nlohmann::json::parse(in);
-      if (r.contains("job") && r["job"].is_string()) d.job = r["job"].get<std::string>();
-      if (r.contains("reference") && r["reference"].is_string()) d.reference = r["reference"].get<std::string>();
-    } catch (const nlohmann::json::exception& e) {
-      throw core::Error((dir / "report.json").string() + ": not valid JSON: " + e.what());
-    }
-  }
-  if (fs::exists(dir / "surface.csv", ec)) d.surface = metrology::read_height_csv(dir / "surface.csv");
-  if (fs::exists(dir / "deviation.csv", ec)) {
+  // Only what the directory's report.json lists is this run's: a file an earlier run left there is not read, and a
+  // listed file that is missing makes the directory incomplete.
+  const nlohmann::json r = read_report(dir);
+  if (r.contains("job") && r["job"].is_string()) d.job = r["job"].get<std::string>();
+  if (r.contains("reference") && r["reference"].is_string()) d.reference = r["reference"].get<std::string>();
+  const std::vector<std::string> listed = listed_files(r);
+  auto take = [&](const std::string& name) {
+    if (std::find(listed.begin(), listed.end(), name) == listed.end()) return false;
+    if (!fs::is_regular_file(dir / name, ec))
+      throw core::Error(fmt::format("{}: report.json lists {}, which is missing: the result is incomplete (run it again)",
+                                    dir.string(), name));
+    return true;
+  };
+  if (take("surface.csv")) d.surface = metrology::read_height_csv(dir / "surface.csv");
+  if (take("deviation.csv")) {
     d.deviation = metrology::read_height_csv(dir / "deviation.csv");
     d.marks = metrology::find_marks(*d.deviation, 1e-3);  // as vmsim run: marks deeper than 1 um
   }
-  if (fs::exists(dir / "signals.csv", ec)) d.signals = sim::read_signals(dir / "signals.csv");
+  if (take("signals.csv")) d.signals = sim::read_signals(dir / "signals.csv");
   if (!d.surface && !d.deviation && !d.signals)
-    throw core::Error(dir.string() + ": nothing to render: no surface.csv, deviation.csv or signals.csv (written by "
-                                     "vmsim run and vmsim motion)");
+    throw core::Error(dir.string() + ": nothing to render: its report.json lists no surface.csv, deviation.csv or "
+                                     "signals.csv (written by vmsim run and vmsim motion)");
   if (d.deviation && !d.surface)
     throw core::Error(dir.string() + ": deviation.csv without surface.csv: the maps are drawn on the surface");
   return d;

@@ -10,11 +10,16 @@
 #include <mpi.h>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <climits>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
 #include <ctime>
 #include <cstdint>
 #include <fstream>
 #include <string>
+#include <vector>
 
 namespace vmsim::app {
 
@@ -23,16 +28,75 @@ removal::Tile process_tile() {
   return removal::Tile{mpi_rank(), mpi_size()};
 }
 
-void quiet_barrier() {
+double watchdog_seconds() {
+  const char* v = std::getenv("VMSIM_WATCHDOG_S");
+  if (!v || !*v) return 3600.0;
+  char* end = nullptr;
+  const double s = std::strtod(v, &end);
+  if (end == v || *end != '\0' || !(s > 0) || !std::isfinite(s))
+    throw core::Error(fmt::format("VMSIM_WATCHDOG_S: expected a positive number of seconds, found \"{}\"", v));
+  return s;
+}
+
+void quiet_barrier(const char* stage) {
   if (!mpi_active()) return;
+  const double limit_s = watchdog_seconds();
+  constexpr int kTagArrived = 7201;
+  const int rank = mpi_rank(), size = mpi_size();
+  // Test hook (tests/app/tiled_run_cli_test.cpp, README "What you can rely on"): this rank stops (SIGSTOP) here.
+  if (const char* h = std::getenv("VMSIM_TEST_STOP_RANK"); h && std::atoi(h) == rank && rank != 0) std::raise(SIGSTOP);
+  // Each rank tells rank 0 it arrived, so that rank 0 can name the ones that did not.
+  int token = rank;
+  MPI_Request sent = MPI_REQUEST_NULL;
+  if (rank != 0) MPI_Isend(&token, 1, MPI_INT, 0, kTagArrived, MPI_COMM_WORLD, &sent);
+  std::vector<char> arrived(static_cast<std::size_t>(size), 0);
+  arrived[0] = 1;
+  // One note per rank and barrier, taken from each rank in turn: messages from one rank arrive in order, so the first
+  // note not yet taken from a rank is this barrier's (a fast rank may already have sent the next barrier's).
+  auto receive_arrivals = [&] {
+    for (int r = 1; r < size; ++r) {
+      if (arrived[static_cast<std::size_t>(r)]) continue;
+      int flag = 0;
+      MPI_Iprobe(r, kTagArrived, MPI_COMM_WORLD, &flag, MPI_STATUS_IGNORE);
+      if (!flag) continue;
+      int who = 0;
+      MPI_Recv(&who, 1, MPI_INT, r, kTagArrived, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      arrived[static_cast<std::size_t>(r)] = 1;
+    }
+  };
   MPI_Request req;
   MPI_Ibarrier(MPI_COMM_WORLD, &req);
+  const auto t0 = std::chrono::steady_clock::now();
   int done = 0;
   while (true) {
     MPI_Test(&req, &done, MPI_STATUS_IGNORE);
-    if (done) return;
+    if (rank == 0) receive_arrivals();
+    if (done) break;
+    const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (waited > limit_s) {
+      std::string missing;
+      for (int r = 0; r < size; ++r)
+        if (!arrived[static_cast<std::size_t>(r)]) missing += (missing.empty() ? "" : ", ") + std::to_string(r);
+      throw core::Error(
+          rank == 0 ? fmt::format("rank 0: rank {} did not reach {} within {:g} s (stopped, or a stalled file system?); "
+                                  "the job is ended (the limit: VMSIM_WATCHDOG_S)",
+                                  missing.empty() ? std::string("?") : missing, stage, limit_s)
+                    : fmt::format("rank {}: waited {:g} s at {} for the other ranks; the job is ended (the limit: "
+                                  "VMSIM_WATCHDOG_S)",
+                                  rank, limit_s, stage));
+    }
     const timespec pause{0, 1000000};
     nanosleep(&pause, nullptr);
+  }
+  // Every rank passed the barrier, so every arrival note was sent: rank 0 takes the rest, the others' sends end.
+  if (rank == 0) {
+    for (int r = 1; r < size; ++r)
+      if (!arrived[static_cast<std::size_t>(r)]) {
+        int who = 0;
+        MPI_Recv(&who, 1, MPI_INT, r, kTagArrived, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      }
+  } else {
+    MPI_Wait(&sent, MPI_STATUS_IGNORE);
   }
 }
 
@@ -194,6 +258,10 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
   std::error_code ec;
   std::filesystem::create_directories(dir / "tiles", ec);
   if (ec) throw core::Error((dir / "tiles").string() + ": cannot create the directory: " + ec.message());
+  // Test hook (tests/app/tiled_run_cli_test.cpp, README "What you can rely on"): this rank's tile cannot be written.
+  // (The output directory is a fresh staging directory, so no obstacle can be planted in it beforehand.)
+  if (const char* h = std::getenv("VMSIM_TEST_FAIL_TILE"); h && std::atoi(h) == rank)
+    throw core::Error((dir / t.surface).string() + ": cannot write the tile (test hook VMSIM_TEST_FAIL_TILE)");
   metrology::X3pWriteOptions x3p;
   x3p.version = std::string("vmsim ") + VMSIM_VERSION;
   x3p.comment = fmt::format("predicted surface of job {}, tile {} of {} (rows {} to {})", job_name, rank, mpi_size(),

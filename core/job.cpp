@@ -1,4 +1,5 @@
 #include "core/job.hpp"
+#include "core/utf8.hpp"
 
 #include "core/error.hpp"
 #include "core/toml_reader.hpp"
@@ -236,6 +237,23 @@ Job load_job(const std::filesystem::path& path) {
   if (job.reference.kind == ReferenceSpec::Kind::Stock && job.stock.kind != StockSpec::Kind::Job)
     top.fail("reference", "kind = \"stock\" needs a stock of type \"job\" (the part another job leaves)");
   top.finish();
+  // Every input path goes into report.json (and X3P comments): one that is not UTF-8 is refused now, not lost after
+  // the run.
+  {
+    std::error_code ec;
+    const auto check = [&](const std::filesystem::path& p, const char* what) {
+      if (p.empty()) return;
+      const std::filesystem::path full = std::filesystem::weakly_canonical(p, ec);
+      require_utf8_path(ec ? p : full, what);
+    };
+    check(path, "the job file's path");
+    check(job.machine_file, "[job] machine");
+    check(job.program_file, "[job] program");
+    if (job.tool_table_file) check(*job.tool_table_file, "[job] tool_table");
+    if (job.gain_schedule_file) check(*job.gain_schedule_file, "[job] gain_schedule");
+    if (job.feed_plan_file) check(*job.feed_plan_file, "[job] feed_plan");
+    if (job.axis_models_file) check(*job.axis_models_file, "[job] axis_models");
+  }
   return job;
 }
 

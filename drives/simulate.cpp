@@ -1,15 +1,19 @@
 #include "drives/simulate.hpp"
 
 #include "core/error.hpp"
+#include "core/progress.hpp"
 #include "drives/cascade_axis.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace vmsim::drives {
@@ -30,8 +34,21 @@ struct AxisJob {
 // One axis from its setpoint column to its response columns. Row k of the response is the axis at t = k*Te, the
 // instant setpoint k is sent: row 0 is the resting state after reset, row k+1 the state after the drive has worked
 // on setpoint k for one Te. Beyond the last setpoint the NC holds it (and its last gains) for the settling rows.
+// Asked every kPollRows rows whether to go on (core::Progress::keep_going), on the calling thread only; every axis
+// stops when it says no (the caller's progress then throws).
+struct Stop {
+  core::Progress* progress = nullptr;
+  std::thread::id caller;
+  std::atomic<bool> requested{false};
+  bool go() {
+    if (std::this_thread::get_id() == caller && !progress->keep_going()) requested.store(true, std::memory_order_relaxed);
+    return !requested.load(std::memory_order_relaxed);
+  }
+};
+constexpr Index kPollRows = 256;  // ~ a few ms of one axis: Ctrl-C is seen within ~0.1 s
+
 void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double te, Index rows, AxisResponse& out,
-              FullRateTrace* trace) {
+              FullRateTrace* trace, Stop& stop) {
   const Index n_set = setpoints.rows();
   const double x0 = setpoints(0, axis);
   if (!job.model && !job.other) {
@@ -51,6 +68,7 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
   }
   double prev_x = x0, prev_v = 0.0;  // the NC's previous setpoint and velocity (at rest before the first one)
   for (Index k = 0; k < rows; ++k) {
+    if (k % kPollRows == 0 && !stop.go()) return;
     out.position(k, axis) = s.position;
     out.velocity(k, axis) = s.velocity;
     out.acceleration(k, axis) = s.acceleration;
@@ -214,14 +232,31 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
   // Axes are independent (no coupling in the model, the feed-drive simulation paper section 2.2): each thread runs whole axes, writing
   // only its own columns, so the results do not depend on the thread count or the schedule.
   const int n = static_cast<int>(n_axes);
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int a = 0; a < n; ++a) {
-    FullRateTrace* t = options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model &&
-                               !jobs[static_cast<std::size_t>(a)].other
-                           ? &out.trace[static_cast<std::size_t>(a)]
-                           : nullptr;
-    run_axis(jobs[static_cast<std::size_t>(a)], setpoints.position, a, te, rows, out, t);
+  Stop stop;
+  stop.progress = &core::ambient_progress();
+  stop.caller = std::this_thread::get_id();
+  std::atomic<int> next_axis{0}, axes_done{0};
+#pragma omp parallel
+  {
+    // Each thread takes the next axis until none is left (as schedule(dynamic, 1) would).
+    for (int a = next_axis++; a < n; a = next_axis++) {
+      FullRateTrace* t = options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model &&
+                                 !jobs[static_cast<std::size_t>(a)].other
+                             ? &out.trace[static_cast<std::size_t>(a)]
+                             : nullptr;
+      run_axis(jobs[static_cast<std::size_t>(a)], setpoints.position, a, te, rows, out, t, stop);
+      ++axes_done;
+    }
+    // The calling thread, out of axes, keeps asking its caller while the others finish theirs.
+    if (std::this_thread::get_id() == stop.caller && stop.progress != &core::no_progress())
+      while (axes_done.load() < n) {
+        stop.go();
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
   }
+  // Stopped by the caller: its progress throws (the response is incomplete and is not returned).
+  if (stop.requested) stop.progress->update(0);
+  if (stop.requested) throw core::Error("the drives' simulation was stopped by its caller");
   return out;
 }
 

@@ -1239,4 +1239,9 @@ void write_report_html(const std::filesystem::path& dir, const nlohmann::json& r
   core::write_file_atomic(dir / "report.html", report_html(report, dir));
 }
 
+void write_report(const std::filesystem::path& file, const nlohmann::json& report) {
+  core::write_file_atomic(file, report.dump(2) + "\n");
+  if (file.filename() == "report.json") write_report_html(file.parent_path(), report);
+}
+
 }  // namespace vmsim::render

@@ -19,4 +19,8 @@ std::string report_html(const nlohmann::json& report, const std::filesystem::pat
 // Writes report_html(report, dir) to dir/report.html, atomically. Throws core::Error on an I/O error.
 void write_report_html(const std::filesystem::path& dir, const nlohmann::json& report);
 
+// report.json (or another report file): written atomically, pretty-printed; a report.json gets its report.html
+// beside it, from the same object. The CLI (app/report.hpp) and the Python module write reports through it.
+void write_report(const std::filesystem::path& file, const nlohmann::json& report);
+
 }  // namespace vmsim::render

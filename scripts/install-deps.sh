@@ -22,12 +22,15 @@ packages=(
   libgtest-dev libgmock-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libzip-dev zipcmp zipmerge ziptool libpugixml-dev coinor-libclp-dev libglpk-dev
   libopenmpi-dev openmpi-bin libegl-dev fonts-dejavu-core libbenchmark-dev libfmt-dev python3-imath
-  zlib1g-dev libssl-dev python3
+  zlib1g-dev libssl-dev python3 libmatio-dev
+  # The Python module (python/): pybind11's headers, Python's, and numpy for the arrays it hands over.
+  python3-dev pybind11-dev python3-numpy
 )
 # For the tests only (`make test`; `make demo` installs none of it): report.html validated (html5lib in strict mode,
 # tidy) and opened in headless Chromium through chromedriver (selenium), its screenshot read with PIL; Gwyddion 2.62,
-# the independent reader the metrology tests hold vmsim's scan readers against (headless --convert-to-gwy).
-test_packages=(chromium chromium-driver python3-selenium python3-html5lib python3-pil tidy gwyddion)
+# the independent reader the metrology tests hold vmsim's scan readers against (headless --convert-to-gwy); pytest for
+# the Python module's tests (python/tests; matplotlib is optional: the examples write CSV without it).
+test_packages=(chromium chromium-driver python3-selenium python3-html5lib python3-pil tidy gwyddion python3-pytest)
 if [ "$with_tests" -eq 1 ]; then
   packages+=("${test_packages[@]}")
 fi

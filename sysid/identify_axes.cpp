@@ -4,6 +4,7 @@
 #include "core/timing.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -13,12 +14,59 @@ namespace vmsim::sysid {
 
 namespace {
 
-IdData deviations(const PositionTrace& t, int axis) {
+// Over [k0, k0 + m): neither the command nor the encoder moves more than kRestTolerance.
+bool still(const PositionTrace& t, int axis, Eigen::Index k0, Eigen::Index m) {
+  if (k0 + m > t.t_s.size()) return false;
+  const double tol = kRestTolerance * (t.rotary[static_cast<std::size_t>(axis)] ? 3.14159265358979 / 180.0 : 1.0);
+  const auto u = t.command.col(axis).segment(k0, m).array(), y = t.actual.col(axis).segment(k0, m).array();
+  return (u - u[0]).abs().maxCoeff() <= tol && (y - y[0]).abs().maxCoeff() <= tol;
+}
+
+struct RestPoint {
+  bool at_rest = true;
+  double u = 0.0, y = 0.0;  // subtracted from command and encoder
+  double offset = 0.0;      // encoder - command at rest (moving start)
+  std::string from;
+};
+
+RestPoint rest_point(const PositionTrace& t, int axis, const std::map<std::string, double>& given) {
+  RestPoint r;
+  r.u = t.command(0, axis);
+  r.y = t.actual(0, axis);
+  if (still(t, axis, 0, kRestSamples)) {
+    r.from = "the first sample";
+    return r;
+  }
+  r.at_rest = false;
+  const auto g = given.find(t.axes[static_cast<std::size_t>(axis)]);
+  if (g != given.end()) {
+    r.offset = g->second;
+    r.from = "--rest-offset";
+  } else {
+    r.from = "none: no still stretch in the trace, 0 assumed";
+    for (Eigen::Index k = 0; k + kRestStretchSamples <= t.t_s.size(); k += kRestStretchSamples / 5)
+      if (still(t, axis, k, kRestStretchSamples)) {
+        r.offset = (t.actual.col(axis).segment(k, kRestStretchSamples) - t.command.col(axis).segment(k, kRestStretchSamples)).mean();
+        r.from = fmt::format("the still stretch at t = {:.4g} s", t.t_s[k]);
+        break;
+      }
+  }
+  r.y = r.u + r.offset;
+  return r;
+}
+
+IdData deviations(const PositionTrace& t, int axis, const RestPoint& r) {
   IdData d;
-  d.u = t.command.col(axis).array() - t.command(0, axis);
-  d.y = t.actual.col(axis).array() - t.actual(0, axis);
+  d.u = t.command.col(axis).array() - r.u;
+  d.y = t.actual.col(axis).array() - r.y;
   d.period_s = t.period_s;
+  d.initial_state_estimated = !r.at_rest;
+  d.y_reference = r.y;
   return d;
+}
+
+IdData deviations(const PositionTrace& t, int axis, const std::map<std::string, double>& given) {
+  return deviations(t, axis, rest_point(t, axis, given));
 }
 
 void check_period(const PositionTrace& t, const PositionTrace& first, const std::string& first_name) {
@@ -34,23 +82,29 @@ void check_axis(const PositionTrace& t, const std::string& axis) {
 
 // Estimation and validation data of one axis (see the header for the split).
 AxisData axis_data(const std::vector<PositionTrace>& traces, const PositionTrace* validation, std::size_t n_est,
-                   const std::string& name) {
+                   const std::string& name, const std::map<std::string, double>& given) {
   const PositionTrace& trace = traces.front();
   const int ai = trace.axis_index(name);
   AxisData a;
   a.name = name;
   a.rotary = trace.rotary[static_cast<std::size_t>(ai)];
-  a.rest_offset = std::abs(trace.command(0, ai) - trace.actual(0, ai));
-  const IdData all = deviations(trace, ai);
+  a.first_sample_offset = std::abs(trace.command(0, ai) - trace.actual(0, ai));
+  const RestPoint first = rest_point(trace, ai, given);
+  const IdData all = deviations(trace, ai, first);
   a.estimation = all;
+  a.at_rest = first.at_rest;
+  if (!first.at_rest) {
+    a.rest_offset = first.offset;
+    a.rest_offset_from = first.from;
+  }
   if (n_est > 1) {
     // Each trace its own experiment, as deviations from its own rest point.
     std::vector<IdData> parts;
-    for (std::size_t i = 0; i < n_est; ++i) parts.push_back(deviations(traces[i], traces[i].axis_index(name)));
+    for (std::size_t i = 0; i < n_est; ++i) parts.push_back(deviations(traces[i], traces[i].axis_index(name), given));
     a.estimation = concatenate(parts);
   }
   if (validation) {
-    a.validation = deviations(*validation, validation->axis_index(name));
+    a.validation = deviations(*validation, validation->axis_index(name), given);
   } else {
     const Eigen::Index half = all.u.size() / 2;
     a.estimation.u = all.u.head(half);
@@ -63,7 +117,10 @@ AxisData axis_data(const std::vector<PositionTrace>& traces, const PositionTrace
 
 }  // namespace
 
-bool AxisData::starts_at_rest() const { return !(rest_offset > 1e-3 * (rotary ? 3.14159265358979 / 180.0 : 1.0)); }
+bool is_marginal(const drives::DiscreteTf& g) {
+  const double r = drives::spectral_radius(g.a);
+  return !(r <= kMarginalPoleMagnitude);
+}
 
 IdentificationData prepare_identification(const std::vector<PositionTrace>& traces, const PositionTrace* validation,
                                           const AxesIdentificationOptions& options) {
@@ -92,8 +149,25 @@ IdentificationData prepare_identification(const std::vector<PositionTrace>& trac
     for (const PositionTrace& t : traces) check_axis(t, a);
     if (validation) check_axis(*validation, a);
   }
-  for (const std::string& a : axes) d.axes.push_back(axis_data(traces, held, d.estimation_traces, a));
+  for (const auto& [name, offset] : options.rest_offsets)
+    if (std::find(axes.begin(), axes.end(), name) == axes.end())
+      throw core::Error(fmt::format("--rest-offset {}: no such axis is identified (axes: {})", name, fmt::join(axes, ", ")));
+  for (const std::string& a : axes)
+    d.axes.push_back(axis_data(traces, held, d.estimation_traces, a, options.rest_offsets));
   return d;
+}
+
+void rank_models(std::vector<ModelResult>& models) {
+  std::vector<std::size_t> rank(models.size());
+  for (std::size_t i = 0; i < rank.size(); ++i) rank[i] = i;
+  // A marginal or unstable model ranks after every stable one; a model whose validation is not finite (a search
+  // that failed) ranks last.
+  const auto key = [&](std::size_t i) {
+    const double mse = models[i].validation.mse;
+    return std::make_pair(models[i].marginal || !std::isfinite(mse), std::isfinite(mse) ? mse : HUGE_VAL);
+  };
+  std::stable_sort(rank.begin(), rank.end(), [&](std::size_t a, std::size_t b) { return key(a) < key(b); });
+  for (std::size_t k = 0; k < rank.size(); ++k) models[rank[k]].rank = static_cast<int>(k) + 1;
 }
 
 AxisIdentification identify_axis(const AxisData& data, const std::string& source,
@@ -122,20 +196,15 @@ AxisIdentification identify_axis(const AxisData& data, const std::string& source
     try {
       IdentifiedModel m = identify(s, data.estimation, o);
       const Validation v = validate(m, data.validation, options.lags, data.first_validation_sample);
-      r.models.push_back({std::move(m), v, core::seconds_since(t0), 0});
+      const bool marginal = is_marginal(m.g);
+      r.models.push_back({std::move(m), v, core::seconds_since(t0), 0, marginal});
     } catch (const core::Error& e) {
       throw core::Error(core::located(source, 0, fmt::format("axis {} {}: {}", data.name, structure_name(s), e.what())));
     }
   }
-  std::vector<std::size_t> rank(r.models.size());
-  for (std::size_t i = 0; i < rank.size(); ++i) rank[i] = i;
-  // A model whose validation is not finite (a search that failed) ranks last.
-  const auto key = [&](std::size_t i) {
-    return std::isfinite(r.models[i].validation.mse) ? r.models[i].validation.mse : HUGE_VAL;
-  };
-  std::stable_sort(rank.begin(), rank.end(), [&](std::size_t a, std::size_t b) { return key(a) < key(b); });
-  for (std::size_t k = 0; k < rank.size(); ++k) r.models[rank[k]].rank = static_cast<int>(k) + 1;
-  r.chosen = rank.front();
+  rank_models(r.models);
+  for (std::size_t i = 0; i < r.models.size(); ++i)
+    if (r.models[i].rank == 1) r.chosen = i;
   if (options.use)
     r.chosen = static_cast<std::size_t>(
         std::find(options.structures.begin(), options.structures.end(), *options.use) - options.structures.begin());

@@ -4,7 +4,13 @@
 // fitted on the estimation data, validated on separate data, ranked by the validation MSE as the paper's Table 2,
 // the chosen one per axis ready for the axis-model file (sysid/axis_model_file.hpp).
 //
-// Data. Each trace is one experiment, as deviations from its own rest point (sysid.hpp). The validation data are
+// Data. Each trace is one experiment, as deviations from its own rest point (sysid.hpp). A trace starts at rest when
+// over its first kRestSamples samples neither the command nor the encoder moves more than kRestTolerance;
+// the rest point is then its first sample (command and encoder each). A trace that starts mid-motion (a capture
+// started while the axis ran) has no such point: its deviations are taken from the first command for both signals,
+// the encoder's less the rest offset (encoder - command at rest: given by the user, else measured on the trace's
+// first still stretch of kRestStretchSamples samples, else 0, said so), and the model's initial state and a
+// constant output offset are estimated with it (IdData::initial_state_estimated). The validation data are
 // a separate trace when one is given; else, with several traces, the last one, held out; else the one trace's
 // second half (the model then runs over the whole record and only the second half is counted).
 #include "sysid/axis_model_file.hpp"
@@ -12,6 +18,7 @@
 #include "sysid/sysid.hpp"
 
 #include <cstddef>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -27,7 +34,20 @@ struct AxesIdentificationOptions {
   std::optional<ModelStructure> use;     // the structure chosen per axis; nullopt: the lowest validation MSE
   std::vector<std::string> axes;         // empty: every axis of the first trace
   int lags = 25;                         // residual autocorrelation lags of the whiteness test
+  // Rest offsets (encoder - command at rest, axis units: mm or rad) given by the user, per axis name; used for the
+  // traces that do not start at rest.
+  std::map<std::string, double> rest_offsets;
 };
+
+inline constexpr int kRestSamples = 3;
+inline constexpr int kRestStretchSamples = 50;
+inline constexpr double kRestTolerance = 1e-3;  // mm, or deg on a rotary axis
+
+// A model whose largest pole magnitude exceeds this is marginal (a time constant above 10 000 samples: over a record
+// it cannot be told from an integrator) or, above 1, unstable. Such a model ranks after every stable one, and the
+// commands warn when they write one.
+inline constexpr double kMarginalPoleMagnitude = 1.0 - 1e-4;
+bool is_marginal(const drives::DiscreteTf& g);
 
 enum class ValidationData { SecondHalf, HeldOutTrace, SeparateTrace };
 
@@ -37,9 +57,14 @@ struct AxisData {
   bool rotary = false;                   // the trace gave degrees (the data are in rad)
   IdData estimation, validation;
   Eigen::Index first_validation_sample = 0;  // the validation figures count samples from here on
-  // |command - encoder| at the first sample of the first trace (axis units): identification assumes rest there.
+  bool at_rest = true;                   // the first trace starts at rest (see above; each IdData says its own)
+  // The first trace's |command - encoder| at its first sample (axis units); at rest, the encoder's offset.
+  double first_sample_offset = 0.0;
+  // For traces that start mid-motion: the rest offset used (encoder - command at rest, axis units) and where it came
+  // from ("--rest-offset", "the still stretch at t = ... s", "none: no still stretch in the trace, 0 assumed").
   double rest_offset = 0.0;
-  bool starts_at_rest() const;           // rest_offset within 1e-3 mm (1e-3 deg)
+  std::string rest_offset_from;
+  bool starts_at_rest() const { return at_rest; }
 };
 
 struct IdentificationData {
@@ -60,7 +85,8 @@ struct ModelResult {
   IdentifiedModel model;
   Validation validation;
   double seconds = 0.0;                  // wall time of estimation and validation
-  int rank = 0;                          // 1: lowest validation MSE (a non-finite MSE ranks last)
+  int rank = 0;                          // 1: lowest validation MSE (marginal or unstable, or non-finite MSE: last)
+  bool marginal = false;                 // is_marginal(model.g)
 };
 
 struct AxisIdentification {
@@ -70,6 +96,9 @@ struct AxisIdentification {
   std::vector<ModelResult> models;       // in the order of options.structures
   std::size_t chosen = 0;                // index into models: options.use, else rank 1
 };
+
+// Sets each model's rank: by validation MSE, every marginal or unstable model (or non-finite MSE) after the others.
+void rank_models(std::vector<ModelResult>& models);
 
 // Orders, delay, every structure fitted and validated, ranked. Throws core::Error naming `source` and the axis
 // (and structure) when the data cannot carry the orders.

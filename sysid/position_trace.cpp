@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -15,6 +16,36 @@ int PositionTrace::axis_index(const std::string& name) const {
   for (std::size_t i = 0; i < axes.size(); ++i)
     if (axes[i] == name) return static_cast<int>(i);
   return -1;
+}
+
+void regularise_sampling(PositionTrace& tr, const std::vector<int>& lines) {
+  const Eigen::Index n = tr.t_s.size();
+  if (n < 2) throw core::Error(core::located(tr.source, 0, fmt::format("{} samples; a trace needs at least 2", n)));
+  const auto line_of = [&](Eigen::Index k) { return k < static_cast<Eigen::Index>(lines.size()) ? lines[k] : 0; };
+  for (Eigen::Index k = 1; k < n; ++k)
+    if (!(tr.t_s[k] > tr.t_s[k - 1]))
+      throw core::Error(core::located(tr.source, line_of(k),
+                                      fmt::format("t_s {} s does not increase (previous sample: {} s)", tr.t_s[k],
+                                                  tr.t_s[k - 1])));
+  tr.period_s = (tr.t_s[n - 1] - tr.t_s[0]) / static_cast<double>(n - 1);
+  tr.max_jitter_s = 0.0;
+  for (Eigen::Index k = 1; k < n; ++k)
+    tr.max_jitter_s = std::max(tr.max_jitter_s, std::abs(tr.t_s[k] - tr.t_s[k - 1] - tr.period_s));
+  tr.resampled = tr.max_jitter_s > kJitterTolerance * tr.period_s;
+  if (!tr.resampled) return;
+  // Linear interpolation onto t0 + k T: the time stamps are strictly increasing, so one forward sweep finds each
+  // grid point's interval.
+  const Eigen::ArrayXd t = tr.t_s;
+  const Eigen::MatrixXd c = tr.command, a = tr.actual;
+  Eigen::Index j = 0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double tk = k + 1 == n ? t[n - 1] : t[0] + static_cast<double>(k) * tr.period_s;
+    while (j + 2 < n && t[j + 1] < tk) ++j;
+    const double w = std::clamp((tk - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0);
+    tr.t_s[k] = tk;
+    tr.command.row(k) = (1.0 - w) * c.row(j) + w * c.row(j + 1);
+    tr.actual.row(k) = (1.0 - w) * a.row(j) + w * a.row(j + 1);
+  }
 }
 
 PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
@@ -97,17 +128,7 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
       tr.actual(k, a) = row[cc.actual] * f;
     }
   }
-  tr.period_s = (tr.t_s[n - 1] - tr.t_s[0]) / static_cast<double>(n - 1);
-  if (!(tr.period_s > 0.0))
-    throw core::Error(core::located(file, lines[1], "t_s must increase"));
-  for (Eigen::Index k = 1; k < n; ++k) {
-    const double dt = tr.t_s[k] - tr.t_s[k - 1];
-    if (std::abs(dt - tr.period_s) > 1e-6 * tr.period_s + 1e-9)
-      throw core::Error(core::located(
-          file, lines[static_cast<std::size_t>(k)],
-          fmt::format("t_s steps by {} s here but {} s on average: identification needs a constant sampling period",
-                      dt, tr.period_s)));
-  }
+  regularise_sampling(tr, lines);
   return tr;
 }
 

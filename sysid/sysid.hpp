@@ -39,10 +39,19 @@ struct ModelOrders {
 // experiments one after the other (starts: the first sample of each, beginning with 0; empty: one experiment). The
 // estimators never mix samples across an experiment's boundary: regressors, filters and simulations restart from
 // rest at each start, and the criteria sum only the rows whose every regressor lies within one experiment.
+//
+// An experiment that does not start at rest (captures start mid-motion) sets initial_state_estimated: the
+// simulation-based criteria (OE's estimation, every structure's validation) then estimate each experiment's initial
+// state and a constant output offset by least squares along with the model instead of starting it from rest
+// (equation-error ARX and ARMAX use measured past outputs and need no initial state).
 struct IdData {
   Eigen::VectorXd u, y;
   double period_s = 1e-3;
   std::vector<Eigen::Index> starts;
+  bool initial_state_estimated = false;
+  // The value subtracted from y (absolute y = y + y_reference, axis units): for the relative error of the EMPS
+  // benchmark (Janot, Gautier & Brunot), which is on absolute positions.
+  double y_reference = 0.0;
 };
 // Experiments appended one after the other (each its own deviations from rest), with their starts.
 IdData concatenate(const std::vector<IdData>& experiments);
@@ -83,7 +92,8 @@ ModelOrders select_orders_bic(const IdData& data, const OrderSearch& search = {}
 // The delay for given na, nb: the nk in [1, max_nk] whose ARX fit has the smallest loss.
 int select_delay(const IdData& data, int na, int nb, int max_nk = 5);
 
-// Validation on separate data (the predictive-compensation paper section 3, eq. 16-17), the model simulated from zero state:
+// Validation on separate data (the predictive-compensation paper section 3, eq. 16-17), the model simulated from zero
+// state (or with its initial state and output offset estimated: IdData::initial_state_estimated):
 struct Validation {
   double fit_percent = 0.0;           // 100 (1 - |y - yhat| / |y - mean y|)
   double r2 = 0.0;                    // 1 - sum (y - yhat)^2 / sum (y - mean y)^2 (eq. 16)
@@ -92,6 +102,9 @@ struct Validation {
   // near 100 % for any model with unit static gain, this one says how well the lag itself is predicted.
   double tracking_fit_percent = 0.0;
   double max_abs_error = 0.0;         // max |y - yhat|, axis units
+  // 100 |y - yhat| / |y| on absolute positions (y + IdData::y_reference): the relative error of the EMPS benchmark
+  // (Janot, Gautier & Brunot, eq. 11), to compare with its published figures.
+  double relative_error_percent = 0.0;
   // Residual whiteness: autocorrelation r(tau) of the one-step prediction errors at lags 1..lags, the portmanteau
   // statistic Q = N sum r^2 against the 99 % quantile of chi^2(lags) (Box-Pierce; Ljung, System Identification,
   // 2nd ed., section 16.6); max |r| and the per-lag 99 % band 2.58/sqrt(N) for the record.

@@ -32,6 +32,19 @@ IdentifiedModel identify_armax(const IdData& data, const ModelOrders& o, const S
   Eigen::MatrixXd phi_arx;
   Eigen::VectorXd rhs;
   detail::arx_regression(u, y, na, nb, nk, seg, phi_arx, rhs);
+  // A constant per experiment when the experiments do not start at rest (the rest offset, not assumed): demeaned
+  // regressions for the start, projected out of the prediction errors in the search.
+  const bool offsets = data.initial_state_estimated;
+  const auto demean = [&](Eigen::MatrixXd& phi, Eigen::VectorXd* r) {
+    if (!offsets) return;
+    if (r) seg.demean_gathered(*r);
+    for (Eigen::Index j = 0; j < phi.cols(); ++j) {
+      Eigen::VectorXd col = phi.col(j);
+      seg.demean_gathered(col);
+      phi.col(j) = col;
+    }
+  };
+  demean(phi_arx, &rhs);
   Eigen::VectorXd theta(na + nb + nc);
   theta.setZero();
   theta.head(na + nb) = detail::least_squares(phi_arx, rhs);
@@ -51,6 +64,7 @@ IdentifiedModel identify_armax(const IdData& data, const ModelOrders& o, const S
     Eigen::MatrixXd phi(seg.rows(), na + nb + nc);
     phi.leftCols(na + nb) = phi_arx;
     for (int i = 1; i <= nc; ++i) phi.col(na + nb + i - 1) = seg.gather(seg.delayed(e, i));
+    demean(phi, nullptr);
     theta = detail::least_squares(phi, rhs);
     if (!theta.allFinite()) break;
     theta.tail(nc) = detail::reflect_into_unit_circle(theta.tail(nc));
@@ -59,6 +73,10 @@ IdentifiedModel identify_armax(const IdData& data, const ModelOrders& o, const S
     const Eigen::VectorXd cpoly = monic(theta.tail(nc));
     e = seg.filter(monic(theta.head(na)), cpoly, y) - seg.filter(delayed_numerator(theta.segment(na, nb), nk), cpoly, u);
     if (!e.allFinite()) break;
+    if (offsets) {
+      seg.mask(e, nullptr);
+      seg.project_out_offset(cpoly, e, nullptr);
+    }
     const double l = seg.gather(e).squaredNorm();
     if (l < best_loss) best = theta, best_loss = l;
   }
@@ -82,6 +100,7 @@ IdentifiedModel identify_armax(const IdData& data, const ModelOrders& o, const S
       }
     }
     seg.mask(eps, jac);
+    if (offsets) seg.project_out_offset(cpoly, eps, jac);
     return true;
   };
   IdentifiedModel m;

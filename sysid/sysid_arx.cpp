@@ -9,7 +9,17 @@ IdentifiedModel identify_arx(const IdData& data, const ModelOrders& orders) {
   const Eigen::VectorXd u = data.u * s, y = data.y * s;
   Eigen::MatrixXd phi;
   Eigen::VectorXd rhs;
-  detail::arx_regression(u, y, orders.na, orders.nb, orders.nk, detail::Segments(data, k0), phi, rhs);
+  const detail::Segments seg(data, k0);
+  detail::arx_regression(u, y, orders.na, orders.nb, orders.nk, seg, phi, rhs);
+  if (data.initial_state_estimated) {
+    // A constant per experiment (the rest offset, not assumed): A y = B u + c.
+    seg.demean_gathered(rhs);
+    for (Eigen::Index j = 0; j < phi.cols(); ++j) {
+      Eigen::VectorXd col = phi.col(j);
+      seg.demean_gathered(col);
+      phi.col(j) = col;
+    }
+  }
   const Eigen::VectorXd theta = detail::least_squares(phi, rhs);
 
   IdentifiedModel m;

@@ -50,6 +50,7 @@ IdData concatenate(const std::vector<IdData>& experiments) {
     if (e.u.size() != e.y.size())
       throw core::Error(fmt::format("identification data: {} inputs but {} outputs", e.u.size(), e.y.size()));
     out.starts.push_back(at);
+    out.initial_state_estimated = out.initial_state_estimated || e.initial_state_estimated;
     out.u.segment(at, e.u.size()) = e.u;
     out.y.segment(at, e.y.size()) = e.y;
     at += e.u.size();
@@ -108,11 +109,37 @@ Segments::Segments(const IdData& data, Eigen::Index k0) : n_(data.u.size()) {
   bounds_ = data.starts.empty() ? std::vector<Eigen::Index>{0} : data.starts;
   bounds_.push_back(n_);
   is_valid_.assign(static_cast<std::size_t>(n_), 0);
-  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s)
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    row_bounds_.push_back(static_cast<Eigen::Index>(valid_.size()));
     for (Eigen::Index k = bounds_[s] + k0; k < bounds_[s + 1]; ++k) {
       valid_.push_back(k);
       is_valid_[static_cast<std::size_t>(k)] = 1;
     }
+  }
+  row_bounds_.push_back(static_cast<Eigen::Index>(valid_.size()));
+}
+
+void Segments::demean_gathered(Eigen::VectorXd& g) const {
+  for (std::size_t s = 0; s + 1 < row_bounds_.size(); ++s) {
+    const Eigen::Index a = row_bounds_[s], len = row_bounds_[s + 1] - a;
+    if (len > 0) g.segment(a, len).array() -= g.segment(a, len).mean();
+  }
+}
+
+void Segments::project_out_offset(const Eigen::VectorXd& c_monic, Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const {
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    const Eigen::Index a = bounds_[s], len = bounds_[s + 1] - a;
+    Eigen::VectorXd basis = drives::filter_q(Eigen::VectorXd::Ones(1), c_monic, Eigen::VectorXd::Ones(len));
+    for (Eigen::Index k = 0; k < len; ++k)
+      if (!is_valid_[static_cast<std::size_t>(a + k)]) basis[k] = 0.0;
+    const double norm = basis.norm();
+    if (!(norm > 0.0)) continue;
+    basis /= norm;
+    const auto project = [&](auto&& v) { v -= basis * basis.dot(v); };
+    project(eps.segment(a, len));
+    if (jac)
+      for (Eigen::Index c = 0; c < jac->cols(); ++c) project(jac->col(c).segment(a, len));
+  }
 }
 
 Eigen::VectorXd Segments::delayed(const Eigen::VectorXd& x, Eigen::Index shift) const {
@@ -156,6 +183,32 @@ void Segments::mask(Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const {
       eps[k] = 0.0;
       if (jac) jac->row(k).setZero();
     }
+}
+
+void Segments::project_out_initial_state(const Eigen::VectorXd& f_monic, int n_free, Eigen::VectorXd& eps,
+                                         Eigen::MatrixXd* jac) const {
+  for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {
+    const Eigen::Index a = bounds_[s], len = bounds_[s + 1] - a;
+    const Eigen::Index m = std::min<Eigen::Index>(n_free + 1, len);
+    Eigen::MatrixXd basis = Eigen::MatrixXd::Zero(len, m);
+    basis.col(0).setOnes();
+    for (Eigen::Index j = 1; j < m; ++j) {
+      Eigen::VectorXd pulse = Eigen::VectorXd::Zero(len);
+      pulse[j - 1] = 1.0;
+      basis.col(j) = drives::filter_q(Eigen::VectorXd::Ones(1), f_monic, pulse);
+    }
+    for (Eigen::Index k = 0; k < len; ++k)
+      if (!is_valid_[static_cast<std::size_t>(a + k)]) basis.row(k).setZero();
+    // Orthonormal basis of the span (rank-revealing: a pulse whose response lies entirely in masked rows adds none).
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(basis);
+    const Eigen::Index r = qr.rank();
+    if (r == 0) continue;
+    const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(len, r);
+    const auto project = [&](auto&& v) { v -= q * (q.transpose() * v); };
+    project(eps.segment(a, len));
+    if (jac)
+      for (Eigen::Index c = 0; c < jac->cols(); ++c) project(jac->col(c).segment(a, len));
+  }
 }
 
 void arx_regression(const Eigen::VectorXd& u, const Eigen::VectorXd& y, int na, int nb, int nk, const Segments& seg,

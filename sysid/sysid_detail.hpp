@@ -28,10 +28,25 @@ class Segments {
   Eigen::VectorXd gather(const Eigen::VectorXd& x) const;                         // x at the summed rows
   // Zeroes eps (and the Jacobian's rows) outside the summed rows: those rows then add nothing to a least-squares step.
   void mask(Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const;
+  // An experiment that does not start at rest (IdData::initial_state_estimated): its simulated output differs from
+  // the zero-state one by a free response of 1/F (F monic) and a constant output offset. The free responses are
+  // those of 1/F to unit pulses at the experiment's first n_free samples (n_free = max(nf, nb + nk - 1): every
+  // unknown sample before the start enters there). Removes from eps (and the Jacobian's columns: the variable-
+  // projection step of Kaufman, 1975, dropping the derivative of the basis) its least-squares fit on that basis and
+  // the constant, per experiment, over the summed rows. Call after mask().
+  void project_out_initial_state(const Eigen::VectorXd& f_monic, int n_free, Eigen::VectorXd& eps,
+                                 Eigen::MatrixXd* jac) const;
+  // The equation-error counterparts for such experiments: a constant c per experiment in A y = B u + c (+ C e).
+  // Removes each experiment's mean from a gathered vector (rows(): a column of the ARX regression or its right-hand
+  // side; Frisch-Waugh: the least squares with the constants then need no columns for them), and from eps (and the
+  // Jacobian's columns) its least-squares fit on c / C, i.e. the constant filtered by 1/C from the experiment's start.
+  void demean_gathered(Eigen::VectorXd& gathered) const;
+  void project_out_offset(const Eigen::VectorXd& c_monic, Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const;
 
  private:
   Eigen::Index n_ = 0;
   std::vector<Eigen::Index> bounds_;  // starts, then n
+  std::vector<Eigen::Index> row_bounds_;  // each experiment's first summed row (index into valid_), then rows()
   std::vector<Eigen::Index> valid_;
   std::vector<char> is_valid_;
 };

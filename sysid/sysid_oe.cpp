@@ -2,6 +2,7 @@
 // McBride 1965; Ljung section 10.4), then Levenberg-Marquardt on the simulation error eps = y - B/F q^-nk u.
 #include "sysid/sysid_detail.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace vmsim::sysid {
@@ -24,6 +25,8 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   const Eigen::Index n = y.size();
   const Eigen::VectorXd one = Eigen::VectorXd::Ones(1);
   const detail::Segments seg(data, k0);
+  const bool free_start = data.initial_state_estimated;
+  const int n_free = std::max(nf, nb + nk - 1);
 
   // Simulation error of a candidate (infinite when F is unstable): the OE criterion itself.
   auto sim_loss = [&](const Eigen::VectorXd& th) {
@@ -32,7 +35,10 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
     g.a = th.head(nf);
     g.b = th.tail(nb);
     g.nk = nk;
-    const double l = seg.gather(y - seg.simulate(g, u)).squaredNorm();
+    Eigen::VectorXd eps = y - seg.simulate(g, u);
+    seg.mask(eps, nullptr);
+    if (free_start) seg.project_out_initial_state(monic(g.a), n_free, eps, nullptr);
+    const double l = eps.squaredNorm();
     return std::isfinite(l) ? l : HUGE_VAL;
   };
   // Steiglitz-McBride: F from ARX, then ARX on (u, y) filtered by 1/F until F settles. The search starts from the
@@ -40,7 +46,18 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   // noise-free simulation) the passes can drift away from it.
   Eigen::MatrixXd phi;
   Eigen::VectorXd rhs;
+  // Experiments that do not start at rest: a constant per experiment in the start's regressions (the rest offset).
+  const auto demean = [&] {
+    if (!free_start) return;
+    seg.demean_gathered(rhs);
+    for (Eigen::Index j = 0; j < phi.cols(); ++j) {
+      Eigen::VectorXd col = phi.col(j);
+      seg.demean_gathered(col);
+      phi.col(j) = col;
+    }
+  };
   detail::arx_regression(u, y, nf, nb, nk, seg, phi, rhs);
+  demean();
   Eigen::VectorXd theta = detail::least_squares(phi, rhs);  // [f; b]
   theta.head(nf) = detail::reflect_into_unit_circle(theta.head(nf));
   Eigen::VectorXd best = theta;
@@ -48,6 +65,7 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
   for (int pass = 0; pass < 30 && nf > 0; ++pass) {
     const Eigen::VectorXd fpoly = monic(theta.head(nf));
     detail::arx_regression(seg.filter(one, fpoly, u), seg.filter(one, fpoly, y), nf, nb, nk, seg, phi, rhs);
+    demean();
     Eigen::VectorXd next = detail::least_squares(phi, rhs);
     if (!next.allFinite()) break;
     next.head(nf) = detail::reflect_into_unit_circle(next.head(nf));
@@ -77,6 +95,7 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
       for (int j = 1; j <= nb; ++j) jac->col(nf + j - 1) = -seg.delayed(uf, nk + j - 1);
     }
     seg.mask(eps, jac);
+    if (free_start) seg.project_out_initial_state(monic(f), n_free, eps, jac);
     return true;
   };
   IdentifiedModel m;

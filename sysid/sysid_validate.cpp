@@ -46,7 +46,16 @@ Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eige
                                   2 * lags + 10));
   Validation v;
   const Eigen::Index n_val = total - first;
-  const Eigen::VectorXd sim = drives::simulate_tf(m.g, data.u);
+  Eigen::VectorXd sim = drives::simulate_tf(m.g, data.u);
+  if (data.initial_state_estimated) {
+    // The initial state and output offset fitted over the whole record: y - sim loses its component in their span.
+    Eigen::VectorXd e = data.y - sim;
+    IdData one = data;
+    one.starts.clear();
+    const detail::Segments seg(one, 0);
+    seg.project_out_initial_state(monic(m.g.a), std::max(m.g.na(), m.g.nb() + m.g.nk - 1), e, nullptr);
+    sim = data.y - e;
+  }
   v.simulated = sim.tail(n_val);
   const Eigen::VectorXd y = data.y.tail(n_val), u = data.u.tail(n_val);
   const Eigen::VectorXd err = y - v.simulated;
@@ -57,10 +66,15 @@ Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eige
   v.mse = err.squaredNorm() / n;
   v.max_abs_error = err.cwiseAbs().maxCoeff();
   v.tracking_fit_percent = fit_percent(u - y, u - v.simulated);
+  const double y_abs = (y.array() + data.y_reference).matrix().norm();
+  v.relative_error_percent = y_abs > 0.0 ? 100.0 * err.norm() / y_abs : 0.0;
 
   // Whiteness of the one-step errors, past the start-up transient.
   const Eigen::Index skip = std::max<Eigen::Index>({first, m.g.na(), m.g.nb() + m.g.nk, m.c.size()});
-  const Eigen::VectorXd eps_all = prediction_errors(m, data);
+  // (OE's one-step errors are its simulation errors: with an estimated initial state, those of the fitted start.)
+  const Eigen::VectorXd eps_all =
+      m.structure == ModelStructure::Oe && data.initial_state_estimated ? Eigen::VectorXd(data.y - sim)
+                                                                         : prediction_errors(m, data);
   const Eigen::VectorXd eps = eps_all.tail(total - skip).array() - eps_all.tail(total - skip).mean();
   const double r0 = eps.squaredNorm();
   v.lags = lags;

@@ -138,11 +138,11 @@ TEST(RenderCli, MotionWritesSignalsAndRenderDrawsItsCharts) {
 
 TEST(RenderCli, ErrorsAreMessagesNotAborts) {
   TempDir tmp;
-  // Nothing to draw.
+  // Nothing to draw: no report.json, so not a complete result (and nothing listed to draw).
   fs::create_directories(tmp.path() / "empty");
   CliRun e = run_headless("render '" + (tmp.path() / "empty").string() + "'", tmp);
   EXPECT_EQ(e.code, 2);
-  EXPECT_NE(e.err.find("nothing to render"), std::string::npos) << e.err;
+  EXPECT_NE(e.err.find("no report.json"), std::string::npos) << e.err;
   // A bad size is found before the simulation runs: no output at all.
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
   CliRun s = run_headless("run '" + job + "' --quiet --image-size 10x10 --out '" + (tmp.path() / "bad").string() + "'", tmp);

@@ -334,6 +334,50 @@ feed_scale = 0.5
   vmsim_test::expect_report_html(root / "out" / "variations" / "001", "--pictures no");
 }
 
+// A variation whose run crashes (a segfault: the test hook VMSIM_TEST_SEGFAULT_JOB=<job name> makes vmsim run raise
+// SIGSEGV for that job, README "What you can rely on") becomes its row, naming the signal; the others are kept and
+// results.csv is written, on one process and on two ranks. Reference: the same study's rows without the hook.
+TEST(StudyCli, AVariationThatCrashesBecomesItsRow) {
+  TempDir tmp("vmsim_study_");
+  const fs::path root = tmp.path();
+  make_layout(root);
+  write(root / "studies" / "crash.toml", R"([study]
+job = "../part/job.toml"
+
+[common]
+removal.spacing_mm = 0.5
+
+[[variation]]
+name = "base"
+
+[[variation]]
+name = "crashes"
+job.name = "crash_me"
+
+[[variation]]
+name = "slow"
+feed_scale = 0.5
+)");
+  for (int np : {1, 2}) {
+    const std::string out = "out" + std::to_string(np);
+    const std::string prefix = "env VMSIM_TEST_SEGFAULT_JOB=crash_me " + (np == 1 ? std::string() : fmt_mpirun(np));
+    const CliRun r = cli(prefix, "study studies/crash.toml --out " + out, root, tmp);
+    ASSERT_EQ(r.code, 0) << np << " ranks\n" << r.out << r.err;
+    EXPECT_NE(r.out.find("2 ok, 1 failed"), std::string::npos) << r.out;
+    const Table t = read_table(root / out / "results.csv");
+    ASSERT_EQ(t.rows.size(), 3u);
+    EXPECT_EQ(t.at(0, "status"), "ok");
+    EXPECT_EQ(t.at(1, "status"), "failed");
+    EXPECT_EQ(t.at(2, "status"), "ok");
+    const std::string e = t.at(1, "error");
+    EXPECT_NE(e.find("variation 2 (crashes)"), std::string::npos) << e;
+    EXPECT_NE(e.find("SIGSEGV"), std::string::npos) << e;
+    EXPECT_FALSE(t.at(2, "contour_error_max_um").empty());
+    EXPECT_TRUE(fs::exists(root / out / "variations" / "003" / "report.json"));
+    EXPECT_TRUE(fs::exists(root / out / "variations" / "002" / "run.log"));
+  }
+}
+
 TEST(StudyCli, BadStudyFilesNameTheFileAndTheKey) {
   TempDir tmp("vmsim_study_");
   const fs::path root = tmp.path();

@@ -35,8 +35,9 @@ const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts";
 
 // Runs vmsim with `args` as one process (ranks 0) or under mpirun; returns the exit code, stderr in `err`. A time
 // limit turns a hang into a failure.
-int run_vmsim(int ranks, const std::string& args, const fs::path& log, std::string* err = nullptr) {
-  std::string cmd = "timeout 300 ";
+int run_vmsim(int ranks, const std::string& args, const fs::path& log, std::string* err = nullptr,
+              const std::string& env = "") {
+  std::string cmd = env + "timeout 300 ";
   if (ranks > 0)
     cmd += std::string("'") + VMSIM_MPIEXEC + "' -np " + std::to_string(ranks) + " --allow-run-as-root --oversubscribe ";
   cmd += std::string("'") + VMSIM_EXE + "' " + args + " >'" + log.string() + ".out' 2>'" + log.string() + "'";
@@ -194,11 +195,11 @@ TEST(TiledRunCli, TilesOutStitchToTheOneProcessGrid) {
 TEST(TiledRunCli, ARankThatFailsEndsEveryRankWithItsMessage) {
   TempDir tmp("vmsim_tiled_");
   const fs::path job = plane_cylinder_job(tmp.path());
-  // Rank 1's tile file cannot be written (a directory holds its name); ranks 0 and 2 succeed and wait for it.
-  fs::create_directories(tmp.path() / "t" / "tiles" / "surface_0001.x3p" / "x");
+  // Rank 1's tile file cannot be written (the test hook VMSIM_TEST_FAIL_TILE=1: the run writes into a fresh staging
+  // directory, where nothing can be planted beforehand); ranks 0 and 2 succeed and wait for it.
   std::string err;
   const int code = run_vmsim(3, "run '" + job.string() + "' -q --tiles-out --out '" + (tmp.path() / "t").string() + "'",
-                         tmp.path() / "t.log", &err);
+                         tmp.path() / "t.log", &err, "env VMSIM_TEST_FAIL_TILE=1 ");
   EXPECT_NE(code, 0);
   EXPECT_NE(code, 124) << "timed out: a rank hung";
   EXPECT_NE(err.find("surface_0001.x3p"), std::string::npos) << err;
@@ -228,6 +229,28 @@ TEST(TiledRunCli, ARankThatFailsEndsEveryRankWithItsMessage) {
                                (tmp.path() / "v").string() + "'", tmp.path() / "v.log", &err);
   EXPECT_EQ(vdb, 2);
   EXPECT_NE(err.find("vdb"), std::string::npos) << err;
+}
+
+// A rank that stops (kill -STOP, a stalled file system: here the test hook VMSIM_TEST_STOP_RANK=1 makes rank 1 stop
+// itself with SIGSTOP when it reaches the tiles' gathering) would hang the job: the watchdog (VMSIM_WATCHDOG_S, 3 s
+// here) ends it with a message naming the rank and the stage; nothing is written to --out.
+TEST(TiledRunCli, AStoppedRankIsNamedByTheWatchdog) {
+  TempDir tmp("vmsim_tiled_");
+  const fs::path job = plane_cylinder_job(tmp.path());
+  std::string err;
+  const int code = run_vmsim(2, "run '" + job.string() + "' -q --no-render --out '" + (tmp.path() / "w").string() + "'",
+                             tmp.path() / "w.log", &err, "env VMSIM_WATCHDOG_S=3 VMSIM_TEST_STOP_RANK=1 ");
+  EXPECT_NE(code, 0);
+  EXPECT_NE(code, 124) << "timed out: the job hung";
+  EXPECT_NE(err.find("rank 1 did not reach the gathering of the tiles"), std::string::npos) << err;
+  EXPECT_NE(err.find("VMSIM_WATCHDOG_S"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(tmp.path() / "w"));
+  // A limit that is not a number is refused.
+  const int bad = run_vmsim(2, "run '" + job.string() + "' -q --no-render --out '" + (tmp.path() / "x").string() + "'",
+                            tmp.path() / "x.log", &err, "env VMSIM_WATCHDOG_S=soon ");
+  EXPECT_NE(bad, 0);
+  EXPECT_NE(bad, 124);
+  EXPECT_NE(err.find("VMSIM_WATCHDOG_S: expected a positive number"), std::string::npos) << err;
 }
 
 TEST(TiledRunCli, PlanStatesTheFieldTheRunMakes) {

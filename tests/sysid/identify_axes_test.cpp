@@ -178,12 +178,119 @@ TEST(IdentifyAxes, UseOverridesTheRankingAndBicFindsTheOrders) {
 
 TEST(IdentifyAxes, ATraceNotAtRestIsReported) {
   PositionTrace t = make_trace("run.csv", 2000, 0.0, 6);
-  t.actual(0, 0) += 0.01;                           // X: 10 um off at the start
-  t.actual(0, 1) += 0.5e-3 * 3.14159265358979 / 180;  // A: half a thousandth of a degree, within the tolerance
+  t.actual(1, 0) += 0.01;                           // X: the encoder moves 10 um within the first samples
+  t.actual(1, 1) += 0.5e-3 * 3.14159265358979 / 180;  // A: half a thousandth of a degree, within the tolerance
   const IdentificationData d = prepare_identification({t}, nullptr, given_orders());
   EXPECT_FALSE(d.axes[0].starts_at_rest());
-  EXPECT_NEAR(d.axes[0].rest_offset, 0.01, 1e-12);
+  EXPECT_TRUE(d.axes[0].estimation.initial_state_estimated);
   EXPECT_TRUE(d.axes[1].starts_at_rest());
+  EXPECT_FALSE(d.axes[1].estimation.initial_state_estimated);
+}
+
+// A capture that starts mid-motion: kX driven by PRBS steps riding a slow sine (the axis never stops) from long
+// before the capture starts, the first `cut` samples dropped, the encoder reading `offset` above the command at
+// rest. With `hold` the command stops for 400 samples in the middle (a still stretch the rest offset is measured on).
+PositionTrace moving_trace(int n, int cut, double offset, bool hold, unsigned seed) {
+  const std::vector<int> m = m_sequence(9);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> e(0.0, 1e-4);
+  const int total = n + cut;
+  Eigen::VectorXd u(total), y = Eigen::VectorXd::Zero(total);
+  for (int k = 0; k < total; ++k) {
+    u[k] = 5.0 * std::sin(2 * 3.14159265358979 * k / 1500.0) + (m[static_cast<std::size_t>(k / 4) % m.size()] ? 1 : -1);
+    if (hold && k >= cut + n / 2 && k < cut + n / 2 + 400) u[k] = u[cut + n / 2 - 1];
+  }
+  for (int k = 2; k < total; ++k)
+    y[k] = -kX.a1 * y[k - 1] - kX.a2 * y[k - 2] + kX.b1 * u[k - 1] + kX.b2 * u[k - 2];
+  PositionTrace t;
+  t.source = "moving.csv";
+  t.period_s = 1e-3;
+  t.t_s = Eigen::ArrayXd::LinSpaced(n, 0.0, (n - 1) * 1e-3);
+  t.axes = {"X"};
+  t.rotary = {false};
+  t.command = (u.tail(n).array() + 40.0).matrix();
+  t.actual.resize(n, 1);
+  for (int k = 0; k < n; ++k) t.actual(k, 0) = y[cut + k] + 40.0 + offset + e(rng);
+  return t;
+}
+
+TEST(IdentifyAxes, ATraceStartingMidMotionIsIdentifiedWithItsInitialStateAndRestOffset) {
+  // Reference: kX's own coefficients. The old rule (the first sample taken as the rest point of both signals)
+  // is shown for comparison: it misses them.
+  const double offset = 0.005;  // mm, as the halscope captures' encoder at rest
+  const PositionTrace t = moving_trace(6000, 777, offset, true, 11);
+  AxesIdentificationOptions o = given_orders();
+  o.delay = 1;
+  const AxesIdentification r = identify_axes({t}, nullptr, o);
+  const AxisData& x = r.data.axes.at(0);
+  EXPECT_FALSE(x.starts_at_rest());
+  EXPECT_NEAR(x.rest_offset, offset, 2e-4);  // the still stretch: the system settled, noise 1e-4
+  EXPECT_NE(x.rest_offset_from.find("the still stretch at t = 3"), std::string::npos) << x.rest_offset_from;
+  for (const ModelResult& m : r.axes.at(0).models) {
+    expect_system(m.model, kX, 5e-3, std::string("estimated initial state: ") + structure_name(m.model.structure));
+    EXPECT_GT(m.validation.fit_percent, 99.9) << structure_name(m.model.structure);
+    EXPECT_FALSE(m.marginal);
+  }
+
+  // The rest offset given by the user instead (no still stretch in this capture).
+  const PositionTrace moving = moving_trace(6000, 500, offset, false, 12);
+  o.rest_offsets["X"] = offset;
+  const AxesIdentification g = identify_axes({moving}, nullptr, o);
+  EXPECT_EQ(g.data.axes.at(0).rest_offset_from, "--rest-offset");
+  for (const ModelResult& m : g.axes.at(0).models)
+    expect_system(m.model, kX, 5e-3, std::string("given rest offset: ") + structure_name(m.model.structure));
+
+  // Neither given nor measurable (no still stretch): taken as 0, and every structure estimates the constant itself
+  // (here 50 um: an axis resting against friction under a proportional loop).
+  o.rest_offsets.clear();
+  const AxesIdentification none = identify_axes({moving_trace(6000, 500, 0.05, false, 13)}, nullptr, o);
+  EXPECT_EQ(none.data.axes.at(0).rest_offset, 0.0);
+  EXPECT_NE(none.data.axes.at(0).rest_offset_from.find("none"), std::string::npos);
+  for (const ModelResult& m : none.axes.at(0).models) {
+    expect_system(m.model, kX, 5e-3, std::string("offset estimated: ") + structure_name(m.model.structure));
+    EXPECT_GT(m.validation.fit_percent, 99.9) << structure_name(m.model.structure);
+  }
+
+  // The old rule on the same capture: deviations from each signal's first sample, the model started from rest.
+  AxisData old = g.data.axes.at(0);
+  const auto first_sample = [&](IdData& d, const PositionTrace& tr, Eigen::Index from, Eigen::Index len) {
+    d.u = tr.command.col(0).segment(from, len).array() - tr.command(0, 0);
+    d.y = tr.actual.col(0).segment(from, len).array() - tr.actual(0, 0);
+    d.initial_state_estimated = false;
+  };
+  first_sample(old.estimation, moving, 0, 3000);
+  first_sample(old.validation, moving, 0, 6000);
+  const IdentifiedModel oe_old = identify_oe(old.estimation, {2, 2, 0, 1});
+  const double pole_error_old = std::abs(oe_old.g.a[0] - kX.a1) + std::abs(oe_old.g.a[1] - kX.a2);
+  const IdentifiedModel& oe_new = g.axes.at(0).models.at(2).model;
+  const double pole_error_new = std::abs(oe_new.g.a[0] - kX.a1) + std::abs(oe_new.g.a[1] - kX.a2);
+  EXPECT_GT(pole_error_old, 10 * pole_error_new) << "old " << pole_error_old << ", new " << pole_error_new;
+}
+
+TEST(IdentifyAxes, MarginalModelsRankLast) {
+  // The rule on its own: a marginal model with the smaller MSE ranks after a stable one.
+  EXPECT_TRUE(is_marginal({Eigen::VectorXd::Constant(1, -1.0), Eigen::VectorXd::Ones(1), 1, 1e-3}));  // pole at 1
+  EXPECT_TRUE(is_marginal({Eigen::VectorXd::Constant(1, -(1.0 - 1e-5)), Eigen::VectorXd::Ones(1), 1, 1e-3}));
+  EXPECT_TRUE(is_marginal({Eigen::VectorXd::Constant(1, -1.01), Eigen::VectorXd::Ones(1), 1, 1e-3}));
+  EXPECT_FALSE(is_marginal({Eigen::VectorXd::Constant(1, -0.99), Eigen::VectorXd::Ones(1), 1, 1e-3}));
+  std::vector<ModelResult> models(3);
+  models[0].validation.mse = 1.0, models[0].marginal = true;
+  models[1].validation.mse = 2.0;
+  models[2].validation.mse = NAN;
+  rank_models(models);
+  EXPECT_EQ(models[1].rank, 1);
+  EXPECT_EQ(models[0].rank, 2);
+  EXPECT_EQ(models[2].rank, 3);
+
+  // An integrating axis (a velocity-commanded drive read as position: y(k) = y(k-1) + 0.1 u(k-1)): every model
+  // has its pole on the unit circle and is flagged, whatever --orders chose.
+  PositionTrace t = make_trace("integrator.csv", 4000, 0.0, 3, false);
+  const Eigen::VectorXd u = t.command.col(0);
+  for (Eigen::Index k = 1; k < u.size(); ++k) t.actual(k, 0) = t.actual(k - 1, 0) + 0.1 * u[k - 1];
+  AxesIdentificationOptions o;
+  o.orders.reset();
+  const AxisIdentification a = identify_axes({t}, nullptr, o).axes.at(0);
+  for (const ModelResult& m : a.models) EXPECT_TRUE(m.marginal) << structure_name(m.model.structure);
 }
 
 TEST(IdentifyAxes, InconsistentInputIsAnErrorNamingTheTrace) {

@@ -1,0 +1,328 @@
+// Output directories as a user meets them (issue 18): a rerun into an existing --out leaves nothing of the earlier
+// run; a second run into a directory being written is refused; a run killed at any moment (SIGTERM, SIGKILL) leaves
+// the previous complete result or the new one, never a mixture, and the next run cleans what it left; the report is
+// written when the pictures fail in any way; a path that is not UTF-8 is refused before the run. References: the
+// files of a complete run of the same job into a directory of its own (names and sizes), the report's own file
+// list, and `vmsim render`'s list of the pictures it drew.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/app/cli_util.hpp"
+
+using vmsim_test::CliRun;
+using vmsim_test::read_json;
+using vmsim_test::run_vmsim;
+using vmsim_test::slurp;
+using vmsim_test::TempDir;
+using vmsim_test::write_file;
+
+namespace fs = std::filesystem;
+
+extern char** environ;
+
+namespace {
+
+const fs::path kParts = fs::path(VMSIM_SOURCE_DIR) / "parts";
+
+// The plane-cylinder fast pass (parts/plane_cylinder), with its paths made absolute so the job can live in TMP:
+// job A as the part has it (a reference at 1/100 of the feed, so deviation grids and marks), job B at another
+// spacing with no reference (other grid sizes, no deviation files).
+fs::path write_job(const TempDir& tmp, const std::string& name, bool reference, double spacing_mm,
+                   const fs::path& dir = {}) {
+  const fs::path pc = kParts / "plane_cylinder";
+  std::string text = slurp(pc / "job_fast.toml");
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const auto k = text.find(from);
+    if (k == std::string::npos) throw std::runtime_error("job_fast.toml: no " + from);
+    text.replace(k, from.size(), to);
+  };
+  replace("\"../machines/mikron_ucp710.toml\"", "\"" + (kParts / "machines" / "mikron_ucp710.toml").string() + "\"");
+  replace("\"plane_cylinder_fast.ngc\"", "\"" + (pc / "plane_cylinder_fast.ngc").string() + "\"");
+  replace("\"tools.tbl\"", "\"" + (pc / "tools.tbl").string() + "\"");
+  replace("\"plane_cylinder_stock.stl\"", "\"" + (pc / "plane_cylinder_stock.stl").string() + "\"");
+  replace("spacing_mm = 0.05", "spacing_mm = " + std::to_string(spacing_mm));
+  replace("name = \"plane_cylinder_fast\"", "name = \"" + name + "\"");
+  if (!reference) {
+    replace("kind = \"feed\"", "kind = \"none\"");
+    replace("feed_scale = 0.01", "");
+  }
+  const fs::path where = dir.empty() ? tmp.path() : dir;
+  fs::create_directories(where);
+  const fs::path file = where / (name + ".toml");
+  write_file(file, text);
+  return file;
+}
+
+std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+// Every regular file under DIR (relative names) with its size.
+std::map<std::string, std::uintmax_t> files_of(const fs::path& dir) {
+  std::map<std::string, std::uintmax_t> m;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) m[fs::relative(e.path(), dir).string()] = e.file_size();
+  return m;
+}
+
+// Names beside OUT (in its parent) that a run of vmsim left: staging directories and temporary files.
+std::vector<std::string> leftovers(const fs::path& out) {
+  std::vector<std::string> v;
+  for (const auto& e : fs::directory_iterator(out.parent_path())) {
+    const std::string n = e.path().filename().string();
+    if (n.find(".vmsim-staging-") != std::string::npos || n.find(".tmp") != std::string::npos) v.push_back(n);
+  }
+  if (fs::exists(out))
+    for (const auto& e : fs::recursive_directory_iterator(out))
+      if (e.path().filename().string().find(".tmp") != std::string::npos) v.push_back(e.path().string());
+  return v;
+}
+
+// vmsim started without a shell (so its pid is vmsim's), stdout and stderr to files in TMP.
+pid_t spawn_vmsim(const std::vector<std::string>& args, const TempDir& tmp, const std::string& tag) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, (tmp.path() / (tag + ".out")).c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&fa, 2, (tmp.path() / (tag + ".err")).c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::vector<std::string> all = {VMSIM_EXE};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, VMSIM_EXE, &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  return rc == 0 ? pid : -1;
+}
+
+// The result in OUT is whole: its report.json parses, every file it lists is there, and the directory holds
+// nothing else but the report itself, its page and the marker.
+void expect_whole(const fs::path& out, const std::string& when) {
+  ASSERT_TRUE(fs::exists(out / "report.json")) << when;
+  const nlohmann::json rep = read_json(out / "report.json");
+  std::set<std::string> listed;
+  for (const auto& f : rep.at("files")) listed.insert(f.get<std::string>());
+  for (const std::string& f : listed) EXPECT_TRUE(fs::is_regular_file(out / f)) << when << ": " << f << " is listed, absent";
+  for (const auto& [name, size] : files_of(out))
+    EXPECT_TRUE(listed.count(name) || name == "report.json" || name == "report.html" || name == ".vmsim-output")
+        << when << ": " << name << " is not listed in report.json (stale or mixed)";
+}
+
+// OUT holds exactly SNAPSHOT's files with their sizes (report.json and report.html hold timings, an X3P's zipped XML
+// a date: their names only; the grids' .npy and .csv sizes tell the two jobs apart).
+bool same_files(const std::map<std::string, std::uintmax_t>& now, const std::map<std::string, std::uintmax_t>& snapshot) {
+  if (now.size() != snapshot.size()) return false;
+  for (const auto& [name, size] : snapshot) {
+    const auto it = now.find(name);
+    if (it == now.end()) return false;
+    const bool sized = name != "report.json" && name != "report.html" && !name.ends_with(".x3p");
+    if (sized && it->second != size) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+// A rerun of another job into the same --out: nothing of the first run stays, and `vmsim render` draws the second
+// run (no deviation map: it has no reference), not the first one's mark under the second one's title.
+TEST(OutDirCli, RerunLeavesNoStaleFileAndRenderDrawsTheNewRun) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path a = write_job(tmp, "with_reference", true, 0.1), b = write_job(tmp, "no_reference", false, 0.2);
+  CliRun r = run_vmsim("run " + q(a) + " --quiet --no-render --out " + q(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(out / "deviation.csv"));
+  r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  expect_whole(out, "after the rerun");
+  for (const char* stale : {"deviation.csv", "deviation.npy", "deviation.x3p", "reference.csv", "reference.x3p"})
+    EXPECT_FALSE(fs::exists(out / stale)) << stale << " of the first run is still there";
+  EXPECT_EQ(read_json(out / "report.json").at("job").get<std::string>(), "no_reference");
+  EXPECT_TRUE(leftovers(out).empty());
+
+  const CliRun d = run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY ");
+  ASSERT_EQ(d.code, 0) << d.err;
+  EXPECT_NE(d.out.find("part.png"), std::string::npos) << d.out;
+  EXPECT_EQ(d.out.find("deviation"), std::string::npos) << "render drew a deviation map of the earlier run:\n" << d.out;
+}
+
+// `vmsim render` reads only what report.json lists: no report (a run that never finished), or a listed file
+// missing, is refused naming what is missing.
+TEST(OutDirCli, RenderAndCompareRefuseIncompleteOrUnlistedResults) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path b = write_job(tmp, "no_reference", false, 0.2);
+  CliRun r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  // A stale file beside the listed ones is not read by compare.
+  fs::copy_file(out / "surface.x3p", out / "old_surface.x3p");
+  CliRun c = run_vmsim("compare -m " + q(out / "surface.x3p") + " -p " + q(out / "old_surface.x3p") + " --no-render --out " +
+                           q(tmp.path() / "cmp"),
+                       tmp);
+  EXPECT_EQ(c.code, 2);
+  EXPECT_NE(c.err.find("old_surface.x3p: not listed in"), std::string::npos) << c.err;
+  EXPECT_FALSE(fs::exists(tmp.path() / "cmp"));
+  // A listed file missing.
+  fs::remove(out / "surface.csv");
+  CliRun d = run_vmsim("render " + q(out), tmp, "env -u DISPLAY ");
+  EXPECT_EQ(d.code, 2);
+  EXPECT_NE(d.err.find("lists surface.csv, which is missing"), std::string::npos) << d.err;
+  // No report.json.
+  fs::remove(out / "report.json");
+  d = run_vmsim("render " + q(out), tmp, "env -u DISPLAY ");
+  EXPECT_EQ(d.code, 2);
+  EXPECT_NE(d.err.find("no report.json"), std::string::npos) << d.err;
+}
+
+// Two runs into one directory at once: the second is refused at once, naming the directory and the first process;
+// the first finishes and its result is whole.
+TEST(OutDirCli, ASecondRunIntoTheSameDirectoryIsRefused) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path a = write_job(tmp, "with_reference", true, 0.1), b = write_job(tmp, "no_reference", false, 0.2);
+  const pid_t first = spawn_vmsim({"run", a.string(), "--quiet", "--no-render", "--out", out.string()}, tmp, "first");
+  ASSERT_GT(first, 0);
+  // The first run holds the directory once its staging directory exists.
+  bool staging = false;
+  for (int k = 0; k < 2000 && !staging; ++k) {
+    for (const auto& e : fs::directory_iterator(tmp.path()))
+      if (e.path().filename().string().rfind(".out.vmsim-staging-", 0) == 0) staging = true;
+    if (!staging) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_TRUE(staging) << "the first run never started writing";
+  const CliRun second = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  int status = 0;
+  ASSERT_EQ(waitpid(first, &status, 0), first);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(tmp.path() / "first.err");
+  EXPECT_EQ(second.code, 2) << second.out;
+  EXPECT_NE(second.err.find(out.string()), std::string::npos) << second.err;
+  EXPECT_NE(second.err.find("another process is writing"), std::string::npos) << second.err;
+  EXPECT_NE(second.err.find("pid " + std::to_string(first)), std::string::npos) << second.err;
+  expect_whole(out, "after the first run");
+  EXPECT_EQ(read_json(out / "report.json").at("job").get<std::string>(), "with_reference");
+}
+
+// `vmsim run` killed at random moments, 20 times (SIGTERM and SIGKILL in turn), into a directory holding the
+// previous complete result of another job (other grid sizes, other files): after each kill the directory holds the
+// previous result or the new one, file for file and size for size as a complete run of that job leaves them; after
+// SIGTERM no staging directory is left; after SIGKILL the next run removes it.
+TEST(OutDirCli, KilledRunsLeaveThePreviousResultOrTheNewOne) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path jobs[2] = {write_job(tmp, "with_reference", true, 0.1), write_job(tmp, "no_reference", false, 0.2)};
+  // The references: each job run whole into a directory of its own; and how long a run takes.
+  std::map<std::string, std::uintmax_t> snapshot[2];
+  double seconds[2];
+  for (int j = 0; j < 2; ++j) {
+    const fs::path ref = tmp.path() / ("ref" + std::to_string(j));
+    const auto t0 = std::chrono::steady_clock::now();
+    const CliRun r = run_vmsim("run " + q(jobs[j]) + " --quiet --no-render --out " + q(ref), tmp);
+    seconds[j] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_EQ(r.code, 0) << r.err;
+    snapshot[j] = files_of(ref);
+  }
+  ASSERT_NE(snapshot[0].size(), snapshot[1].size());
+  CliRun r = run_vmsim("run " + q(jobs[0]) + " --quiet --no-render --out " + q(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  int holds = 0;  // which job's result OUT holds
+  std::mt19937 rng(20261126);
+  int completed = 0, interrupted = 0;
+  for (int k = 0; k < 20; ++k) {
+    const int next = 1 - holds;
+    const int sig = k % 2 == 0 ? SIGTERM : SIGKILL;
+    const pid_t pid =
+        spawn_vmsim({"run", jobs[next].string(), "--quiet", "--no-render", "--out", out.string()}, tmp, "killed");
+    ASSERT_GT(pid, 0);
+    // Anywhere from the start to a little past the end of a run.
+    const double delay_s = std::uniform_real_distribution<double>(0.0, 1.1 * seconds[next])(rng);
+    std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
+    kill(pid, sig);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    const bool finished = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    finished ? ++completed : ++interrupted;
+    const std::string when = "kill " + std::to_string(k) + " (" + (sig == SIGTERM ? "SIGTERM" : "SIGKILL") + " after " +
+                             std::to_string(delay_s) + " s, exit status " + std::to_string(status) + ")";
+    if (sig == SIGTERM && !finished && WIFEXITED(status)) {
+      EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM) << when << "\n" << slurp(tmp.path() / "killed.err");
+    }
+    expect_whole(out, when);
+    const auto now = files_of(out);
+    const bool is_prev = same_files(now, snapshot[holds]), is_new = same_files(now, snapshot[next]);
+    EXPECT_TRUE(is_prev || is_new) << when << ": neither the previous result nor the new one";
+    if (is_new) holds = next;
+    if (sig == SIGTERM) {  // its own staging directory is gone (an earlier SIGKILL's may wait for the next run)
+      for (const std::string& n : leftovers(out))
+        EXPECT_EQ(n.find("staging-" + std::to_string(pid) + "-"), std::string::npos) << when << ": " << n;
+    }
+  }
+  // The next run removes what the killed ones left.
+  r = run_vmsim("run " + q(jobs[1 - holds]) + " --quiet --no-render --out " + q(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(same_files(files_of(out), snapshot[1 - holds]));
+  const auto left = leftovers(out);
+  EXPECT_TRUE(left.empty()) << (left.empty() ? "" : left.front());
+  std::printf("%d of 20 runs cut short, %d finished before their signal\n", interrupted, completed);
+  // The test means something only if some runs were cut short.
+  EXPECT_GE(interrupted, 5) << completed << " runs finished before their kill";
+}
+
+// The pictures fail with bad_alloc (a test hook: VMSIM_TEST_PICTURES_THROW=bad_alloc, README "What you can rely
+// on"): report.json and every result are written, the report says why there are no pictures, the exit is non-zero.
+TEST(OutDirCli, PicturesThrowingBadAllocStillLeaveTheReport) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path b = write_job(tmp, "no_reference", false, 0.2);
+  const CliRun r = run_vmsim("run " + q(b) + " --quiet --image-size 480x320 --out " + q(out), tmp,
+                             "env -u DISPLAY VMSIM_TEST_PICTURES_THROW=bad_alloc ");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.err.find("out of memory while drawing"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+  expect_whole(out, "after the pictures failed");
+  const nlohmann::json rep = read_json(out / "report.json");
+  EXPECT_NE(rep.value("render_error", "").find("out of memory"), std::string::npos);
+  EXPECT_TRUE(fs::exists(out / "surface.x3p"));
+}
+
+// A job whose directory's name is not UTF-8 (Latin-1 'é'): refused before the run with a message naming it, instead
+// of an internal error after the whole run; nothing is written.
+TEST(OutDirCli, APathThatIsNotUtf8IsRefusedBeforeTheRun) {
+  TempDir tmp;
+  const fs::path dir = tmp.path() / "caf\xe9";
+  const fs::path job = write_job(tmp, "no_reference", false, 0.1, dir);
+  const fs::path out = tmp.path() / "out";
+  const CliRun r = run_vmsim("run " + q(job) + " --quiet --no-render --out " + q(out), tmp);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.err.find("not valid UTF-8"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("caf\\xe9"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  // The output directory likewise.
+  const fs::path job_ok = write_job(tmp, "plain", false, 0.2);
+  const CliRun o = run_vmsim("run " + q(job_ok) + " --quiet --no-render --out " + q(tmp.path() / "out\xff"), tmp);
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.err.find("not valid UTF-8"), std::string::npos) << o.err;
+  // An input of vmsim compare likewise (it goes into report.json's inputs).
+  const CliRun ok = run_vmsim("run " + q(job_ok) + " --quiet --no-render --out " + q(tmp.path() / "ok"), tmp);
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  fs::copy_file(tmp.path() / "ok" / "surface.x3p", tmp.path() / "scan\xe9.x3p");
+  const CliRun c = run_vmsim("compare -m " + q(tmp.path() / "scan\xe9.x3p") + " -p " + q(tmp.path() / "ok" / "surface.x3p") +
+                                 " --no-render --out " + q(tmp.path() / "cmp"),
+                             tmp);
+  EXPECT_EQ(c.code, 2) << c.out;
+  EXPECT_NE(c.err.find("--measured is not valid UTF-8"), std::string::npos) << c.err;
+  EXPECT_FALSE(fs::exists(tmp.path() / "cmp"));
+}
