@@ -212,7 +212,7 @@ int run_compensate(const CompensateArgs& args) {
   write_report(dir / "report.json", report);
   out.commit();
   print_summary(job, r, out.target(), files);
-  return 0;
+  return print_verdict(report);
 }
 
 }  // namespace vmsim::app

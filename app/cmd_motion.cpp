@@ -163,7 +163,7 @@ int run_motion(const MotionArgs& args) {
   out.commit();
   print_motion(job, r, report["timings_s"]["drives"].get<double>());
   std::printf("wrote %s (report.json, %zu CSV files)\n", out.target().string().c_str(), files.size());
-  return 0;
+  return print_verdict(report);
 }
 
 }  // namespace vmsim::app

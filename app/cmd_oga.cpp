@@ -478,10 +478,11 @@ int run_oga(const OgaArgs& args) {
   write_report(dir / "report.json", report);
   out->commit();
   print_summary(job, o, out->target(), !images.empty(), seconds_since(t_start));
+  const int verdict_code = print_verdict(report);
   if (render_error)
     throw core::Error("the results are written to " + out->target().string() +
                       ", but the charts could not be drawn (--no-render skips them): " + *render_error);
-  return 0;
+  return verdict_code;
 }
 
 }  // namespace vmsim::app

@@ -70,6 +70,8 @@ void write_tiles_report(const core::Job& job, const fs::path& dir, const fs::pat
     report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
                                {"setpoints", motion.interp.setpoints.samples()},
                                {"period_s", motion.interp.setpoints.period_s}};
+  if (motion.response) report["drive_checks"] = motion.drive_checks.axes;
+  sim::add_verdict(report, motion.drive_checks.warnings);
   report["files"] = {"tiles.json", "report.json"};
   report["timings_s"] = {{"total", seconds_since(t_start)}};
   write_report(dir / "report.json", report);
@@ -272,11 +274,12 @@ int run_run(const RunArgs& args) {
   if (out) out->commit();
 
   print_summary(job, result, shown, files.size(), n_images, t_start);
+  const int verdict_code = print_verdict(report);
   if (render_error)
     throw core::Error("the results are written to " + shown.string() + ", but the pictures could not be drawn "
                       "(--no-render skips them): " + *render_error);
   if (!options.tile.whole()) quiet_barrier();
-  return 0;
+  return verdict_code;
 }
 
 }  // namespace vmsim::app

@@ -5,10 +5,13 @@
 #include "core/output_dir.hpp"
 #include "core/utf8.hpp"
 #include "render/report_html.hpp"
+#include "sim/drive_checks.hpp"
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <fstream>
+#include <string>
 
 namespace vmsim::app {
 
@@ -62,6 +65,21 @@ std::filesystem::path out_dir_or_default(const std::optional<std::filesystem::pa
   for (char& c : dir)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-' && c != '_') c = '_';
   return std::filesystem::current_path() / dir;
+}
+
+int print_verdict(const nlohmann::json& report) {
+  if (!report.contains("verdict")) return 0;
+  if (report.contains("warnings"))
+    for (const auto& w : report["warnings"])
+      std::fprintf(stderr, "vmsim: %s [%s]: %s\n", w["severity"].get<std::string>().c_str(),
+                   w["code"].get<std::string>().c_str(), w["message"].get<std::string>().c_str());
+  const std::string verdict = report["verdict"].get<std::string>();
+  if (verdict == "invalid")
+    std::fprintf(stderr, "vmsim: verdict: invalid - the results are written, but cannot mean what they claim (exit %d)\n",
+                 sim::kExitInvalid);
+  else if (verdict != "ok")
+    std::fprintf(stderr, "vmsim: verdict: %s (report.json lists them)\n", verdict.c_str());
+  return verdict == "invalid" ? sim::kExitInvalid : 0;
 }
 
 }  // namespace vmsim::app

@@ -16,6 +16,9 @@ using sim::report_header;
 // Written atomically (temporary file, then rename), pretty-printed; a report.json gets its report.html beside it.
 void write_report(const std::filesystem::path& file, const nlohmann::json& report);
 
+// Prints report.json's warnings on stderr, one line each, and the verdict when it is not "ok". Returns the
+// command's exit code: sim::kExitInvalid for the verdict "invalid", else 0.
+int print_verdict(const nlohmann::json& report);
 // A result directory's report.json, read back. Throws core::Error naming DIR when it is absent (the directory is not
 // a complete result of vmsim) or not JSON.
 nlohmann::json read_report(const std::filesystem::path& dir);

@@ -29,6 +29,11 @@ void print_plan(const core::Job& job, const nlohmann::json& plan) {
   std::printf("\none process: %s (field and its copies %s, motion %s, sweeps %s, outputs %s, base %s)\n",
               gb(one["total_bytes"]).c_str(), gb(one["field_bytes"]).c_str(), gb(one["motion_bytes"]).c_str(),
               gb(one["sweep_bytes"]).c_str(), gb(one["output_bytes"]).c_str(), gb(one["base_bytes"]).c_str());
+  const nlohmann::json& avail = plan["available_memory"];
+  if (!avail["bytes"].is_null())
+    std::printf("available on this machine: %s (%s): one process %s\n", gb(avail["bytes"]).c_str(),
+                avail["source"].get<std::string>().c_str(),
+                one["fits_available_memory"].get<bool>() ? "fits" : "does NOT fit");
   const int ranks = plan["ranks"].get<int>();
   for (const bool tiles_out : {false, true}) {
     const char* key = tiles_out ? "tiles_out" : "gathered";

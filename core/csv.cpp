@@ -1,4 +1,5 @@
 #include "core/csv.hpp"
+#include "core/regular_file.hpp"
 
 #include <fmt/format.h>
 
@@ -68,7 +69,9 @@ std::optional<std::pair<std::string_view, std::string_view>> comment_key_value(s
 }
 
 CsvReader::CsvReader(const std::filesystem::path& file, Header header)
-    : owned_(std::make_unique<std::ifstream>(file, std::ios::binary)), in_(owned_.get()), name_(file.string()) {
+    : owned_((require_regular_file(file), std::make_unique<std::ifstream>(file, std::ios::binary))),
+      in_(owned_.get()),
+      name_(file.string()) {
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec)) throw Error(located(name_, 0, "is a directory, not a CSV file"));
   if (!*owned_) throw Error(located(name_, 0, "cannot open the file"));

@@ -127,6 +127,10 @@ InterpSpec read_interp(const TomlTable& t) {
     spec.period_s = *te * 1e-3;
   }
   if (auto tol = t.opt_positive("tolerance_mm")) spec.tolerance_mm = *tol, spec.tolerance_given = true;
+  if (auto n = t.opt_positive("max_setpoints")) {
+    if (*n < 2) t.fail("max_setpoints", "expected at least 2");
+    spec.max_setpoints = *n;
+  }
   t.finish();
   return spec;
 }

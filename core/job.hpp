@@ -68,6 +68,10 @@ struct InterpSpec {
   // Whether the job gave tolerance_mm; if not, a program that sets its own (Sinumerik CYCLE832,
   // core::ToolPath::program_tolerance_mm) is interpolated with that.
   bool tolerance_given = false;
+  // The most setpoints a job may make (max_setpoints): the interpolator refuses a program whose lower-bound count
+  // (from its lengths, feeds and the axes' velocity limits) is larger, before making any - a typo such as F0.01 or
+  // period_ms = 0.001 would otherwise fill the memory. 2e7 is 5.6 hours at 1 ms.
+  double max_setpoints = 2e7;
 };
 
 // [feedplan]: Chen et al.'s contour-error-constrained feed planning (vmsim plan-feed, drives/feedplan).

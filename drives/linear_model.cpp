@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <fmt/format.h>
 #include <unsupported/Eigen/MatrixFunctions>
@@ -168,6 +169,24 @@ cd LinearAxisModel::closed_loop_elements(double omega, double kv, double kf) con
   const cd pv = up_e * w_per_wcmd / s;                          // x per v_cmd (v_cmd = r w_cmd)
   const cd pi = up_e * p.axis_per_motor_rad * w_per_iff / s;    // x per current feedforward
   return close(ze, pv, pi, kv, kf);
+}
+
+// The position loop reads x(t_k) without delay (the delays sit in the command paths, outside the loop), so closing
+// it adds w_cmd = -(Kv / r) x to the lifted cascade's input.
+Eigen::VectorXcd LinearAxisModel::closed_loop_poles(double kv) const {
+  Eigen::Matrix<double, 6, 6> a = phi_;
+  a.col(kX) -= (kv / params_.axis_per_motor_rad) * gamma_.col(0);
+  return Eigen::EigenSolver<Eigen::Matrix<double, 6, 6>>(a, false).eigenvalues();
+}
+
+// Nothing in the inner cascade depends on the position (no tilting gravity in the linear model): dropping its row
+// and column leaves the velocity and current loops' poles.
+Eigen::VectorXcd LinearAxisModel::inner_poles() const {
+  Eigen::Matrix<double, 5, 5> a;
+  const int keep[5] = {kI, kW, kIc, kIv, kIset};
+  for (int r = 0; r < 5; ++r)
+    for (int c = 0; c < 5; ++c) a(r, c) = phi_(keep[r], keep[c]);
+  return Eigen::EigenSolver<Eigen::Matrix<double, 5, 5>>(a, false).eigenvalues();
 }
 
 double LinearAxisModel::circle_radial_error(double radius, double speed) const {

@@ -48,6 +48,13 @@ class LinearAxisModel {
   // of a circle of radius R (axis units) at path speed v (axis units/s), both axes having these parameters.
   double circle_radial_error(double radius, double speed) const;
 
+  // The cascade's poles in the z-plane, one step per Te (the lifted inner cascade of closed_loop()): with the position
+  // loop closed at gain kv_per_s (6), or of the velocity and current loops alone, the position loop open (5: the
+  // position's own integrator, z = 1, left out). |z| < 1 for every pole: the loop is stable.
+  Eigen::VectorXcd closed_loop_poles(double kv_per_s) const;
+  Eigen::VectorXcd closed_loop_poles() const { return closed_loop_poles(params_.kv_per_s); }
+  Eigen::VectorXcd inner_poles() const;
+
   double period_s() const { return te_; }
   const core::DriveParams& params() const { return params_; }
 

@@ -1,4 +1,5 @@
 #include "methods/feedplan_file.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -68,6 +69,7 @@ void write_feed_plan(const std::filesystem::path& file, const motion::FeedCeilin
 }
 
 motion::FeedCeiling read_feed_plan(const std::filesystem::path& file, const motion::SmoothPath& path, double period_s) {
+  core::require_regular_file(file);
   const std::string f = file.string();
   std::ifstream in(file);
   if (!in) throw core::Error(f + ": cannot open the feed plan");

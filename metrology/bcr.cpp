@@ -1,4 +1,5 @@
 #include "metrology/bcr.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 #include "metrology/units.hpp"
@@ -160,6 +161,7 @@ core::HeightGrid read_bcr_bytes(std::string_view b, const std::string& name) {
 }
 
 core::HeightGrid read_bcr(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) fail(file.string(), "cannot open file");
   std::ostringstream ss;

@@ -1,4 +1,5 @@
 #include "metrology/dektak.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 #include "metrology/units.hpp"
@@ -172,6 +173,7 @@ DektakData read_dektak_csv(std::string_view text, const std::string& name) {
 }
 
 DektakData read_dektak_csv(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
   std::ostringstream ss;

@@ -1,4 +1,5 @@
 #include "metrology/grid_io.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/csv.hpp"
@@ -84,6 +85,7 @@ void write_height_csv(const std::filesystem::path& file, const core::HeightGrid&
 }
 
 core::HeightGrid read_height_csv(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
   return read_height_csv(in, file.string());
@@ -226,6 +228,7 @@ core::HeightGrid points_to_grid(const Eigen::Matrix<double, Eigen::Dynamic, 3>& 
 }
 
 core::HeightGrid read_xyz_grid(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
   return read_xyz_grid(in, file.string());
@@ -291,6 +294,7 @@ void write_xyz(const std::filesystem::path& file, const core::HeightGrid& g) {
 }
 
 core::HeightGrid read_matrix_grid(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
   return read_matrix_grid(in, file.string());

@@ -1,4 +1,5 @@
 #include "metrology/gzip.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 
@@ -12,6 +13,7 @@
 namespace vmsim::metrology {
 
 std::string gunzip_file(const std::filesystem::path& file, std::size_t max_bytes) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
   std::ostringstream ss;

@@ -1,4 +1,5 @@
 #include "metrology/sdf.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -211,6 +212,7 @@ core::HeightGrid read_ascii(const std::filesystem::path& file, const std::string
 }  // namespace
 
 core::HeightGrid read_sdf(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) fail(file, "cannot open file");
   std::ostringstream ss;

@@ -1,4 +1,5 @@
 #include "metrology/sur.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -278,6 +279,7 @@ SurData read_sur_bytes(std::string_view b, const std::string& name) {
 }
 
 SurData read_sur_data(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) fail(file.string(), "cannot open file");
   std::ostringstream ss;

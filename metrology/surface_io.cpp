@@ -1,4 +1,5 @@
 #include "metrology/surface_io.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 #include "metrology/bcr.hpp"
@@ -83,6 +84,7 @@ SurfaceFile read_bytes(const std::string& bytes, const std::string& name, const 
 }  // namespace
 
 SurfaceFile read_surface_file(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) throw core::Error(file.string() + ": cannot open file");
   std::string head(4096, '\0');

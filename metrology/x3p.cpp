@@ -1,4 +1,6 @@
 #include "metrology/x3p.hpp"
+#include "core/memory.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -139,6 +141,7 @@ class ZipReader {
 };
 
 std::string read_whole_file(const std::filesystem::path& file) {
+  core::require_regular_file(file);
   std::ifstream in(file, std::ios::binary);
   if (!in) fail(file, "cannot open file");
   std::ostringstream ss;
@@ -419,6 +422,18 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
       cx.error(ldim, "Record3/ListDimension", "a list of points needs FeatureType PCL, found " + meta.feature_type);
   } else {
     cx.error(r3, "Record3", "neither MatrixDimension nor ListDimension is given");
+  }
+
+  // Within the point limit a scan can still need more memory than the machine has (2^28 points: 8.5 GB, issue 18):
+  // the reader's own need - the stored records (up to 24 B), the coordinates (up to 24 B), the validity (1 B) and
+  // the height grid (8 B) per point - against the memory available, before anything is allocated.
+  {
+    const double need = static_cast<double>(npoints) * 57.0;
+    const core::AvailableMemory avail = core::available_memory();
+    if (need > avail.bytes)
+      fail(file, fmt::format("{} points need about {} to read, while {} is available ({}): read it on a machine with "
+                             "more memory, or crop or resample the scan first",
+                             npoints, core::format_bytes(need), core::format_bytes(avail.bytes), avail.source));
   }
 
   // Which axes are stored per point, in order: the absolute ones (and, in a list, every axis).

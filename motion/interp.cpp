@@ -625,6 +625,7 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
   if (options.geometry) check_geometry(*options.geometry, path);
   else built = build_smooth_path(path, smooth_path_options(lim, options));
   const SmoothPath& sp = options.geometry ? *options.geometry : built;
+  if (options.check_estimate) options.check_estimate(estimate_setpoints(sp, machine, te));
 
   InterpResult result;
   result.stats.moves = static_cast<int>(path.moves.size());

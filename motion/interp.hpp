@@ -2,9 +2,11 @@
 // The NC interpolator: from a ToolPath and the machine's axis limits to axis setpoints every Te.
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
+#include "motion/setpoint_estimate.hpp"
 #include "motion/smooth_path.hpp"
 #include "core/toolpath.hpp"
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -32,6 +34,10 @@ struct InterpOptions {
   // indices name the ToolPath's moves, which then serve for bookkeeping (feeds, start and end, source lines) and
   // must join the same points. Null: the moves' lines and arcs, blended within the tolerance (core/smooth_path).
   std::shared_ptr<const SmoothPath> geometry;
+  // Called with the setpoint count's lower bound (motion/setpoint_estimate.hpp) once the path is smoothed, before
+  // any setpoint is made: throws to refuse a path that would need more than the caller allows (sim::Chain: the
+  // job's max_setpoints and the memory available).
+  std::function<void(const SetpointEstimate&)> check_estimate;
 };
 
 struct InterpStats {

@@ -1,5 +1,6 @@
 // interpret_gcode: read the file and the tool table, run LinuxCNC's interpreter model over the program.
 #include "program/gcode.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 #include "program/gcode_interp.hpp"
@@ -12,6 +13,7 @@
 namespace vmsim::program {
 
 GcodeResult interpret_gcode(const std::filesystem::path& program, const GcodeOptions& options) {
+  core::require_regular_file(program);
   std::ifstream in(program, std::ios::binary);
   if (!in) throw core::Error(program.string() + ": cannot open the G-code program");
   std::ostringstream text;

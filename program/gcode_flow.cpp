@@ -59,6 +59,9 @@ void Interpreter::build_flow() {
     return oword_name(o.label) + " " + oword_keyword(o.kind) + " (line " + std::to_string(lines[o.line].number) + ")";
   };
   for (std::size_t i = first_line_; i < end_line_; ++i) {
+    // An O-word line that cannot be read (a bad expression on a repeat, while or if) would leave its closing line
+    // unmatched; its own error, on its own line, is the one to report (issue 18).
+    if (lines[i].unreadable_oword) flow_error_[i] = lines[i].error;
     if (!lines[i].oword) continue;
     const OWord& o = *lines[i].oword;
     const std::string name = oword_name(o.label) + " " + oword_keyword(o.kind);

@@ -65,7 +65,9 @@ class LineReader {
       if (peek() == '.') throw LineError("N line numbers must be whole numbers");
     }
     if (pos_ < text_.size() && text_[pos_] == 'o') {
+      line.unreadable_oword = true;  // until it is read
       line.oword = oword();
+      line.unreadable_oword = false;
       line.has_content = true;
       return;
     }

@@ -50,6 +50,8 @@ struct SourceLine {
   std::optional<std::string> comment;  // text inside the last ( ) of the line, as written
   std::optional<OWord> oword;
   std::string error;           // non-empty: why the line cannot be read
+  // An O-word line that could not be read (its error above): the flow matcher reports it, not the end of its block.
+  bool unreadable_oword = false;
 };
 
 struct ParsedProgram {

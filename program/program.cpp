@@ -1,4 +1,5 @@
 #include "program/program.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 #include "program/apt.hpp"
@@ -32,6 +33,7 @@ const char* dialect_name(Dialect dialect) {
 namespace {
 // The first 64 KiB: enough for the content test, which looks at the first lines only.
 std::string head_of(const std::filesystem::path& path) {
+  core::require_regular_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw core::Error(path.string() + ": cannot open the program");
   std::string text(64 * 1024, '\0');

@@ -1,5 +1,6 @@
 // The 840D executor: blocks, control flow, technology, frames, transformation, motion.
 #include "program/sinumerik_interp.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 #include "core/units.hpp"
@@ -702,6 +703,7 @@ SinumerikResult interpret_sinumerik_text(std::string_view text, const std::strin
 }
 
 SinumerikResult interpret_sinumerik(const std::filesystem::path& program, const SinumerikOptions& options) {
+  core::require_regular_file(program);
   std::ifstream in(program, std::ios::binary);
   if (!in) throw core::Error(program.string() + ": cannot open the Sinumerik program");
   std::ostringstream text;

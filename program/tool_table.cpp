@@ -1,4 +1,5 @@
 #include "program/tool_table.hpp"
+#include "core/regular_file.hpp"
 
 #include "core/error.hpp"
 
@@ -98,6 +99,7 @@ ToolTable parse_tool_table(const std::string& text, const std::string& source_pa
 }
 
 ToolTable read_tool_table(const std::filesystem::path& path) {
+  core::require_regular_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw core::Error(path.string() + ": cannot open the tool table");
   std::ostringstream buf;

@@ -7,6 +7,7 @@
 #include "render/image.hpp"
 #include "render/window.hpp"
 
+#include "core/memory.hpp"
 #include "core/error.hpp"
 
 #include <EGL/egl.h>
@@ -293,6 +294,16 @@ namespace detail {
 void check_size(int width, int height, const char* what) {
   if (width < 16 || height < 16 || width > 16384 || height > 16384)
     throw core::Error(fmt::format("{}: image size {}x{} is outside 16..16384 pixels", what, width, height));
+  // What a picture holds while it is drawn and written (the off-screen colour and depth buffers, VTK's copy, the PNG
+  // writer's): about 17 B per pixel, from the 4.4 GB measured at 16384 x 16384 (issue 18); checked against the memory
+  // available, before the window is sized.
+  const double need = 17.0 * width * height;
+  const core::AvailableMemory avail = core::available_memory();
+  if (need > avail.bytes)
+    throw core::Error(fmt::format("{}: a {}x{} picture needs about {} while {} is available ({}); choose a smaller "
+                                  "--image-size",
+                                  what, width, height, core::format_bytes(need), core::format_bytes(avail.bytes),
+                                  avail.source));
 }
 
 vtkRenderWindow* begin_picture(Window& window, int width, int height) {

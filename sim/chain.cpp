@@ -1,11 +1,14 @@
 #include "sim/chain.hpp"
 
 #include "core/error.hpp"
+#include "core/memory.hpp"
+#include "drives/linear_model.hpp"
 #include "methods/feedplan_file.hpp"
 #include "methods/feedplan_job.hpp"
 #include "methods/feedplan_servo.hpp"
 #include "methods/oga_schedule.hpp"
 #include "motion/kinematics.hpp"
+#include "sim/memory_plan.hpp"
 
 #include <fmt/format.h>
 
@@ -18,6 +21,28 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
   interp_.period_s = job.interp.period_s;
   interp_.tolerance_mm = job.interp.tolerance_mm;
   interp_.feed_scale = options.feed_scale;
+  // Refuse a program before it is interpolated when it would need more setpoints than the job allows or than the
+  // motion's memory (sim/memory_plan.hpp's model) that is available (issue 18).
+  interp_.check_estimate = [&job](const motion::SetpointEstimate& e) {
+    const std::string f = job.file.string();
+    const std::string why = fmt::format(
+        "the interpolation would make at least {:.3g} setpoints (a cycle time of at least {:.4g} s at period_ms = {:g}, "
+        "from the program's lengths, feeds and the axes' velocity limits; the slowest move{} takes {:.4g} s)",
+        e.setpoints, e.cycle_time_s, job.interp.period_s * 1e3,
+        e.slowest_move >= 0 ? fmt::format(" (program move {})", e.slowest_move + 1) : std::string(), e.slowest_move_s);
+    if (e.setpoints > job.interp.max_setpoints)
+      throw core::Error(core::located(f, 0, fmt::format("{}, more than [interpolation] max_setpoints = {:.3g}: check "
+                                                        "the program's F words and period_ms, or raise max_setpoints",
+                                                        why, job.interp.max_setpoints)));
+    const bool turning = job.machine.kinematics != "xyz";
+    const double bytes = e.setpoints * motion_bytes_per_setpoint(static_cast<int>(job.machine.axes.size()), turning);
+    const core::AvailableMemory avail = core::available_memory();
+    if (bytes > avail.bytes)
+      throw core::Error(core::located(
+          f, 0, fmt::format("{}, whose motion needs at least {} while {} is available ({}): check the program's F "
+                            "words and period_ms, or run on a machine with more memory",
+                            why, core::format_bytes(bytes), core::format_bytes(avail.bytes), avail.source)));
+  };
   // A gain schedule holds gains for the setpoints of the job's own feeds.
   if (job.gain_schedule_file && !options.ignore_gain_schedule) {
     if (options.feed_scale != 1.0)
@@ -47,6 +72,22 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
       servo_per_axis_.push_back(servo_owned_.back().get());
     }
   }
+  // The period must fit every cascade's loops; checked here, before any interpolation (period_ms = 0.001, us typed
+  // as ms, made millions of setpoints before the drives refused it: issue 18).
+  const std::vector<bool> cascade = cascade_axes();
+  for (std::size_t a = 0; a < job.machine.axes.size(); ++a) {
+    const core::MachineAxis& ax = job.machine.axes[a];
+    if (!ax.drive || !cascade[a]) continue;
+    try {
+      (void)drives::LinearAxisModel(*ax.drive, job.interp.period_s);
+    } catch (const core::Error& e) {
+      throw core::Error(core::located(job.file.string(), 0,
+                                      fmt::format("[interpolation] period_ms = {:g} does not fit the drive of axis {} "
+                                                  "({}): {}",
+                                                  job.interp.period_s * 1e3, ax.name, job.machine.source_file,
+                                                  e.what())));
+    }
+  }
 }
 
 motion::SmoothPath Chain::smooth_path(const core::ToolPath& program) const {
@@ -74,7 +115,18 @@ motion::InterpResult Chain::interpolate(const core::ToolPath& program, const mot
   return motion::interpolate(motion::toolpath_in_axis_space(program, job_->machine), job_->machine, o);
 }
 
-drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace) const {
+std::vector<bool> Chain::cascade_axes() const {
+  std::vector<bool> out(job_->machine.axes.size(), true);
+  for (std::size_t a = 0; a < out.size(); ++a) {
+    if (!servo_per_axis_.empty()) out[a] = false;
+    else if (axis_models_.any() && a < axis_models_.per_axis.size() && axis_models_.per_axis[a]) out[a] = false;
+  }
+  return out;
+}
+
+drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace, DriveChecks* checks) const {
+  const std::vector<bool> cascade = cascade_axes();
+  DriveChecks before = check_drives_before(job_->machine, setpoints, cascade);  // throws for an unstable loop
   drives::SimulateOptions sopt;
   sopt.settle_s = options_.settle_s;
   sopt.full_rate_trace = full_rate_trace;
@@ -97,7 +149,12 @@ drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full
   } else if (axis_models_.any()) {
     sopt.axis_models = &axis_models_.per_axis;
   }
-  return drives::simulate_axes(setpoints, job_->machine, sopt);
+  drives::AxisResponse response = drives::simulate_axes(setpoints, job_->machine, sopt);
+  if (checks) {
+    *checks = std::move(before);
+    check_drives_after(job_->machine, setpoints, response, cascade, sopt.gains, *checks);
+  }
+  return response;
 }
 
 Eigen::VectorXd tool_length_offsets(const core::ToolPath& program, const core::Setpoints& setpoints) {

@@ -7,9 +7,11 @@
 #include "core/job.hpp"
 #include "core/setpoints.hpp"
 #include "core/toolpath.hpp"
+#include "core/warning.hpp"
 #include "drives/simulate.hpp"
 #include "motion/interp.hpp"
 #include "sim/axis_models.hpp"
+#include "sim/drive_checks.hpp"
 #include "sim/job_program.hpp"
 
 #include <Eigen/Core>
@@ -74,8 +76,14 @@ class Chain {
   motion::SmoothPath smooth_path(const core::ToolPath& program) const;
   // The setpoints through the drives: the cascades with the gain schedule (read against these setpoints), or the
   // identified models for the axes they replace, or the job's transfer-function servo; settle_s more after the last.
-  // full_rate_trace: also every current-loop sample (large).
-  drives::AxisResponse simulate(const core::Setpoints& setpoints, bool full_rate_trace = false) const;
+  // full_rate_trace: also every current-loop sample (large). Before simulating, the cascades the setpoints move are
+  // checked through their linearised models (sim/drive_checks.hpp): an unstable loop throws core::Error. `checks`:
+  // also the findings before and after the run (saturation, following error) and each checked axis's figures.
+  drives::AxisResponse simulate(const core::Setpoints& setpoints, bool full_rate_trace = false,
+                                DriveChecks* checks = nullptr) const;
+  // Per machine axis: whether it runs the machine's cascade ([axes.drive]) rather than an identified axis model or
+  // the [feedplan] servo.
+  std::vector<bool> cascade_axes() const;
 
  private:
   const core::Job* job_;

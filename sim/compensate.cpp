@@ -1,4 +1,5 @@
 #include "sim/compensate.hpp"
+#include "sim/drive_checks.hpp"
 
 #include "core/error.hpp"
 #include "core/timing.hpp"
@@ -316,6 +317,8 @@ CompensateJobResult compensate_job(const core::Job& job, const CompensateJobOpti
   r.tool_length_offset_mm = tool_length_offsets(r.program, sp);
   progress.done();
   r.timings["prepare"] = seconds_since(t_start);
+  // The drives the predictions run, checked before they run (an unstable loop is refused).
+  const DriveChecks drive_checks = check_drives_before(job.machine, sp, chain.cascade_axes());
 
   // Predictions: with the job's models, and with the machine file's cascades (the "machine" the program runs on).
   auto predictor = [&sp](const Chain& c) {
@@ -359,6 +362,8 @@ CompensateJobResult compensate_job(const core::Job& job, const CompensateJobOpti
   progress.done();
   method_json(r, chain.axis_models(), r.report);
   results_json(job, r);
+  r.report["drive_checks"] = drive_checks.axes;
+  add_verdict(r.report, drive_checks.warnings);
   if (job.gain_schedule_file)
     r.report["gain_schedule"] = "not applied: the prediction runs the drives' own gains (" +
                                 job.gain_schedule_file->string() + " belongs to the uncompensated setpoints)";

@@ -3,6 +3,7 @@
 
 #include "sim/pipeline.hpp"
 #include "sim/report.hpp"
+#include "core/memory.hpp"
 #include "core/csv.hpp"
 #include "core/error.hpp"
 #include "core/stl.hpp"
@@ -19,6 +20,10 @@
 #include <fstream>
 
 namespace vmsim::sim {
+
+double motion_bytes_per_setpoint(int axes, bool turning) {
+  return 8.0 * axes + 20 + 64.0 * axes + 60 + 48 + (turning ? 24 : 0) + 8.0 * (4 * axes + 6);
+}
 
 namespace {
 
@@ -108,9 +113,7 @@ double surface_nodes(const FieldShape& s, int rows) {
   return double(s.grids.back().nu) * rows;
 }
 
-double motion_bytes(double samples, int axes, bool turning) {
-  return samples * (8.0 * axes + 20 + 64.0 * axes + 60 + 48 + (turning ? 24 : 0) + 8.0 * (4 * axes + 6));
-}
+double motion_bytes(double samples, int axes, bool turning) { return samples * motion_bytes_per_setpoint(axes, turning); }
 
 struct MotionCounts {
   double samples = 0, sweeps = 0;
@@ -200,6 +203,11 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
   plan["one_process"] = {{"field_bytes", per_process(whole, ref_whole)}, {"motion_bytes", b_motion},
                          {"sweep_bytes", b_sweeps}, {"output_bytes", b_outputs_whole}, {"base_bytes", kBaseBytes},
                          {"total_bytes", one}};
+  // The machine this plan runs on: what it has left (core/memory.hpp), and whether one process fits in it.
+  const core::AvailableMemory avail = core::available_memory();
+  plan["available_memory"] = {{"bytes", std::isfinite(avail.bytes) ? nlohmann::json(avail.bytes) : nlohmann::json()},
+                              {"source", avail.source}};
+  plan["one_process"]["fits_available_memory"] = one <= avail.bytes;
 
   // Per rank of a tiled run, gathered to rank 0 and with --tiles-out.
   auto rank_totals = [&](int n, bool tiles_out, nlohmann::json* out) {

@@ -38,6 +38,10 @@ struct MemoryPlanOptions {
 // The plan as plan.json holds it: field (kind, grids, rays, bytes), reference_field, motion, one_process (bytes by
 // part and total_bytes), ranks, gathered and tiles_out (per_rank, largest_rank_bytes), advice, assumptions.
 // Throws core::Error for a rank count the field cannot be split into, or a job that cannot run.
+// The motion's bytes per setpoint sample in the model above (setpoints, drives, contour error, track, signals), for
+// a machine of `axes` axes; `turning`: the track holds a tool axis too.
+double motion_bytes_per_setpoint(int axes, bool turning);
+
 nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& options = {},
                            core::Progress& progress = core::no_progress());
 

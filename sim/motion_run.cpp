@@ -49,13 +49,18 @@ nlohmann::json axis_figures(const core::Machine& machine, const core::Setpoints&
                        sp_peaks.jerk[a] <= ax.max_jerk * (1 + 1e-6);
     r.setpoint_limits_held = r.setpoint_limits_held && sp_ok;
     const double i_lim = ax.drive ? ax.drive->current_limit_A : 0.0;
-    r.currents_within_limit = r.currents_within_limit && (!ax.drive || peak_i <= i_lim * (1 + 1e-9));
+    // The velocity loop's output clipped at the limit is a drive that asked for more than it has: not "held".
+    bool saturated = false;
+    if (ax.drive && resp.current_setpoint_A.size())
+      saturated = (resp.current_setpoint_A.col(a).array().abs() >= i_lim * (1 - 1e-9)).any();
+    r.currents_within_limit = r.currents_within_limit && (!ax.drive || (peak_i <= i_lim * (1 + 1e-9) && !saturated));
     const std::string u = unit_name(ax);
     axes[ax.name] = {
         {"tracking_error_max_" + u, max_te * f},
         {"tracking_error_rms_" + u, std::sqrt(sum2 / std::max<Eigen::Index>(1, n)) * f},
         {"peak_current_A", peak_i},
         {"current_limit_A", i_lim},
+        {"current_saturated", saturated},
         {"setpoints_within_limits", sp_ok},
         {"setpoint_peaks", {{"velocity_" + u + "_per_s", sp_peaks.velocity[a] * f},
                             {"acceleration_" + u + "_per_s2", sp_peaks.acceleration[a] * f},
@@ -94,7 +99,7 @@ MotionRun run_motion(const core::Job& job, const MotionRunOptions& options, core
 
   t0 = Clock::now();
   progress.stage(job.name + ": servo drives");
-  r.response = chain.simulate(sp, options.full_rate_trace);
+  r.response = chain.simulate(sp, options.full_rate_trace, &r.drive_checks);
   progress.done();
   const double t_drives = seconds_since(t0);
 
@@ -123,6 +128,8 @@ MotionRun run_motion(const core::Job& job, const MotionRunOptions& options, core
   report["contour_error"] = contour_json(r.contour, cutting_contour_stats(r.contour, sp, r.program));
   report["limits_held"] = {{"setpoints_velocity_acceleration_jerk", r.setpoint_limits_held},
                            {"currents", r.currents_within_limit}};
+  report["drive_checks"] = r.drive_checks.axes;
+  add_verdict(report, r.drive_checks.warnings);
   report["timings_s"] = {{"read", t_read}, {"interpolate", t_interp}, {"drives", t_drives}, {"contour", t_contour}};
   return r;
 }

@@ -1,4 +1,5 @@
 #include "sim/oga.hpp"
+#include "sim/drive_checks.hpp"
 
 #include "core/error.hpp"
 #include "core/timing.hpp"
@@ -142,6 +143,10 @@ OgaJobResult oga_job(const core::Job& job, const OgaJobOptions& options, core::P
   out.program = read_job_program(job);
   out.interp = chain.interpolate(out.program);
   const core::Setpoints& sp = out.interp.setpoints;
+  // The machine's drives, checked before any candidate runs (an unstable loop is refused).
+  const DriveChecks drive_checks = check_drives_before(job.machine, sp, chain.cascade_axes());
+  out.report["drive_checks"] = drive_checks.axes;
+  add_verdict(out.report, drive_checks.warnings);
   methods::OgaOptions& o = out.options = options.search;
   // Rows that count in MSE(CE): those on feed moves (as vmsim motion's "cutting moves").
   o.row_weight = methods::feed_move_row_weights(sp, out.program, o.settle_s);

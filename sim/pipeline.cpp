@@ -8,6 +8,7 @@
 #include "core/csv.hpp"
 #include "core/error.hpp"
 #include "motion/kinematics.hpp"
+#include "core/memory.hpp"
 #include "core/stl.hpp"
 #include "core/units.hpp"
 #include "removal/mesh_stock.hpp"
@@ -55,7 +56,7 @@ Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core:
   if (kind == core::RemovalSpec::Motion::Actual) {
     t0 = Clock::now();
     progress.stage(job.name + ": servo drives");
-    m.response = chain.simulate(m.interp.setpoints);
+    m.response = chain.simulate(m.interp.setpoints, false, &m.drive_checks);
     progress.done();
     m.timings["drives"] = seconds_since(t0);
   }
@@ -301,6 +302,8 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
     region = removal::Box{job.stock.min_mm, job.stock.max_mm};
   } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
     mesh = core::read_stl(job.stock.mesh_file);
+    // Before its bounding box: a mesh without triangles has none (it crashed here, issue 18).
+    core::check_closed(*mesh, job.stock.mesh_file.string());
     region.lo = mesh->vertices_mm.colwise().minCoeff().transpose();
     region.hi = mesh->vertices_mm.colwise().maxCoeff().transpose();
   } else {
@@ -329,11 +332,15 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
                  job.name.c_str(), h, (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e6,
                  f.vdb_estimate_bytes / 1e6, sa.area_mm2, f.vdb_estimate_bytes / sa.area_mm2 * 1e3 / 1e6,
                  f.vdb_mesh_estimate_bytes / 1e6);
-    const double limit = 32e9;
+    // Against the memory this machine (or its control group) has left, not a fixed constant (issue 18).
+    const core::AvailableMemory avail = core::available_memory();
+    const double limit = std::isfinite(avail.bytes) ? avail.bytes : 32e9;
     if (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes > limit)
-      throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {:.1f} GB for the level "
-                                                        "set and its mesh; choose a larger voxel", h,
-                                                        (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e9));
+      throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {} for the level "
+                                                        "set and its mesh, while {} is available ({}); choose a "
+                                                        "larger voxel_mm",
+                                                        h, core::format_bytes(f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes),
+                                                        core::format_bytes(limit), avail.source.empty() ? "a fixed limit" : avail.source));
     progress.stage(job.name + ": stock (level set)");
     removal::VdbOptions vo;
     vo.voxel_mm = h;
@@ -345,8 +352,23 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
   // ~3.2 GB of dexels per process: far beyond this machine's jobs, a typo in spacing_mm (a tiled run holds its share).
   const double rays_limit = 4e8;
   const Eigen::Vector3d ext = region.hi - region.lo;
-  const double estimate = (ext.x() / f.spacing_mm + 1) * (ext.y() / f.spacing_mm + 1) *
-                          (f.kind == core::RemovalSpec::Field::TriDexel ? 3 : 1) / tile.count;
+  // A tri-dexel field's three grids: XY, YZ and XZ (the stock's height counts).
+  const double nx = ext.x() / f.spacing_mm + 1, ny = ext.y() / f.spacing_mm + 1, nz = ext.z() / f.spacing_mm + 1;
+  const double estimate =
+      (f.kind == core::RemovalSpec::Field::TriDexel ? nx * ny + ny * nz + nx * nz : nx * ny) / tile.count;
+  if (f.kind != core::RemovalSpec::Field::NBuffer) {
+    // The field, the stock copy a run keeps for its reference, and the outputs on the height grid's nodes
+    // (sim/memory_plan.hpp's model: 8 B per ray and copy, 136 B per node), against the memory available.
+    const double bytes = estimate * 8.0 * 2 + (tile.whole() ? nx * ny * 136.0 : 0.0);
+    const core::AvailableMemory avail = core::available_memory();
+    if (bytes > avail.bytes)
+      throw core::Error(job.file.string() +
+                        fmt::format(": [removal] spacing_mm = {} gives {:.3g} rays{} which with the outputs need at "
+                                    "least {}, while {} is available ({}); choose a larger spacing_mm{}",
+                                    f.spacing_mm, estimate, tile.whole() ? "" : " per process",
+                                    core::format_bytes(bytes), core::format_bytes(avail.bytes), avail.source,
+                                    " or more processes (vmsim run --plan JOB says how many)"));
+  }
   if (f.kind != core::RemovalSpec::Field::NBuffer && estimate > rays_limit)
     throw core::Error(job.file.string() + fmt::format(": [removal] spacing_mm = {} gives {:.3g} rays ({:.1f} GB){}; "
                                                       "choose a larger spacing{}",

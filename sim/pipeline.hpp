@@ -32,6 +32,7 @@ struct Motion {
   std::optional<drives::AxisResponse> response;
   std::optional<motion::ContourError> contour;
   Eigen::VectorXd tool_length_offset_mm;  // per setpoint (sim::tool_length_offsets)
+  DriveChecks drive_checks;                // the drives' findings, when they ran (sim/drive_checks.hpp)
   nlohmann::json timings = nlohmann::json::object();
 };
 

@@ -1,4 +1,5 @@
 #include "sim/plan_feed.hpp"
+#include "sim/drive_checks.hpp"
 
 #include "core/error.hpp"
 #include "core/timing.hpp"
@@ -200,6 +201,9 @@ PlanFeedResult plan_feed(const core::Job& job, core::Progress& progress) {
   for (Index k = 0; k < sp.samples(); ++k)
     r.played_sample_s[k] = player.to_sample_s ? player.to_sample_s(sp.path_length_mm[k]) : sp.path_length_mm[k];
   fill_report(spec, path_json, r);
+  const DriveChecks drive_checks = check_drives_before(machine, sp, chain.cascade_axes());
+  r.report["drive_checks"] = drive_checks.axes;
+  add_verdict(r.report, drive_checks.warnings);
   return r;
 }
 

@@ -217,6 +217,8 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
   if (motion.contour)
     report["contour_error"] =
         contour_json(*motion.contour, cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program));
+  if (motion.response) report["drive_checks"] = motion.drive_checks.axes;
+  add_verdict(report, motion.drive_checks.warnings);
   report["timings_s"] = c.timings;
   report["timings_s"]["surfaces"] = seconds_since(t0);
   return r;

@@ -201,5 +201,19 @@ TEST(GcodeErrors, HostileNestingAndRecursion) {
   EXPECT_NE(msg.find("test.ngc:2: unexpected character"), std::string::npos) << msg;
 }
 
+// Issue 18: a bad expression on an O-word repeat, while or if line is reported on that line with its cause, not at
+// the block's end as "no matching opening O-word" (LinuxCNC's rs274 reports the line it cannot read, too).
+TEST(GcodeErrors, BadExpressionOnAnOWordLineIsReportedThere) {
+  for (const std::string head : {"o1 repeat [2 +]", "o1 while [#1 LT]", "o1 if [[1]"}) {
+    const std::string closer = head.find("repeat") != std::string::npos ? "o1 endrepeat"
+                               : head.find("while") != std::string::npos ? "o1 endwhile"
+                                                                          : "o1 endif";
+    const std::string program = "G21\n" + head + "\nG0 X1\n" + closer + "\nM2\n";
+    expect_error(program, 2, {});
+    const std::string msg = error_of(program, {});
+    EXPECT_EQ(msg.find("no matching opening"), std::string::npos) << msg;
+  }
+}
+
 }  // namespace
 }  // namespace vmsim::program::gcode_test

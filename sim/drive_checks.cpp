@@ -1,0 +1,135 @@
+#include "sim/drive_checks.hpp"
+
+#include "core/error.hpp"
+#include "drives/drive_checks.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vmsim::sim {
+
+namespace {
+
+bool moves(const core::Setpoints& sp, Eigen::Index a) {
+  return a < sp.position.cols() && (sp.position.col(a).array() != sp.position(0, a)).any();
+}
+
+const char* unit(const core::MachineAxis& ax) { return ax.kind == core::AxisKind::Rotary ? "rad" : "mm"; }
+
+// The lowest finite value of a schedule column (NaN keeps the drive's own value); `own` when none is lower.
+double lowest(const Eigen::MatrixXd& m, Eigen::Index a, double own) {
+  double lo = own;
+  if (a < m.cols())
+    for (Eigen::Index k = 0; k < m.rows(); ++k)
+      if (std::isfinite(m(k, a))) lo = std::min(lo, m(k, a));
+  return lo;
+}
+
+}  // namespace
+
+DriveChecks check_drives_before(const core::Machine& machine, const core::Setpoints& sp,
+                                const std::vector<bool>& cascade) {
+  DriveChecks out;
+  for (std::size_t i = 0; i < machine.axes.size(); ++i) {
+    const core::MachineAxis& ax = machine.axes[i];
+    if (!ax.drive || i >= cascade.size() || !cascade[i] || !moves(sp, static_cast<Eigen::Index>(i))) continue;
+    const drives::DriveStability d = drives::drive_stability(*ax.drive, sp.period_s);
+    out.axes[ax.name] = {{"kv_te", d.kv_te},
+                         {"pole_radius", d.pole_radius},
+                         {"inner_pole_radius", d.inner_pole_radius},
+                         {"gain_margin", std::isfinite(d.gain_margin) ? nlohmann::json(d.gain_margin) : nlohmann::json("inf")},
+                         {"min_damping", d.min_damping}};
+    for (core::Warning& w : drives::check_drive(*ax.drive, sp.period_s, ax.name, machine.source_file)) {
+      if (w.severity == core::Warning::Severity::Invalid) throw core::Error(w.message);
+      out.warnings.push_back(std::move(w));
+    }
+  }
+  return out;
+}
+
+void check_drives_after(const core::Machine& machine, const core::Setpoints& sp, const drives::AxisResponse& resp,
+                        const std::vector<bool>& cascade, const drives::GainSchedule* gains, DriveChecks& checks) {
+  const Eigen::Index ns = sp.samples(), n = resp.samples();
+  const double te = sp.period_s;
+  if (ns < 1) return;
+  for (std::size_t i = 0; i < machine.axes.size(); ++i) {
+    const core::MachineAxis& ax = machine.axes[i];
+    const auto a = static_cast<Eigen::Index>(i);
+    if (!ax.drive || i >= cascade.size() || !cascade[i] || !moves(sp, a) || a >= resp.position.cols()) continue;
+    core::DriveParams p = *ax.drive;
+    if (gains) {
+      p.kv_per_s = lowest(gains->kv_per_s, a, p.kv_per_s);
+      p.kf = lowest(gains->kf, a, p.kf);
+    }
+    const drives::DriveStability d = drives::drive_stability(p, te);
+    // The setpoints' velocity and acceleration (backward differences, as the feedforward takes them).
+    double v_max = 0, a_max = 0;
+    for (Eigen::Index k = 1; k < ns; ++k) {
+      v_max = std::max(v_max, std::abs(sp.position(k, a) - sp.position(k - 1, a)) / te);
+      if (k >= 2)
+        a_max = std::max(a_max, std::abs(sp.position(k, a) - 2 * sp.position(k - 1, a) + sp.position(k - 2, a)) / (te * te));
+    }
+    // The floor covers what the linear model leaves out and a careful drive still shows: Coulomb friction at
+    // reversals, gravity, the current loop's voltage limit (a few um on the parts' machines).
+    const double floor = ax.kind == core::AxisKind::Rotary ? 1e-4 : 0.01;
+    const double bound = 3.0 * (std::abs(d.lag_s) * v_max + std::abs(d.lag_s2) * a_max) + floor;
+    double e_max = 0, e_row = 0;
+    double saturated = 0, longest = 0, run = 0;
+    const double limit = p.current_limit_A;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const double e = std::abs(sp.position(std::min(k, ns - 1), a) - resp.position(k, a));
+      if (!(e <= e_max)) e_max = e, e_row = static_cast<double>(k);  // NaN counts as the largest
+      const bool sat = resp.current_setpoint_A.size() && std::abs(resp.current_setpoint_A(k, a)) >= limit * (1 - 1e-9);
+      run = sat ? run + te : 0.0;
+      saturated += sat ? te : 0.0;
+      longest = std::max(longest, run);
+    }
+    nlohmann::json& fig = checks.axes[ax.name];
+    fig["current_saturated_s"] = saturated;
+    fig["current_saturated_longest_s"] = longest;
+    fig[fmt::format("following_error_max_{}", unit(ax))] = e_max;
+    fig[fmt::format("following_error_bound_{}", unit(ax))] = bound;
+    const std::string where = fmt::format("{}: axis {}", machine.source_file, ax.name);
+    if (longest >= 0.01)
+      checks.warnings.push_back(
+          {"current_saturation", ax.name,
+           fmt::format("{}: the current setpoint stays at current_limit_A = {:g} A for {:.3g} s at a stretch ({:.3g} s "
+                       "in all): the drive cannot give the acceleration the setpoints ask; the path and the marks "
+                       "show what this drive does, not what the program asks (check current_limit_A and the axis' "
+                       "max_acceleration)",
+                       where, limit, longest, saturated)});
+    const std::string fe =
+        fmt::format("{}: the following error reaches {:.4g} {} at t = {:.3f} s, while the drive's linear model "
+                    "(Kv = {:g} 1/s, KF = {:g}) bounds it by {:.4g} {} at the setpoints' {:.4g} {}/s and {:.4g} {}/s^2",
+                    where, e_max, unit(ax), e_row * te, p.kv_per_s, p.kf, bound, unit(ax), v_max, unit(ax), a_max,
+                    unit(ax));
+    if (!(e_max <= 10 * bound))
+      checks.warnings.push_back({"following_error_implausible", ax.name,
+                                 fe + ": the axis did not follow its setpoints; the result cannot mean what it claims "
+                                      "(check current_limit_A, voltage_limit_V, the friction and gravity torques)",
+                                 core::Warning::Severity::Invalid});
+    else if (e_max > bound)
+      checks.warnings.push_back(
+          {"following_error_beyond_model", ax.name,
+           fe + ": a limit of the drive (current, voltage) or its friction shapes the result"});
+  }
+}
+
+nlohmann::json warnings_json(const core::Warnings& warnings) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const core::Warning& w : warnings)
+    out.push_back({{"code", w.code},
+                   {"severity", w.severity == core::Warning::Severity::Invalid ? "invalid" : "warning"},
+                   {"subject", w.subject},
+                   {"message", w.message}});
+  return out;
+}
+
+void add_verdict(nlohmann::json& report, const core::Warnings& warnings) {
+  report["warnings"] = warnings_json(warnings);
+  report["verdict"] = core::verdict(warnings);
+}
+
+}  // namespace vmsim::sim
