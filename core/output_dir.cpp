@@ -137,7 +137,7 @@ int rename2(const fs::path& from, const fs::path& to, unsigned flags) {
 
 }  // namespace
 
-OutputDir::OutputDir(const fs::path& target, std::string_view command) {
+OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals signals) {
   std::error_code ec;
   fs::path t = fs::absolute(target, ec).lexically_normal();
   if (ec) throw Error(target.string() + ": cannot resolve the output directory: " + ec.message());
@@ -203,7 +203,7 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command) {
         fs::remove_all(e.path(), rec);
       }
     }
-    install_signal_cleanup();
+    if (signals == Signals::CleanUpAndExit) install_signal_cleanup();
     staging_ = parent / (prefix + std::to_string(::getpid()) + "-" + random_hex());
     register_staging(staging_);
     if (!fs::create_directory(staging_, ec) || ec)

@@ -18,7 +18,13 @@ class OutputDir {
   // holds the lock, when TARGET is the current directory or holds it, when TARGET exists and is not a directory, and
   // when it is a non-empty directory vmsim did not write (no report.json, no marker): replacing it would delete
   // files that are not vmsim's. COMMAND names this run in the lock ("vmsim run").
-  OutputDir(const std::filesystem::path& target, std::string_view command);
+  //
+  // SIGNALS: CleanUpAndExit (the commands) installs, once per process, handlers for SIGTERM, SIGINT and SIGHUP that
+  // remove every staging directory and exit with 128 + the signal. Leave (the Python module, whose interpreter owns
+  // SIGINT as KeyboardInterrupt) installs nothing: an interrupted call unwinds and the destructor removes it.
+  enum class Signals { CleanUpAndExit, Leave };
+  OutputDir(const std::filesystem::path& target, std::string_view command,
+            Signals signals = Signals::CleanUpAndExit);
   ~OutputDir();  // without commit(): removes the staging directory; the lock goes with the descriptor
   OutputDir(const OutputDir&) = delete;
   OutputDir& operator=(const OutputDir&) = delete;

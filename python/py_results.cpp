@@ -2,6 +2,7 @@
 // Motion (sim::MotionRun), Result (sim::RunResult). Matrices are numpy views of the Eigen members (column-major:
 // Fortran-ordered arrays of shape (samples, axes)); a view keeps its result alive.
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "core/timing.hpp"
 #include "python/py_job.hpp"
 #include "render/mesh_io.hpp"
@@ -190,20 +191,22 @@ py::object run_job(const PyJob& pj, std::optional<fs::path> out, bool render, py
   call_released(progress, [&](core::Progress& p) {
     const auto t_start = core::Clock::now();
     const core::Job& job = loaded->job;
+    // As `vmsim run`: OUT locked before the run, written in staging, swapped into place whole at the end
+    // (core/output_dir.hpp); an interrupted or failed call leaves the previous result. SIGINT stays Python's.
+    std::optional<core::OutputDir> dir;
+    if (out) dir.emplace(*out, "vmsim run (Python)", core::OutputDir::Signals::Leave);
     res->run = sim::run_job(job, o, p);
     res->report = res->run.report;
-    if (!out) return 0;
+    if (!dir) return 0;
     // The files `vmsim run --no-render` writes, through its writer, then its report.json (and report.html).
-    std::error_code ec;
-    fs::create_directories(*out, ec);
-    if (ec) throw core::Error(out->string() + ": cannot create the output directory: " + ec.message());
     const auto t0 = core::Clock::now();
-    res->files = sim::write_run_outputs(job, res->run, *out, render::write_vtp);
+    res->files = sim::write_run_outputs(job, res->run, dir->path(), render::write_vtp);
     res->report["files"] = res->files;
     res->report["timings_s"]["write"] = core::seconds_since(t0);
     res->report["timings_s"]["total"] = core::seconds_since(t_start);
-    render::write_report(*out / "report.json", res->report);
+    render::write_report(dir->path() / "report.json", res->report);
     res->files.push_back("report.json");
+    dir->commit();
     res->out = *out;
     return 0;
   });
