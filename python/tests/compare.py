@@ -1,4 +1,4 @@
-"""Comparing two result directories file by file (the checks of /work/briefs/compare_runs.sh, as functions)."""
+"""Comparing two result directories file by file (byte for byte; X3P entry by entry without dates; report.json without timings)."""
 import json
 import re
 import zipfile

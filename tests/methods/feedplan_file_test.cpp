@@ -2,6 +2,7 @@
 // round trip of 17 significant digits (the ceiling read back bit for bit); the circle's own equation for the points
 // written (x^2 + y^2 = R^2, the quintic chain within 10 nm of it); and the rule of DESIGN.md that a file for another
 // path or period is refused with a message naming the file (and its line).
+#include "tests/app/cli_util.hpp"
 #include "core/error.hpp"
 #include "methods/feedplan_file.hpp"
 #include "motion/nurbs.hpp"
@@ -20,22 +21,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_feedplan_file_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
+using vmsim_test::TempDir;  // tests/app/cli_util.hpp
 
 // A circle of radius r about (cx, cy) as a rational quadratic NURBS, and the G2 chain the interpolator follows.
 motion::SmoothPath circle_path(double r, double cx = 0.0, double cy = 0.0) {

@@ -2,6 +2,7 @@
 // admissible sets and the best fixed pair against an exhaustive search through simulate_axes, the state-at-the-
 // window-start evaluation against Duong et al.'s re-simulation from the start, thread-count independence, the
 // verification against the search, the schedule file, and the OGA case of parts/oga_profile.
+#include "tests/app/cli_util.hpp"
 #include "methods/oga.hpp"
 #include "methods/oga_schedule.hpp"
 
@@ -29,22 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kKv = core::units::kKvMPerMinPerMmToPerS;
 
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_oga_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
+using vmsim_test::TempDir;  // tests/app/cli_util.hpp
 
 // A program's setpoints on the Mikron, the tool tip starting at `start` (as vmsim's jobs with start_mm).
 core::Setpoints setpoints_of(const fs::path& program, const core::Machine& m, const Eigen::Vector3d& start,

@@ -4,6 +4,7 @@
 // [feedplan] transfer-function servo runs as methods::simulate_transfer_functions (the reference implementation of
 // Chen et al.'s servo) does. References: the plan's own ceiling (a constant here), plan-feed's played plan, and the
 // methods' simulation of the same transfer functions.
+#include "tests/app/cli_util.hpp"
 #include "core/error.hpp"
 #include "core/job.hpp"
 #include "methods/feedplan_file.hpp"
@@ -26,22 +27,7 @@ namespace {
 
 const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts/";
 
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("vmsim_chain_" + std::to_string(rd()) + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  const fs::path& path() const { return dir_; }
-
- private:
-  fs::path dir_;
-};
+using vmsim_test::TempDir;  // tests/app/cli_util.hpp
 
 // A small XY contour programmed at 6 m/min on the Mikron UCP 710 (its cascades): 20 mm lines and R 5 arcs, which its
 // acceleration and jerk limits let it run at up to ~46 mm/s, where the contour error reaches ~19 um: a 5 um contour
