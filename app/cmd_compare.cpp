@@ -52,9 +52,12 @@ metrology::SurfaceCompareOptions compare_options(const CompareArgs& a) {
   o.processing = parse_processing(a.options);
   o.mark_threshold_mm = parse_length_mm(a.mark_threshold, "--mark-threshold");
   o.regions = parse_regions(a.align_regions);
-  if (a.align != "auto" && a.align != "none") throw core::Error("--align: expected auto or none, found \"" + a.align + "\"");
-  if (!a.align_init.empty() && a.align_init.size() != 6) throw core::Error("--align-init: expected X,Y,Z,RX,RY,RZ (mm, deg)");
-  if (a.loss != "tukey" && a.loss != "huber") throw core::Error("--loss: expected tukey or huber, found \"" + a.loss + "\"");
+  if (a.align != "auto" && a.align != "none")
+    throw core::Error("--align: expected auto or none, found \"" + a.align + "\"");
+  if (!a.align_init.empty() && a.align_init.size() != 6)
+    throw core::Error("--align-init: expected X,Y,Z,RX,RY,RZ (mm, deg)");
+  if (a.loss != "tukey" && a.loss != "huber")
+    throw core::Error("--loss: expected tukey or huber, found \"" + a.loss + "\"");
   o.align = a.align == "auto";
   o.loss = a.loss == "huber" ? metrology::RobustLoss::Huber : metrology::RobustLoss::Tukey;
   if (!a.align_init.empty()) {
@@ -68,7 +71,8 @@ metrology::SurfaceCompareOptions compare_options(const CompareArgs& a) {
 }
 
 // The prediction: a surface file, or an STL part (its top rasterised at the scan's step, for registration).
-metrology::Prediction read_prediction(const std::filesystem::path& file, const core::HeightGrid& scan, std::string& format) {
+metrology::Prediction read_prediction(const std::filesystem::path& file, const core::HeightGrid& scan,
+                                      std::string& format) {
   std::string ext = file.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".stl") {
@@ -85,7 +89,8 @@ nlohmann::json transform_json(const metrology::RigidTransform& T) {
   // R = Rz Ry Rx: the angles that rebuild it (small for a fixtured part).
   const Eigen::Vector3d e = T.R.eulerAngles(2, 1, 0);
   double rz = e[0], ry = e[1], rx = e[2];
-  if (std::abs(ry) > kPi / 2) rz -= std::copysign(kPi, rz), ry = std::copysign(kPi, ry) - ry, rx -= std::copysign(kPi, rx);
+  if (std::abs(ry) > kPi / 2)
+    rz -= std::copysign(kPi, rz), ry = std::copysign(kPi, ry) - ry, rx -= std::copysign(kPi, rx);
   nlohmann::json R = nlohmann::json::array();
   for (int r = 0; r < 3; ++r) R.push_back({T.R(r, 0), T.R(r, 1), T.R(r, 2)});
   return {{"maps", "scan coordinates -> prediction coordinates: p' = R p + t"},
@@ -101,7 +106,8 @@ nlohmann::json registration_json(const CompareArgs& a, const metrology::SurfaceC
                                  const metrology::SurfaceComparison& c) {
   nlohmann::json reg;
   if (!c.registration) {
-    reg = {{"method", a.align_init.empty() ? "none: the scan as it lies" : "none: the transform given by --align-init"}};
+    reg = {
+        {"method", a.align_init.empty() ? "none: the scan as it lies" : "none: the transform given by --align-init"}};
   } else {
     const metrology::RegistrationResult& r = *c.registration;
     nlohmann::json regions = nlohmann::json::array();
@@ -127,21 +133,29 @@ nlohmann::json marks_json(const metrology::SurfaceCompareOptions& o, const metro
   nlohmann::json mj = nlohmann::json::array();
   for (std::size_t k = 0; k < c.marks.size(); ++k) {
     const metrology::Mark& m = c.marks[k];
-    nlohmann::json j = {{"depth_mm", m.depth_mm},       {"kind", m.overcut ? "overcut" : "undercut"},
-                        {"x_mm", m.x_mm},               {"y_mm", m.y_mm},
-                        {"width_mm", m.width_mm},       {"along_path_mm", m.along_mm},
-                        {"x_extent_mm", m.x_extent_mm}, {"y_extent_mm", m.y_extent_mm},
+    nlohmann::json j = {{"depth_mm", m.depth_mm},
+                        {"kind", m.overcut ? "overcut" : "undercut"},
+                        {"x_mm", m.x_mm},
+                        {"y_mm", m.y_mm},
+                        {"width_mm", m.width_mm},
+                        {"along_path_mm", m.along_mm},
+                        {"x_extent_mm", m.x_extent_mm},
+                        {"y_extent_mm", m.y_extent_mm},
                         {"area_mm2", m.area_mm2}};
-    if (k < c.marks_in_part_mm.size()) j["part_x_mm"] = c.marks_in_part_mm[k].x(), j["part_y_mm"] = c.marks_in_part_mm[k].y();
+    if (k < c.marks_in_part_mm.size())
+      j["part_x_mm"] = c.marks_in_part_mm[k].x(), j["part_y_mm"] = c.marks_in_part_mm[k].y();
     mj.push_back(j);
   }
   const std::string from = c.path_direction_from == metrology::PathDirectionFrom::Given ? "given (--path-direction-deg)"
                            : c.path_direction_from == metrology::PathDirectionFrom::Lay
                                ? fmt::format("the lay of the prediction (anisotropy {:.2f})", c.lay_anisotropy)
                                : "+x (the prediction has no clear lay; give --path-direction-deg)";
-  return {{"threshold_mm", o.mark_threshold_mm}, {"path_direction_deg", c.path_direction_rad * 180 / kPi},
-          {"path_direction_from", from}, {"min_nodes", 9},
-          {"width", "full width of the part deeper than half the depth, across the path"}, {"list", mj}};
+  return {{"threshold_mm", o.mark_threshold_mm},
+          {"path_direction_deg", c.path_direction_rad * 180 / kPi},
+          {"path_direction_from", from},
+          {"min_nodes", 9},
+          {"width", "full width of the part deeper than half the depth, across the path"},
+          {"list", mj}};
 }
 
 std::string deviation_definition(bool mesh) {
@@ -153,13 +167,20 @@ std::string deviation_definition(bool mesh) {
 void add_comparison(nlohmann::json& report, const CompareArgs& a, const metrology::SurfaceCompareOptions& o,
                     const metrology::SurfaceComparison& c, bool mesh) {
   if (c.outliers)
-    report["measured"]["outliers"] = {{"masked", c.outliers->masked}, {"k_sigma", o.outlier_sigma},
-                          {"sigma_mm", c.outliers->sigma_mm}, {"threshold_mm", c.outliers->threshold_mm},
-                          {"method", "median of plane-exact neighbour predictions"}};
+    report["measured"]["outliers"] = {{"masked", c.outliers->masked},
+                                      {"k_sigma", o.outlier_sigma},
+                                      {"sigma_mm", c.outliers->sigma_mm},
+                                      {"threshold_mm", c.outliers->threshold_mm},
+                                      {"method", "median of plane-exact neighbour predictions"}};
   report["registration"] = registration_json(a, o, c);
   const metrology::DeviationStats& ds = c.stats;
-  report["deviation"] = {{"definition", deviation_definition(mesh)}, {"points", ds.points}, {"min_mm", ds.min},
-                         {"max_mm", ds.max}, {"mean_mm", ds.mean}, {"rms_mm", ds.rms}, {"mean_abs_mm", ds.mean_abs}};
+  report["deviation"] = {{"definition", deviation_definition(mesh)},
+                         {"points", ds.points},
+                         {"min_mm", ds.min},
+                         {"max_mm", ds.max},
+                         {"mean_mm", ds.mean},
+                         {"rms_mm", ds.rms},
+                         {"mean_abs_mm", ds.mean_abs}};
   report["marks"] = marks_json(o, c);
   nlohmann::json diff;
   const nlohmann::json jm = areal_json(c.measured_areal), jp = areal_json(c.predicted_areal);
@@ -188,9 +209,10 @@ std::string profiles_csv(const metrology::SurfaceComparison& c, bool mesh) {
 render::ChartPicture mark_chart(const metrology::Mark& m, std::size_t k, const metrology::MarkProfile& p,
                                 double path_direction_rad, bool heights) {
   render::ChartPicture cp;
-  cp.caption = {fmt::format("Mark {}: {} {:.2f} um deep at x {:.3f} y {:.3f} mm", k + 1,
-                            m.overcut ? "overcut" : "undercut", m.depth_mm * 1e3, m.x_mm, m.y_mm),
-                fmt::format("profile across the path ({:.1f} deg from +x)", (path_direction_rad + kPi / 2) * 180 / kPi)};
+  cp.caption = {
+      fmt::format("Mark {}: {} {:.2f} um deep at x {:.3f} y {:.3f} mm", k + 1, m.overcut ? "overcut" : "undercut",
+                  m.depth_mm * 1e3, m.x_mm, m.y_mm),
+      fmt::format("profile across the path ({:.1f} deg from +x)", (path_direction_rad + kPi / 2) * 180 / kPi)};
   if (heights) {
     render::Chart h;
     h.title = "heights";
@@ -258,7 +280,8 @@ void write_grids(const std::filesystem::path& dir, const CompareArgs& a, const m
   xo.comment = "deviation: " + deviation_definition(mesh) + "; measured " + a.measured.filename().string() +
                ", predicted " + a.predicted.filename().string();
   metrology::write_x3p(dir / "deviation.x3p", c.deviation, xo);
-  xo.comment = "the measured scan " + a.measured.filename().string() + " aligned and resampled onto the prediction's grid";
+  xo.comment =
+      "the measured scan " + a.measured.filename().string() + " aligned and resampled onto the prediction's grid";
   xo.probing_type = "NonContacting";
   metrology::write_x3p(dir / "measured_aligned.x3p", c.measured_on, xo);
 }
@@ -303,7 +326,8 @@ int run_compare(const CompareArgs& a) {
 
   auto t0 = Clock::now();
   const metrology::SurfaceFile ms = metrology::read_surface_file(a.measured);
-  if (!ms.note.empty()) std::fprintf(stderr, "vmsim compare: warning: %s: %s\n", a.measured.string().c_str(), ms.note.c_str());
+  if (!ms.note.empty())
+    std::fprintf(stderr, "vmsim compare: warning: %s: %s\n", a.measured.string().c_str(), ms.note.c_str());
   if (ms.profile) return run_compare_profile(a, ms, out);
   if (!a.profile_line.empty())
     throw core::Error("--profile-line: applies to a measured profile; " + a.measured.string() + " holds a surface");
@@ -314,14 +338,19 @@ int run_compare(const CompareArgs& a) {
 
   const metrology::SurfaceComparison c = metrology::compare_surfaces(ms.grid, prediction, options);
   if (c.registration && !c.registration->weak_directions.empty())
-    std::fprintf(stderr, "vmsim compare: the surfaces do not constrain %zu direction(s) of the alignment; held at the "
-                         "initial guess (see report.json registration.weakly_constrained)\n",
+    std::fprintf(stderr,
+                 "vmsim compare: the surfaces do not constrain %zu direction(s) of the alignment; held at the "
+                 "initial guess (see report.json registration.weakly_constrained)\n",
                  c.registration->weak_directions.size());
-  timings.update({{"outliers", c.seconds.outliers}, {"registration", c.seconds.registration},
-                  {"deviation", c.seconds.deviation}, {"marks", c.seconds.marks}, {"areal", c.seconds.areal}});
+  timings.update({{"outliers", c.seconds.outliers},
+                  {"registration", c.seconds.registration},
+                  {"deviation", c.seconds.deviation},
+                  {"marks", c.seconds.marks},
+                  {"areal", c.seconds.areal}});
 
   nlohmann::json report = {{"vmsim", VMSIM_VERSION}, {"command", "compare"}};
-  report["inputs"] = {{"measured", input_json(a.measured, ms.format)}, {"predicted", input_json(a.predicted, pred_format)}};
+  report["inputs"] = {{"measured", input_json(a.measured, ms.format)},
+                      {"predicted", input_json(a.predicted, pred_format)}};
   report["measured"] = {{"grid", grid_json(ms.grid)}};
   if (!ms.note.empty()) report["measured"]["note"] = ms.note;
   report["predicted"] = {{"grid", grid_json(prediction.grid)}};

@@ -31,8 +31,10 @@ std::vector<double> parse_line(const CompareArgs& a) {
   std::string cell;
   while (std::getline(ss, cell, ',')) v.push_back(parse_length_mm(cell, "--profile-line"));
   if (v.size() != 4)
-    throw core::Error("--profile-line: the measured file holds a profile; give the line across the prediction it was "
-                      "measured along as X0,Y0,X1,Y1 (mm), found \"" + a.profile_line + "\"");
+    throw core::Error(
+        "--profile-line: the measured file holds a profile; give the line across the prediction it was "
+        "measured along as X0,Y0,X1,Y1 (mm), found \"" +
+        a.profile_line + "\"");
   return v;
 }
 
@@ -45,21 +47,33 @@ nlohmann::json report_json(const CompareArgs& a, const metrology::SurfaceFile& m
   for (const char* k : {"Ra_mm", "Rq_mm", "Rsk", "Rku", "Rp_mm", "Rv_mm", "Rz_mm", "Rt_mm"})
     if (jm[k].is_number() && jp[k].is_number()) diff[k] = jm[k].get<double>() - jp[k].get<double>();
   nlohmann::json report = {{"vmsim", VMSIM_VERSION}, {"command", "compare"}, {"mode", "profile along a line"}};
-  report["inputs"] = {{"measured", input_json(a.measured, ms.format)}, {"predicted", input_json(a.predicted, ps.format)}};
+  report["inputs"] = {{"measured", input_json(a.measured, ms.format)},
+                      {"predicted", input_json(a.predicted, ps.format)}};
   report["measured"] = {{"profile", line_scan_json(measured)}};
   if (!ms.note.empty()) report["measured"]["note"] = ms.note;
   report["predicted"] = {{"grid", grid_json(ps.grid)}};
-  report["line"] = {{"from_mm", {v[0], v[1]}}, {"to_mm", {v[2], v[3]}}, {"length_mm", c.line_length_mm},
+  report["line"] = {{"from_mm", {v[0], v[1]}},
+                    {"to_mm", {v[2], v[3]}},
+                    {"length_mm", c.line_length_mm},
                     {"sampled_every_mm", std::min(ps.grid.dx_mm, ps.grid.dy_mm) / 2}};
   report["registration"] = {
       {"method", a.align == "auto" ? "shift along the line searched (every predicted sample, then golden section to "
                                      "1/100), offset and tilt of the measured heights fitted by least squares"
                                    : "none: the profile's first sample at the line's start, heights as measured"},
-      {"shift_mm", c.shift_mm}, {"offset_mm", c.offset_mm}, {"tilt", c.tilt}, {"s_centre_mm", c.s_centre_mm}};
-  report["deviation"] = {{"definition", "measured (registered) - predicted along the line"}, {"points", c.points},
-                         {"mean_mm", c.mean_mm}, {"rms_mm", c.rms_mm}, {"min_mm", c.min_mm}, {"max_mm", c.max_mm}};
+      {"shift_mm", c.shift_mm},
+      {"offset_mm", c.offset_mm},
+      {"tilt", c.tilt},
+      {"s_centre_mm", c.s_centre_mm}};
+  report["deviation"] = {{"definition", "measured (registered) - predicted along the line"},
+                         {"points", c.points},
+                         {"mean_mm", c.mean_mm},
+                         {"rms_mm", c.rms_mm},
+                         {"min_mm", c.min_mm},
+                         {"max_mm", c.max_mm}};
   report["profile_parameters"] = {{"area", "samples where both the measured and the predicted profile are valid"},
-                                  {"measured", jm}, {"predicted", jp}, {"measured_minus_predicted", diff}};
+                                  {"measured", jm},
+                                  {"predicted", jp},
+                                  {"measured_minus_predicted", diff}};
   return report;
 }
 
@@ -102,9 +116,12 @@ nlohmann::json write_picture(const std::filesystem::path& dir, const CompareArgs
 
 int run_compare_profile(const CompareArgs& a, const metrology::SurfaceFile& ms, core::OutputDir& out) {
   const std::vector<double> v = parse_line(a);
-  if (a.align != "auto" && a.align != "none") throw core::Error("--align: expected auto or none, found \"" + a.align + "\"");
+  if (a.align != "auto" && a.align != "none")
+    throw core::Error("--align: expected auto or none, found \"" + a.align + "\"");
   if (!a.align_init.empty() || !a.align_regions.empty())
-    throw core::Error("--align-init and --align-region apply to surfaces; a profile is registered along its line (--align auto|none)");
+    throw core::Error(
+        "--align-init and --align-region apply to surfaces; a profile is registered along its line (--align "
+        "auto|none)");
   const metrology::ProfileEvaluation how = metrology::profile_evaluation(parse_processing(a.options));
   const std::filesystem::path dir = out.path();
 
@@ -136,7 +153,8 @@ int run_compare_profile(const CompareArgs& a, const metrology::SurfaceFile& ms, 
   std::printf("measured %s (%s profile, %ld points every %.4g um), predicted %s (%s)\n",
               a.measured.filename().string().c_str(), ms.format.c_str(), static_cast<long>(measured.size()),
               measured.dx_mm * 1e3, a.predicted.filename().string().c_str(), ps.format.c_str());
-  std::printf("registration along the line: shift %.4f mm, offset %.3f um, tilt %.3g\n", c.shift_mm, c.offset_mm * 1e3, c.tilt);
+  std::printf("registration along the line: shift %.4f mm, offset %.3f um, tilt %.3g\n", c.shift_mm, c.offset_mm * 1e3,
+              c.tilt);
   std::printf("deviation: mean %.3f um, rms %.3f um, min %.3f um, max %.3f um over %zu points\n", c.mean_mm * 1e3,
               c.rms_mm * 1e3, c.min_mm * 1e3, c.max_mm * 1e3, c.points);
   std::printf("Ra measured %.4f um, predicted %.4f um; Rq %.4f / %.4f um; Rz %.4f / %.4f um\n", em.Ra_mm * 1e3,

@@ -70,7 +70,8 @@ std::vector<std::string> write_results(const fs::path& dir, const core::Job& job
   for (Index k = 0; k < rows; ++k) {
     s += fmt::format("{:.6f},{:.9f},{:.9f}", k * te, b.ce.signed_mm[k], a.ce.signed_mm[k]);
     if (five)
-      s += fmt::format(",{:.9f},{:.9f}", b.angle_rad[k] * core::units::kRadToDeg, a.angle_rad[k] * core::units::kRadToDeg);
+      s += fmt::format(",{:.9f},{:.9f}", b.angle_rad[k] * core::units::kRadToDeg,
+                       a.angle_rad[k] * core::units::kRadToDeg);
     s += '\n';
   }
   write("contour_errors.csv", s);
@@ -84,7 +85,9 @@ void draw_chart(const fs::path& dir, const core::Job& job, const sim::Compensate
   fs::create_directories(dir / "images");
   auto um = [](const Eigen::VectorXd& mm) { return Eigen::ArrayXd(mm.array() * 1e3); };
   auto deg = [](const Eigen::VectorXd& rad) { return Eigen::ArrayXd(rad.array() * core::units::kRadToDeg); };
-  auto time = [te](Index n) { return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(n, 0.0, te * static_cast<double>(n - 1))); };
+  auto time = [te](Index n) {
+    return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(n, 0.0, te * static_cast<double>(n - 1)));
+  };
   auto chart = [&](const std::string& title, const std::string& y, const std::string& a, const Eigen::ArrayXd& ya,
                    const std::string& b, const Eigen::ArrayXd& yb) {
     render::Chart c;
@@ -101,18 +104,19 @@ void draw_chart(const fs::path& dir, const core::Job& job, const sim::Compensate
                              "{:.2f} µm",
                              job.name, r.original_on_machine.max_mm * 1e3, r.program_on_machine.max_mm * 1e3),
                  "signed contour error against the planned path, every sample (rapid moves too)"};
-  pic.charts.push_back(chart("predicted: the setpoints before and after the correction", "contour error [µm]",
-                             "before", um(pb.ce.signed_mm), "after", um(pa.ce.signed_mm)));
-  pic.charts.push_back(chart("the original and the compensated program, re-timed and run on the machine file's "
-                             "cascades",
-                             "contour error [µm]", "original program", um(r.original_on_machine.ce.signed_mm),
-                             "compensated program", um(r.program_on_machine.ce.signed_mm)));
+  pic.charts.push_back(chart("predicted: the setpoints before and after the correction", "contour error [µm]", "before",
+                             um(pb.ce.signed_mm), "after", um(pa.ce.signed_mm)));
+  pic.charts.push_back(
+      chart("the original and the compensated program, re-timed and run on the machine file's "
+            "cascades",
+            "contour error [µm]", "original program", um(r.original_on_machine.ce.signed_mm), "compensated program",
+            um(r.program_on_machine.ce.signed_mm)));
   // The orientation error where the tool axis has one (a five-axis chain whose program turns the tool).
   const bool turns = r.compensation.orientation && pb.angle_rad.size() > 0 && pa.angle_rad.size() > 0 &&
                      std::max(pb.angle_rad.maxCoeff(), pa.angle_rad.maxCoeff()) > 0;
   if (turns)
-    pic.charts.push_back(chart("predicted orientation error (tool axis)", "angle [deg]", "before",
-                               deg(pb.angle_rad), "after", deg(pa.angle_rad)));
+    pic.charts.push_back(chart("predicted orientation error (tool axis)", "angle [deg]", "before", deg(pb.angle_rad),
+                               "after", deg(pa.angle_rad)));
   pic.height = turns ? 1200 : 900;
   render::write_png(dir / "images" / "contour_error.png", render::render_charts(window, pic).image);
 }

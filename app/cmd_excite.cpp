@@ -41,8 +41,8 @@ sysid::AxisExcitationOptions excitation_options(const ExciteArgs& args, double u
 }
 
 // The comment lines of both files: what the signal is, in the command line's units.
-std::vector<std::string> header_lines(const ExciteArgs& args, const core::Machine& machine,
-                                      const core::MachineAxis& ax, const sysid::ExcitationSpec& s, double unit) {
+std::vector<std::string> header_lines(const ExciteArgs& args, const core::Machine& machine, const core::MachineAxis& ax,
+                                      const sysid::ExcitationSpec& s, double unit) {
   const bool rotary = ax.kind == core::AxisKind::Rotary;
   const double td = s.switch_samples * s.period_s;
   const double sig_period =
@@ -72,7 +72,8 @@ std::string setpoints_csv(const std::vector<std::string>& header, const core::Ma
 int run_excite(const ExciteArgs& args) {
   const std::string ext = args.out.extension().string();
   if (ext != ".ngc" && ext != ".nc" && ext != ".csv")
-    throw core::Error(fmt::format("--out {}: expected a .ngc/.nc (G-code) or .csv (setpoints) file", args.out.string()));
+    throw core::Error(
+        fmt::format("--out {}: expected a .ngc/.nc (G-code) or .csv (setpoints) file", args.out.string()));
   if (args.signal != "inverse-m" && args.signal != "prbs")
     throw core::Error(fmt::format("--signal '{}': expected inverse-m or prbs", args.signal));
   if (!(args.period_ms > 0.0)) throw core::Error("--period-ms must be positive");

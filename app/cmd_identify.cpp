@@ -32,9 +32,10 @@ std::optional<sysid::ModelOrders> parse_orders(const std::string& s, int nc) {
   o.nc = nc;
   const auto comma = s.find(',');
   const auto bad = [&] {
-    throw core::Error(fmt::format("--orders '{}': expected NB,NA (numerator and denominator orders, e.g. 2,5 as the "
-                                  "predictive-compensation paper, section 2.2) or auto",
-                                  s));
+    throw core::Error(
+        fmt::format("--orders '{}': expected NB,NA (numerator and denominator orders, e.g. 2,5 as the "
+                    "predictive-compensation paper, section 2.2) or auto",
+                    s));
   };
   if (comma == std::string::npos) bad();
   try {
@@ -107,12 +108,14 @@ sysid::TraceChannels trace_channels(const IdentifyArgs& args) {
 nlohmann::json sampling_json(const sysid::PositionTrace& t) {
   const double jitter = t.max_jitter_s / t.period_s;
   if (t.resampled)
-    std::fprintf(stderr, "vmsim: warning: %s: time stamps jitter by up to %.3g s (%.3g %% of the %.6g s period, above "
-                         "%.3g %%): resampled onto the mean period by linear interpolation\n",
+    std::fprintf(stderr,
+                 "vmsim: warning: %s: time stamps jitter by up to %.3g s (%.3g %% of the %.6g s period, above "
+                 "%.3g %%): resampled onto the mean period by linear interpolation\n",
                  t.source.c_str(), t.max_jitter_s, 100.0 * jitter, t.period_s, 100.0 * sysid::kJitterTolerance);
   else if (jitter > 1e-6)
-    std::fprintf(stderr, "vmsim: note: %s: time stamps jitter by up to %.3g s (%.3g %% of the period, within %.3g %%): "
-                         "taken as sampled every %.9g s\n",
+    std::fprintf(stderr,
+                 "vmsim: note: %s: time stamps jitter by up to %.3g s (%.3g %% of the period, within %.3g %%): "
+                 "taken as sampled every %.9g s\n",
                  t.source.c_str(), t.max_jitter_s, 100.0 * jitter, 100.0 * sysid::kJitterTolerance, t.period_s);
   return {{"samples", t.t_s.size()},
           {"period_s", t.period_s},
@@ -155,9 +158,10 @@ nlohmann::json header_json(const IdentifyArgs& args, const sysid::Identification
                          : d.validation == sysid::ValidationData::HeldOutTrace
                              ? "the last trace, held out"
                              : "the trace's second half (model simulated over the whole record)";
-  report["estimation"] = d.estimation_traces > 1 ? fmt::format("{} traces as separate experiments (no regressor, "
-                                                               "filter or simulation crosses a trace boundary)",
-                                                               d.estimation_traces)
+  report["estimation"] = d.estimation_traces > 1 ? fmt::format(
+                                                       "{} traces as separate experiments (no regressor, "
+                                                       "filter or simulation crosses a trace boundary)",
+                                                       d.estimation_traces)
                                                  : std::string("one trace");
   return report;
 }
@@ -166,33 +170,32 @@ nlohmann::json header_json(const IdentifyArgs& args, const sysid::Identification
 nlohmann::json model_json(const sysid::ModelResult& r, double f2) {
   const sysid::IdentifiedModel& m = r.model;
   const sysid::Validation& v = r.validation;
-  nlohmann::json jm = {
-      {"rank", r.rank},
-      {"b", poly_json(m.g.b)},
-      {"a", poly_json(m.g.a)},
-      {"nk", m.g.nk},
-      {"static_gain", m.g.static_gain()},
-      {"largest_pole_magnitude", drives::spectral_radius(m.g.a)},
-      {"marginal", r.marginal},
-      {"estimation_loss", m.loss * f2},
-      {"iterations", m.iterations},
-      {"converged", m.converged},
-      {"seconds", r.seconds},
-      {"validation",
-       {{"fit_percent", v.fit_percent},
-        {"tracking_fit_percent", v.tracking_fit_percent},
-        {"r2", v.r2},
-        {"one_minus_r2", 1.0 - v.r2},
-        {"mse", v.mse * f2},
-        {"max_abs_error", v.max_abs_error * std::sqrt(f2)},
-        {"relative_error_percent", v.relative_error_percent},
-        {"whiteness",
-         {{"portmanteau_q", v.portmanteau_q},
-          {"limit_99", v.portmanteau_limit},
-          {"lags", v.lags},
-          {"max_abs_autocorrelation", v.max_abs_autocorrelation},
-          {"band_99", v.whiteness_bound},
-          {"white", v.white}}}}}};
+  nlohmann::json jm = {{"rank", r.rank},
+                       {"b", poly_json(m.g.b)},
+                       {"a", poly_json(m.g.a)},
+                       {"nk", m.g.nk},
+                       {"static_gain", m.g.static_gain()},
+                       {"largest_pole_magnitude", drives::spectral_radius(m.g.a)},
+                       {"marginal", r.marginal},
+                       {"estimation_loss", m.loss * f2},
+                       {"iterations", m.iterations},
+                       {"converged", m.converged},
+                       {"seconds", r.seconds},
+                       {"validation",
+                        {{"fit_percent", v.fit_percent},
+                         {"tracking_fit_percent", v.tracking_fit_percent},
+                         {"r2", v.r2},
+                         {"one_minus_r2", 1.0 - v.r2},
+                         {"mse", v.mse * f2},
+                         {"max_abs_error", v.max_abs_error * std::sqrt(f2)},
+                         {"relative_error_percent", v.relative_error_percent},
+                         {"whiteness",
+                          {{"portmanteau_q", v.portmanteau_q},
+                           {"limit_99", v.portmanteau_limit},
+                           {"lags", v.lags},
+                           {"max_abs_autocorrelation", v.max_abs_autocorrelation},
+                           {"band_99", v.whiteness_bound},
+                           {"white", v.white}}}}}};
   if (m.c.size() > 0) jm["c"] = poly_json(m.c);
   return jm;
 }
@@ -204,8 +207,8 @@ nlohmann::json print_axis(const sysid::AxisIdentification& a, const sysid::AxisD
   jaxis["unit"] = a.rotary ? "deg" : "mm";
   jaxis["starts_at_rest"] = d.at_rest;
   if (!d.at_rest)
-    jaxis["rest_offset"] = {{"value", d.rest_offset * std::sqrt(f2)}, {"from", d.rest_offset_from},
-                            {"initial_state", "estimated"}};
+    jaxis["rest_offset"] = {
+        {"value", d.rest_offset * std::sqrt(f2)}, {"from", d.rest_offset_from}, {"initial_state", "estimated"}};
   jaxis["orders"] = {{"na", a.orders.na}, {"nb", a.orders.nb}, {"nc", a.orders.nc}, {"nk", a.orders.nk}};
   for (const sysid::ModelResult& r : a.models) {
     const sysid::IdentifiedModel& m = r.model;
@@ -220,11 +223,12 @@ nlohmann::json print_axis(const sysid::AxisIdentification& a, const sysid::AxisD
   jaxis["chosen"] = sysid::structure_name(a.models[a.chosen].model.structure);
   for (const sysid::ModelResult& r : a.models)
     if (r.marginal)
-      std::fprintf(stderr, "vmsim: warning: axis %s: the %s model has a pole of magnitude %.8f (marginal or unstable): "
-                           "ranked last%s\n",
-                   a.name.c_str(), sysid::structure_name(r.model.structure), drives::spectral_radius(r.model.g.a),
-                   &r == &a.models[a.chosen] ? ", and yet written to axis_models.toml (--use, or no stable model)"
-                                             : "");
+      std::fprintf(
+          stderr,
+          "vmsim: warning: axis %s: the %s model has a pole of magnitude %.8f (marginal or unstable): "
+          "ranked last%s\n",
+          a.name.c_str(), sysid::structure_name(r.model.structure), drives::spectral_radius(r.model.g.a),
+          &r == &a.models[a.chosen] ? ", and yet written to axis_models.toml (--use, or no stable model)" : "");
   return jaxis;
 }
 
@@ -261,7 +265,8 @@ int run_identify(const IdentifyArgs& args) {
   }
   const sysid::IdentificationData data = sysid::prepare_identification(traces, vtrace ? &*vtrace : nullptr, options);
   // Locked now, written in staging, swapped into place whole (core/output_dir.hpp).
-  core::OutputDir out(out_dir_or_default(args.out_dir, args.traces.front().stem().string(), "identify"), "vmsim identify");
+  core::OutputDir out(out_dir_or_default(args.out_dir, args.traces.front().stem().string(), "identify"),
+                      "vmsim identify");
   const std::filesystem::path dir = out.path();
 
   nlohmann::json report = header_json(args, data, sampling);
@@ -269,8 +274,9 @@ int run_identify(const IdentifyArgs& args) {
   std::printf("axis  structure  na nb nc nk   fit %%      tracking fit %%  1-R2        MSE (mm2|deg2)  white  rank\n");
   for (const sysid::AxisData& a : data.axes) {
     if (!a.starts_at_rest())
-      std::fprintf(stderr, "vmsim: note: axis %s: the trace does not start at rest: rest offset %.6g %s from %s; the "
-                           "initial state is estimated\n",
+      std::fprintf(stderr,
+                   "vmsim: note: axis %s: the trace does not start at rest: rest offset %.6g %s from %s; the "
+                   "initial state is estimated\n",
                    a.name.c_str(), a.rest_offset * (a.rotary ? 180.0 / kPi : 1.0), a.rotary ? "deg" : "mm",
                    a.rest_offset_from.c_str());
     axes.push_back(sysid::identify_axis(a, data.source, options));

@@ -46,7 +46,8 @@ sysid::IdentifyOptions friction_options(const IdentifyFrictionArgs& args, const 
   sysid::IdentifyOptions opt;
   opt.gravity = *gravity;
   given = *gravity != sysid::GravityModel::Auto;
-  if (args.axis && !args.machine) throw core::Error("--axis names an axis of --machine FILE; give the machine file too");
+  if (args.axis && !args.machine)
+    throw core::Error("--axis names an axis of --machine FILE; give the machine file too");
   if (args.machine) {
     const core::Machine machine = core::load_machine(*args.machine);
     const std::string name = args.axis.value_or("");
@@ -57,16 +58,17 @@ sysid::IdentifyOptions friction_options(const IdentifyFrictionArgs& args, const 
       if (ax.name == name) axis = &ax;
     }
     if (!axis)
-      throw core::Error(core::located(args.machine->string(), 0,
-                                      fmt::format("no axis '{}' (the machine has {})", name, names)));
+      throw core::Error(
+          core::located(args.machine->string(), 0, fmt::format("no axis '{}' (the machine has {})", name, names)));
     opt = sysid::identify_options_for_axis(*axis, args.machine->string(), trace, *gravity);
     given = true;
   }
   const bool rotary = trace.rotary;
   if (args.control_gain) {
     if (args.torque_constant_Nm_per_A || args.lead_mm || args.gear_deg_per_rev || args.machine)
-      throw core::Error("--control-gain gives the force (torque) at the load directly: it replaces --torque-constant, "
-                        "--lead-mm, --gear-deg-per-rev and --machine");
+      throw core::Error(
+          "--control-gain gives the force (torque) at the load directly: it replaces --torque-constant, "
+          "--lead-mm, --gear-deg-per-rev and --machine");
     // A virtual motor one radian of which is one axis unit at the load (1 mm, or 1 rad): then Kt i is the load
     // force times 1e-3 m/rad (the load torque on a rotary axis), and the results convert back in load_side().
     opt.axis_per_motor_rad = 1.0;
@@ -88,11 +90,13 @@ sysid::IdentifyOptions friction_options(const IdentifyFrictionArgs& args, const 
     opt.axis_per_motor_rad = *args.gear_deg_per_rev * core::units::kDegToRad / (2 * core::units::kPi);
   }
   if (!(opt.torque_constant_Nm_per_A > 0.0))
-    throw core::Error("the motor's torque constant is needed (currents to torques): give --torque-constant NM_PER_A or "
-                      "--machine FILE --axis NAME");
+    throw core::Error(
+        "the motor's torque constant is needed (currents to torques): give --torque-constant NM_PER_A or "
+        "--machine FILE --axis NAME");
   if (!(opt.axis_per_motor_rad > 0.0))
     throw core::Error(fmt::format("the {} is needed (axis to motor speed): give {} or --machine FILE --axis NAME",
-                                  rotary ? "gear ratio" : "screw lead", rotary ? "--gear-deg-per-rev DEG" : "--lead-mm MM"));
+                                  rotary ? "gear ratio" : "screw lead",
+                                  rotary ? "--gear-deg-per-rev DEG" : "--lead-mm MM"));
   if (args.smoothing_ms) opt.smoothing_s = *args.smoothing_ms * 1e-3;
   return opt;
 }
@@ -116,15 +120,17 @@ void print_result(const IdentifyFrictionArgs& args, const sysid::AxisTrace& trac
   std::printf("motor: Kt %.4g N m/A, %s\n", opt.torque_constant_Nm_per_A,
               rotary ? fmt::format("gear {:.6g} deg per motor revolution", opt.axis_per_motor_rad * 360.0).c_str()
                      : fmt::format("screw lead {:.6g} mm", opt.axis_per_motor_rad * 2 * core::units::kPi).c_str());
-  std::printf("peaks: |v| %.5g %s/s, |a| %.5g %s/s^2\n", d.peak_velocity * to_file, unit,
-              d.peak_acceleration * to_file, unit);
+  std::printf("peaks: |v| %.5g %s/s, |a| %.5g %s/s^2\n", d.peak_velocity * to_file, unit, d.peak_acceleration * to_file,
+              unit);
   std::printf("friction law (%d constant-velocity stretches: %d positive, %d negative; fit residual %.4g A rms):\n",
               d.stretches, d.stretches_positive, d.stretches_negative, d.friction_rms_residual_A);
   std::printf("  Coulomb friction   %.6g N m  = %.6g A\n", d.coulomb_Nm, d.coulomb_A);
   std::printf("  viscous friction   %.6g N m s/rad  = %.6g A per (%s/s)\n", d.viscous_Nm_s_per_rad,
               d.viscous_A_s_per_axis_unit / to_file, unit);
   switch (d.gravity) {
-    case sysid::GravityModel::None: std::printf("  gravity offset     none (not fitted)\n"); break;
+    case sysid::GravityModel::None:
+      std::printf("  gravity offset     none (not fitted)\n");
+      break;
     case sysid::GravityModel::Constant:
       std::printf("  gravity offset     %.6g N m (+- %.2g)  = %.6g A (constant)\n", d.gravity_Nm, d.gravity_stderr_Nm,
                   d.gravity_A);
@@ -139,19 +145,22 @@ void print_result(const IdentifyFrictionArgs& args, const sysid::AxisTrace& trac
   if (args.control_gain) {
     const nlohmann::json l = load_side(d, rotary);
     if (rotary)
-      std::printf("at the axis (--control-gain %.6g N m per unit of control): J %.6g kg m^2, viscous %.6g N m s/rad, "
-                  "Coulomb %.6g N m, offset %.6g N m\n",
-                  *args.control_gain, l["inertia_kg_m2"].get<double>(), l["viscous_Nm_s_per_rad"].get<double>(),
-                  l["coulomb_Nm"].get<double>(), l["offset_Nm"].get<double>());
+      std::printf(
+          "at the axis (--control-gain %.6g N m per unit of control): J %.6g kg m^2, viscous %.6g N m s/rad, "
+          "Coulomb %.6g N m, offset %.6g N m\n",
+          *args.control_gain, l["inertia_kg_m2"].get<double>(), l["viscous_Nm_s_per_rad"].get<double>(),
+          l["coulomb_Nm"].get<double>(), l["offset_Nm"].get<double>());
     else
-      std::printf("at the load (--control-gain %.6g N per unit of control): M %.6g kg, Fv %.6g N s/m, Fc %.6g N, "
-                  "offset %.6g N\n",
-                  *args.control_gain, l["mass_kg"].get<double>(), l["viscous_N_s_per_m"].get<double>(),
-                  l["coulomb_N"].get<double>(), l["offset_N"].get<double>());
+      std::printf(
+          "at the load (--control-gain %.6g N per unit of control): M %.6g kg, Fv %.6g N s/m, Fc %.6g N, "
+          "offset %.6g N\n",
+          *args.control_gain, l["mass_kg"].get<double>(), l["viscous_N_s_per_m"].get<double>(),
+          l["coulomb_N"].get<double>(), l["offset_N"].get<double>());
   }
   if (d.coulomb_Nm < 0.0 || d.viscous_Nm_s_per_rad < 0.0 || d.inertia_kg_m2 <= 0.0)
-    std::fprintf(stderr, "vmsim: warning: a friction coefficient or the inertia came out negative: the trace does not "
-                         "determine it (machine files need values >= 0)\n");
+    std::fprintf(stderr,
+                 "vmsim: warning: a friction coefficient or the inertia came out negative: the trace does not "
+                 "determine it (machine files need values >= 0)\n");
 }
 
 nlohmann::json report_json(const IdentifyFrictionArgs& args, const sysid::IdentifyOptions& opt,
@@ -205,8 +214,9 @@ int run_identify_friction(const IdentifyFrictionArgs& args) {
   core::OutputDir out(*args.out_dir, "vmsim identify-friction");
   const std::filesystem::path dir = out.path();
   const bool write_gravity = sysid::gravity_is_written(d, gravity_given);
-  core::write_file_atomic(dir / "drive_identified.toml",
-                          sysid::identified_drive_toml(d, opt, trace.rotary, args.trace.filename().string(), write_gravity));
+  core::write_file_atomic(
+      dir / "drive_identified.toml",
+      sysid::identified_drive_toml(d, opt, trace.rotary, args.trace.filename().string(), write_gravity));
   core::write_file_atomic(dir / "friction_fit.csv", sysid::friction_points_csv(d, trace.rotary));
   write_report(dir / "report.json", report_json(args, opt, d, trace.rotary));  // and report.html
   out.commit();

@@ -84,8 +84,8 @@ int run_interp(const InterpArgs& args) {
     const char* uj = lin ? "m/s3" : "deg/s3";
     const auto i = static_cast<Eigen::Index>(a);
     std::printf("%-4s  %7.3f / %-7g %-5s %7.3f / %-7g %-6s %8.3f / %-7g %-6s\n", ax.name.c_str(),
-                peaks.velocity[i] * fv, ax.max_velocity * fv, uv, peaks.acceleration[i] * fa,
-                ax.max_acceleration * fa, ua, peaks.jerk[i] * fj, ax.max_jerk * fj, uj);
+                peaks.velocity[i] * fv, ax.max_velocity * fv, uv, peaks.acceleration[i] * fa, ax.max_acceleration * fa,
+                ua, peaks.jerk[i] * fj, ax.max_jerk * fj, uj);
   }
   if (args.summary_only) return 0;
   write_setpoints_csv(out->path() / "setpoints.csv", r.setpoints, job.machine);

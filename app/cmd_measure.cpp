@@ -48,14 +48,13 @@ nlohmann::json report_json(const MeasureArgs& a, const std::string& format, cons
                       {"max_slope_deg", o.max_slope_deg},
                       {"dropout_probability", o.dropout_probability},
                       {"seed", o.seed},
-                      {"model", "Gaussian spot (heights averaged over it), bilinear sampling, Gaussian noise, no signal "
-                                "on flanks steeper than max_slope_deg"}};
-  report["scan"] = {{"grid", grid_json(plan.scan)},
-                    {"slope_dropouts", rep.slope_dropouts},
-                    {"random_dropouts", rep.random_dropouts},
-                    {"outside_prediction", rep.outside},
-                    {"spot_sigma_mm", rep.spot_sigma_mm},
-                    {"half_amplitude_wavelength_mm", rep.half_amplitude_wavelength_mm}};
+                      {"model",
+                       "Gaussian spot (heights averaged over it), bilinear sampling, Gaussian noise, no signal "
+                       "on flanks steeper than max_slope_deg"}};
+  report["scan"] = {
+      {"grid", grid_json(plan.scan)},           {"slope_dropouts", rep.slope_dropouts},
+      {"random_dropouts", rep.random_dropouts}, {"outside_prediction", rep.outside},
+      {"spot_sigma_mm", rep.spot_sigma_mm},     {"half_amplitude_wavelength_mm", rep.half_amplitude_wavelength_mm}};
   report["areal"] = {{"processing", "least-squares plane removed"},
                      {"predicted", areal_json(plan.predicted_areal)},
                      {"scan", areal_json(plan.scan_areal)}};
@@ -63,13 +62,18 @@ nlohmann::json report_json(const MeasureArgs& a, const std::string& format, cons
     nlohmann::json seen = nlohmann::json::array();
     for (const metrology::MarkSeen& s : plan.marks) {
       const metrology::Mark& m = s.mark;
-      seen.push_back({{"x_mm", m.x_mm}, {"y_mm", m.y_mm}, {"kind", m.overcut ? "overcut" : "undercut"},
-                      {"predicted_depth_mm", m.depth_mm}, {"width_mm", m.width_mm}, {"scan_depth_mm", s.scan_depth_mm},
+      seen.push_back({{"x_mm", m.x_mm},
+                      {"y_mm", m.y_mm},
+                      {"kind", m.overcut ? "overcut" : "undercut"},
+                      {"predicted_depth_mm", m.depth_mm},
+                      {"width_mm", m.width_mm},
+                      {"scan_depth_mm", s.scan_depth_mm},
                       {"resolved", s.resolved}});
     }
-    report["marks"] = {{"threshold_mm", threshold},
-                       {"resolved_when", "the scan shows at least half the predicted depth, and the depth is above 3 noise sigmas"},
-                       {"list", seen}};
+    report["marks"] = {
+        {"threshold_mm", threshold},
+        {"resolved_when", "the scan shows at least half the predicted depth, and the depth is above 3 noise sigmas"},
+        {"list", seen}};
     report["inputs"]["reference"] = input_json(*a.reference, "surface");
   }
   return report;
@@ -121,11 +125,12 @@ int run_measure(const MeasureArgs& a) {
   out.commit();
 
   const metrology::SensorReport& rep = plan.sensor;
-  std::printf("scan of %s: %ld x %ld points every %.4g mm, spot %.4g mm (halves wavelengths of %.4g mm), noise %.3g um\n",
-              a.predicted.filename().string().c_str(), static_cast<long>(plan.scan.nx()), static_cast<long>(plan.scan.ny()),
-              o.step_mm, o.spot_mm, rep.half_amplitude_wavelength_mm, o.noise_mm * 1e3);
-  std::printf("invalid: %zu on flanks steeper than %g deg, %zu random, %zu off the prediction (of %zu)\n", rep.slope_dropouts,
-              o.max_slope_deg, rep.random_dropouts, rep.outside, rep.points);
+  std::printf(
+      "scan of %s: %ld x %ld points every %.4g mm, spot %.4g mm (halves wavelengths of %.4g mm), noise %.3g um\n",
+      a.predicted.filename().string().c_str(), static_cast<long>(plan.scan.nx()), static_cast<long>(plan.scan.ny()),
+      o.step_mm, o.spot_mm, rep.half_amplitude_wavelength_mm, o.noise_mm * 1e3);
+  std::printf("invalid: %zu on flanks steeper than %g deg, %zu random, %zu off the prediction (of %zu)\n",
+              rep.slope_dropouts, o.max_slope_deg, rep.random_dropouts, rep.outside, rep.points);
   std::printf("Sq predicted %.3f um, seen %.3f um; Sdq %.4f, seen %.4f\n", plan.predicted_areal.Sq_mm * 1e3,
               plan.scan_areal.Sq_mm * 1e3, plan.predicted_areal.Sdq, plan.scan_areal.Sdq);
   for (std::size_t k = 0; k < plan.marks.size() && k < 5; ++k)

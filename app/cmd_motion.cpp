@@ -52,41 +52,55 @@ std::vector<std::string> write_motion_files(const std::filesystem::path& dir, co
   std::string h_axes, h_sp, h_te, h_i;
   for (const auto& ax : machine.axes) {
     const std::string u = unit_name(ax);
-    h_axes += fmt::format(",{0}_{1},{0}_velocity_{1}_per_s,{0}_acceleration_{1}_per_s2,{0}_jerk_{1}_per_s3", ax.name, u);
+    h_axes +=
+        fmt::format(",{0}_{1},{0}_velocity_{1}_per_s,{0}_acceleration_{1}_per_s2,{0}_jerk_{1}_per_s3", ax.name, u);
     h_sp += fmt::format(",{}_{}", ax.name, u);
     h_te += fmt::format(",{}_tracking_{}", ax.name, u == "mm" ? "mm" : "deg");
     h_i += fmt::format(",{0}_current_mean_A,{0}_current_peak_A,{0}_current_setpoint_A", ax.name);
   }
   std::vector<std::string> files;
-  write_csv(dir / "setpoints.csv", "t_s" + h_sp + ",path_speed_mm_per_s", [&](Eigen::Index k, std::string& l) {
-    l += fmt::format("{:.6f}", k * te);
-    for (Eigen::Index a = 0; a < na; ++a)
-      l += fmt::format(",{:.9f}", sp.position(k, a) * file_unit(machine.axes[static_cast<std::size_t>(a)]));
-    l += fmt::format(",{:.6f}", sp.path_speed_mm_per_s[k]);
-  }, ns);
+  write_csv(
+      dir / "setpoints.csv", "t_s" + h_sp + ",path_speed_mm_per_s",
+      [&](Eigen::Index k, std::string& l) {
+        l += fmt::format("{:.6f}", k * te);
+        for (Eigen::Index a = 0; a < na; ++a)
+          l += fmt::format(",{:.9f}", sp.position(k, a) * file_unit(machine.axes[static_cast<std::size_t>(a)]));
+        l += fmt::format(",{:.6f}", sp.path_speed_mm_per_s[k]);
+      },
+      ns);
   files.push_back("setpoints.csv");
-  write_csv(dir / "actual.csv", "t_s" + h_axes, [&](Eigen::Index k, std::string& l) {
-    l += fmt::format("{:.6f}", k * te);
-    for (Eigen::Index a = 0; a < na; ++a) {
-      const double f = file_unit(machine.axes[static_cast<std::size_t>(a)]);
-      l += fmt::format(",{:.9f},{:.6f},{:.5f},{:.4f}", resp.position(k, a) * f, resp.velocity(k, a) * f,
-                       resp.acceleration(k, a) * f, resp.jerk(k, a) * f);
-    }
-  }, n);
+  write_csv(
+      dir / "actual.csv", "t_s" + h_axes,
+      [&](Eigen::Index k, std::string& l) {
+        l += fmt::format("{:.6f}", k * te);
+        for (Eigen::Index a = 0; a < na; ++a) {
+          const double f = file_unit(machine.axes[static_cast<std::size_t>(a)]);
+          l += fmt::format(",{:.9f},{:.6f},{:.5f},{:.4f}", resp.position(k, a) * f, resp.velocity(k, a) * f,
+                           resp.acceleration(k, a) * f, resp.jerk(k, a) * f);
+        }
+      },
+      n);
   files.push_back("actual.csv");
-  write_csv(dir / "errors.csv", "t_s" + h_te + ",contour_error_mm", [&](Eigen::Index k, std::string& l) {
-    l += fmt::format("{:.6f}", k * te);
-    for (Eigen::Index a = 0; a < na; ++a)
-      l += fmt::format(",{:.9f}", (setpoint(k, a) - resp.position(k, a)) * file_unit(machine.axes[static_cast<std::size_t>(a)]));
-    l += fmt::format(",{:.9f}", r.contour.signed_mm[k]);
-  }, n);
+  write_csv(
+      dir / "errors.csv", "t_s" + h_te + ",contour_error_mm",
+      [&](Eigen::Index k, std::string& l) {
+        l += fmt::format("{:.6f}", k * te);
+        for (Eigen::Index a = 0; a < na; ++a)
+          l += fmt::format(
+              ",{:.9f}", (setpoint(k, a) - resp.position(k, a)) * file_unit(machine.axes[static_cast<std::size_t>(a)]));
+        l += fmt::format(",{:.9f}", r.contour.signed_mm[k]);
+      },
+      n);
   files.push_back("errors.csv");
-  write_csv(dir / "currents.csv", "t_s" + h_i, [&](Eigen::Index k, std::string& l) {
-    l += fmt::format("{:.6f}", k * te);
-    for (Eigen::Index a = 0; a < na; ++a)
-      l += fmt::format(",{:.5f},{:.5f},{:.5f}", resp.current_mean_A(k, a), resp.current_peak_A(k, a),
-                       resp.current_setpoint_A(k, a));
-  }, n);
+  write_csv(
+      dir / "currents.csv", "t_s" + h_i,
+      [&](Eigen::Index k, std::string& l) {
+        l += fmt::format("{:.6f}", k * te);
+        for (Eigen::Index a = 0; a < na; ++a)
+          l += fmt::format(",{:.5f},{:.5f},{:.5f}", resp.current_mean_A(k, a), resp.current_peak_A(k, a),
+                           resp.current_setpoint_A(k, a));
+      },
+      n);
   files.push_back("currents.csv");
   // Command and encoder position of every axis the program moves: what vmsim identify reads.
   const sysid::PositionTrace tr = sim::position_trace(machine, sp, resp);
@@ -104,13 +118,14 @@ std::vector<std::string> write_motion_files(const std::filesystem::path& dir, co
       const core::MachineAxis& ax = machine.axes[a];
       const double f = file_unit(ax);
       const std::string name = "trace_" + ax.name + ".csv";
-      write_csv(dir / name, fmt::format("t_s,position_{0},velocity_{0}_per_s,current_A,current_setpoint_A,voltage_V",
-                                        unit_name(ax)),
-                [&](Eigen::Index k, std::string& l) {
-                  l += fmt::format("{:.7f},{:.9f},{:.6f},{:.5f},{:.5f},{:.4f}", k * ft.period_s, ft.position[k] * f,
-                                   ft.velocity[k] * f, ft.current_A[k], ft.current_setpoint_A[k], ft.voltage_V[k]);
-                },
-                ft.position.size());
+      write_csv(
+          dir / name,
+          fmt::format("t_s,position_{0},velocity_{0}_per_s,current_A,current_setpoint_A,voltage_V", unit_name(ax)),
+          [&](Eigen::Index k, std::string& l) {
+            l += fmt::format("{:.7f},{:.9f},{:.6f},{:.5f},{:.5f},{:.4f}", k * ft.period_s, ft.position[k] * f,
+                             ft.velocity[k] * f, ft.current_A[k], ft.current_setpoint_A[k], ft.voltage_V[k]);
+          },
+          ft.position.size());
       files.push_back(name);
     }
   }

@@ -53,15 +53,15 @@ std::vector<double> parse_grid(const std::string& text, const std::string& optio
       parts.push_back(std::stod(cell, &used));
       if (used != cell.size()) throw std::invalid_argument(cell);
     } catch (const std::exception&) {
-      throw core::Error(fmt::format("{} \"{}\": \"{}\" is not a number (expected MIN:STEP:MAX, e.g. 1:0.5:9)", option,
-                                    text, cell));
+      throw core::Error(
+          fmt::format("{} \"{}\": \"{}\" is not a number (expected MIN:STEP:MAX, e.g. 1:0.5:9)", option, text, cell));
     }
   }
   if (parts.size() == 1 && std::isfinite(parts[0])) return parts;
   if (parts.size() != 3 || !std::isfinite(parts[0]) || !std::isfinite(parts[2]) || !(parts[1] > 0) ||
       !(parts[2] >= parts[0]))
-    throw core::Error(fmt::format("{} \"{}\": expected MIN:STEP:MAX with STEP > 0 and MAX >= MIN (e.g. 1:0.5:9)",
-                                  option, text));
+    throw core::Error(
+        fmt::format("{} \"{}\": expected MIN:STEP:MAX with STEP > 0 and MAX >= MIN (e.g. 1:0.5:9)", option, text));
   const double n = std::floor((parts[2] - parts[0]) / parts[1] + 1e-9);
   if (n > 10000) throw core::Error(fmt::format("{} \"{}\": more than 10000 values", option, text));
   std::vector<double> g;
@@ -319,8 +319,9 @@ render::ChartPicture gains_picture(const core::Machine& machine, const sim::OgaJ
 
 render::ChartPicture contour_picture(const methods::OgaVerification& v, const Rows& rows) {
   render::ChartPicture pic;
-  pic.caption = {"", "contour error along the path, C1 (fixed gains) and C2 (the schedule), simulated with the "
-                     "nonlinear model"};
+  pic.caption = {"",
+                 "contour error along the path, C1 (fixed gains) and C2 (the schedule), simulated with the "
+                 "nonlinear model"};
   render::Chart c;
   c.title = "contour error";
   c.x_title = "s [mm]";
@@ -352,7 +353,8 @@ render::ChartPicture currents_picture(const sim::OgaJobResult& o, const Rows& ro
   const methods::OgaResult& r = o.result;
   const methods::OgaVerification& v = *o.verification;
   render::ChartPicture pic;
-  pic.caption = {"", "current reference (velocity-loop output) of each adjusted axis, C1 and C2 (Duong et al. Fig. 12)"};
+  pic.caption = {"",
+                 "current reference (velocity-loop output) of each adjusted axis, C1 and C2 (Duong et al. Fig. 12)"};
   for (std::size_t q = 0; q < r.axes.size(); ++q) {
     render::Chart c;
     const methods::AxisVerification& av = v.axes[q];
@@ -390,8 +392,7 @@ void draw_charts(const fs::path& dir, const core::Job& job, const sim::OgaJobRes
   save("currents.png", currents_picture(o, rows));
 }
 
-void print_summary(const core::Job& job, const sim::OgaJobResult& o, const fs::path& dir, bool images,
-                   double total_s) {
+void print_summary(const core::Job& job, const sim::OgaJobResult& o, const fs::path& dir, bool images, double total_s) {
   const methods::OgaResult& r = o.result;
   const methods::OgaVerification& v = *o.verification;
   const std::size_t nq = r.axes.size();
@@ -419,7 +420,8 @@ void print_summary(const core::Job& job, const sim::OgaJobResult& o, const fs::p
   std::printf("limits held (velocity, acceleration, jerk, current): %s\n", v.limits_held ? "yes" : "NO");
   for (const std::string& a : v.advice) std::printf("  %s\n", a.c_str());
   if (o.windows_with_note > 0)
-    std::printf("%d window(s) with every candidate of an axis breaking a limit: see windows.csv\n", o.windows_with_note);
+    std::printf("%d window(s) with every candidate of an axis breaking a limit: see windows.csv\n",
+                o.windows_with_note);
   std::printf("wrote %s (gain_schedule.csv: [job] gain_schedule for vmsim run / motion)%s in %.1f s\n",
               dir.string().c_str(), images ? ", images/" : "", total_s);
 }
@@ -445,8 +447,8 @@ int run_oga(const OgaArgs& args) {
   write_schedules(dir, job, o, args.reference);
   const Rows rows(o);
   write_comparison(dir, o, rows);
-  const std::vector<std::string> files = {"admissible.csv",       "gain_schedule.csv", "gain_schedule_c1.csv",
-                                          "windows.csv",          "comparison.csv",    "mse_table.csv"};
+  const std::vector<std::string> files = {"admissible.csv", "gain_schedule.csv", "gain_schedule_c1.csv",
+                                          "windows.csv",    "comparison.csv",    "mse_table.csv"};
   const double t_write = seconds_since(t_write0);
 
   // Charts after every result file: a failure to draw loses no result.
@@ -474,7 +476,8 @@ int run_oga(const OgaArgs& args) {
   report["timings_s"]["write"] = t_write;
   if (!args.no_render) report["timings_s"]["render"] = t_render;
   report["timings_s"]["total"] = seconds_since(t_start);
-  report["mpi_ranks"] = mpi_active() ? mpi_size() : 1;  // the pair search's processes (the result does not depend on it)
+  report["mpi_ranks"] =
+      mpi_active() ? mpi_size() : 1;  // the pair search's processes (the result does not depend on it)
   write_report(dir / "report.json", report);
   out->commit();
   print_summary(job, o, out->target(), !images.empty(), seconds_since(t_start));

@@ -77,13 +77,14 @@ void write_feed_profile(const fs::path& file, const sim::PlanFeedResult& r) {
        "sim_contour_error_without_contour_um,sim_contour_error_um\n";
   std::string line;
   for (Index i = 0; i < samples.size(); ++i) {
-    line = fmt::format("{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6g},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.4f},{:.4f},{:.4f}\n",
-                       samples.s[i], csv_number(samples.u[i], 9), samples.p(i, 0), samples.p(i, 1), samples.p(i, 2),
-                       samples.kappa_max[i], csv_number(plan.f_star[i], 6), csv_number(plan.bound_contour[i], 6),
-                       csv_number(plan.bound_chord[i], 6), csv_number(plan.bound_axis_velocity[i], 6),
-                       csv_number(plan.bound_centripetal[i], 6), csv_number(plan.omega0[i], 6), r.free_plan.feed[i],
-                       plan.feed[i], r.verified.contour_scale[i], r.no_plan.per_sample[i] * 1e3,
-                       r.free_played.per_sample[i] * 1e3, r.verified.played.per_sample[i] * 1e3);
+    line = fmt::format(
+        "{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6g},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.4f},{:.4f},{:.4f}\n",
+        samples.s[i], csv_number(samples.u[i], 9), samples.p(i, 0), samples.p(i, 1), samples.p(i, 2),
+        samples.kappa_max[i], csv_number(plan.f_star[i], 6), csv_number(plan.bound_contour[i], 6),
+        csv_number(plan.bound_chord[i], 6), csv_number(plan.bound_axis_velocity[i], 6),
+        csv_number(plan.bound_centripetal[i], 6), csv_number(plan.omega0[i], 6), r.free_plan.feed[i], plan.feed[i],
+        r.verified.contour_scale[i], r.no_plan.per_sample[i] * 1e3, r.free_played.per_sample[i] * 1e3,
+        r.verified.played.per_sample[i] * 1e3);
     o << line;
   }
   f.commit();
@@ -99,11 +100,11 @@ void write_motion(const fs::path& file, const sim::PlanFeedResult& r, const Play
   o << "t_s,s_mm,feed_mm_per_s,ceiling_mm_per_s,x_mm,y_mm,z_mm,vx_mm_per_s,vy_mm_per_s,vz_mm_per_s,ax_mm_per_s2,"
        "ay_mm_per_s2,az_mm_per_s2,chord_error_um,contour_error_um\n";
   for (Index k = 0; k < sp.samples(); ++k)
-    o << fmt::format("{:.4f},{:.6f},{:.5f},{:.5f},{:.6f},{:.6f},{:.6f},{:.5f},{:.5f},{:.5f},{:.4f},{:.4f},{:.4f},{:.5f},{:.5f}\n",
-                     k * ax.te, sp.path_length_mm[k], sp.path_speed_mm_per_s[k], r.ceiling.at(sp.path_length_mm[k]),
-                     ax.pos(k, 0), ax.pos(k, 1), ax.pos(k, 2), ax.fd(k, 0, 1), ax.fd(k, 1, 1), ax.fd(k, 2, 1),
-                     ax.fd(k, 0, 2), ax.fd(k, 1, 2), ax.fd(k, 2, 2), played.chord_error_mm[k] * 1e3,
-                     played.contour.signed_mm[k] * 1e3);
+    o << fmt::format(
+        "{:.4f},{:.6f},{:.5f},{:.5f},{:.6f},{:.6f},{:.6f},{:.5f},{:.5f},{:.5f},{:.4f},{:.4f},{:.4f},{:.5f},{:.5f}\n",
+        k * ax.te, sp.path_length_mm[k], sp.path_speed_mm_per_s[k], r.ceiling.at(sp.path_length_mm[k]), ax.pos(k, 0),
+        ax.pos(k, 1), ax.pos(k, 2), ax.fd(k, 0, 1), ax.fd(k, 1, 1), ax.fd(k, 2, 1), ax.fd(k, 0, 2), ax.fd(k, 1, 2),
+        ax.fd(k, 2, 2), played.chord_error_mm[k] * 1e3, played.contour.signed_mm[k] * 1e3);
   f.commit();
 }
 
@@ -111,8 +112,9 @@ render::ChartPicture feed_picture(const sim::PlanFeedResult& r) {
   const double fmax = r.max_feed_mm_per_s;
   const methods::FeedPlan& plan = r.verified.plan;
   render::ChartPicture pic;
-  pic.caption = {"", "feed along the path: eq. 24's bound f*, the plan without and with the contour-error "
-                     "constraint, and the interpolator's feed playing the plan"};
+  pic.caption = {"",
+                 "feed along the path: eq. 24's bound f*, the plan without and with the contour-error "
+                 "constraint, and the interpolator's feed playing the plan"};
   render::Chart c;
   c.title = "feed";
   c.x_title = "s [mm]";
@@ -131,8 +133,9 @@ render::ChartPicture feed_picture(const sim::PlanFeedResult& r) {
 
 render::ChartPicture axes_picture(const sim::PlanFeedResult& r, const PlayedAxes& ax) {
   render::ChartPicture pic;
-  pic.caption = {"", "axis velocity and acceleration of the interpolated plan (finite differences of the setpoints), "
-                     "with the machine's limits"};
+  pic.caption = {"",
+                 "axis velocity and acceleration of the interpolated plan (finite differences of the setpoints), "
+                 "with the machine's limits"};
   const Index ns = ax.sp.samples();
   for (int order = 1; order <= 2; ++order) {
     render::Chart c;
@@ -158,8 +161,9 @@ render::ChartPicture axes_picture(const sim::PlanFeedResult& r, const PlayedAxes
 render::ChartPicture errors_picture(const sim::PlanFeedResult& r, const core::FeedPlanSpec& spec) {
   const methods::PlayedPlan& played = r.verified.played;
   render::ChartPicture pic;
-  pic.caption = {"", "chord error of the interpolated plan, and the simulated contour error: no plan (the programmed "
-                     "feed), the plan without and with the contour-error constraint"};
+  pic.caption = {"",
+                 "chord error of the interpolated plan, and the simulated contour error: no plan (the programmed "
+                 "feed), the plan without and with the contour-error constraint"};
   render::Chart ch;
   ch.title = "chord error";
   ch.x_title = "s [mm]";
@@ -190,9 +194,9 @@ std::vector<std::string> draw_charts(const fs::path& dir, const core::Job& job, 
   std::error_code ec;
   fs::create_directories(idir, ec);
   if (ec) throw core::Error(idir.string() + ": cannot create the directory: " + ec.message());
-  const std::string title = job.name + fmt::format(": T {} ms, chord {} µm, contour {} µm, f_max {} mm/s",
-                                                   ax.te * 1e3, spec.chord_error_mm * 1e3,
-                                                   spec.contour_error_mm * 1e3, r.max_feed_mm_per_s);
+  const std::string title =
+      job.name + fmt::format(": T {} ms, chord {} µm, contour {} µm, f_max {} mm/s", ax.te * 1e3,
+                             spec.chord_error_mm * 1e3, spec.contour_error_mm * 1e3, r.max_feed_mm_per_s);
   std::vector<std::string> images;
   auto save = [&](const std::string& name, render::ChartPicture pic) {
     pic.caption[0] = title;
@@ -215,10 +219,11 @@ void print_summary(const core::Job& job, const sim::PlanFeedResult& r, const fs:
   std::printf("job %s: %s path, %.3f mm, %lld samples of %.4f mm; servo w_n %.2f rad/s\n", job.name.c_str(),
               spec.nurbs ? "NURBS" : "program", length, static_cast<long long>(r.samples.size()), r.samples.ds,
               r.natural_frequency_rad_s);
-  std::printf("LP: %lld variables, %lld rows per window (max), %d windows, %d Clp solves (%d jerk linearisations max), "
-              "%.3f s in Clp, plan %.3f s\n",
-              static_cast<long long>(st.lp_columns_max), static_cast<long long>(st.lp_rows_max), st.windows,
-              st.lp_solves, st.jerk_iterations_max, st.lp_seconds, st.total_seconds);
+  std::printf(
+      "LP: %lld variables, %lld rows per window (max), %d windows, %d Clp solves (%d jerk linearisations max), "
+      "%.3f s in Clp, plan %.3f s\n",
+      static_cast<long long>(st.lp_columns_max), static_cast<long long>(st.lp_rows_max), st.windows, st.lp_solves,
+      st.jerk_iterations_max, st.lp_seconds, st.total_seconds);
   std::printf("                              cycle time   plan time   contour error max (simulated / model)\n");
   std::printf("no plan (programmed feed)      %8.3f s                %7.2f um\n", r.no_plan.interp.stats.cycle_time_s,
               r.no_plan.max_abs_mm * 1e3);
@@ -228,9 +233,10 @@ void print_summary(const core::Job& job, const sim::PlanFeedResult& r, const fs:
   std::printf("plan (contour error <= %g um)  %8.3f s  %8.3f s    %7.2f / %.2f um  (%d round%s)\n",
               spec.contour_error_mm * 1e3, played.interp.stats.cycle_time_s, plan.time_s, played.max_abs_mm * 1e3,
               r.model_peak_mm * 1e3, r.verified.rounds, r.verified.rounds == 1 ? "" : "s");
-  std::printf("cycle-time cost of the contour constraint: %+.1f %%; every constraint at every sample: worst %.6f of its "
-              "limit\n",
-              r.report["cycle_time_cost_of_contour_constraint"].get<double>() * 100, r.check.worst());
+  std::printf(
+      "cycle-time cost of the contour constraint: %+.1f %%; every constraint at every sample: worst %.6f of its "
+      "limit\n",
+      r.report["cycle_time_cost_of_contour_constraint"].get<double>() * 100, r.check.worst());
   std::printf("wrote %s (report.json, feed_plan.csv, feed_profile.csv, motion.csv%s)\n", dir.string().c_str(),
               images ? ", images/" : "");
   if (played.max_abs_mm > spec.contour_error_mm)

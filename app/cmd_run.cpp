@@ -63,7 +63,8 @@ void write_tiles_report(const core::Job& job, const fs::path& dir, const fs::pat
   report["reference"] = cut.reference.name;
   const sim::Motion& motion = cut.motion;
   if (motion.contour) {
-    const sim::ContourStats cutting = sim::cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
+    const sim::ContourStats cutting =
+        sim::cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program);
     report["contour_error"] = sim::contour_json(*motion.contour, cutting);
   }
   if (job.removal.motion != core::RemovalSpec::Motion::Program)
@@ -93,8 +94,8 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
   mine.rows = g0 ? g0->nv() : static_cast<double>(cut.field.needles.size());
   mine.rays = static_cast<double>(cut.field.rays());
   mine.sweeps = static_cast<double>(cut.sweeps_in_tile);
-  mine.memory_bytes = static_cast<double>(cut.field.memory_bytes() +
-                                          (cut.reference.field ? cut.reference.field->memory_bytes() : 0));
+  mine.memory_bytes =
+      static_cast<double>(cut.field.memory_bytes() + (cut.reference.field ? cut.reference.field->memory_bytes() : 0));
   mine.removal_s = cut.timings["removal"].get<double>();
   mine.removal_cpu_s = cut.timings["removal_cpu"].get<double>();
   std::optional<TileFiles> files;
@@ -113,10 +114,15 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
                 {"gathered", !args.tiles_out},
                 {"per_rank", nlohmann::json::array()}};
   for (std::size_t r = 0; r < all.size(); ++r)
-    tiles_json["per_rank"].push_back({{"rank", r}, {"rows", all[r].rows}, {"rays", all[r].rays},
-                                      {"sweeps", all[r].sweeps}, {"field_memory_bytes", all[r].memory_bytes},
-                                      {"peak_rss_bytes", all[r].peak_rss_bytes}, {"removal_s", all[r].removal_s},
-                                      {"removal_cpu_s", all[r].removal_cpu_s}, {"cpu_s", all[r].cpu_s}});
+    tiles_json["per_rank"].push_back({{"rank", r},
+                                      {"rows", all[r].rows},
+                                      {"rays", all[r].rays},
+                                      {"sweeps", all[r].sweeps},
+                                      {"field_memory_bytes", all[r].memory_bytes},
+                                      {"peak_rss_bytes", all[r].peak_rss_bytes},
+                                      {"removal_s", all[r].removal_s},
+                                      {"removal_cpu_s", all[r].removal_cpu_s},
+                                      {"cpu_s", all[r].cpu_s}});
   if (args.tiles_out) {
     write_tile_manifest(dir, job.name, cut.field, *files);
     if (root) write_tiles_report(job, dir, shown, cut, tiles_json, t_start);
@@ -218,7 +224,8 @@ int run_run(const RunArgs& args) {
   if (args.tiles_out && options.tile.whole())
     throw core::Error("--tiles-out: writes one file per MPI rank; run under mpirun -np N (N > 1)");
   if (args.tiles_out && job.removal.field == core::RemovalSpec::Field::NBuffer)
-    throw core::Error(job.file.string() + ": --tiles-out writes each tile's height grid; [removal] field = \"nbuffer\" "
+    throw core::Error(job.file.string() +
+                      ": --tiles-out writes each tile's height grid; [removal] field = \"nbuffer\" "
                       "has none (run without --tiles-out: the needles are gathered)");
   TerminalProgress progress(!args.quiet && mpi_rank() == 0);
   // Rank 0 owns the output directory (core/output_dir.hpp): locked now, before the run; written in its staging
@@ -276,8 +283,10 @@ int run_run(const RunArgs& args) {
   print_summary(job, result, shown, files.size(), n_images, t_start);
   const int verdict_code = print_verdict(report);
   if (render_error)
-    throw core::Error("the results are written to " + shown.string() + ", but the pictures could not be drawn "
-                      "(--no-render skips them): " + *render_error);
+    throw core::Error("the results are written to " + shown.string() +
+                      ", but the pictures could not be drawn "
+                      "(--no-render skips them): " +
+                      *render_error);
   if (!options.tile.whole()) quiet_barrier();
   return verdict_code;
 }

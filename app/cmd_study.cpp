@@ -139,8 +139,8 @@ void move_run_files(const fs::path& dir) {
 }
 
 // One variation, as rank 0 hands it out: everything a rank needs, so workers never read the study file.
-nlohmann::json make_task(const sim::Study& study, const sim::StudyVariation& v, const sim::PreparedVariation& p, const fs::path& out,
-                         const std::string& keep) {
+nlohmann::json make_task(const sim::Study& study, const sim::StudyVariation& v, const sim::PreparedVariation& p,
+                         const fs::path& out, const std::string& keep) {
   nlohmann::json t = {{"index", v.index},
                       {"label", fmt::format("{}: variation {} ({})", study.file.string(), v.index, v.name)},
                       {"dir", fs::absolute(sim::variation_dir(out, study, v)).string()},
@@ -181,9 +181,10 @@ sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
     fs::create_directories(dir, ec);
     if (ec) throw core::Error(dir.string() + ": cannot create the variation's directory: " + ec.message());
     core::write_file_atomic(dir / "job.toml", task.at("job_toml").get<std::string>());
-    if (task.contains("machine_toml")) core::write_file_atomic(dir / "machine.toml", task["machine_toml"].get<std::string>());
-    std::vector<std::string> args = {"run", (dir / "job.toml").string(), "--out", (dir / "run").string(), "--quiet",
-                                     "--no-render"};
+    if (task.contains("machine_toml"))
+      core::write_file_atomic(dir / "machine.toml", task["machine_toml"].get<std::string>());
+    std::vector<std::string> args = {
+        "run", (dir / "job.toml").string(), "--out", (dir / "run").string(), "--quiet", "--no-render"};
     const double feed_scale = task.at("feed_scale").get<double>();
     if (feed_scale != 1.0) args.insert(args.end(), {"--feed-scale", fmt::format("{:.17g}", feed_scale)});
     const ChildEnd end = run_child(args, dir / "run.log");
@@ -207,7 +208,8 @@ sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
     if (task.value("keep", std::string("all")) == "summary") {
       for (const auto& e : fs::directory_iterator(dir)) {
         const std::string n = e.path().filename().string();
-        if (n != "job.toml" && n != "machine.toml" && n != "report.json" && n != "run.log") fs::remove_all(e.path(), ec);
+        if (n != "job.toml" && n != "machine.toml" && n != "report.json" && n != "run.log")
+          fs::remove_all(e.path(), ec);
       }
       render::write_report_html(dir, report);  // again: its links to the files just removed go
     }
@@ -259,7 +261,7 @@ std::optional<nlohmann::json> prepare_task(const sim::Study& study, std::size_t 
 // A worker's message to rank 0: its request for work, with the result of the variation it just ran.
 struct Request {
   int rank = 0;
-  std::size_t index = 0;                    // 1-based; 0: no result (its first request)
+  std::size_t index = 0;  // 1-based; 0: no result (its first request)
   std::optional<sim::StudyResult> result;
 };
 std::optional<Request> poll_request(std::size_t n) {
@@ -272,7 +274,8 @@ std::optional<Request> poll_request(std::size_t n) {
   const nlohmann::json msg = recv_json(r.rank, kTagToCoordinator);
   if (msg.contains("index")) {
     r.index = msg["index"].get<std::size_t>();
-    if (r.index < 1 || r.index > n) throw core::Error(fmt::format("rank {} sent a result for variation {}", r.rank, r.index));
+    if (r.index < 1 || r.index > n)
+      throw core::Error(fmt::format("rank {} sent a result for variation {}", r.rank, r.index));
     r.result = sim::result_from_json(msg["result"]);
   }
   return r;
@@ -283,11 +286,11 @@ std::string finished_line(std::size_t shown, std::size_t n, const sim::StudyVari
   if (r.status != sim::StudyResult::Status::Ok)
     return fmt::format("[{}/{}] variation {} ({}): FAILED: {}", shown, n, v.index, v.name, r.error);
   const sim::StudyFigures& f = r.figures;
-  return fmt::format("[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}",
-                     shown, n, v.index, v.name,
-                     f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
-                     f.contour_error_max_mm ? fmt::format("{:.2f} um", *f.contour_error_max_mm * 1e3) : std::string("-"),
-                     r.cpu_s, r.rank);
+  return fmt::format(
+      "[{}/{}] variation {} ({}): ok, deepest mark {}, contour error max {}, {:.1f} s CPU on rank {}", shown, n,
+      v.index, v.name, f.mark_depth_mm ? fmt::format("{:.2f} um", *f.mark_depth_mm * 1e3) : std::string("none"),
+      f.contour_error_max_mm ? fmt::format("{:.2f} um", *f.contour_error_max_mm * 1e3) : std::string("-"), r.cpu_s,
+      r.rank);
 }
 
 // Ranks 1..N-1: ask rank 0 for a variation, run it, send its result with the next request, until told to stop.

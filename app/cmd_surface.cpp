@@ -14,19 +14,22 @@ namespace vmsim::app {
 
 double parse_length_mm(const std::string& text, const std::string& option) {
   std::size_t k = 0;
-  while (k < text.size() && (std::isdigit(static_cast<unsigned char>(text[k])) || text[k] == '.' || text[k] == '+' ||
-                             text[k] == '-' || ((text[k] == 'e' || text[k] == 'E') && k + 1 < text.size() &&
-                                                (std::isdigit(static_cast<unsigned char>(text[k + 1])) || text[k + 1] == '-' || text[k + 1] == '+'))))
+  while (k < text.size() &&
+         (std::isdigit(static_cast<unsigned char>(text[k])) || text[k] == '.' || text[k] == '+' || text[k] == '-' ||
+          ((text[k] == 'e' || text[k] == 'E') && k + 1 < text.size() &&
+           (std::isdigit(static_cast<unsigned char>(text[k + 1])) || text[k + 1] == '-' || text[k + 1] == '+'))))
     ++k;
   const std::string number = text.substr(0, k), unit = text.substr(k);
   int pow10 = -3;
   if (unit.find_first_not_of(' ') != std::string::npos) {
     const auto p = metrology::length_unit_pow10(unit);
-    if (!p) throw core::Error(fmt::format("{}: unknown unit in \"{}\" (write e.g. 5um, 0.005mm or 0.005)", option, text));
+    if (!p)
+      throw core::Error(fmt::format("{}: unknown unit in \"{}\" (write e.g. 5um, 0.005mm or 0.005)", option, text));
     pow10 = *p;
   }
   const auto v = metrology::parse_decimal_scaled(number, pow10 + 3);
-  if (!v || !std::isfinite(*v)) throw core::Error(fmt::format("{}: \"{}\" is not a length (write e.g. 5um, 0.005mm or 0.005)", option, text));
+  if (!v || !std::isfinite(*v))
+    throw core::Error(fmt::format("{}: \"{}\" is not a length (write e.g. 5um, 0.005mm or 0.005)", option, text));
   return *v;
 }
 
@@ -78,9 +81,10 @@ nlohmann::json processing_json(const metrology::SurfaceProcessing& how, const st
   }
   nlohmann::json fl = nlohmann::json::array();
   for (const metrology::SurfaceFilter& f : how.filters)
-    fl.push_back({{"type", f.kind == 'S' ? "S (Gaussian low-pass, ISO 16610-61)" : "L (Gaussian high-pass, ISO 16610-61)"},
-                  {"cutoff_mm", f.cutoff_mm},
-                  {"edges", "weights renormalised over the valid points in the window (ISO 16610-28 zero-order)"}});
+    fl.push_back(
+        {{"type", f.kind == 'S' ? "S (Gaussian low-pass, ISO 16610-61)" : "L (Gaussian high-pass, ISO 16610-61)"},
+         {"cutoff_mm", f.cutoff_mm},
+         {"edges", "weights renormalised over the valid points in the window (ISO 16610-28 zero-order)"}});
   log["filters"] = fl;
   return log;
 }
@@ -90,16 +94,26 @@ nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlo
 }  // namespace
 
 nlohmann::json areal_json(const metrology::ArealParameters& p) {
-  return {{"points", p.points},     {"mean_mm", num(p.mean_mm)}, {"Sa_mm", num(p.Sa_mm)}, {"Sq_mm", num(p.Sq_mm)},
-          {"Sp_mm", num(p.Sp_mm)},   {"Sv_mm", num(p.Sv_mm)},     {"Sz_mm", num(p.Sz_mm)}, {"Ssk", num(p.Ssk)},
-          {"Sku", num(p.Sku)},       {"Sdq", num(p.Sdq)},         {"Sdr_percent", num(p.Sdr_percent)}};
+  return {{"points", p.points},
+          {"mean_mm", num(p.mean_mm)},
+          {"Sa_mm", num(p.Sa_mm)},
+          {"Sq_mm", num(p.Sq_mm)},
+          {"Sp_mm", num(p.Sp_mm)},
+          {"Sv_mm", num(p.Sv_mm)},
+          {"Sz_mm", num(p.Sz_mm)},
+          {"Ssk", num(p.Ssk)},
+          {"Sku", num(p.Sku)},
+          {"Sdq", num(p.Sdq)},
+          {"Sdr_percent", num(p.Sdr_percent)}};
 }
 
 metrology::LineScan profile_in_range(const metrology::LineScan& p, const std::string& range) {
   if (range.empty()) return p;
   const auto comma = range.find(',');
-  if (comma == std::string::npos) throw core::Error("--range: expected X0,X1 (lengths, e.g. 468um,733um), found \"" + range + "\"");
-  const double a = parse_length_mm(range.substr(0, comma), "--range"), b = parse_length_mm(range.substr(comma + 1), "--range");
+  if (comma == std::string::npos)
+    throw core::Error("--range: expected X0,X1 (lengths, e.g. 468um,733um), found \"" + range + "\"");
+  const double a = parse_length_mm(range.substr(0, comma), "--range"),
+               b = parse_length_mm(range.substr(comma + 1), "--range");
   if (!(b > a)) throw core::Error("--range: X0 must be less than X1, found \"" + range + "\"");
   // From the sample nearest to X0 to the one nearest to X1, as an instrument's cursors take them.
   return metrology::crop(p, a - p.dx_mm / 2, b + p.dx_mm / 2);
@@ -108,7 +122,11 @@ metrology::LineScan profile_in_range(const metrology::LineScan& p, const std::st
 nlohmann::json line_scan_json(const metrology::LineScan& p) {
   std::size_t invalid = 0;
   for (Eigen::Index k = 0; k < p.size(); ++k) invalid += std::isfinite(p.z_mm[k]) ? 0 : 1;
-  return {{"points", p.size()}, {"dx_mm", p.dx_mm}, {"x0_mm", p.x0_mm}, {"length_mm", p.length_mm()}, {"invalid_points", invalid}};
+  return {{"points", p.size()},
+          {"dx_mm", p.dx_mm},
+          {"x0_mm", p.x0_mm},
+          {"length_mm", p.length_mm()},
+          {"invalid_points", invalid}};
 }
 
 nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrology::ProfileEvaluation& how) {
@@ -116,11 +134,13 @@ nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrolog
   const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   nlohmann::json filters = nlohmann::json::array();
   for (const auto& f : how.filters)
-    filters.push_back({{"type", f.kind == 'S' ? "S (Gaussian mean line kept, ISO 16610-21)" : "L (Gaussian mean line removed, ISO 16610-21)"},
+    filters.push_back({{"type", f.kind == 'S' ? "S (Gaussian mean line kept, ISO 16610-21)"
+                                              : "L (Gaussian mean line removed, ISO 16610-21)"},
                        {"cutoff_mm", f.cutoff_mm}});
   return {{"standard", "ISO 21920-2 (heights from the mean line of the evaluated profile)"},
-          {"form_removed", how.level == 0 ? std::string("none (the mean line)") : how.level == 1 ? std::string("least-squares line")
-                                                                                : fmt::format("polynomial of degree {}", how.level)},
+          {"form_removed", how.level == 0   ? std::string("none (the mean line)")
+                           : how.level == 1 ? std::string("least-squares line")
+                                            : fmt::format("polynomial of degree {}", how.level)},
           {"filters", filters},
           {"ends", "after an L-filter, half a cut-off dropped at each end (run-in, run-out)"},
           {"x_from_mm", e.profile.x0_mm},
@@ -129,17 +149,28 @@ nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrolog
           {"evaluation_length_mm", r.evaluation_length_mm},
           {"sections", r.sections},
           {"section_length_mm", r.section_length_mm},
-          {"Ra_mm", num(r.Ra_mm)}, {"Rq_mm", num(r.Rq_mm)}, {"Rsk", num(r.Rsk)}, {"Rku", num(r.Rku)},
-          {"Rp_mm", num(r.Rp_mm)}, {"Rv_mm", num(r.Rv_mm)}, {"Rz_mm", num(r.Rz_mm)}, {"Rt_mm", num(r.Rt_mm)},
+          {"Ra_mm", num(r.Ra_mm)},
+          {"Rq_mm", num(r.Rq_mm)},
+          {"Rsk", num(r.Rsk)},
+          {"Rku", num(r.Rku)},
+          {"Rp_mm", num(r.Rp_mm)},
+          {"Rv_mm", num(r.Rv_mm)},
+          {"Rz_mm", num(r.Rz_mm)},
+          {"Rt_mm", num(r.Rt_mm)},
           {"Rzx_mm", num(r.Rzx_mm)}};
 }
 
 nlohmann::json grid_json(const core::HeightGrid& g) {
   std::size_t invalid = 0;
   for (Eigen::Index k = 0; k < g.z_mm.size(); ++k) invalid += std::isfinite(g.z_mm.data()[k]) ? 0 : 1;
-  return {{"nx", g.nx()},       {"ny", g.ny()},       {"dx_mm", g.dx_mm},
-          {"dy_mm", g.dy_mm},   {"x0_mm", g.x0_mm},   {"y0_mm", g.y0_mm},
-          {"points", static_cast<std::size_t>(g.z_mm.size())}, {"invalid_points", invalid}};
+  return {{"nx", g.nx()},
+          {"ny", g.ny()},
+          {"dx_mm", g.dx_mm},
+          {"dy_mm", g.dy_mm},
+          {"x0_mm", g.x0_mm},
+          {"y0_mm", g.y0_mm},
+          {"points", static_cast<std::size_t>(g.z_mm.size())},
+          {"invalid_points", invalid}};
 }
 
 nlohmann::json input_json(const std::filesystem::path& file, const std::string& format) {

@@ -32,7 +32,7 @@ struct MotionArgs {
   std::filesystem::path job;
   std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::optional<double> feed_scale;
-  bool full_rate_trace = false;                  // also write every current-loop sample (large)
+  bool full_rate_trace = false;  // also write every current-loop sample (large)
 };
 // vmsim motion JOB: setpoints through the servo drives; actual positions, tracking and contour errors, currents
 // (CSV), report.json.
@@ -42,16 +42,16 @@ struct RunArgs {
   std::filesystem::path job;
   std::optional<std::filesystem::path> out_dir;  // default: NAME_COMMAND/ in the current directory (app/report.hpp)
   std::optional<double> feed_scale;
-  bool quiet = false;                            // no progress on stderr
-  bool no_render = false;                        // no pictures in DIR/images
-  std::string image_size = "1600x1200";          // WIDTHxHEIGHT of the pictures
+  bool quiet = false;                    // no progress on stderr
+  bool no_render = false;                // no pictures in DIR/images
+  std::string image_size = "1600x1200";  // WIDTHxHEIGHT of the pictures
   // Under mpirun: each rank writes its tile (DIR/tiles/*.x3p) and rank 0 the manifest DIR/tiles.json, instead of
   // gathering the whole field to rank 0 (app/tiled_run.hpp).
   bool tiles_out = false;
   // --plan: no run; the memory the job needs (whole and per rank) and advice (app/run_plan.hpp).
   bool plan = false;
-  std::optional<int> ranks;                      // --ranks N for the plan (default: the MPI world size)
-  std::optional<double> memory_per_rank_gb;      // --memory-per-rank-gb for the plan's advice
+  std::optional<int> ranks;                  // --ranks N for the plan (default: the MPI world size)
+  std::optional<double> memory_per_rank_gb;  // --memory-per-rank-gb for the plan's advice
 };
 // vmsim run JOB: the whole chain to the machined surface and its marks; report.json, height grids, part mesh,
 // signals.csv, and the pictures in DIR/images (app/result_images).
@@ -59,13 +59,13 @@ int run_run(const RunArgs& args);
 
 // Picture options shared by vmsim render (and the defaults vmsim run uses).
 struct ImageArgs {
-  std::string size = "1600x1200";                // WIDTHxHEIGHT
-  double exaggeration = 1.0;                     // vertical exaggeration of the part pictures
-  std::vector<double> region;                    // X_MIN,X_MAX,Y_MIN,Y_MAX (mm): the zoom pictures' region
-  std::optional<double> limit_um;                // colour limits of the deviation maps (default: max |deviation|)
-  int isolines = 3;                              // iso-deviation lines per side of zero
-  std::optional<double> magnification;           // of the mark's relief in part_mark.png (default: from its depth)
-  std::optional<double> path_direction_deg;      // cutting direction in XY for the along-the-path views
+  std::string size = "1600x1200";            // WIDTHxHEIGHT
+  double exaggeration = 1.0;                 // vertical exaggeration of the part pictures
+  std::vector<double> region;                // X_MIN,X_MAX,Y_MIN,Y_MAX (mm): the zoom pictures' region
+  std::optional<double> limit_um;            // colour limits of the deviation maps (default: max |deviation|)
+  int isolines = 3;                          // iso-deviation lines per side of zero
+  std::optional<double> magnification;       // of the mark's relief in part_mark.png (default: from its depth)
+  std::optional<double> path_direction_deg;  // cutting direction in XY for the along-the-path views
 };
 struct RenderArgs {
   std::filesystem::path dir;                     // a result directory of vmsim run or vmsim motion
@@ -86,7 +86,7 @@ struct SurfaceOptions {
 };
 
 struct StatsArgs {
-  std::filesystem::path surface;     // X3P, SDF, .sur, CSV, ASCII x y z or matrix
+  std::filesystem::path surface;  // X3P, SDF, .sur, CSV, ASCII x y z or matrix
   SurfaceOptions options;
 };
 // vmsim stats SURFACE: size, spacing, invalid points and the ISO 25178-2 areal parameters, as JSON on stdout.
@@ -101,9 +101,9 @@ struct CompareArgs {
   std::string loss = "tukey";                    // tukey | huber
   SurfaceOptions options{"plane", {}, 6.0, ""};  // outliers masked in the scan at 6 sigma by default
   std::string mark_threshold = "1um";            // marks: |deviation| above this
-  std::optional<double> path_direction_deg;      // the path direction for the marks (default: the lay of the prediction)
-  bool no_render = false;                        // no pictures
-  std::string profile_line;                      // a measured profile: "X0,Y0,X1,Y1" (mm), the line across PRED
+  std::optional<double> path_direction_deg;  // the path direction for the marks (default: the lay of the prediction)
+  bool no_render = false;                    // no pictures
+  std::string profile_line;                  // a measured profile: "X0,Y0,X1,Y1" (mm), the line across PRED
 };
 // vmsim compare --measured SCAN --predicted PRED: registration, deviation grid (X3P), statistics, marks, areal
 // parameters of both and their differences, report.json, pictures.
@@ -117,7 +117,7 @@ struct MeasureArgs {
   double max_slope_deg = 30.0;
   double dropout = 0.0;
   unsigned seed = 1;
-  std::vector<double> area;                        // XMIN,XMAX,YMIN,YMAX mm (default: all of PRED)
+  std::vector<double> area;  // XMIN,XMAX,YMIN,YMAX mm (default: all of PRED)
   std::string mark_threshold = "1um";
 };
 // vmsim measure PRED: the scan a confocal sensor would take of the predicted surface (scan.x3p) and what it resolves.

@@ -1,5 +1,6 @@
 #pragma once
-// vmsim oga: offline gain adjustment (Duong et al.) as a command. Its own header so that app/commands.hpp is not touched.
+// vmsim oga: offline gain adjustment (Duong et al.) as a command. Its own header so that app/commands.hpp is not
+// touched.
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -21,9 +22,9 @@ struct OgaArgs {
   long long min_window_rows = 3;
   long long lead_in_rows = 100;
   double settle_s = 0.2;
-  bool from_start = false;                       // Task 2 as Duong et al.: every candidate from the first instant
-  std::optional<int> threads;                    // OpenMP threads (default: OpenMP's own)
-  bool no_render = false;                        // no charts
+  bool from_start = false;     // Task 2 as Duong et al.: every candidate from the first instant
+  std::optional<int> threads;  // OpenMP threads (default: OpenMP's own)
+  bool no_render = false;      // no charts
   std::string image_size = "1600x900";
 };
 

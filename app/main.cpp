@@ -23,21 +23,28 @@ using Path = std::filesystem::path;
 
 // ---- options several commands share ----
 
-void add_out(CLI::App* c, std::optional<Path>& out, const std::string& what = "result directory, replaced whole at the end (new, empty or an earlier vmsim result; default: NAME_COMMAND/ here)") {
+void add_out(CLI::App* c, std::optional<Path>& out,
+             const std::string& what =
+                 "result directory, replaced whole at the end (new, empty or an earlier vmsim result; default: "
+                 "NAME_COMMAND/ here)") {
   c->add_option("--out,-o", out, what);
 }
-void add_feed_scale(CLI::App* c, std::optional<double>& scale, const std::string& what = "multiply every programmed feed (e.g. 0.5)") {
+void add_feed_scale(CLI::App* c, std::optional<double>& scale,
+                    const std::string& what = "multiply every programmed feed (e.g. 0.5)") {
   c->add_option("--feed-scale", scale, what)->check(CLI::PositiveNumber);
 }
 void add_no_render(CLI::App* c, bool& flag, const std::string& what) { c->add_flag("--no-render", flag, what); }
-void add_image_size(CLI::App* c, std::string& size, const std::string& what) { c->add_option("--image-size", size, what); }
+void add_image_size(CLI::App* c, std::string& size, const std::string& what) {
+  c->add_option("--image-size", size, what);
+}
 void add_job(CLI::App* c, Path& job, const std::string& what = "job file (job.toml)") {
   c->add_option("JOB", job, what)->required()->check(CLI::ExistingFile);
 }
 // Form removal, filters, spikes and a profile's range before the parameters (stats, compare).
 void add_surface_options(CLI::App* c, app::SurfaceOptions& o, bool compare) {
-  c->add_option("--level", o.level, compare ? "form removed before the areal parameters: none, plane, poly:N"
-                                            : "form removed first: none, plane (default) or poly:N");
+  c->add_option("--level", o.level,
+                compare ? "form removed before the areal parameters: none, plane, poly:N"
+                        : "form removed first: none, plane (default) or poly:N");
   c->add_option("--filter", o.filters,
                 compare ? "Gaussian filter before the areal parameters: S:<cut-off>, L:<cut-off>"
                         : "Gaussian filter (ISO 16610-61), repeatable: S:<cut-off> keeps the mean surface, L:<cut-off> "
@@ -132,8 +139,9 @@ void add_run(CLI::App& cli, Commands& cmds) {
 void add_study(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::StudyArgs>();
   auto* c = cli.add_subcommand(
-      "study", "Run a job's variations (feeds, gains, tolerances, machine keys) through vmsim run and write one table "
-               "of their marks, contour errors and cycle times; under mpirun the variations are spread over the ranks");
+      "study",
+      "Run a job's variations (feeds, gains, tolerances, machine keys) through vmsim run and write one table "
+      "of their marks, contour errors and cycle times; under mpirun the variations are spread over the ranks");
   c->add_option("STUDY", a->study, "study file (parts/README.md: Study file)")->required()->check(CLI::ExistingFile);
   c->add_option("--out,-o", a->out_dir, "output directory: results.csv, study.json, variations/NNN/")->required();
   c->add_option("--keep", a->keep,
@@ -147,16 +155,20 @@ void add_study(CLI::App& cli, Commands& cmds) {
 void add_render(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::RenderArgs>();
   auto* c = cli.add_subcommand(
-      "render", "Draw the pictures of a result directory of vmsim run or motion: the part under a raking light, "
-                "its deviation maps, charts of the drive signals (PNG, no display needed)");
+      "render",
+      "Draw the pictures of a result directory of vmsim run or motion: the part under a raking light, "
+      "its deviation maps, charts of the drive signals (PNG, no display needed)");
   c->add_option("DIR", a->dir, "result directory (surface.csv, deviation.csv, signals.csv, report.json)")
-      ->required()->check(CLI::ExistingDirectory);
+      ->required()
+      ->check(CLI::ExistingDirectory);
   add_out(c, a->out_dir, "where the PNG files go (default: DIR/images)");
   c->add_option("--size", a->images.size, "WIDTHxHEIGHT in pixels (default 1600x1200)");
   c->add_option("--exaggeration", a->images.exaggeration, "vertical exaggeration of the part pictures")
       ->check(CLI::PositiveNumber);
-  c->add_option("--region", a->images.region, "X_MIN,X_MAX,Y_MIN,Y_MAX (mm): zoom on this region instead of the deepest mark")
-      ->delimiter(',')->expected(4);
+  c->add_option("--region", a->images.region,
+                "X_MIN,X_MAX,Y_MIN,Y_MAX (mm): zoom on this region instead of the deepest mark")
+      ->delimiter(',')
+      ->expected(4);
   c->add_option("--limit-um", a->images.limit_um,
                 "colour limits of the deviation maps, +-um (default: max |deviation| rounded up)")
       ->check(CLI::PositiveNumber);
@@ -174,12 +186,14 @@ void add_render(CLI::App& cli, Commands& cmds) {
 void add_stats(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::StatsArgs>();
   auto* c = cli.add_subcommand(
-      "stats", "Print a surface file's size, spacing, invalid points and ISO 25178-2 areal parameters as JSON (a "
-               "profile: its ISO 21920-2 profile parameters)");
+      "stats",
+      "Print a surface file's size, spacing, invalid points and ISO 25178-2 areal parameters as JSON (a "
+      "profile: its ISO 21920-2 profile parameters)");
   c->add_option("SURFACE", a->surface,
                 "X3P, SDF, .sur, BCR-STM, CSV, ASCII x y z or matrix grid (also gzip-compressed), or a profile "
                 "(Dektak CSV, X3P PRF, .sur profile): its ISO 21920-2 profile parameters")
-      ->required()->check(CLI::ExistingFile);
+      ->required()
+      ->check(CLI::ExistingFile);
   add_surface_options(c, a->options, false);
   cmds.push_back({c, [a] { return app::run_stats(*a); }});
 }
@@ -187,18 +201,23 @@ void add_stats(CLI::App& cli, Commands& cmds) {
 void add_compare(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::CompareArgs>();
   auto* c = cli.add_subcommand(
-      "compare", "Hold a measured scan against a predicted surface: registration, deviation (X3P), marks, areal "
-                 "parameters, report.json, pictures");
+      "compare",
+      "Hold a measured scan against a predicted surface: registration, deviation (X3P), marks, areal "
+      "parameters, report.json, pictures");
   c->add_option("--measured,-m", a->measured,
                 "the measured scan (X3P, SDF, .sur, BCR-STM, CSV, ASCII grids) or profile (Dektak CSV, X3P PRF)")
-      ->required()->check(CLI::ExistingFile);
-  c->add_option("--predicted,-p", a->predicted, "the predicted surface (e.g. vmsim run's surface.x3p) or part mesh (.stl)")
-      ->required()->check(CLI::ExistingFile);
+      ->required()
+      ->check(CLI::ExistingFile);
+  c->add_option("--predicted,-p", a->predicted,
+                "the predicted surface (e.g. vmsim run's surface.x3p) or part mesh (.stl)")
+      ->required()
+      ->check(CLI::ExistingFile);
   add_out(c, a->out_dir);
   c->add_option("--align", a->align, "auto (robust 6-DoF registration, default) or none");
   c->add_option("--align-init", a->align_init,
                 "X,Y,Z,RX,RY,RZ (mm, deg): start of the registration, or with --align none the transform")
-      ->delimiter(',')->expected(6);
+      ->delimiter(',')
+      ->expected(6);
   c->add_option("--align-region", a->align_regions,
                 "XMIN,XMAX,YMIN,YMAX (mm, prediction frame), repeatable: align only on these areas (the unmachined "
                 "reference faces)");
@@ -219,7 +238,8 @@ void add_measure(CLI::App& cli, Commands& cmds) {
   auto* c = cli.add_subcommand(
       "measure", "Simulate a confocal point sensor scanning a predicted surface, to plan a scan: what it resolves");
   c->add_option("PRED", a->predicted, "the predicted surface (e.g. vmsim run's surface.x3p)")
-      ->required()->check(CLI::ExistingFile);
+      ->required()
+      ->check(CLI::ExistingFile);
   c->add_option("--step", a->step, "scan grid step (default 5um)");
   c->add_option("--spot", a->spot, "spot diameter, full width at half maximum (default 4um)");
   c->add_option("--noise", a->noise, "height noise, standard deviation (default 0.05um)");
@@ -229,7 +249,8 @@ void add_measure(CLI::App& cli, Commands& cmds) {
       ->check(CLI::Range(0.0, 0.99));
   c->add_option("--seed", a->seed, "seed of the noise and dropouts (default 1)");
   c->add_option("--area", a->area, "XMIN,XMAX,YMIN,YMAX (mm): the scanned area (default: all)")
-      ->delimiter(',')->expected(4);
+      ->delimiter(',')
+      ->expected(4);
   c->add_option("--reference", a->reference,
                 "reference surface (e.g. vmsim run's reference.x3p): report which predicted marks the scan resolves")
       ->check(CLI::ExistingFile);
@@ -243,22 +264,27 @@ void add_identify_friction(CLI::App& cli, Commands& cmds) {
   auto* c = cli.add_subcommand(
       "identify-friction",
       "Identify an axis' friction law and inertia from a trace of time, position or velocity, current");
-  c->add_option("TRACE", a->trace,
-                "CSV (t_s, current_A, position_mm|position_deg|velocity_mm_per_s|velocity_deg_per_s) or MATLAB .mat (--mat)")
-      ->required()->check(CLI::ExistingFile);
+  c->add_option(
+       "TRACE", a->trace,
+       "CSV (t_s, current_A, position_mm|position_deg|velocity_mm_per_s|velocity_deg_per_s) or MATLAB .mat (--mat)")
+      ->required()
+      ->check(CLI::ExistingFile);
   c->add_option("--torque-constant", a->torque_constant_Nm_per_A, "motor torque constant Kt (N m/A)")
       ->check(CLI::PositiveNumber);
   c->add_option("--lead-mm", a->lead_mm, "screw lead of a linear axis (mm per motor revolution)")
       ->check(CLI::PositiveNumber)
-      ->excludes(c->add_option("--gear-deg-per-rev", a->gear_deg_per_rev, "gear of a rotary axis (deg per motor revolution)")
-                     ->check(CLI::PositiveNumber));
+      ->excludes(
+          c->add_option("--gear-deg-per-rev", a->gear_deg_per_rev, "gear of a rotary axis (deg per motor revolution)")
+              ->check(CLI::PositiveNumber));
   c->add_option("--machine", a->machine, "machine file giving Kt, lead or gear and gravity of --axis")
       ->check(CLI::ExistingFile)
       ->needs(c->add_option("--axis", a->axis, "axis name in the machine file (X Y Z A B C)"));
   c->add_option("--gravity", a->gravity, "gravity model: auto (default), none, constant, tilting")
       ->check(CLI::IsMember({"auto", "none", "constant", "tilting"}));
-  c->add_option("--smoothing-ms", a->smoothing_ms, "differentiation window (default 10 ms)")->check(CLI::PositiveNumber);
-  c->add_option("--mat", a->mat, ".mat trace: t=VAR,position=VAR|velocity=VAR,control=VAR (e.g. t=t,position=qm,control=vir)");
+  c->add_option("--smoothing-ms", a->smoothing_ms, "differentiation window (default 10 ms)")
+      ->check(CLI::PositiveNumber);
+  c->add_option("--mat", a->mat,
+                ".mat trace: t=VAR,position=VAR|velocity=VAR,control=VAR (e.g. t=t,position=qm,control=vir)");
   c->add_option("--trace-unit", a->trace_unit, "position unit of a .mat trace: mm (default), m, in, deg, rad")
       ->check(CLI::IsMember({"mm", "m", "in", "deg", "rad"}));
   c->add_option("--control-gain", a->control_gain,
@@ -274,8 +300,9 @@ void add_identify_friction(CLI::App& cli, Commands& cmds) {
 void add_oga(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::OgaArgs>();
   auto* c = cli.add_subcommand(
-      "oga", "Offline gain adjustment (Duong et al.): admissible gains per axis, the best fixed pair (C1), a position-gain "
-             "schedule by receding windows (C2) for [job] gain_schedule, MSE(CE) C1 vs C2, limits, currents, charts");
+      "oga",
+      "Offline gain adjustment (Duong et al.): admissible gains per axis, the best fixed pair (C1), a position-gain "
+      "schedule by receding windows (C2) for [job] gain_schedule, MSE(CE) C1 vs C2, limits, currents, charts");
   add_job(c, a->job, "job file of a biaxial profile (two of X Y Z move)");
   add_out(c, a->out_dir);
   c->add_option("--kp-grid", a->kp_grid, "Kv values swept, MIN:STEP:MAX in (m/min)/mm (default 1:0.5:9)");
@@ -308,8 +335,9 @@ void add_oga(CLI::App& cli, Commands& cmds) {
 void add_plan_feed(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::PlanFeedArgs>();
   auto* c = cli.add_subcommand(
-      "plan-feed", "Plan the feed along a job's path so the servo's contour error stays within a tolerance (Chen et "
-                   "al. 2016: a linear program on the squared feed), play it through the interpolator and the drives");
+      "plan-feed",
+      "Plan the feed along a job's path so the servo's contour error stays within a tolerance (Chen et "
+      "al. 2016: a linear program on the squared feed), play it through the interpolator and the drives");
   add_job(c, a->job, "job file with a [feedplan] table");
   add_out(c, a->out_dir);
   add_no_render(c, a->no_render, "draw no charts (by default: PNG files in OUT/images)");
@@ -320,9 +348,10 @@ void add_plan_feed(CLI::App& cli, Commands& cmds) {
 void add_excite(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::ExciteArgs>();
   auto* c = cli.add_subcommand(
-      "excite", "Write the predictive-compensation paper's identification signal for one axis (inverse M-sequence or "
-                "PRBS, eq. 8-15) as a G-code program or a setpoint CSV; --simulate also writes the trace the machine "
-                "file's drive gives");
+      "excite",
+      "Write the predictive-compensation paper's identification signal for one axis (inverse M-sequence or "
+      "PRBS, eq. 8-15) as a G-code program or a setpoint CSV; --simulate also writes the trace the machine "
+      "file's drive gives");
   c->add_option("AXIS", a->axis, "axis name (X Y Z A B C)")->required();
   c->add_option("--machine,-m", a->machine, "machine file")->required()->check(CLI::ExistingFile);
   c->add_option("--out,-o", a->out, "output: .ngc (G-code) or .csv (t_s and the setpoint every Te)")->required();
@@ -348,8 +377,9 @@ void add_excite(CLI::App& cli, Commands& cmds) {
 void add_identify(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::IdentifyArgs>();
   auto* c = cli.add_subcommand(
-      "identify", "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; the "
-                  "predictive-compensation paper), validate, rank, and write axis_models.toml for jobs to run on");
+      "identify",
+      "Identify each axis as a discrete transfer function from a position trace (ARX, ARMAX, OE; the "
+      "predictive-compensation paper), validate, rank, and write axis_models.toml for jobs to run on");
   c->add_option("--trace,-t", a->traces,
                 "position trace: CSV (t_s, <AXIS>_command_mm, <AXIS>_actual_mm, ...: vmsim motion's trace.csv), "
                 "LinuxCNC halscope log or MATLAB .mat; repeat it for several experiments, identified together")
@@ -358,7 +388,8 @@ void add_identify(CLI::App& cli, Commands& cmds) {
                 "halscope log: AXIS=COMMAND_PIN,ACTUAL_PIN, repeatable (default: joint.N.motor-pos-cmd as axis "
                 "XYZABC[N] with joint.N.motor-pos-fb or the log's one *encoder*.position pin)");
   c->add_option("--mat", a->mat, ".mat trace: t=VAR,command=VAR,actual=VAR[,axis=X] (e.g. t=t,command=qg,actual=qm)");
-  c->add_option("--trace-unit", a->trace_unit, "position unit of halscope and .mat traces: mm (default), m, in, deg, rad")
+  c->add_option("--trace-unit", a->trace_unit,
+                "position unit of halscope and .mat traces: mm (default), m, in, deg, rad")
       ->check(CLI::IsMember({"mm", "m", "in", "deg", "rad"}));
   c->add_option("--rest-offset", a->rest_offsets,
                 "AXIS=VALUE (mm or deg): encoder minus command at rest, for traces that start mid-motion (default: "
@@ -371,16 +402,18 @@ void add_identify(CLI::App& cli, Commands& cmds) {
   c->add_option("--nc", a->nc, "ARMAX noise numerator order (default 2)");
   c->add_option("--delay", a->delay, "input delay nk in samples, or auto (default)");
   c->add_option("--use", a->use,
-                "structure written to the model file: best (lowest validation MSE, marginal models last; default), arx, armax or oe");
+                "structure written to the model file: best (lowest validation MSE, marginal models last; default), "
+                "arx, armax or oe");
   add_out(c, a->out_dir, "output directory for axis_models.toml and report.json");
   cmds.push_back({c, [a] { return app::run_identify(*a); }});
 }
 
 void add_compensate(CLI::App& cli, Commands& cmds) {
   auto a = std::make_shared<app::CompensateArgs>();
-  auto* c = cli.add_subcommand(
-      "compensate", "Predict a job's contour error and add it back to the setpoints (the predictive-compensation "
-                    "paper): compensated setpoints, a compensated G-code program, contour error before and after");
+  auto* c =
+      cli.add_subcommand("compensate",
+                         "Predict a job's contour error and add it back to the setpoints (the predictive-compensation "
+                         "paper): compensated setpoints, a compensated G-code program, contour error before and after");
   add_job(c, a->job);
   add_out(c, a->out_dir);
   c->add_option("--axis-models", a->axis_models,
@@ -388,8 +421,9 @@ void add_compensate(CLI::App& cli, Commands& cmds) {
                 "cascades)");
   c->add_option("--buffer", a->buffer_samples, "foot-point search buffer m, odd (default 0: automatic)");
   c->add_option("--iterations", a->max_iterations, "largest number of corrections (default 6)");
-  c->add_option("--smoothing", a->smoothing_samples,
-                "standard deviation of the correction's Gaussian smoothing along the setpoints, in samples (default 4)");
+  c->add_option(
+      "--smoothing", a->smoothing_samples,
+      "standard deviation of the correction's Gaussian smoothing along the setpoints, in samples (default 4)");
   add_no_render(c, a->no_render, "draw no chart (by default: OUT/images/contour_error.png)");
   c->add_flag("--tip-only", a->tip_only,
               "five-axis machines: correct the tool tip only (default: the tool axis' orientation error too)");

@@ -20,9 +20,9 @@ void mpi_abort_all(int exit_code);
 // Rank 0's string on every rank (a collective: every rank calls it); the string itself without MPI.
 std::string mpi_broadcast(const std::string& from_rank0);
 
-bool mpi_active();   // MPI was started and the world has more than one rank
-int mpi_rank();      // 0 without MPI
-int mpi_size();      // 1 without MPI
+bool mpi_active();  // MPI was started and the world has more than one rank
+int mpi_rank();     // 0 without MPI
+int mpi_size();     // 1 without MPI
 
 // While one lives, on its thread, mpi_active() is false, mpi_rank() 0 and mpi_size() 1: a command run inside it (vmsim
 // study runs each variation through vmsim run on one rank, rank 0's on a second thread) behaves as one process and

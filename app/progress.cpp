@@ -27,16 +27,20 @@ void TerminalProgress::update(double done) {
   const int fill = static_cast<int>(f * 30);
   for (int i = 0; i < 30; ++i) bar[i] = i < fill ? '#' : '.';
   bar[30] = 0;
-  if (eta >= 0) std::fprintf(stderr, "\r%-28s [%s] %3.0f%%  ETA %5.0f s ", name_.c_str(), bar, 100 * f, eta);
-  else std::fprintf(stderr, "\r%-28s [%s] %3.0f%%             ", name_.c_str(), bar, 100 * f);
+  if (eta >= 0)
+    std::fprintf(stderr, "\r%-28s [%s] %3.0f%%  ETA %5.0f s ", name_.c_str(), bar, 100 * f, eta);
+  else
+    std::fprintf(stderr, "\r%-28s [%s] %3.0f%%             ", name_.c_str(), bar, 100 * f);
   std::fflush(stderr);
 }
 
 void TerminalProgress::done() {
   if (!enabled_) return;
   const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  if (tty_) std::fprintf(stderr, "\r%-28s done in %.2f s%40s\n", name_.c_str(), el, "");
-  else std::fprintf(stderr, "vmsim: %s done in %.2f s\n", name_.c_str(), el);
+  if (tty_)
+    std::fprintf(stderr, "\r%-28s done in %.2f s%40s\n", name_.c_str(), el, "");
+  else
+    std::fprintf(stderr, "vmsim: %s done in %.2f s\n", name_.c_str(), el);
 }
 
 }  // namespace vmsim::app

@@ -16,14 +16,17 @@
 namespace vmsim::app {
 
 // One writer for the CLI and the Python module (render/report_html.hpp).
-void write_report(const std::filesystem::path& file, const nlohmann::json& report) { render::write_report(file, report); }
+void write_report(const std::filesystem::path& file, const nlohmann::json& report) {
+  render::write_report(file, report);
+}
 
 nlohmann::json read_report(const std::filesystem::path& dir) {
   const std::filesystem::path file = dir / "report.json";
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec))
-    throw core::Error(dir.string() + ": no report.json: not a complete result of vmsim (a run that did not finish, or "
-                                     "another program's directory)");
+    throw core::Error(dir.string() +
+                      ": no report.json: not a complete result of vmsim (a run that did not finish, or "
+                      "another program's directory)");
   std::ifstream in(file);
   try {
     return nlohmann::json::parse(in);
@@ -75,7 +78,8 @@ int print_verdict(const nlohmann::json& report) {
                    w["code"].get<std::string>().c_str(), w["message"].get<std::string>().c_str());
   const std::string verdict = report["verdict"].get<std::string>();
   if (verdict == "invalid")
-    std::fprintf(stderr, "vmsim: verdict: invalid - the results are written, but cannot mean what they claim (exit %d)\n",
+    std::fprintf(stderr,
+                 "vmsim: verdict: invalid - the results are written, but cannot mean what they claim (exit %d)\n",
                  sim::kExitInvalid);
   else if (verdict != "ok")
     std::fprintf(stderr, "vmsim: verdict: %s (report.json lists them)\n", verdict.c_str());

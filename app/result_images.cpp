@@ -135,8 +135,9 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
     zoom = render::region_around(mark->x_mm, mark->y_mm, half, bounds, o.width, o.height);
   }
   std::string zoom_text;
-  if (zoom) zoom_text = fmt::format("x {}..{} mm, y {}..{} mm", mm(zoom->x_min_mm), mm(zoom->x_max_mm),
-                                    mm(zoom->y_min_mm), mm(zoom->y_max_mm));
+  if (zoom)
+    zoom_text = fmt::format("x {}..{} mm, y {}..{} mm", mm(zoom->x_min_mm), mm(zoom->x_max_mm), mm(zoom->y_min_mm),
+                            mm(zoom->y_max_mm));
 
   render::PartPicture pic;
   pic.width = o.width, pic.height = o.height;
@@ -146,8 +147,9 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
   // 1. The whole part.
   pic.caption = {d.job + ": the predicted part",
                  fmt::format("x {}..{} mm, y {}..{} mm, z {}..{} mm; raking light from the left, {}° above the "
-                             "part{}", mm(bounds.x_min_mm), mm(bounds.x_max_mm), mm(bounds.y_min_mm),
-                             mm(bounds.y_max_mm), mm(zmin), mm(zmax), num(pic.light.elevation_deg), exag)};
+                             "part{}",
+                             mm(bounds.x_min_mm), mm(bounds.x_max_mm), mm(bounds.y_min_mm), mm(bounds.y_max_mm),
+                             mm(zmin), mm(zmax), num(pic.light.elevation_deg), exag)};
   w.save("part.png", render::render_part(w.window, s, dev, pic).image);
 
   // 2. The deepest mark (or the asked region), seen along the path, its relief magnified.
@@ -156,20 +158,22 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
     z.view.direction = render::ViewDirection::AlongPath;
     z.view.region = zoom;
     double m = 1;
-    if (dev && mark) m = o.mark_magnification > 0 ? o.mark_magnification : std::clamp(nice_floor(0.2 / mark->depth_mm), 1.0, 500.0);
+    if (dev && mark)
+      m = o.mark_magnification > 0 ? o.mark_magnification : std::clamp(nice_floor(0.2 / mark->depth_mm), 1.0, 500.0);
     z.view.mark_magnification = dev ? m : 1.0;
     const bool at_mark = mark && !o.region;
     const std::string what = at_mark ? fmt::format("the deepest mark, {} {} µm", mark->overcut ? "overcut" : "undercut",
                                                    num(mark->depth_mm * 1e3))
                                      : "the region " + zoom_text;
-    z.caption = {d.job + ": " + what,
-                 m != 1 ? fmt::format("seen along the path under a raking light; its departure from the reference "
-                                      "magnified x{} (the form true to scale){}", num(m), exag)
-                        : "seen along the path under a raking light" + exag,
-                 at_mark ? fmt::format("deepest at x {} y {} mm, {} x {} mm deeper than half its depth; shown: {}",
-                                       mm(mark->x_mm), mm(mark->y_mm), mm(mark->x_extent_mm), mm(mark->y_extent_mm),
-                                       zoom_text)
-                         : zoom_text};
+    z.caption = {
+        d.job + ": " + what,
+        m != 1 ? fmt::format("seen along the path under a raking light; its departure from the reference "
+                             "magnified x{} (the form true to scale){}",
+                             num(m), exag)
+               : "seen along the path under a raking light" + exag,
+        at_mark ? fmt::format("deepest at x {} y {} mm, {} x {} mm deeper than half its depth; shown: {}",
+                              mm(mark->x_mm), mm(mark->y_mm), mm(mark->x_extent_mm), mm(mark->y_extent_mm), zoom_text)
+                : zoom_text};
     w.save("part_mark.png", render::render_part(w.window, s, dev, z).image);
   }
 
@@ -177,15 +181,17 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
   // 3-5. Deviation: the whole map, the zoomed map, the zoomed part coloured under the light; one colour scale.
   const Eigen::ArrayXd vals = Eigen::Map<const Eigen::ArrayXd>(dev->z_mm.data(), dev->z_mm.size()) * 1e3;
   const double maxdev = vals.isFinite().select(vals.abs(), 0.0).maxCoeff();
-  const double limit_um = o.limit_mm > 0 ? o.limit_mm * 1e3
-                                         : render::symmetric_limit(std::span<const double>(vals.data(), vals.size()), 1.0);
+  const double limit_um = o.limit_mm > 0
+                              ? o.limit_mm * 1e3
+                              : render::symmetric_limit(std::span<const double>(vals.data(), vals.size()), 1.0);
   render::DeviationColours colours;
   colours.limit_mm = limit_um / 1e3;
   colours.isolines = o.isolines;
   colours.lit = false;
   const std::string limit_text =
-      o.limit_mm > 0 ? fmt::format("colour limits ±{} µm (given); max |deviation| {} µm", num(limit_um), num(maxdev))
-                     : fmt::format("colour limits ±{} µm: max |deviation| {} µm rounded up", num(limit_um), num(maxdev));
+      o.limit_mm > 0
+          ? fmt::format("colour limits ±{} µm (given); max |deviation| {} µm", num(limit_um), num(maxdev))
+          : fmt::format("colour limits ±{} µm: max |deviation| {} µm rounded up", num(limit_um), num(maxdev));
   const std::string iso_text =
       o.isolines > 0 ? fmt::format("; iso-lines every {} µm", num(limit_um / (o.isolines + 1))) : "";
   render::PartPicture map = pic;
@@ -208,8 +214,7 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
   lit.deviation->lit = true;
   lit.deviation->isolines = 0;
   lit.caption = {d.job + ": the part coloured by its deviation from the reference",
-                 (zoom ? zoom_text + "; " : std::string()) + "under a raking light, true to scale" + exag,
-                 limit_text};
+                 (zoom ? zoom_text + "; " : std::string()) + "under a raking light, true to scale" + exag, limit_text};
   w.save("deviation_3d.png", render::render_part(w.window, s, dev, lit).image);
 }
 
@@ -252,7 +257,8 @@ void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
       render::ChartPicture p = base;
       p.caption = {s.job + ": programmed and actual feed",
                    "programmed: F x the feed scale, on cutting moves (gaps: rapids); setpoints: the interpolator's "
-                   "path speed; actual: the speed of the drives' tool tip" + decimation};
+                   "path speed; actual: the speed of the drives' tool tip" +
+                       decimation};
       p.charts.push_back(c);
       w.save("feed.png", render::render_charts(w.window, p).image);
     }
@@ -266,7 +272,8 @@ void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
       render::ChartPicture p = base;
       p.caption = {s.job + ": axis " + A + ", setpoint and actual position",
                    "setpoint: the interpolator's command; actual: the drive model's position; tracking error = "
-                   "setpoint - actual" + decimation};
+                   "setpoint - actual" +
+                       decimation};
       render::Chart pos;
       pos.title = "position";
       pos.x_title = "t [s]";
@@ -300,14 +307,16 @@ void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
         // at that scale it would flatten the setpoint curve the limit applies to. Its peak is given instead.
         const double peak = max_abs(s, ac);
         if (lim && k == 2 && peak > 5 * *lim)
-          notes.push_back(fmt::format("actual jerk not drawn (peak {} {}/s³, the current loop's ripple)", num(peak), u));
+          notes.push_back(
+              fmt::format("actual jerk not drawn (peak {} {}/s³, the current loop's ripple)", num(peak), u));
         else
           c.series.push_back(envelope(s, "t_s", ac, 1, "actual", 1, 1.2));
         if (lim) add_limits(c, *lim, u + q[k].second);
         p.charts.push_back(c);
       }
-      std::string second = "setpoints: the interpolator's output by backward differences (the limits apply to them); "
-                           "actual: the drive model";
+      std::string second =
+          "setpoints: the interpolator's output by backward differences (the limits apply to them); "
+          "actual: the drive model";
       p.caption = {s.job + ": axis " + A + ", velocity, acceleration and jerk against the machine's limits",
                    second + decimation};
       for (const auto& n : notes) p.caption.push_back(n);
@@ -317,9 +326,11 @@ void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
   // Currents with their limits.
   if (!s.axes.empty()) {
     render::ChartPicture p = base;
-    p.caption = {s.job + ": motor currents",
-                 "mean over each position-loop period (signed) and the largest |current| within it; dashed: the drive's "
-                 "current limit" + decimation};
+    p.caption = {
+        s.job + ": motor currents",
+        "mean over each position-loop period (signed) and the largest |current| within it; dashed: the drive's "
+        "current limit" +
+            decimation};
     for (const auto& [A, u] : s.axes) {
       render::Chart c;
       c.title = "axis " + A;
@@ -375,8 +386,8 @@ ResultData load_results(const fs::path& dir) {
   auto take = [&](const std::string& name) {
     if (std::find(listed.begin(), listed.end(), name) == listed.end()) return false;
     if (!fs::is_regular_file(dir / name, ec))
-      throw core::Error(fmt::format("{}: report.json lists {}, which is missing: the result is incomplete (run it again)",
-                                    dir.string(), name));
+      throw core::Error(fmt::format(
+          "{}: report.json lists {}, which is missing: the result is incomplete (run it again)", dir.string(), name));
     return true;
   };
   if (take("surface.csv")) d.surface = metrology::read_height_csv(dir / "surface.csv");
@@ -386,8 +397,9 @@ ResultData load_results(const fs::path& dir) {
   }
   if (take("signals.csv")) d.signals = sim::read_signals(dir / "signals.csv");
   if (!d.surface && !d.deviation && !d.signals)
-    throw core::Error(dir.string() + ": nothing to render: its report.json lists no surface.csv, deviation.csv or "
-                                     "signals.csv (written by vmsim run and vmsim motion)");
+    throw core::Error(dir.string() +
+                      ": nothing to render: its report.json lists no surface.csv, deviation.csv or "
+                      "signals.csv (written by vmsim run and vmsim motion)");
   if (d.deviation && !d.surface)
     throw core::Error(dir.string() + ": deviation.csv without surface.csv: the maps are drawn on the surface");
   return d;

@@ -15,22 +15,22 @@
 namespace vmsim::app {
 
 struct ResultData {
-  std::string job;                              // for the captions
-  std::string reference;                        // what the deviation is measured from (report.json "reference")
-  std::optional<core::HeightGrid> surface;      // predicted surface
-  std::optional<core::HeightGrid> deviation;    // surface - reference, same grid
-  std::vector<metrology::Mark> marks;           // deepest first
+  std::string job;                            // for the captions
+  std::string reference;                      // what the deviation is measured from (report.json "reference")
+  std::optional<core::HeightGrid> surface;    // predicted surface
+  std::optional<core::HeightGrid> deviation;  // surface - reference, same grid
+  std::vector<metrology::Mark> marks;         // deepest first
   std::optional<sim::BinnedSignals> signals;
 };
 
 struct ImageOptions {
   int width = 1600, height = 1200;
-  double vertical_exaggeration = 1.0;           // every part picture
-  std::optional<render::Region> region;         // the zoom pictures' region; default: around the deepest mark
-  double limit_mm = 0.0;                        // colour limits; 0: max |deviation| rounded up
-  int isolines = 3;                             // per side of zero in the deviation maps
-  double mark_magnification = 0.0;              // part_mark.png; 0: chosen from the mark's depth
-  std::optional<double> path_direction_deg;     // along-the-path views; default: from the signals (+X or +Y)
+  double vertical_exaggeration = 1.0;        // every part picture
+  std::optional<render::Region> region;      // the zoom pictures' region; default: around the deepest mark
+  double limit_mm = 0.0;                     // colour limits; 0: max |deviation| rounded up
+  int isolines = 3;                          // per side of zero in the deviation maps
+  double mark_magnification = 0.0;           // part_mark.png; 0: chosen from the mark's depth
+  std::optional<double> path_direction_deg;  // along-the-path views; default: from the signals (+X or +Y)
 };
 
 // "1600x1200" -> (1600, 1200); throws core::Error unless WIDTHxHEIGHT, each 16..16384.

@@ -40,7 +40,9 @@ void print_plan(const core::Job& job, const nlohmann::json& plan) {
     if (!plan.contains(key)) continue;
     const nlohmann::json& p = plan[key];
     std::printf("%d rank%s%s: largest rank %s", ranks, ranks > 1 ? "s" : "",
-                ranks == 1 ? "" : tiles_out ? ", --tiles-out" : ", gathered to rank 0",
+                ranks == 1  ? ""
+                : tiles_out ? ", --tiles-out"
+                            : ", gathered to rank 0",
                 gb(p["largest_rank_bytes"]).c_str());
     if (ranks > 1) std::printf(" (rank %d: %s)", ranks - 1, gb(p["per_rank"].back()["total_bytes"]).c_str());
     std::printf("\n");
@@ -58,7 +60,8 @@ void print_plan(const core::Job& job, const nlohmann::json& plan) {
   else
     std::printf("no rank count fits with --tiles-out (the motion and sweeps alone: %s)",
                 gb(nlohmann::json(one["base_bytes"].get<double>() + one["motion_bytes"].get<double>() +
-                                  one["sweep_bytes"].get<double>())).c_str());
+                                  one["sweep_bytes"].get<double>()))
+                    .c_str());
   if (a.contains("one_process_spacing_mm"))
     std::printf("; one process fits at spacing_mm >= %.3g", a["one_process_spacing_mm"].get<double>());
   std::printf("\n");

@@ -78,12 +78,13 @@ void quiet_barrier(const char* stage) {
       for (int r = 0; r < size; ++r)
         if (!arrived[static_cast<std::size_t>(r)]) missing += (missing.empty() ? "" : ", ") + std::to_string(r);
       throw core::Error(
-          rank == 0 ? fmt::format("rank 0: rank {} did not reach {} within {:g} s (stopped, or a stalled file system?); "
-                                  "the job is ended (the limit: VMSIM_WATCHDOG_S)",
-                                  missing.empty() ? std::string("?") : missing, stage, limit_s)
-                    : fmt::format("rank {}: waited {:g} s at {} for the other ranks; the job is ended (the limit: "
-                                  "VMSIM_WATCHDOG_S)",
-                                  rank, limit_s, stage));
+          rank == 0
+              ? fmt::format("rank 0: rank {} did not reach {} within {:g} s (stopped, or a stalled file system?); "
+                            "the job is ended (the limit: VMSIM_WATCHDOG_S)",
+                            missing.empty() ? std::string("?") : missing, stage, limit_s)
+              : fmt::format("rank {}: waited {:g} s at {} for the other ranks; the job is ended (the limit: "
+                            "VMSIM_WATCHDOG_S)",
+                            rank, limit_s, stage));
     }
     const timespec pause{0, 1000000};
     nanosleep(&pause, nullptr);
@@ -123,8 +124,10 @@ Packed pack(std::size_t rays, Get&& get) {
 
 int checked_int(std::size_t n, const char* what) {
   if (n > static_cast<std::size_t>(INT_MAX))
-    throw core::Error(fmt::format("tiled run: the whole field has {} {}, too many to gather to rank 0 in one MPI "
-                                  "message; write the tiles instead (vmsim run --tiles-out)", n, what));
+    throw core::Error(
+        fmt::format("tiled run: the whole field has {} {}, too many to gather to rank 0 in one MPI "
+                    "message; write the tiles instead (vmsim run --tiles-out)",
+                    n, what));
   return static_cast<int>(n);
 }
 
@@ -142,7 +145,8 @@ Packed gather_packed(const Packed& mine) {
   if (rank == 0) {
     std::size_t tc = 0, tv = 0;
     for (int r = 0; r < size; ++r) {
-      dc[r] = static_cast<int>(std::min<std::size_t>(tc, INT_MAX)), dv[r] = static_cast<int>(std::min<std::size_t>(tv, INT_MAX));
+      dc[r] = static_cast<int>(std::min<std::size_t>(tc, INT_MAX)),
+      dv[r] = static_cast<int>(std::min<std::size_t>(tv, INT_MAX));
       cc[r] = static_cast<int>(std::min<unsigned long long>(all[2 * r], INT_MAX));
       cv[r] = static_cast<int>(std::min<unsigned long long>(all[2 * r + 1], INT_MAX));
       tc += all[2 * r], tv += all[2 * r + 1];
@@ -189,8 +193,12 @@ std::optional<sim::Field> gather_field(const sim::Field& tile) {
     w.kind = tile.kind, w.region = tile.region, w.spacing_mm = tile.spacing_mm;
     w.needle_point = tile.needle_point, w.needle_normal = tile.needle_normal, w.needle_half = tile.needle_half;
     switch (tile.kind) {
-      case core::RemovalSpec::Field::ZMap: w.zmap = removal::make_zmap(tile.region, tile.spacing_mm); break;
-      case core::RemovalSpec::Field::TriDexel: w.tri = removal::make_tridexel(tile.region, tile.spacing_mm); break;
+      case core::RemovalSpec::Field::ZMap:
+        w.zmap = removal::make_zmap(tile.region, tile.spacing_mm);
+        break;
+      case core::RemovalSpec::Field::TriDexel:
+        w.tri = removal::make_tridexel(tile.region, tile.spacing_mm);
+        break;
       case core::RemovalSpec::Field::NBuffer: {
         std::vector<Eigen::Vector3d> o, d;
         std::vector<double> len;
@@ -205,10 +213,12 @@ std::optional<sim::Field> gather_field(const sim::Field& tile) {
     }
   }
   if (tile.kind == core::RemovalSpec::Field::NBuffer) {
-    const Packed all = gather_packed(
-        pack(tile.needles.size(), [&](std::size_t k, std::vector<removal::Interval>& iv) { tile.needles.store().get(k, iv); }));
+    const Packed all = gather_packed(pack(tile.needles.size(), [&](std::size_t k, std::vector<removal::Interval>& iv) {
+      tile.needles.store().get(k, iv);
+    }));
     if (root) {
-      if (all.counts.size() != whole->needles.size()) throw core::Error("tiled run: the gathered needles differ in number");
+      if (all.counts.size() != whole->needles.size())
+        throw core::Error("tiled run: the gathered needles differ in number");
       unpack(all, [&](std::size_t k, const std::vector<removal::Interval>& iv) { whole->needles.store().set(k, iv); });
     }
     return whole;
@@ -218,9 +228,10 @@ std::optional<sim::Field> gather_field(const sim::Field& tile) {
   if (root) dst = whole->grids();
   for (std::size_t g = 0; g < mine.size(); ++g) {
     const removal::DexelGrid& t = *mine[g];
-    const Packed all = gather_packed(pack(static_cast<std::size_t>(t.nu()) * t.nv(), [&](std::size_t r, std::vector<removal::Interval>& iv) {
-      t.intervals(static_cast<int>(r % t.nu()), static_cast<int>(r / t.nu()), iv);
-    }));
+    const Packed all = gather_packed(
+        pack(static_cast<std::size_t>(t.nu()) * t.nv(), [&](std::size_t r, std::vector<removal::Interval>& iv) {
+          t.intervals(static_cast<int>(r % t.nu()), static_cast<int>(r / t.nu()), iv);
+        }));
     if (!root) continue;
     removal::DexelGrid& w = *dst[g];
     if (all.counts.size() != static_cast<std::size_t>(w.nu()) * w.nv())
@@ -280,8 +291,8 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
 void write_tile_manifest(const std::filesystem::path& dir, const std::string& job_name, const sim::Field& field,
                          const TileFiles& mine) {
   // Every rank's entry to rank 0: the numbers in one message, the names rebuilt from the rank (same format).
-  const double nums[7] = {double(mine.first_row), double(mine.rows), double(mine.nx), mine.x0_mm, mine.y0_mm,
-                          mine.x1_mm, mine.y1_mm};
+  const double nums[7] = {
+      double(mine.first_row), double(mine.rows), double(mine.nx), mine.x0_mm, mine.y0_mm, mine.x1_mm, mine.y1_mm};
   const int size = mpi_size();
   std::vector<double> all(7 * static_cast<std::size_t>(size));
   if (mpi_active())
@@ -305,11 +316,17 @@ void write_tile_manifest(const std::filesystem::path& dir, const std::string& jo
     if (!mine.deviation.empty()) t["deviation"] = fmt::format("tiles/deviation_{:04d}.x3p", r);
     tiles.push_back(t);
   }
-  const int ny_total = static_cast<int>(all[7 * static_cast<std::size_t>(size - 1)] + all[7 * static_cast<std::size_t>(size - 1) + 1]);
+  const int ny_total =
+      static_cast<int>(all[7 * static_cast<std::size_t>(size - 1)] + all[7 * static_cast<std::size_t>(size - 1) + 1]);
   nlohmann::json m = {{"job", job_name},
                       {"split", "rows: bands in y, each tile a whole number of dexel rows along x"},
-                      {"grid", {{"x0_mm", g.origin().x()}, {"y0_mm", g.origin().y()}, {"dx_mm", g.du()}, {"dy_mm", g.dv()},
-                                {"nx", g.nu()}, {"ny", ny_total}}},
+                      {"grid",
+                       {{"x0_mm", g.origin().x()},
+                        {"y0_mm", g.origin().y()},
+                        {"dx_mm", g.du()},
+                        {"dy_mm", g.dv()},
+                        {"nx", g.nu()},
+                        {"ny", ny_total}}},
                       {"tiles", tiles}};
   write_report(dir / "tiles.json", m);
 }

@@ -29,14 +29,14 @@ std::optional<sim::Field> gather_field(const sim::Field& tile);
 
 // Figures of one rank's tile, gathered to rank 0 for report.json (every rank calls it; rank 0 gets all ranks').
 struct TileFigures {
-  double rows = 0;             // rows of the first grid (needles for N-buffer)
-  double rays = 0;             // rays of the tile
-  double sweeps = 0;           // sweeps that reach the tile
-  double memory_bytes = 0;     // the tile's field
-  double peak_rss_bytes = 0;   // the process's peak resident memory so far (VmHWM)
-  double removal_s = 0;        // wall time of the tile's removal
-  double removal_cpu_s = 0;    // CPU time of the tile's removal (every thread of the process)
-  double cpu_s = 0;            // CPU time of the process so far (motion, stock, removal, reference)
+  double rows = 0;            // rows of the first grid (needles for N-buffer)
+  double rays = 0;            // rays of the tile
+  double sweeps = 0;          // sweeps that reach the tile
+  double memory_bytes = 0;    // the tile's field
+  double peak_rss_bytes = 0;  // the process's peak resident memory so far (VmHWM)
+  double removal_s = 0;       // wall time of the tile's removal
+  double removal_cpu_s = 0;   // CPU time of the tile's removal (every thread of the process)
+  double cpu_s = 0;           // CPU time of the process so far (motion, stock, removal, reference)
 };
 std::vector<TileFigures> gather_tile_figures(const TileFigures& mine);
 

@@ -17,9 +17,9 @@ struct Case {
   Eigen::MatrixXd command, actual;
 };
 
-// The predictive-compensation paper's starfish contour (five lobes, r = 40 + 8 sin 5 theta mm) at 3 m/min (50 um per sample), laps
-// repeated to `samples`. The actual lags 12.4 samples (0.62 mm) with a 0-6 um lateral error varying along the
-// path: the lag is ten times the step, so the search has real work to do.
+// The predictive-compensation paper's starfish contour (five lobes, r = 40 + 8 sin 5 theta mm) at 3 m/min (50 um per
+// sample), laps repeated to `samples`. The actual lags 12.4 samples (0.62 mm) with a 0-6 um lateral error varying along
+// the path: the lag is ten times the step, so the search has real work to do.
 Case starfish(Eigen::Index samples) {
   Case c;
   c.command.resize(samples, 3);

@@ -61,7 +61,8 @@ void run_simulate(benchmark::State& state, bool trace) {
   state.counters["axes"] = static_cast<double>(s.job.machine.axes.size());
   state.counters["simulated_s"] = simulated;
   state.counters["x_real_time"] = benchmark::Counter(it * simulated, benchmark::Counter::kIsRate);
-  state.counters["current_steps/s"] = benchmark::Counter(it * static_cast<double>(inner_steps), benchmark::Counter::kIsRate);
+  state.counters["current_steps/s"] =
+      benchmark::Counter(it * static_cast<double>(inner_steps), benchmark::Counter::kIsRate);
 }
 
 void BM_Drives_PlaneCylinderFast_5Axes(benchmark::State& state) { run_simulate(state, false); }
@@ -83,8 +84,8 @@ void BM_CascadeAxis_Step(benchmark::State& state) {
     c.velocity = 10.0 * std::cos(t);
     benchmark::DoNotOptimize(ax.step(c));
   }
-  state.counters["x_real_time"] = benchmark::Counter(static_cast<double>(state.iterations()) * 1e-3,
-                                                     benchmark::Counter::kIsRate);
+  state.counters["x_real_time"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * 1e-3, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_CascadeAxis_Step);
 

@@ -1,9 +1,9 @@
-// Feed planning (Chen et al. 2016, drives/feedplan): size and solve time of the linear program on the squared feed, and the
-// cost growth of the windowed plan with the path length. The path: the butterfly curve (parts/feedplan) sampled by
+// Feed planning (Chen et al. 2016, drives/feedplan): size and solve time of the linear program on the squared feed, and
+// the cost growth of the windowed plan with the path length. The path: the butterfly curve (parts/feedplan) sampled by
 // parameter with arc-length correction every 0.05 mm, traversed as many times as the sample count needs (the
-// samples tiled end to end, arc length continued), Chen et al. 2016 section 4's limits (T 4 ms, chord 0.5 um, contour error
-// 20 um with its PID servo, 50 mm/s, 200 mm/s^2) and the jerk of parts/feedplan/chen2016_machine.toml (5000 mm/s^3).
-// Targets (issue 10): 20 000 samples in <= 1 s; the windowed cost linear in the path length. Figures:
+// samples tiled end to end, arc length continued), Chen et al. 2016 section 4's limits (T 4 ms, chord 0.5 um, contour
+// error 20 um with its PID servo, 50 mm/s, 200 mm/s^2) and the jerk of parts/feedplan/chen2016_machine.toml (5000
+// mm/s^3). Targets (issue 10): 20 000 samples in <= 1 s; the windowed cost linear in the path length. Figures:
 // bench/README.md.
 #include "motion/nurbs.hpp"
 #include "methods/feedplan.hpp"
@@ -96,7 +96,12 @@ void BM_FeedPlanOneLp(benchmark::State& state) {
   }
   report(state, p);
 }
-BENCHMARK(BM_FeedPlanOneLp)->Args({20000, 0})->Args({20000, 1})->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+BENCHMARK(BM_FeedPlanOneLp)
+    ->Args({20000, 0})
+    ->Args({20000, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3);
 
 // Overlapping windows of 4000 samples (the default), 20 000 to 200 000 samples.
 void BM_FeedPlanWindowed(benchmark::State& state) {

@@ -63,7 +63,8 @@ const Data& data() {
         const double xs = r.scan.x(i), ys = r.scan.y(j);
         Eigen::Vector3d P = r.truth.apply({xs, ys, 0});
         for (int it = 0; it < 6; ++it) {
-          P.z() = part(P.x(), P.y()) - 0.008 * std::exp(-std::pow((P.y() - 5.0) / 0.1, 2) - std::pow((P.x() - 4.0) / 1.5, 2));
+          P.z() = part(P.x(), P.y()) -
+                  0.008 * std::exp(-std::pow((P.y() - 5.0) / 0.1, 2) - std::pow((P.x() - 4.0) / 1.5, 2));
           const Eigen::Vector3d p = inv.apply(P);
           P.head<2>() += r.truth.R.topLeftCorner<2, 2>() * Eigen::Vector2d(xs - p.x(), ys - p.y());
         }

@@ -17,8 +17,9 @@
 namespace {
 
 namespace fs = std::filesystem;
-const char* const kFiles[] = {"KautschukInfiniteFocus.x3p", "sample-land.x3p", "SurfaceTopography/x3p-2.x3p",
-                              "SurfaceTopography/sur-3.sur", "SurfaceTopography/bcrf-1.bcrf", "SurfaceTopography/matrix-3.txt",
+const char* const kFiles[] = {"KautschukInfiniteFocus.x3p",        "sample-land.x3p",
+                              "SurfaceTopography/x3p-2.x3p",       "SurfaceTopography/sur-3.sur",
+                              "SurfaceTopography/bcrf-1.bcrf",     "SurfaceTopography/matrix-3.txt",
                               "SurfaceTopography/matrix-4.txt.gz", "SurfaceTopography/dektak-1.csv"};
 
 fs::path real(int k) { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "scans" / kFiles[k]; }
@@ -43,7 +44,8 @@ void BM_ReadRealScan(benchmark::State& state) {
     benchmark::DoNotOptimize(f.grid.z_mm.data());
   }
   state.counters["points"] = static_cast<double>(points);
-  state.counters["points_per_s"] = benchmark::Counter(static_cast<double>(points), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["points_per_s"] =
+      benchmark::Counter(static_cast<double>(points), benchmark::Counter::kIsIterationInvariantRate);
   state.counters["file_MB"] = static_cast<double>(fs::file_size(file)) / 1e6;
   state.counters["peak_rss_MB"] = peak_rss_mb();
 }

@@ -10,13 +10,12 @@
 // where the CPU has it), 1 cut_reference() (the kernel before issue 21's tile bounds and fused rows: the "before" of
 // one interleaved run), 2 cut() in its generic build.
 // Counters: ray-tool evaluations per second (all threads; per thread), the shares of the evaluations settled by a
-// tile's bound, by the ray's bound and by the exact cut without change, and of those that cut (cut() only), the height error against the exact ball
-// envelope of peer_envelope_grid.py (its formula, evaluated here at the 1 mm nodes x, y in [2, 98], which lie on
-// pass centres), the z-map's memory (DexelGrid::memory_bytes per dexel) and the stock set-up time (make_zmap +
-// fill_box, not in the timed region). The timed region is cut() alone.
-// VMSIM_REMOVAL_HEIGHTS=prefix writes the z-map's heights at x, y = 1..99 mm to prefix_<n>_t<threads>.xyz ("x y z"
-// lines, the layout of the peer script's .heights.xyz) for comparison with peer_envelope_grid.py's ref.xyz.
-// Figures: bench/README.md.
+// tile's bound, by the ray's bound and by the exact cut without change, and of those that cut (cut() only), the height
+// error against the exact ball envelope of peer_envelope_grid.py (its formula, evaluated here at the 1 mm nodes x, y in
+// [2, 98], which lie on pass centres), the z-map's memory (DexelGrid::memory_bytes per dexel) and the stock set-up time
+// (make_zmap + fill_box, not in the timed region). The timed region is cut() alone. VMSIM_REMOVAL_HEIGHTS=prefix writes
+// the z-map's heights at x, y = 1..99 mm to prefix_<n>_t<threads>.xyz ("x y z" lines, the layout of the peer script's
+// .heights.xyz) for comparison with peer_envelope_grid.py's ref.xyz. Figures: bench/README.md.
 #include "core/interp.hpp"
 #include "core/job.hpp"
 #include "core/kinematics.hpp"
@@ -134,7 +133,8 @@ void BM_ZmapBallRaster(benchmark::State& state) {
       if (std::FILE* f = std::fopen(path.c_str(), "w")) {
         for (int xi = 1; xi <= 99; ++xi)
           for (int yi = 1; yi <= 99; ++yi)
-            std::fprintf(f, "%d %d %.7f\n", xi, yi, z.top(static_cast<int>(std::lround(xi / h)), static_cast<int>(std::lround(yi / h))));
+            std::fprintf(f, "%d %d %.7f\n", xi, yi,
+                         z.top(static_cast<int>(std::lround(xi / h)), static_cast<int>(std::lround(yi / h))));
         std::fclose(f);
       }
     }
@@ -178,7 +178,6 @@ BENCHMARK(BM_ZmapBallRaster)
     ->Args({32, 2, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
-
 
 // A real CAM program's sweeps: CAMotics' flower_mold.nc (bench/flower_mold/job.toml, read from ../shared), read,
 // interpolated at Te 1 ms on the Mikron and put through the forward transform: the setpoints' tool track (the drives'
@@ -235,13 +234,15 @@ void BM_FlowerTrack(benchmark::State& state) {
   if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
   std::size_t sweeps = 0;
   for (auto _ : state) {
-    const TrackSweeps t = state.range(0) == 1 ? sweeps_from_track_reference(f.tool, f.track) : sweeps_from_track(f.tool, f.track);
+    const TrackSweeps t =
+        state.range(0) == 1 ? sweeps_from_track_reference(f.tool, f.track) : sweeps_from_track(f.tool, f.track);
     sweeps = t.sweeps.size();
   }
   state.counters["poses"] = static_cast<double>(f.track.tip_mm.rows());
   state.counters["sweeps"] = static_cast<double>(sweeps);
-  state.counters["ns/pose"] = benchmark::Counter(static_cast<double>(f.track.tip_mm.rows()) * 1e-9,
-                                                 benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["ns/pose"] =
+      benchmark::Counter(static_cast<double>(f.track.tip_mm.rows()) * 1e-9,
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_FlowerTrack)->ArgNames({"kernel"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
@@ -275,7 +276,12 @@ void BM_FlowerZmap(benchmark::State& state) {
     state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
   }
 }
-BENCHMARK(BM_FlowerZmap)->ArgNames({"n", "kernel"})->Args({10, 0})->Args({10, 1})->Args({40, 0})->Args({40, 1})
+BENCHMARK(BM_FlowerZmap)
+    ->ArgNames({"n", "kernel"})
+    ->Args({10, 0})
+    ->Args({10, 1})
+    ->Args({40, 0})
+    ->Args({40, 1})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

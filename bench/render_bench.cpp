@@ -28,7 +28,8 @@ using namespace vmsim;
 constexpr int kN = 708;  // nodes per side: 2 * 707^2 = 999 698 triangles
 
 double height(double x, double y) {
-  return 0.5 * std::sin(x / 7) * std::cos(y / 9) + 0.02 * std::sin(x * 3) - 0.05 * std::exp(-std::pow((y - 35) / 1.5, 2));
+  return 0.5 * std::sin(x / 7) * std::cos(y / 9) + 0.02 * std::sin(x * 3) -
+         0.05 * std::exp(-std::pow((y - 35) / 1.5, 2));
 }
 
 const core::HeightGrid& grid() {
@@ -47,7 +48,8 @@ const core::HeightGrid& deviation() {
   static const core::HeightGrid d = [] {
     core::HeightGrid h = grid();
     for (Eigen::Index j = 0; j < kN; ++j)
-      for (Eigen::Index i = 0; i < kN; ++i) h.z_mm(j, i) = 0.015 * std::exp(-std::pow((h.x(i) - 40) / 4, 2)) * std::sin(h.y(j) / 5);
+      for (Eigen::Index i = 0; i < kN; ++i)
+        h.z_mm(j, i) = 0.015 * std::exp(-std::pow((h.x(i) - 40) / 4, 2)) * std::sin(h.y(j) / 5);
     return h;
   }();
   return d;
@@ -132,7 +134,8 @@ void BM_GridToPng(benchmark::State& state) {
 BENCHMARK(BM_GridToPng)->Args({0, 0})->Args({1, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_WritePng(benchmark::State& state) {
-  const render::PartImage img = render::render_part(window(), grid(), nullptr, picture(false, render::ViewDirection::Isometric));
+  const render::PartImage img =
+      render::render_part(window(), grid(), nullptr, picture(false, render::ViewDirection::Isometric));
   for (auto _ : state) render::write_png(png, img.image);
 }
 BENCHMARK(BM_WritePng)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -19,9 +19,12 @@ constexpr double kTwoPi = 2.0 * units::kPi;
 
 PlaneAxes plane_axes(ArcPlane plane) {
   switch (plane) {
-    case ArcPlane::XY: return {kX, kY, kZ};
-    case ArcPlane::ZX: return {kZ, kX, kY};
-    case ArcPlane::YZ: return {kY, kZ, kX};
+    case ArcPlane::XY:
+      return {kX, kY, kZ};
+    case ArcPlane::ZX:
+      return {kZ, kX, kY};
+    case ArcPlane::YZ:
+      return {kY, kZ, kX};
   }
   return {};
 }
@@ -43,7 +46,8 @@ ArcFrame arc_frame(const Move& m, const std::string& file) {
   a.start_angle_rad = std::atan2(s[a.axis2] - c2, s[a.axis1] - c1);
   const double te = std::atan2(e[a.axis2] - c2, e[a.axis1] - c1);
   a.extra_turns = std::abs(m.rotation) - 1;
-  a.full_circle = std::hypot(e[a.axis1] - s[a.axis1], e[a.axis2] - s[a.axis2]) < 1e-9 * std::max(1.0, a.start_radius_mm);
+  a.full_circle =
+      std::hypot(e[a.axis1] - s[a.axis1], e[a.axis2] - s[a.axis2]) < 1e-9 * std::max(1.0, a.start_radius_mm);
   // The angle from start to end in the direction of rotation, in [0, 2 pi), and a whole turn for coinciding points
   // or an end on the start's ray (within 1e-12 rad: an equal-radius arc that short is a coinciding point already), as
   // LinuxCNC's pmCircleInit and its interpreter's find_turn make it.
@@ -55,9 +59,7 @@ ArcFrame arc_frame(const Move& m, const std::string& file) {
   return a;
 }
 
-bool ArcFrame::constant_radius() const {
-  return std::abs(end_radius_mm - start_radius_mm) <= 1e-12 * start_radius_mm;
-}
+bool ArcFrame::constant_radius() const { return std::abs(end_radius_mm - start_radius_mm) <= 1e-12 * start_radius_mm; }
 
 Vec6 ArcFrame::point_at(double f) const {
   if (f <= 0) return start;

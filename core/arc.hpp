@@ -28,7 +28,7 @@ struct PlaneAxes {
 PlaneAxes plane_axes(ArcPlane plane);
 
 struct ArcFrame {
-  int axis1 = kX, axis2 = kY, normal = kZ;  // plane_axes(Move::plane)
+  int axis1 = kX, axis2 = kY, normal = kZ;              // plane_axes(Move::plane)
   Eigen::Vector2d centre_mm = Eigen::Vector2d::Zero();  // (axis1, axis2) as Move::centre_mm
   double start_radius_mm = 0, end_radius_mm = 0;
   double start_angle_rad = 0;  // of the start point about the centre, from axis1 towards axis2, in [-pi, pi]

@@ -62,7 +62,8 @@ void AtomicFile::commit() {
   if (!buf_->out) throw Error(fmt::format("{}: write failed (disk full?)", target_.string()));
   if (::fsync(buf_->fd) != 0)
     throw Error(fmt::format("{}: cannot flush the file to disk: {}", target_.string(), std::strerror(errno)));
-  if (buf_->buf.close() == nullptr) throw Error(fmt::format("{}: write failed on close (disk full?)", target_.string()));
+  if (buf_->buf.close() == nullptr)
+    throw Error(fmt::format("{}: write failed on close (disk full?)", target_.string()));
   std::error_code ec;
   std::filesystem::rename(temp_, target_, ec);
   if (ec) throw Error(fmt::format("{}: cannot move the finished file into place: {}", target_.string(), ec.message()));

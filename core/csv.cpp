@@ -30,9 +30,7 @@ void split(std::string_view line, std::vector<std::string_view>& out) {
 }
 
 // Cells quoted in messages are cut short: a hostile file's 1 MB cell does not make a 1 MB message.
-std::string shown(std::string_view s) {
-  return s.size() <= 40 ? std::string(s) : std::string(s.substr(0, 40)) + "...";
-}
+std::string shown(std::string_view s) { return s.size() <= 40 ? std::string(s) : std::string(s.substr(0, 40)) + "..."; }
 
 }  // namespace
 
@@ -130,8 +128,8 @@ bool CsvReader::next() {
     return false;
   }
   if (has_header() && cells_.size() != columns_.size())
-    throw error(fmt::format("{} cells, the header (line {}) names {} columns", cells_.size(), header_line_,
-                            columns_.size()));
+    throw error(
+        fmt::format("{} cells, the header (line {}) names {} columns", cells_.size(), header_line_, columns_.size()));
   return true;
 }
 

@@ -91,7 +91,7 @@ class CsvReader {
   std::string text_;                     // the current line
   std::vector<std::string_view> cells_;  // into text_
   int line_ = 0, read_ = 0;
-  bool pending_ = false;                 // the first row was read while looking for a header
+  bool pending_ = false;  // the first row was read while looking for a header
 };
 
 // Writes a CSV file atomically (core/atomic_file): '#' comment lines, a header row, then rows the caller formats

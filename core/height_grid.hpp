@@ -12,9 +12,9 @@ namespace vmsim::core {
 using HeightArray = Eigen::Array<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 struct HeightGrid {
-  double x0_mm = 0.0, y0_mm = 0.0;   // position of node (0, 0)
-  double dx_mm = 1.0, dy_mm = 1.0;   // spacing, > 0
-  HeightArray z_mm;                  // ny x nx; NaN = invalid
+  double x0_mm = 0.0, y0_mm = 0.0;  // position of node (0, 0)
+  double dx_mm = 1.0, dy_mm = 1.0;  // spacing, > 0
+  HeightArray z_mm;                 // ny x nx; NaN = invalid
 
   Eigen::Index nx() const { return z_mm.cols(); }
   Eigen::Index ny() const { return z_mm.rows(); }

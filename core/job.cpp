@@ -26,8 +26,8 @@ ToolSpec read_tool(const TomlTable& t) {
     tool.shape = ToolShape::BullNose;
     tool.corner_radius_mm = t.positive("corner_radius_mm");
     if (tool.corner_radius_mm >= tool.diameter_mm / 2)
-      t.fail("corner_radius_mm", fmt::format("expected less than the radius {} mm (use type = \"ball\")",
-                                             tool.diameter_mm / 2));
+      t.fail("corner_radius_mm",
+             fmt::format("expected less than the radius {} mm (use type = \"ball\")", tool.diameter_mm / 2));
   }
   tool.flute_length_mm = t.opt_positive("flute_length_mm").value_or(2 * tool.diameter_mm);
   tool.length_mm = t.opt_positive("length_mm").value_or(std::max(50.0, tool.flute_length_mm));
@@ -59,7 +59,7 @@ StockSpec read_stock(const TomlTable& t) {
 RemovalSpec read_removal(const TomlTable& t) {
   RemovalSpec r;
   const std::string field = t.opt_choice("field", {"zmap", "tridexel", "nbuffer"}).value_or("zmap");
-  r.field = field == "zmap" ? RemovalSpec::Field::ZMap
+  r.field = field == "zmap"       ? RemovalSpec::Field::ZMap
             : field == "tridexel" ? RemovalSpec::Field::TriDexel
                                   : RemovalSpec::Field::NBuffer;
   if (auto h = t.opt_positive("spacing_mm")) {
@@ -67,7 +67,7 @@ RemovalSpec read_removal(const TomlTable& t) {
     r.spacing_mm = *h;
   }
   const std::string motion = t.opt_choice("motion", {"actual", "setpoints", "program"}).value_or("actual");
-  r.motion = motion == "actual" ? RemovalSpec::Motion::Actual
+  r.motion = motion == "actual"      ? RemovalSpec::Motion::Actual
              : motion == "setpoints" ? RemovalSpec::Motion::Setpoints
                                      : RemovalSpec::Motion::Program;
   if (auto tol = t.opt_positive("track_tolerance_mm")) r.track_tolerance_mm = *tol, r.track_tolerance_given = true;
@@ -109,8 +109,10 @@ ReferenceSpec read_reference(const TomlTable& t) {
            : kind == "job"   ? ReferenceSpec::Kind::Job
            : kind == "stock" ? ReferenceSpec::Kind::Stock
                              : ReferenceSpec::Kind::None;
-  if (r.kind == ReferenceSpec::Kind::Job) r.job_file = t.existing_path("job");
-  else if (t.has("job")) t.fail("job", "only valid with kind = \"job\"");
+  if (r.kind == ReferenceSpec::Kind::Job)
+    r.job_file = t.existing_path("job");
+  else if (t.has("job"))
+    t.fail("job", "only valid with kind = \"job\"");
   if (r.kind == ReferenceSpec::Kind::Feed) {
     r.feed_scale = t.positive("feed_scale");
   } else if (t.has("feed_scale")) {
@@ -174,11 +176,13 @@ FeedPlanSpec read_feedplan(const TomlTable& t) {
     } else if (f.servo == FeedPlanSpec::Servo::TransferFunction) {
       ax.num = a.numbers("num"), ax.den = a.numbers("den");
       if (ax.den.size() < 2 || ax.den.front() == 0.0 || ax.num.empty() || ax.num.size() > ax.den.size())
-        a.fail("den", "expected a proper transfer function: den of degree >= 1 with a non-zero first coefficient, "
-                      "num no longer than den");
+        a.fail("den",
+               "expected a proper transfer function: den of degree >= 1 with a non-zero first coefficient, "
+               "num no longer than den");
     } else {
-      a.fail("name", "[[feedplan.axis]] is for servo = \"pid\" or \"transfer_function\" (\"machine\" takes the "
-                     "machine file's drives)");
+      a.fail("name",
+             "[[feedplan.axis]] is for servo = \"pid\" or \"transfer_function\" (\"machine\" takes the "
+             "machine file's drives)");
     }
     a.finish();
     f.axes.push_back(ax);
@@ -223,7 +227,8 @@ Job load_job(const std::filesystem::path& path) {
     job.program_lenient = jt.opt_boolean("program_lenient").value_or(false);
     if (auto u = jt.opt_string("program_units")) {
       if (*u != "mm" && *u != "inch")
-        jt.fail("program_units", "expected \"mm\" or \"inch\" (the unit of an APT CL file without UNITS/), found \"" + *u + "\"");
+        jt.fail("program_units",
+                "expected \"mm\" or \"inch\" (the unit of an APT CL file without UNITS/), found \"" + *u + "\"");
       job.program_units = *u;
     }
     // Identified axis models (vmsim identify) run instead of the drives of the machine file (drives/axis_model_file).

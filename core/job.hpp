@@ -19,7 +19,7 @@ struct ToolSpec {
   double diameter_mm = 10.0;
   double corner_radius_mm = 5.0;  // ball: D/2, flat: 0, bull-nose: given
   double flute_length_mm = 20.0;
-  double length_mm = 50.0;        // gauge length, spindle nose to tip
+  double length_mm = 50.0;  // gauge length, spindle nose to tip
 };
 
 struct StockSpec {
@@ -36,12 +36,13 @@ struct RemovalSpec {
   // The kernel: dexels (exact along their rays) or an OpenVDB narrow-band level set (removal/vdb_part.hpp: isotropic
   // to within its voxel, watertight meshes). With "vdb", `field` only chooses the outputs (height grid, or needles).
   enum class Method { Dexel, Vdb } method = Method::Dexel;
-  double voxel_mm = 0.05;           // vdb: level-set voxel size (default: spacing_mm)
-  double mesh_adaptivity = 0.0;     // vdb and tri-dexel: volumeToMesh adaptivity in [0, 1] of the part mesh
+  double voxel_mm = 0.05;        // vdb: level-set voxel size (default: spacing_mm)
+  double mesh_adaptivity = 0.0;  // vdb and tri-dexel: volumeToMesh adaptivity in [0, 1] of the part mesh
   enum class Field { ZMap, TriDexel, NBuffer } field = Field::ZMap;
-  double spacing_mm = 0.05;       // ray spacing of z-map and tri-dexel grids
+  double spacing_mm = 0.05;  // ray spacing of z-map and tri-dexel grids
   // Whose motion cuts: the drives' actual positions (the marks come from the drives), the interpolator's
-  // setpoints, or the programmed path itself (the feed-drive simulation paper section 1: to separate interpolator and drive effects).
+  // setpoints, or the programmed path itself (the feed-drive simulation paper section 1: to separate interpolator and
+  // drive effects).
   enum class Motion { Actual, Setpoints, Program } motion = Motion::Actual;
   double track_tolerance_mm = 1e-4;  // largest distance between the removed motion and the sampled poses
   // Whether the job gave track_tolerance_mm. If not, method "vdb" cuts a turning tool (5-axis) at voxel_mm / 10
@@ -55,16 +56,16 @@ struct RemovalSpec {
 // What the predicted surface is compared with to find the marks.
 struct ReferenceSpec {
   // The same program cut exactly along its programmed path (the nominal cut); the same program through the same
-  // chain with its feeds scaled (the feed-drive simulation paper's low-feed reference); the part another job leaves; the stock this job
-  // starts from; or nothing.
+  // chain with its feeds scaled (the feed-drive simulation paper's low-feed reference); the part another job leaves;
+  // the stock this job starts from; or nothing.
   enum class Kind { Program, Feed, Job, Stock, None } kind = Kind::Program;
   double feed_scale = 0.01;        // Kind::Feed
   std::filesystem::path job_file;  // Kind::Job
 };
 
 struct InterpSpec {
-  double period_s = 1e-3;         // Te
-  double tolerance_mm = 0.020;    // largest distance of a setpoint from the programmed geometry
+  double period_s = 1e-3;       // Te
+  double tolerance_mm = 0.020;  // largest distance of a setpoint from the programmed geometry
   // Whether the job gave tolerance_mm; if not, a program that sets its own (Sinumerik CYCLE832,
   // core::ToolPath::program_tolerance_mm) is interpolated with that.
   bool tolerance_given = false;
@@ -91,21 +92,22 @@ struct FeedPlanSpec {
   // The servo of the contour-error model and the simulation: the machine's cascades ([axes.drive], linearised by
   // drives/linear_model), Chen et al.'s PID servo (eq. 2) or a continuous transfer function, given per moving axis.
   enum class Servo { Machine, Pid, TransferFunction } servo = Servo::Machine;
-  struct Axis {                             // [[feedplan.axis]]
-    std::string name;                       // X Y Z
-    double kp = 0, ki = 0, kd = 0, ka = 0, kt = 0, inertia = 0, damping = 0, rg = 0;  // pid (Chen et al. 2016 Table 1 units)
-    std::vector<double> num, den;           // transfer_function: descending powers of s
+  struct Axis {        // [[feedplan.axis]]
+    std::string name;  // X Y Z
+    double kp = 0, ki = 0, kd = 0, ka = 0, kt = 0, inertia = 0, damping = 0,
+           rg = 0;                 // pid (Chen et al. 2016 Table 1 units)
+    std::vector<double> num, den;  // transfer_function: descending powers of s
   };
   std::vector<Axis> axes;
 };
 
 struct Job {
   std::string name;
-  std::filesystem::path file;          // the job file itself
+  std::filesystem::path file;  // the job file itself
   std::filesystem::path machine_file;
   std::filesystem::path program_file;
   std::optional<std::filesystem::path> tool_table_file;
-  std::vector<int> no_motion_mcodes;   // G-code M codes the machine remaps to actions without motion
+  std::vector<int> no_motion_mcodes;  // G-code M codes the machine remaps to actions without motion
   // Where the tool tip is before the program runs (workpiece frame). Without it the program's own start applies
   // (LinuxCNC: the origin, which with a tool length offset puts the tip below the origin).
   std::optional<Eigen::Vector3d> start_mm;

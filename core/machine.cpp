@@ -184,7 +184,8 @@ KinematicChain read_chain(const TomlTable& kt, const toml::table& root, const Ma
   for (const MachineAxis& ax : m.axes)
     if (used_by[ax.program_axis].empty())
       kt.fail("workpiece", fmt::format("axis {} is in neither chain (expected a joint with axis = \"{}\" in "
-                                       "kinematics.workpiece or kinematics.tool)", ax.name, ax.name));
+                                       "kinematics.workpiece or kinematics.tool)",
+                                       ax.name, ax.name));
   // The linear joints must span space with every joint at zero, or no tip position can be reached uniquely.
   Eigen::Matrix3d lin = Eigen::Matrix3d::Zero();
   int n = 0;

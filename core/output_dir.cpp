@@ -76,7 +76,8 @@ void cleanup_thread() {
 void install_signal_cleanup() {
   static std::once_flag once;
   std::call_once(once, [] {
-    if (::pipe2(g_pipe, O_CLOEXEC) != 0) throw Error(std::string("cannot set up signal handling: ") + std::strerror(errno));
+    if (::pipe2(g_pipe, O_CLOEXEC) != 0)
+      throw Error(std::string("cannot set up signal handling: ") + std::strerror(errno));
     std::thread(cleanup_thread).detach();
     struct sigaction sa {};
     sa.sa_handler = on_terminate_signal;
@@ -150,9 +151,10 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals s
   if (!cwd.empty()) {
     const auto rel = fs::weakly_canonical(cwd, ec).lexically_relative(canon);
     if (!rel.empty() && *rel.begin() != "..")
-      throw Error(fmt::format("{}: is the current directory or holds it; vmsim writes a result directory whole and "
-                              "replaces it whole: give another --out (a new directory, or an earlier result)",
-                              t.string()));
+      throw Error(
+          fmt::format("{}: is the current directory or holds it; vmsim writes a result directory whole and "
+                      "replaces it whole: give another --out (a new directory, or an earlier result)",
+                      t.string()));
   }
   target_ = t;
   const fs::path parent = target_.parent_path();
@@ -162,7 +164,8 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals s
   // The lock: a hidden file beside the target, never removed (removing it would let two runs lock two files).
   const fs::path lock_file = parent / fmt::format(".{}.vmsim-lock", target_.filename().string());
   lock_fd_ = ::open(lock_file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
-  if (lock_fd_ < 0) throw Error(fmt::format("{}: cannot open the lock file: {}", lock_file.string(), std::strerror(errno)));
+  if (lock_fd_ < 0)
+    throw Error(fmt::format("{}: cannot open the lock file: {}", lock_file.string(), std::strerror(errno)));
   if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
     char holder[512] = {};
@@ -172,13 +175,14 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals s
     std::string who(holder);
     while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
     if (err == EWOULDBLOCK)
-      throw Error(fmt::format("{}: another process is writing this output directory ({}); wait for it to end or give "
-                              "another --out",
-                              target_.string(), who.empty() ? "unknown" : who));
+      throw Error(
+          fmt::format("{}: another process is writing this output directory ({}); wait for it to end or give "
+                      "another --out",
+                      target_.string(), who.empty() ? "unknown" : who));
     throw Error(fmt::format("{}: cannot lock {}: {}", target_.string(), lock_file.string(), std::strerror(err)));
   }
-  const std::string me = fmt::format("{} (pid {} on {}, since {})\n", command, static_cast<long>(::getpid()),
-                                     hostname(), now_utc());
+  const std::string me =
+      fmt::format("{} (pid {} on {}, since {})\n", command, static_cast<long>(::getpid()), hostname(), now_utc());
   if (::ftruncate(lock_fd_, 0) != 0 || ::pwrite(lock_fd_, me.data(), me.size(), 0) != static_cast<ssize_t>(me.size())) {
     // The lock holds without the note; only a second run's message loses the holder's name.
   }
@@ -189,10 +193,11 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals s
         throw Error(target_.string() + ": exists and is not a directory; give --out a directory");
       const std::string foreign = foreign_entry(target_);
       if (!foreign.empty())
-        throw Error(fmt::format("{}: holds files vmsim did not write (e.g. {}); vmsim replaces its output directory "
-                                "whole, which would delete them: give --out a new or empty directory, or an earlier "
-                                "result of vmsim",
-                                target_.string(), foreign));
+        throw Error(
+            fmt::format("{}: holds files vmsim did not write (e.g. {}); vmsim replaces its output directory "
+                        "whole, which would delete them: give --out a new or empty directory, or an earlier "
+                        "result of vmsim",
+                        target_.string(), foreign));
     }
     // Staging directories left by dead processes: this process holds the lock, so no live one owns them.
     const std::string prefix = staging_prefix(target_);

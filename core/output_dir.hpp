@@ -23,8 +23,7 @@ class OutputDir {
   // remove every staging directory and exit with 128 + the signal. Leave (the Python module, whose interpreter owns
   // SIGINT as KeyboardInterrupt) installs nothing: an interrupted call unwinds and the destructor removes it.
   enum class Signals { CleanUpAndExit, Leave };
-  OutputDir(const std::filesystem::path& target, std::string_view command,
-            Signals signals = Signals::CleanUpAndExit);
+  OutputDir(const std::filesystem::path& target, std::string_view command, Signals signals = Signals::CleanUpAndExit);
   ~OutputDir();  // without commit(): removes the staging directory; the lock goes with the descriptor
   OutputDir(const OutputDir&) = delete;
   OutputDir& operator=(const OutputDir&) = delete;

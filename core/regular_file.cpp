@@ -13,7 +13,8 @@ void require_regular_file(const std::filesystem::path& file) {
                      : std::filesystem::is_character_file(st) || std::filesystem::is_block_file(st)
                          ? "a device, which could be read without end"
                          : "not a regular file";
-  throw Error(located(file.string(), 0, std::string("not a regular file: it is ") + kind + "; give the path of a file"));
+  throw Error(
+      located(file.string(), 0, std::string("not a regular file: it is ") + kind + "; give the path of a file"));
 }
 
 }  // namespace vmsim::core

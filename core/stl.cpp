@@ -223,8 +223,8 @@ class AsciiParser {
           skip_line();
           continue;
         }
-        fail(tok_line_, "expected the end of the file or another \"solid\" after \"endsolid\", found \"" +
-                            shown(t) + "\"");
+        fail(tok_line_,
+             "expected the end of the file or another \"solid\" after \"endsolid\", found \"" + shown(t) + "\"");
       }
       if (!iequals(t, "facet")) fail(tok_line_, "expected \"facet\" or \"endsolid\", found \"" + shown(t) + "\"");
       expect("normal");
@@ -278,7 +278,8 @@ class AsciiParser {
   void expect(std::string_view kw) {
     const std::string_view t = next();
     if (!iequals(t, kw))
-      fail(tok_line_, fmt::format("expected \"{}\", found \"{}\"", kw, t.empty() ? std::string("end of file") : shown(t)));
+      fail(tok_line_,
+           fmt::format("expected \"{}\", found \"{}\"", kw, t.empty() ? std::string("end of file") : shown(t)));
   }
 
   double number(bool coordinate) {
@@ -288,8 +289,7 @@ class AsciiParser {
     if (s.size() > 1 && s[0] == '+') s.remove_prefix(1);  // from_chars refuses a leading '+'
     double v = 0;
     const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-    if (ec == std::errc::result_out_of_range)
-      fail(tok_line_, "number \"" + shown(t) + "\" is out of range");
+    if (ec == std::errc::result_out_of_range) fail(tok_line_, "number \"" + shown(t) + "\" is out of range");
     if (ec != std::errc() || p != s.data() + s.size()) fail(tok_line_, "expected a number, found \"" + shown(t) + "\"");
     if (coordinate && (!std::isfinite(v) || std::abs(v) > kMaxCoordMm))
       fail(tok_line_, "vertex coordinate \"" + shown(t) + "\" is not a finite number within +-1e9 mm");
@@ -311,13 +311,15 @@ void check_writable(const fs::path& path, const TriangleMesh& mesh) {
   for (Eigen::Index t = 0; t < mesh.triangles.rows(); ++t)
     for (int c = 0; c < 3; ++c)
       if (mesh.triangles(t, c) < 0 || mesh.triangles(t, c) >= nv)
-        throw Error(located(path.string(), 0, fmt::format("cannot write triangle #{}: vertex index {} out of range", t + 1,
-                                                          mesh.triangles(t, c))));
+        throw Error(located(
+            path.string(), 0,
+            fmt::format("cannot write triangle #{}: vertex index {} out of range", t + 1, mesh.triangles(t, c))));
   for (Eigen::Index v = 0; v < nv; ++v)
     for (int a = 0; a < 3; ++a)
       if (!std::isfinite(mesh.vertices_mm(v, a)) || std::abs(mesh.vertices_mm(v, a)) > kMaxCoordMm)
-        throw Error(located(path.string(), 0, fmt::format("cannot write vertex #{}: coordinate {} is not within +-1e9 mm",
-                                                          v + 1, mesh.vertices_mm(v, a))));
+        throw Error(located(path.string(), 0,
+                            fmt::format("cannot write vertex #{}: coordinate {} is not within +-1e9 mm", v + 1,
+                                        mesh.vertices_mm(v, a))));
 }
 
 Eigen::Vector3d unit_normal(const TriangleMesh& m, Eigen::Index t) {
@@ -371,15 +373,17 @@ TriangleMesh read_stl(const fs::path& path, const StlReadOptions& options) {
   }
   // ASCII. A stray binary byte means a binary file with a "solid" header whose size does not match, or a damaged
   // text file: say both.
-  const auto bad = std::find_if(d.begin(), d.end(), [](char c) { return !is_text_byte(static_cast<unsigned char>(c)); });
+  const auto bad =
+      std::find_if(d.begin(), d.end(), [](char c) { return !is_text_byte(static_cast<unsigned char>(c)); });
   if (bad != d.end()) {
     const auto at = static_cast<std::size_t>(bad - d.begin());
     const int line = 1 + static_cast<int>(std::count(d.begin(), bad, '\n'));
     std::string binary_reading = "too short for a binary STL";
     if (d.size() >= 84) {
       const std::uint32_t n = le32(d.data() + 80);
-      binary_reading = fmt::format("as a binary STL its header declares {} triangles ({} bytes), but the file has {} bytes",
-                                   n, 84 + 50 * static_cast<std::uint64_t>(n), d.size());
+      binary_reading =
+          fmt::format("as a binary STL its header declares {} triangles ({} bytes), but the file has {} bytes", n,
+                      84 + 50 * static_cast<std::uint64_t>(n), d.size());
     }
     throw Error(located(file, line,
                         fmt::format("binary byte 0x{:02x} at byte {} in a file that starts with \"solid\": not an "
@@ -396,7 +400,8 @@ std::optional<std::string> closed_mesh_problem(const TriangleMesh& mesh) {
   for (Eigen::Index t = 0; t < nt; ++t)
     for (int c = 0; c < 3; ++c)
       if (mesh.triangles(t, c) < 0 || mesh.triangles(t, c) >= nv)
-        return fmt::format("facet #{} names vertex index {}, but the mesh has {} vertices", t + 1, mesh.triangles(t, c), nv);
+        return fmt::format("facet #{} names vertex index {}, but the mesh has {} vertices", t + 1, mesh.triangles(t, c),
+                           nv);
   for (Eigen::Index v = 0; v < nv; ++v)
     if (!mesh.vertices_mm.row(v).allFinite()) return fmt::format("vertex #{} is not finite", v + 1);
 
@@ -420,9 +425,8 @@ std::optional<std::string> closed_mesh_problem(const TriangleMesh& mesh) {
     }
   }
   if (edges.empty()) return fmt::format("all {} facets have a repeated vertex (no area)", nt);
-  std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) {
-    return std::tie(x.lo, x.hi, x.tri) < std::tie(y.lo, y.hi, y.tri);
-  });
+  std::sort(edges.begin(), edges.end(),
+            [](const Edge& x, const Edge& y) { return std::tie(x.lo, x.hi, x.tri) < std::tie(y.lo, y.hi, y.tri); });
   // Among the problem edges, report the one met first in file order (its lowest facet).
   const Edge* worst = nullptr;
   std::size_t worst_count = 0;
@@ -442,23 +446,26 @@ std::optional<std::string> closed_mesh_problem(const TriangleMesh& mesh) {
   const std::string edge = "the edge " + segment;
   std::string msg;
   if (worst_count == 1) {
-    msg = fmt::format("the mesh is not closed: {} belongs to facet #{} only (a hole, or a gap between facets whose "
-                      "corners do not coincide)",
-                      edge, worst->tri + 1);
+    msg = fmt::format(
+        "the mesh is not closed: {} belongs to facet #{} only (a hole, or a gap between facets whose "
+        "corners do not coincide)",
+        edge, worst->tri + 1);
   } else if (worst_count > 2) {
     std::string list;
     for (std::size_t k = 0; k < worst_count; ++k) list += (k ? ", #" : "#") + std::to_string(worst[k].tri + 1);
-    msg = fmt::format("the mesh is not manifold: {} is shared by {} facets ({}); a closed surface has exactly 2",
-                      edge, worst_count, list);
+    msg = fmt::format("the mesh is not manifold: {} is shared by {} facets ({}); a closed surface has exactly 2", edge,
+                      worst_count, list);
   } else {
-    msg = fmt::format("inconsistent orientation: facets #{} and #{} run along their shared edge {} in the same "
-                      "direction, so one of them is flipped (vertices go counter-clockwise seen from outside)",
-                      worst->tri + 1, worst[1].tri + 1, segment);
+    msg = fmt::format(
+        "inconsistent orientation: facets #{} and #{} run along their shared edge {} in the same "
+        "direction, so one of them is flipped (vertices go counter-clockwise seen from outside)",
+        worst->tri + 1, worst[1].tri + 1, segment);
   }
   if (degenerate > 0)
-    msg += fmt::format(" [the mesh also has {} facet(s) with a repeated vertex, e.g. #{}, which bound no area and were "
-                       "ignored]",
-                       degenerate, first_degenerate + 1);
+    msg += fmt::format(
+        " [the mesh also has {} facet(s) with a repeated vertex, e.g. #{}, which bound no area and were "
+        "ignored]",
+        degenerate, first_degenerate + 1);
   return msg;
 }
 

@@ -47,6 +47,7 @@ void check_closed(const TriangleMesh& mesh, const std::string& file);
 void write_stl_binary(const std::filesystem::path& path, const TriangleMesh& mesh);
 
 // ASCII STL with the shortest decimal that reads back to the same double (exact round trip), written atomically.
-void write_stl_ascii(const std::filesystem::path& path, const TriangleMesh& mesh, const std::string& solid_name = "vmsim");
+void write_stl_ascii(const std::filesystem::path& path, const TriangleMesh& mesh,
+                     const std::string& solid_name = "vmsim");
 
 }  // namespace vmsim::core

@@ -8,9 +8,7 @@ namespace vmsim::core {
 using Clock = std::chrono::steady_clock;
 
 // Wall time since t0 (s).
-inline double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // CPU time of every thread of this process so far (s).
 double process_cpu_s();

@@ -13,13 +13,20 @@ namespace vmsim::core {
 namespace {
 std::string type_name(const toml::node& n) {
   switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a number";
-    case toml::node_type::boolean: return "a boolean";
-    default: return "a date/time";
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::array:
+      return "an array";
+    case toml::node_type::string:
+      return "a string";
+    case toml::node_type::integer:
+      return "an integer";
+    case toml::node_type::floating_point:
+      return "a number";
+    case toml::node_type::boolean:
+      return "a boolean";
+    default:
+      return "a date/time";
   }
 }
 }  // namespace
@@ -27,9 +34,7 @@ std::string type_name(const toml::node& n) {
 TomlTable::TomlTable(const toml::table& table, std::string file, std::string key_prefix)
     : table_(&table), file_(std::move(file)), prefix_(std::move(key_prefix)) {}
 
-std::string TomlTable::full_key(const std::string& key) const {
-  return prefix_.empty() ? key : prefix_ + "." + key;
-}
+std::string TomlTable::full_key(const std::string& key) const { return prefix_.empty() ? key : prefix_ + "." + key; }
 
 std::string TomlTable::where(const toml::node* node) const {
   const auto& src = (node ? node->source() : table_->source());
@@ -200,8 +205,8 @@ void TomlTable::finish() const {
   for (const auto& [k, v] : *table_) {
     const std::string key(k.str());
     if (!used_.count(key)) {
-      throw Error(fmt::format("{}: unknown key '{}' (misspelt, or not valid here; see parts/README.md)",
-                              where(&v), full_key(key)));
+      throw Error(fmt::format("{}: unknown key '{}' (misspelt, or not valid here; see parts/README.md)", where(&v),
+                              full_key(key)));
     }
   }
 }

@@ -77,8 +77,8 @@ struct Move {
 // the tool length offset (G43/G49 moves the controlled point, not the axes). On a 3-axis machine the Z axis
 // carries tip + tool_length_offset_mm (core/kinematics).
 struct ToolPath {
-  std::string source_path;   // the program file as the user named it
-  std::vector<Move> moves;   // in program order
+  std::string source_path;               // the program file as the user named it
+  std::vector<Move> moves;               // in program order
   Vec6 initial_position = Vec6::Zero();  // controlled point before the first move (no tool length offset)
   // Tool diameter from the program or tool table when known (APT CUTTER/, LinuxCNC tool table D); 0 = unknown.
   double tool_diameter_mm = 0.0;

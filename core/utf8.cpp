@@ -17,11 +17,21 @@ bool is_valid_utf8(std::string_view s) {
     const auto c = static_cast<unsigned char>(s[i]);
     std::size_t n;
     std::uint32_t cp;
-    if (c < 0x80) { ++i; continue; }
-    if ((c & 0xE0) == 0xC0) { n = 1; cp = c & 0x1F; }
-    else if ((c & 0xF0) == 0xE0) { n = 2; cp = c & 0x0F; }
-    else if ((c & 0xF8) == 0xF0) { n = 3; cp = c & 0x07; }
-    else return false;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((c & 0xE0) == 0xC0) {
+      n = 1;
+      cp = c & 0x1F;
+    } else if ((c & 0xF0) == 0xE0) {
+      n = 2;
+      cp = c & 0x0F;
+    } else if ((c & 0xF8) == 0xF0) {
+      n = 3;
+      cp = c & 0x07;
+    } else
+      return false;
     if (i + n >= s.size()) return false;  // truncated sequence
     for (std::size_t k = 1; k <= n; ++k) {
       const auto d = static_cast<unsigned char>(s[i + k]);
@@ -42,11 +52,15 @@ void require_utf8_path(const fs::path& path, std::string_view what) {
   // The message shows the bytes that are not UTF-8 as \xNN, so the user can find the file.
   std::string shown;
   for (const unsigned char c : path.native()) {
-    if (c >= 0x20 && c < 0x7F) shown += static_cast<char>(c);
-    else shown += fmt::format("\\x{:02x}", c);
+    if (c >= 0x20 && c < 0x7F)
+      shown += static_cast<char>(c);
+    else
+      shown += fmt::format("\\x{:02x}", c);
   }
-  throw Error(fmt::format("{}: {} is not valid UTF-8; report.json and X3P files hold UTF-8 text and cannot record it "
-                          "losslessly: rename it (or a directory above it)", shown, what));
+  throw Error(
+      fmt::format("{}: {} is not valid UTF-8; report.json and X3P files hold UTF-8 text and cannot record it "
+                  "losslessly: rename it (or a directory above it)",
+                  shown, what));
 }
 
 }  // namespace vmsim::core

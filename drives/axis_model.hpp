@@ -1,7 +1,7 @@
 #pragma once
 // An axis drive as the simulation sees it: the NC sends it a setpoint every Te, it answers with where the axis
-// really is. A real family: the cascade of the feed-drive simulation paper (drives/cascade_axis) and, later, the identified discrete
-// transfer function of the predictive-compensation paper.
+// really is. A real family: the cascade of the feed-drive simulation paper (drives/cascade_axis) and, later, the
+// identified discrete transfer function of the predictive-compensation paper.
 #include <limits>
 #include <memory>
 
@@ -20,7 +20,7 @@ struct AxisCommand {
 // The axis at the end of one Te period (load side, axis units).
 struct AxisSample {
   double position = 0.0, velocity = 0.0, acceleration = 0.0;
-  double current_A = 0.0;           // motor (torque-producing) current at the end of the period
+  double current_A = 0.0;  // motor (torque-producing) current at the end of the period
   // Over the period's current-loop samples: the mean (what a drive trace averaged per Te shows; the end value is
   // biased while the axis accelerates, as the velocity command steps once per Te) and the largest |current|.
   double current_mean_A = 0.0, current_peak_A = 0.0;

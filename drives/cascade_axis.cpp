@@ -24,7 +24,8 @@ int whole_ratio(double longer, double shorter, const char* what) {
 }
 
 void require_positive(double v, const char* name) {
-  if (!(v > 0.0 && std::isfinite(v))) throw core::Error(fmt::format("{} must be positive and finite, found {}", name, v));
+  if (!(v > 0.0 && std::isfinite(v)))
+    throw core::Error(fmt::format("{} must be positive and finite, found {}", name, v));
 }
 
 void require_nonnegative(double v, const char* name) {
@@ -62,14 +63,14 @@ CascadeAxis::CascadeAxis(const core::DriveParams& p, double te_s, core::AxisKind
     throw core::Error("gravity_torque_Nm must be finite");
   if (p.gravity == core::DriveParams::Gravity::Tilting && kind_ != core::AxisKind::Rotary)
     throw core::Error("tilting gravity needs a rotary axis (its angle gives the torque)");
-  if (p.position_delay_samples < 0 || p.feedforward_delay_samples < 0)
-    throw core::Error("delays must be >= 0 samples");
+  if (p.position_delay_samples < 0 || p.feedforward_delay_samples < 0) throw core::Error("delays must be >= 0 samples");
 
   current_per_te_ = whole_ratio(te_s, p.current_period_s, "position-loop period Te against the current loop");
   current_per_velocity_ = whole_ratio(p.velocity_period_s, p.current_period_s, "velocity_loop_period");
   if (current_per_te_ % current_per_velocity_ != 0)
-    throw core::Error(fmt::format("position-loop period Te {:g} us is not a whole multiple of the velocity loop's {:g} us",
-                                  te_s * 1e6, p.velocity_period_s * 1e6));
+    throw core::Error(
+        fmt::format("position-loop period Te {:g} us is not a whole multiple of the velocity loop's {:g} us",
+                    te_s * 1e6, p.velocity_period_s * 1e6));
 
   r_ = p.axis_per_motor_rad;
   inv_r_ = 1.0 / r_;
@@ -81,8 +82,8 @@ CascadeAxis::CascadeAxis(const core::DriveParams& p, double te_s, core::AxisKind
   kic_ = kpc_ * p.current_period_s / p.current_tn_s;
   ff_current_per_accel_ = p.ka * p.inertia_kg_m2 / (p.torque_constant_Nm_per_A * r_);
 
-  // Plant (the feed-drive simulation paper eq. 1 with the winding): L di/dt = u - R i - Ke w;  J dw/dt = Kt i - B w + tau;  dx/dt = r w,
-  // Ke = Kt (SI). ZOH discretisation over Tc: exp([[A, B], [0, 0]] Tc) = [[Phi, Gamma], [0, I]].
+  // Plant (the feed-drive simulation paper eq. 1 with the winding): L di/dt = u - R i - Ke w;  J dw/dt = Kt i - B w +
+  // tau;  dx/dt = r w, Ke = Kt (SI). ZOH discretisation over Tc: exp([[A, B], [0, 0]] Tc) = [[Phi, Gamma], [0, I]].
   const double L = p.inductance_H, R = p.resistance_ohm, Kt = p.torque_constant_Nm_per_A, J = p.inertia_kg_m2;
   Eigen::Matrix<double, 5, 5> m = Eigen::Matrix<double, 5, 5>::Zero();
   m(0, 0) = -R / L;
@@ -117,15 +118,19 @@ CascadeAxis::CascadeAxis(const core::DriveParams& p, double te_s, core::AxisKind
 
 double CascadeAxis::gravity_torque() const {
   switch (params_.gravity) {
-    case core::DriveParams::Gravity::None: return 0.0;
-    case core::DriveParams::Gravity::Constant: return params_.gravity_Nm;
-    case core::DriveParams::Gravity::Tilting: return params_.gravity_Nm * std::sin(x_ - params_.gravity_angle_offset_rad);
+    case core::DriveParams::Gravity::None:
+      return 0.0;
+    case core::DriveParams::Gravity::Constant:
+      return params_.gravity_Nm;
+    case core::DriveParams::Gravity::Tilting:
+      return params_.gravity_Nm * std::sin(x_ - params_.gravity_angle_offset_rad);
   }
   return 0.0;
 }
 
 // Friction magnitude while sliding at |w|: Coulomb, plus the Stribeck hump exp(-(w/ws)^2) towards the breakaway
-// torque when one is given (the feed-drive simulation paper section 3.1 identifies the static Coulomb + viscous law; viscous is in Phi).
+// torque when one is given (the feed-drive simulation paper section 3.1 identifies the static Coulomb + viscous law;
+// viscous is in Phi).
 double CascadeAxis::friction_level(double abs_w) const {
   if (params_.stribeck_static_Nm <= 0.0) return params_.coulomb_Nm;
   const double q = abs_w / params_.stribeck_velocity_rad_per_s;
@@ -136,9 +141,10 @@ void CascadeAxis::reset(double position) {
   x_ = position;
   const double hold = gravity_torque() / params_.torque_constant_Nm_per_A;
   if (!(std::abs(hold) <= params_.current_limit_A))
-    throw core::Error(fmt::format("holding the gravity torque at position {:g} needs {:g} A, above the current limit "
-                                  "of {:g} A",
-                                  position, std::abs(hold), params_.current_limit_A));
+    throw core::Error(
+        fmt::format("holding the gravity torque at position {:g} needs {:g} A, above the current limit "
+                    "of {:g} A",
+                    position, std::abs(hold), params_.current_limit_A));
   rest_at(position);
 }
 
@@ -158,11 +164,11 @@ void CascadeAxis::rest_at(double position) {
   pos_head_ = ff_head_ = 0;
 }
 
-// Velocity PI (the feed-drive simulation paper Fig. 2), output saturated at the current limit. Anti-windup by conditional integration:
-// the integrator is frozen while the output is saturated and the error pushes it further out. It needs no tuning
-// parameter (back-calculation would need a tracking time the seeds do not give) and it keeps the integrator where
-// it was when the limit was hit, so the axis leaves saturation without the overshoot an unbounded integrator
-// gives. It is the common "integrator stop at the limit" of industrial speed controllers.
+// Velocity PI (the feed-drive simulation paper Fig. 2), output saturated at the current limit. Anti-windup by
+// conditional integration: the integrator is frozen while the output is saturated and the error pushes it further out.
+// It needs no tuning parameter (back-calculation would need a tracking time the seeds do not give) and it keeps the
+// integrator where it was when the limit was hit, so the axis leaves saturation without the overshoot an unbounded
+// integrator gives. It is the common "integrator stop at the limit" of industrial speed controllers.
 inline void CascadeAxis::velocity_loop(double w_cmd, double i_ff) {
   const double err = w_cmd - w_;
   const double integ = iv_ + kiv_ * err;
@@ -238,7 +244,8 @@ template <bool kTrace>
 AxisSample CascadeAxis::advance(const AxisCommand& c, InnerSample* trace) {
   const double kv = std::isnan(c.kv_per_s) ? params_.kv_per_s : c.kv_per_s;
   const double kf = std::isnan(c.kf) ? params_.kf : c.kf;
-  // Delay lines: write the new command, read the one received `delay` samples ago (the feed-drive simulation paper section 2.2).
+  // Delay lines: write the new command, read the one received `delay` samples ago (the feed-drive simulation paper
+  // section 2.2).
   const int pos_n = static_cast<int>(pos_line_.size()), ff_n = static_cast<int>(vel_line_.size());
   pos_line_[pos_head_] = c.position;
   pos_head_ = pos_head_ + 1 == pos_n ? 0 : pos_head_ + 1;
@@ -248,8 +255,8 @@ AxisSample CascadeAxis::advance(const AxisCommand& c, InnerSample* trace) {
   ff_head_ = ff_head_ + 1 == ff_n ? 0 : ff_head_ + 1;
   const double vd = vel_line_[ff_head_], ad = acc_line_[ff_head_];
 
-  // Position loop (Duong et al. Fig. 6, the feed-drive simulation paper Fig. 2): v_cmd = Kv (x_d - x) + KF v_d in axis units/s, to motor
-  // rad/s through the screw lead or gear; torque feedforward KA J a_d as a current (Kt i = J dw/dt).
+  // Position loop (Duong et al. Fig. 6, the feed-drive simulation paper Fig. 2): v_cmd = Kv (x_d - x) + KF v_d in axis
+  // units/s, to motor rad/s through the screw lead or gear; torque feedforward KA J a_d as a current (Kt i = J dw/dt).
   const double w_cmd = (kv * (xd - x_) + kf * vd) * inv_r_;
   const double i_ff = ff_current_per_accel_ * ad;
   const double w_start = w_;

@@ -1,7 +1,8 @@
 #pragma once
-// The cascaded feed drive of the feed-drive simulation paper (section 2, Fig. 2) and Duong et al. (section III.C, Fig. 6) as an AxisModel:
-// position loop P + velocity and torque feedforward at Te, velocity PI, current PI on the motor's R-L winding with
-// back-EMF, and the mechanics at the motor shaft with viscous, Coulomb (optionally Stribeck) friction and gravity.
+// The cascaded feed drive of the feed-drive simulation paper (section 2, Fig. 2) and Duong et al. (section III.C, Fig.
+// 6) as an AxisModel: position loop P + velocity and torque feedforward at Te, velocity PI, current PI on the motor's
+// R-L winding with back-EMF, and the mechanics at the motor shaft with viscous, Coulomb (optionally Stribeck) friction
+// and gravity.
 //
 // Timing, which drives/linear_model reproduces in the frequency domain (both follow these rules):
 // - Step k covers [t_k, t_k + Te). At t_k the position loop reads the actual position x(t_k) and the command
@@ -68,20 +69,21 @@ class CascadeAxis final : public AxisModel {
   double te_;
   int current_per_te_ = 1, current_per_velocity_ = 1;
   // Constants derived once from the parameters.
-  double r_ = 1.0, inv_r_ = 1.0;          // axis units per motor rad, and its inverse
-  double kpv_ = 0.0, kiv_ = 0.0;          // velocity PI: proportional gain, integral gain x Tv
-  double kpc_ = 0.0, kic_ = 0.0;          // current PI: proportional gain, integral gain x Tc
-  double ff_current_per_accel_ = 0.0;     // ka * J / (Kt * r): current feedforward per axis acceleration
+  double r_ = 1.0, inv_r_ = 1.0;       // axis units per motor rad, and its inverse
+  double kpv_ = 0.0, kiv_ = 0.0;       // velocity PI: proportional gain, integral gain x Tv
+  double kpc_ = 0.0, kic_ = 0.0;       // current PI: proportional gain, integral gain x Tc
+  double ff_current_per_accel_ = 0.0;  // ka * J / (Kt * r): current feedforward per axis acceleration
   double phi_[3][3] = {}, gam_u_[3] = {}, gam_t_[3] = {};  // exact ZOH step of (i, w, x) over Tc
-  double stuck_a_ = 0.0, stuck_b_ = 0.0;  // the winding alone (w = 0): i <- a i + b u
+  double stuck_a_ = 0.0, stuck_b_ = 0.0;                   // the winding alone (w = 0): i <- a i + b u
   bool friction_ = false;
   double breakaway_Nm_ = 0.0;
-  double stick_window_ = 0.0;             // |w| below which a shaft that cannot break loose sticks (rad/s)
+  double stick_window_ = 0.0;  // |w| below which a shaft that cannot break loose sticks (rad/s)
   // State.
-  double i_ = 0.0, w_ = 0.0, x_ = 0.0;    // current (A), motor speed (rad/s), load position (axis units)
-  double ic_ = 0.0, iv_ = 0.0;            // current-PI integrator (V), velocity-PI integrator (A)
-  double iset_ = 0.0, u_ = 0.0;           // held current setpoint (A) and voltage (V)
-  // Delay lines (the feed-drive simulation paper section 2.2): ring buffers of length delay + 1; the oldest entry is the delayed command.
+  double i_ = 0.0, w_ = 0.0, x_ = 0.0;  // current (A), motor speed (rad/s), load position (axis units)
+  double ic_ = 0.0, iv_ = 0.0;          // current-PI integrator (V), velocity-PI integrator (A)
+  double iset_ = 0.0, u_ = 0.0;         // held current setpoint (A) and voltage (V)
+  // Delay lines (the feed-drive simulation paper section 2.2): ring buffers of length delay + 1; the oldest entry is
+  // the delayed command.
   std::vector<double> pos_line_, vel_line_, acc_line_;
   int pos_head_ = 0, ff_head_ = 0;
 };

@@ -1,5 +1,6 @@
 #pragma once
-// A discrete transfer function from an axis's position command u to its encoder position y (the predictive-compensation paper eq. 4-5):
+// A discrete transfer function from an axis's position command u to its encoder position y (the predictive-compensation
+// paper eq. 4-5):
 //     A(q) y(k) = B(q) u(k - nk),  A = 1 + a1 q^-1 + ... + a_na q^-na,  B = b1 + b2 q^-1 + ... + b_nb q^-(nb-1),
 // i.e. y(k) = -a1 y(k-1) - ... + b1 u(k-nk) + ... + b_nb u(k-nk-nb+1). q^-1 is one period Te. Signals are
 // deviations from the rest point the axis starts from (sysid.hpp says why), so the model runs from zero state.

@@ -1,6 +1,7 @@
 #pragma once
-// The identified discrete transfer function of the predictive-compensation paper (drives/sysid) as an AxisModel, the second implementation
-// beside the physical cascade: the command position in, the encoder position out, nothing else (no current).
+// The identified discrete transfer function of the predictive-compensation paper (drives/sysid) as an AxisModel, the
+// second implementation beside the physical cascade: the command position in, the encoder position out, nothing else
+// (no current).
 #include "drives/axis_model.hpp"
 #include "drives/discrete_tf.hpp"
 

@@ -68,24 +68,26 @@ core::Warnings check_drive(const core::DriveParams& p, double te_s, const std::s
     // The velocity loop's proportional gain per period, the discrete loop's figure: a P loop on a free inertia is
     // unstable above 2.
     const double kvel = p.velocity_kp_A_s_per_rad * p.torque_constant_Nm_per_A * p.velocity_period_s / p.inertia_kg_m2;
-    out.push_back({"drive_unstable", axis,
-                   fmt::format("{}: the velocity and current loops are unstable (a pole at |z| = {:.3g} per {:g} ms, "
-                               "position loop open; velocity_kp * Kt * Tv / J = {:.3g}, which a stable velocity loop keeps "
-                               "well under 2): check velocity_kp_A_s_per_rad, velocity_tn_ms, current_kp_V_per_A, "
-                               "current_tn_ms, inertia_kg_m2, torque_constant_Nm_per_A, inductance_mH and their units",
-                               where, d.inner_pole_radius, te_s * 1e3, kvel),
-                   core::Warning::Severity::Invalid});
+    out.push_back(
+        {"drive_unstable", axis,
+         fmt::format("{}: the velocity and current loops are unstable (a pole at |z| = {:.3g} per {:g} ms, "
+                     "position loop open; velocity_kp * Kt * Tv / J = {:.3g}, which a stable velocity loop keeps "
+                     "well under 2): check velocity_kp_A_s_per_rad, velocity_tn_ms, current_kp_V_per_A, "
+                     "current_tn_ms, inertia_kg_m2, torque_constant_Nm_per_A, inductance_mH and their units",
+                     where, d.inner_pole_radius, te_s * 1e3, kvel),
+         core::Warning::Severity::Invalid});
     return out;
   }
   if (d.pole_radius >= 1.0) {
-    out.push_back({"position_loop_unstable", axis,
-                   fmt::format("{}: the position loop is unstable at kv_1000_per_min = {:g} (Kv = {:g} 1/s, Kv * Te = "
-                               "{:.3g}; a pole at |z| = {:.3g} per period): it is stable only below kv_1000_per_min = "
-                               "{:.3g} with these inner loops; check kv_1000_per_min (in (m/min)/mm, i.e. 1000/min) and "
-                               "the job's period_ms",
-                               where, kv_file(p.kv_per_s), p.kv_per_s, d.kv_te, d.pole_radius,
-                               kv_file(p.kv_per_s * d.gain_margin)),
-                   core::Warning::Severity::Invalid});
+    out.push_back(
+        {"position_loop_unstable", axis,
+         fmt::format("{}: the position loop is unstable at kv_1000_per_min = {:g} (Kv = {:g} 1/s, Kv * Te = "
+                     "{:.3g}; a pole at |z| = {:.3g} per period): it is stable only below kv_1000_per_min = "
+                     "{:.3g} with these inner loops; check kv_1000_per_min (in (m/min)/mm, i.e. 1000/min) and "
+                     "the job's period_ms",
+                     where, kv_file(p.kv_per_s), p.kv_per_s, d.kv_te, d.pole_radius,
+                     kv_file(p.kv_per_s * d.gain_margin)),
+         core::Warning::Severity::Invalid});
     return out;
   }
   if (d.gain_margin < 2.0)

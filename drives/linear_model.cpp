@@ -50,7 +50,8 @@ LinearAxisModel::LinearAxisModel(const core::DriveParams& p, double te_s) : para
 
   const double L = p.inductance_H, R = p.resistance_ohm, Kt = p.torque_constant_Nm_per_A, J = p.inertia_kg_m2;
   const double B = p.viscous_Nm_s_per_rad, r = p.axis_per_motor_rad;
-  // Winding and shaft (the feed-drive simulation paper eq. 1), state (i, w, x), input the voltage, held over Tc: exact ZOH discretisation.
+  // Winding and shaft (the feed-drive simulation paper eq. 1), state (i, w, x), input the voltage, held over Tc: exact
+  // ZOH discretisation.
   Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
   a(kI, kI) = -R / L;
   a(kI, kW) = -Kt / L;  // back-EMF, Ke = Kt in SI
@@ -121,7 +122,8 @@ cd LinearAxisModel::close(cd z, cd pv, cd pi, double kv, double kf) const {
   const cd zi = 1.0 / z;
   const cd dp = zpow_inv(z, params_.position_delay_samples), df = zpow_inv(z, params_.feedforward_delay_samples);
   const cd diff = (1.0 - zi) / te_;
-  const double ka_gain = params_.ka * params_.inertia_kg_m2 / (params_.torque_constant_Nm_per_A * params_.axis_per_motor_rad);
+  const double ka_gain =
+      params_.ka * params_.inertia_kg_m2 / (params_.torque_constant_Nm_per_A * params_.axis_per_motor_rad);
   const cd num = (kv * dp + kf * df * diff) * pv + ka_gain * df * diff * diff * pi;
   return num / (1.0 + kv * pv);
 }
@@ -154,7 +156,7 @@ cd LinearAxisModel::closed_loop_elements(double omega, double kv, double kf) con
   const cd hc = zoh(s, tc), hv = zoh(s, tv), he = zoh(s, te_);
   // Current loop: discrete PI, ZOH of the voltage, winding with back-EMF through the shaft.
   const cd cc = kpc + kic * zc / (zc - 1.0);
-  const cd shaft = 1.0 / (p.inertia_kg_m2 * s + p.viscous_Nm_s_per_rad);  // w per torque
+  const cd shaft = 1.0 / (p.inertia_kg_m2 * s + p.viscous_Nm_s_per_rad);               // w per torque
   const cd winding = 1.0 / (p.inductance_H * s + p.resistance_ohm + Kt * Kt * shaft);  // i per volt
   const cd lc = cc * hc * winding;
   const cd current_cl = lc / (1.0 + lc);  // i per current setpoint (sequence at Tc)
@@ -166,8 +168,8 @@ cd LinearAxisModel::closed_loop_elements(double omega, double kv, double kf) con
   // Position: the velocity command and current feedforward held over Te and read by the velocity loop at Tv;
   // x = r w / s, sampled at Te.
   const cd up_e = he / hv;
-  const cd pv = up_e * w_per_wcmd / s;                          // x per v_cmd (v_cmd = r w_cmd)
-  const cd pi = up_e * p.axis_per_motor_rad * w_per_iff / s;    // x per current feedforward
+  const cd pv = up_e * w_per_wcmd / s;                        // x per v_cmd (v_cmd = r w_cmd)
+  const cd pi = up_e * p.axis_per_motor_rad * w_per_iff / s;  // x per current feedforward
   return close(ze, pv, pi, kv, kf);
 }
 

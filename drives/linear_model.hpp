@@ -1,7 +1,8 @@
 #pragma once
 // The linearised closed-loop frequency response of one axis's cascade, G = X / X_d (drives/cascade_axis without
-// friction, saturation or position-dependent gravity), built from the loop elements in the frequency domain. Chen et al. 2016
-// plans feeds from |G(jw)| (its circular contour-error model R (1 - |G(j v/R)|)); OGA and the tests use it too.
+// friction, saturation or position-dependent gravity), built from the loop elements in the frequency domain. Chen et
+// al. 2016 plans feeds from |G(jw)| (its circular contour-error model R (1 - |G(j v/R)|)); OGA and the tests use it
+// too.
 //
 // Two evaluations of the same loop structure, both following drives/cascade_axis.hpp's timing rules:
 // - closed_loop_elements(): every loop element on its own at s = jw — the discrete PIs as D(e^{jwT}), the winding

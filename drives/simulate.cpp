@@ -28,7 +28,7 @@ struct AxisJob {
   std::unique_ptr<AxisModel> other;  // instead of the cascade: SimulateOptions::axis_models
   const double* kv = nullptr;        // this axis' column of the gain schedule (setpoint rows), or null
   const double* kf = nullptr;
-  std::vector<InnerSample> inner;    // one Te of current-loop samples, for the full-rate trace
+  std::vector<InnerSample> inner;  // one Te of current-loop samples, for the full-rate trace
 };
 
 // One axis from its setpoint column to its response columns. Row k of the response is the axis at t = k*Te, the
@@ -41,7 +41,8 @@ struct Stop {
   std::thread::id caller;
   std::atomic<bool> requested{false};
   bool go() {
-    if (std::this_thread::get_id() == caller && !progress->keep_going()) requested.store(true, std::memory_order_relaxed);
+    if (std::this_thread::get_id() == caller && !progress->keep_going())
+      requested.store(true, std::memory_order_relaxed);
     return !requested.load(std::memory_order_relaxed);
   }
 };
@@ -144,8 +145,8 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
     throw core::Error(fmt::format("setpoints: the period Te must be positive, found {}", te));
   if (setpoints.samples() == 0) throw core::Error("setpoints: no samples to simulate");
   if (setpoints.position.cols() != n_axes)
-    throw core::Error(core::located(file, 0, fmt::format("the setpoints have {} axes, the machine {}",
-                                                         setpoints.position.cols(), n_axes)));
+    throw core::Error(core::located(
+        file, 0, fmt::format("the setpoints have {} axes, the machine {}", setpoints.position.cols(), n_axes)));
   if (!setpoints.axis_names.empty()) {
     for (Index a = 0; a < n_axes; ++a)
       if (static_cast<std::size_t>(a) >= setpoints.axis_names.size() ||
@@ -163,15 +164,17 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
   const auto check_schedule = [&](const Eigen::MatrixXd& m, const char* what) {
     if (m.size() == 0) return false;
     if (m.rows() != n_set || m.cols() != n_axes)
-      throw core::Error(fmt::format("gain schedule {}: {} x {}, expected one row per setpoint and a column per axis "
-                                    "({} x {})",
-                                    what, m.rows(), m.cols(), n_set, n_axes));
+      throw core::Error(
+          fmt::format("gain schedule {}: {} x {}, expected one row per setpoint and a column per axis "
+                      "({} x {})",
+                      what, m.rows(), m.cols(), n_set, n_axes));
     for (Index i = 0; i < m.size(); ++i) {
       const double v = m.data()[i];
       if (!std::isnan(v) && !(std::isfinite(v) && v >= 0.0))
-        throw core::Error(fmt::format("gain schedule {}: {} at row {} is not a gain (expected >= 0, or NaN for the "
-                                      "drive's own)",
-                                      what, v, i % m.rows()));
+        throw core::Error(
+            fmt::format("gain schedule {}: {} at row {} is not a gain (expected >= 0, or NaN for the "
+                        "drive's own)",
+                        what, v, i % m.rows()));
     }
     return true;
   };
@@ -229,8 +232,8 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
     }
   }
 
-  // Axes are independent (no coupling in the model, the feed-drive simulation paper section 2.2): each thread runs whole axes, writing
-  // only its own columns, so the results do not depend on the thread count or the schedule.
+  // Axes are independent (no coupling in the model, the feed-drive simulation paper section 2.2): each thread runs
+  // whole axes, writing only its own columns, so the results do not depend on the thread count or the schedule.
   const int n = static_cast<int>(n_axes);
   Stop stop;
   stop.progress = &core::ambient_progress();
@@ -240,10 +243,10 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
   {
     // Each thread takes the next axis until none is left (as schedule(dynamic, 1) would).
     for (int a = next_axis++; a < n; a = next_axis++) {
-      FullRateTrace* t = options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model &&
-                                 !jobs[static_cast<std::size_t>(a)].other
-                             ? &out.trace[static_cast<std::size_t>(a)]
-                             : nullptr;
+      FullRateTrace* t =
+          options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model && !jobs[static_cast<std::size_t>(a)].other
+              ? &out.trace[static_cast<std::size_t>(a)]
+              : nullptr;
       run_axis(jobs[static_cast<std::size_t>(a)], setpoints.position, a, te, rows, out, t, stop);
       ++axes_done;
     }

@@ -19,8 +19,8 @@ struct GainSchedule {
 
 struct SimulateOptions {
   const GainSchedule* gains = nullptr;
-  bool full_rate_trace = false;   // also keep every current-loop sample of every axis
-  double settle_s = 0.2;          // keep simulating this long after the last setpoint (axes come to rest)
+  bool full_rate_trace = false;  // also keep every current-loop sample of every axis
+  double settle_s = 0.2;         // keep simulating this long after the last setpoint (axes come to rest)
   // Per machine axis (machine-file order), a model to run instead of the cascade of [axes.drive]: a prototype that
   // is cloned and reset, e.g. an identified transfer function (drives/discrete_tf_axis). Null entries, or no vector:
   // the cascade. Such an axis has no currents (zero) and no full-rate trace.
@@ -43,7 +43,7 @@ struct AxisResponse {
   // their time base. Acceleration: mean over the period ending at row k; jerk: its backward difference.
   Eigen::MatrixXd position, velocity, acceleration, jerk, current_A, current_setpoint_A;
   Eigen::MatrixXd current_mean_A, current_peak_A;  // over each Te period (see AxisSample)
-  std::vector<FullRateTrace> trace;     // per axis when full_rate_trace
+  std::vector<FullRateTrace> trace;                // per axis when full_rate_trace
   Eigen::Index samples() const { return position.rows(); }
 };
 

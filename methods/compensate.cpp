@@ -43,7 +43,8 @@ Eigen::MatrixXd axes_at(const Eigen::MatrixXd& cu, const Eigen::VectorXd& parame
     const double s = std::clamp(parameter[i], 0.0, static_cast<double>(ns - 1));
     const Index j = std::min<Index>(static_cast<Index>(std::floor(s)), ns - 2 >= 0 ? ns - 2 : 0);
     const double t = ns > 1 ? s - static_cast<double>(j) : 0.0;
-    const Eigen::RowVector3d v = ns > 1 ? Eigen::RowVector3d((1.0 - t) * cu.row(j) + t * cu.row(j + 1)) : Eigen::RowVector3d(cu.row(0));
+    const Eigen::RowVector3d v =
+        ns > 1 ? Eigen::RowVector3d((1.0 - t) * cu.row(j) + t * cu.row(j + 1)) : Eigen::RowVector3d(cu.row(0));
     const double n = v.norm();
     u.row(i) = n > 0.0 ? Eigen::RowVector3d(v / n) : Eigen::RowVector3d(cu.row(j));
   }
@@ -64,8 +65,9 @@ FootPoints find_foot_points(const Eigen::MatrixXd& pc, const Eigen::MatrixXd& pe
   const Index ns = pc.rows(), rows = pe.rows();
   if (ns < 2 || pc.cols() != 3 || pe.cols() != 3 || rows < 1)
     throw core::Error("contour prediction: the command path needs 2 or more 3-D points, the prediction 1 or more");
-  // The buffer's half length n (the predictive-compensation paper Fig. 8: m = 2n + 1 command points centred on the actual point's own
-  // instant). Automatic: the largest lag of a predicted point behind its command point, in command steps, x3 + 10.
+  // The buffer's half length n (the predictive-compensation paper Fig. 8: m = 2n + 1 command points centred on the
+  // actual point's own instant). Automatic: the largest lag of a predicted point behind its command point, in command
+  // steps, x3 + 10.
   int n = (buffer_samples - 1) / 2;
   if (buffer_samples <= 0) {
     std::vector<double> steps;
@@ -140,7 +142,8 @@ Eigen::MatrixXd correction_at_commands(const Eigen::MatrixXd& error, const Eigen
   for (Index i = 0; i + 1 < rows; ++i) {
     const double s0 = parameter[i], s1 = parameter[i + 1];
     if (!(s1 > s0)) continue;
-    const Index j0 = static_cast<Index>(std::ceil(s0)), j1 = std::min<Index>(static_cast<Index>(std::floor(s1)), ns - 1);
+    const Index j0 = static_cast<Index>(std::ceil(s0)),
+                j1 = std::min<Index>(static_cast<Index>(std::floor(s1)), ns - 1);
     for (Index j = std::max<Index>(j0, 0); j <= j1; ++j) {
       const double w = (static_cast<double>(j) - s0) / (s1 - s0);
       delta.row(j) = (1.0 - w) * error.row(i) + w * error.row(i + 1);
@@ -165,7 +168,8 @@ Eigen::MatrixXd smooth_rows(const Eigen::MatrixXd& x, double sigma) {
   if (!(sigma > 0.0) || x.rows() < 3) return x;
   const Index half = static_cast<Index>(std::ceil(4.0 * sigma)), n = x.rows();
   std::vector<double> w(static_cast<std::size_t>(2 * half + 1));
-  for (Index i = -half; i <= half; ++i) w[static_cast<std::size_t>(i + half)] = std::exp(-0.5 * (i / sigma) * (i / sigma));
+  for (Index i = -half; i <= half; ++i)
+    w[static_cast<std::size_t>(i + half)] = std::exp(-0.5 * (i / sigma) * (i / sigma));
   Eigen::MatrixXd y(n, x.cols());
   for (Index k = 0; k < n; ++k) {
     double ws = 0.0;
@@ -204,9 +208,10 @@ std::vector<char> limit_breaks(const Eigen::MatrixXd& sp, double te, const core:
 Eigen::MatrixXd checked_prediction(const CompensationProblem& p, const Eigen::MatrixXd& c) {
   Eigen::MatrixXd pred = p.predict(c);
   if (pred.rows() < c.rows() || pred.cols() != c.cols() || !pred.allFinite())
-    throw core::Error(fmt::format("compensation: the prediction gave {} x {} positions for {} x {} setpoints (or a "
-                                  "non-finite one)",
-                                  pred.rows(), pred.cols(), c.rows(), c.cols()));
+    throw core::Error(
+        fmt::format("compensation: the prediction gave {} x {} positions for {} x {} setpoints (or a "
+                    "non-finite one)",
+                    pred.rows(), pred.cols(), c.rows(), c.cols()));
   return pred;
 }
 
@@ -228,12 +233,13 @@ CompensationResult compensate_contour(const CompensationProblem& p, const Compen
   Eigen::MatrixXd c = c0;
   Eigen::MatrixXd pred = checked_prediction(p, c);
 
-  // One prediction's errors: the tip's contour error (the predictive-compensation paper's two-step search) and, on five-axis chains, the tool
-  // axis' error against the commanded axis at the same foot point (commanded minus actual: the correction's sign).
+  // One prediction's errors: the tip's contour error (the predictive-compensation paper's two-step search) and, on
+  // five-axis chains, the tool axis' error against the commanded axis at the same foot point (commanded minus actual:
+  // the correction's sign).
   struct Errors {
     FootPoints fp;
-    Eigen::MatrixXd axis_error;   // rows x 3 (empty without orientation)
-    Eigen::VectorXd angle_rad;    // rows
+    Eigen::MatrixXd axis_error;  // rows x 3 (empty without orientation)
+    Eigen::VectorXd angle_rad;   // rows
     CompensationIteration rec;
   };
   auto errors_of = [&](const Eigen::MatrixXd& predicted, int buffer) {
@@ -305,7 +311,8 @@ CompensationResult compensate_contour(const CompensationProblem& p, const Compen
         for (Index k = 0; k < ns; ++k) {
           if (!br[static_cast<std::size_t>(k)] || broken_before[static_cast<std::size_t>(k)]) continue;
           any = true;
-          for (Index j = std::max<Index>(0, k - win); j <= std::min(ns - 1, k + win); ++j) mark[static_cast<std::size_t>(j)] = 1;
+          for (Index j = std::max<Index>(0, k - win); j <= std::min(ns - 1, k + win); ++j)
+            mark[static_cast<std::size_t>(j)] = 1;
         }
         if (!any) break;
         for (Index j = 0; j < ns; ++j)
@@ -323,8 +330,8 @@ CompensationResult compensate_contour(const CompensationProblem& p, const Compen
     const CompensationIteration& best = out.iterations[static_cast<std::size_t>(it)].accepted
                                             ? out.iterations[static_cast<std::size_t>(it)]
                                             : out.iterations.front();
-    // Accepted when the mean falls and the maximum does not grow (the predictive-compensation paper reports both), and on five-axis chains
-    // when the mean orientation error does not grow either.
+    // Accepted when the mean falls and the maximum does not grow (the predictive-compensation paper reports both), and
+    // on five-axis chains when the mean orientation error does not grow either.
     rec.accepted = rec.mean_mm < best.mean_mm && rec.max_mm <= best.max_mm &&
                    (!orient || rec.orientation_mean_rad <= best.orientation_mean_rad);
     out.iterations.push_back(rec);
@@ -361,7 +368,8 @@ std::vector<AxisLimitCheck> check_axis_limits(const Eigen::MatrixXd& sp, double 
       r.peak_acceleration = std::max(r.peak_acceleration, std::abs(acc));
       r.peak_jerk = std::max(r.peak_jerk, std::abs(j));
       const double m = 1.0 + 1e-6;
-      if (std::abs(v) > ax.max_velocity * m || std::abs(acc) > ax.max_acceleration * m || std::abs(j) > ax.max_jerk * m) {
+      if (std::abs(v) > ax.max_velocity * m || std::abs(acc) > ax.max_acceleration * m ||
+          std::abs(j) > ax.max_jerk * m) {
         if (r.samples_over == 0) r.first_over_s = static_cast<double>(std::min(k, n - 1)) * te;
         ++r.samples_over;
       }

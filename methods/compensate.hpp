@@ -1,9 +1,9 @@
 #pragma once
-// Predictive contour-error compensation (the predictive-compensation paper section 4): predict where the axes really go for the planned
-// setpoints (with any AxisModel: the physical cascade or an identified transfer function), transform to the workpiece
-// through the machine's kinematics, find each predicted point's foot on the planned path by the two-step search
-// (nearest command point in a buffer of length m, then the adjacent segment, eq. 18-22), and move each setpoint by
-// the predicted contour error found at its place on the path (eq. 23). Repeated on the compensated setpoints while
+// Predictive contour-error compensation (the predictive-compensation paper section 4): predict where the axes really go
+// for the planned setpoints (with any AxisModel: the physical cascade or an identified transfer function), transform to
+// the workpiece through the machine's kinematics, find each predicted point's foot on the planned path by the two-step
+// search (nearest command point in a buffer of length m, then the adjacent segment, eq. 18-22), and move each setpoint
+// by the predicted contour error found at its place on the path (eq. 23). Repeated on the compensated setpoints while
 // the predicted error still falls: the contour error stays measured against the planned (original) path.
 // Five-axis machines (chains with rotary joints): the tool axis too. The predicted tool axis is compared with the
 // commanded tool axis at the same foot point (the orientation part of the five-axis contour error), and the corrected
@@ -23,14 +23,14 @@
 
 namespace vmsim::methods {
 
-// The predictive-compensation paper's foot-point search. command_tip: ns x 3, actual_tip: rows x 3 (rows >= ns: settling rows compare with the
-// last command point's neighbourhood). buffer_samples m (odd; <= 0: 2 n + 1 with n from the largest distance between
-// a predicted point and its command point, in command steps, plus a margin).
+// The predictive-compensation paper's foot-point search. command_tip: ns x 3, actual_tip: rows x 3 (rows >= ns:
+// settling rows compare with the last command point's neighbourhood). buffer_samples m (odd; <= 0: 2 n + 1 with n from
+// the largest distance between a predicted point and its command point, in command steps, plus a margin).
 struct FootPoints {
-  Eigen::MatrixXd error;       // rows x 3: foot point - actual point (the contour error vector, eq. 23's Pc->Pn)
-  Eigen::VectorXd norm_mm;     // |error|
-  Eigen::VectorXd parameter;   // foot's place on the command polyline: segment index + fraction (0 .. ns - 1)
-  int buffer_samples = 0;      // m used
+  Eigen::MatrixXd error;      // rows x 3: foot point - actual point (the contour error vector, eq. 23's Pc->Pn)
+  Eigen::VectorXd norm_mm;    // |error|
+  Eigen::VectorXd parameter;  // foot's place on the command polyline: segment index + fraction (0 .. ns - 1)
+  int buffer_samples = 0;     // m used
 };
 FootPoints find_foot_points(const Eigen::MatrixXd& command_tip, const Eigen::MatrixXd& actual_tip, int buffer_samples);
 
@@ -42,8 +42,8 @@ Eigen::MatrixXd axes_at(const Eigen::MatrixXd& command_axis, const Eigen::Vector
 Eigen::VectorXd axis_angles(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
 
 struct CompensateOptions {
-  int buffer_samples = 0;      // m of the foot-point search (<= 0: automatic, see FootPoints)
-  int max_iterations = 6;      // predictions of compensated setpoints after the first
+  int buffer_samples = 0;         // m of the foot-point search (<= 0: automatic, see FootPoints)
+  int max_iterations = 6;         // predictions of compensated setpoints after the first
   double min_improvement = 0.01;  // continue while the mean predicted contour error falls by more than this fraction
   // The correction is smoothed along the setpoints by a Gaussian of this standard deviation (samples; 0: none). The
   // foot points lie on the chords between setpoints, whose sag (h^2 / 8R, ~0.02 um at 0.05 mm steps on R 20 mm)
@@ -73,19 +73,20 @@ struct CompensationProblem {
 };
 
 struct CompensationIteration {
-  double max_mm = 0.0, mean_mm = 0.0;  // predicted contour error over every row (the predictive-compensation paper's search)
+  double max_mm = 0.0,
+         mean_mm = 0.0;  // predicted contour error over every row (the predictive-compensation paper's search)
   double orientation_max_rad = 0.0, orientation_mean_rad = 0.0;  // tool axis vs the commanded one at the foot point
   bool accepted = false;
-  int faded_samples = 0;               // setpoints where the axis limits held the correction below its full value
+  int faded_samples = 0;  // setpoints where the axis limits held the correction below its full value
 };
 
 struct CompensationResult {
-  Eigen::MatrixXd setpoints;           // compensated axis setpoints, ns x axes
-  Eigen::MatrixXd predicted_before;    // actual axes for the original setpoints
-  Eigen::MatrixXd predicted_after;     // actual axes for the compensated ones
-  Eigen::MatrixXd command_tip;         // the planned tool-tip path (workpiece frame), ns x 3
-  Eigen::MatrixXd command_axis;        // the planned tool axis (workpiece frame, unit), ns x 3
-  bool orientation = false;            // the tool axis was corrected too (a five-axis chain with the option on)
+  Eigen::MatrixXd setpoints;         // compensated axis setpoints, ns x axes
+  Eigen::MatrixXd predicted_before;  // actual axes for the original setpoints
+  Eigen::MatrixXd predicted_after;   // actual axes for the compensated ones
+  Eigen::MatrixXd command_tip;       // the planned tool-tip path (workpiece frame), ns x 3
+  Eigen::MatrixXd command_axis;      // the planned tool axis (workpiece frame, unit), ns x 3
+  bool orientation = false;          // the tool axis was corrected too (a five-axis chain with the option on)
   std::vector<CompensationIteration> iterations;  // [0]: the original setpoints
   int buffer_samples = 0;
 };
@@ -102,10 +103,10 @@ Eigen::MatrixXd tool_axes(const motion::Kinematics& kin, const Eigen::MatrixXd& 
 // them, at rest before and after, as core::finite_difference_peaks), per axis.
 struct AxisLimitCheck {
   std::string axis;
-  double peak_velocity = 0, peak_acceleration = 0, peak_jerk = 0;        // axis units / s^n
+  double peak_velocity = 0, peak_acceleration = 0, peak_jerk = 0;  // axis units / s^n
   double limit_velocity = 0, limit_acceleration = 0, limit_jerk = 0;
-  int samples_over = 0;                // samples where any of the three exceeds its limit (relative margin 1e-6)
-  double first_over_s = -1.0;          // time of the first such sample (-1: none)
+  int samples_over = 0;        // samples where any of the three exceeds its limit (relative margin 1e-6)
+  double first_over_s = -1.0;  // time of the first such sample (-1: none)
   bool within() const { return samples_over == 0; }
 };
 std::vector<AxisLimitCheck> check_axis_limits(const Eigen::MatrixXd& setpoints, double period_s,

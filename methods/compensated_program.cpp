@@ -91,7 +91,8 @@ struct Context {
     if (end && mi + 1 < first.size() && first[mi] >= 0 && first[mi + 1] >= 0) {
       // A programmed vertex lies where one move's samples give way to the next's: search around that place only (a
       // closed contour passes its first vertex again at the end, at rest, where the correction is nil).
-      const Index w = std::max<Index>(5, std::min<Index>({500, (last[mi] - first[mi]) / 4, (last[mi + 1] - first[mi + 1]) / 4}));
+      const Index w =
+          std::max<Index>(5, std::min<Index>({500, (last[mi] - first[mi]) / 4, (last[mi + 1] - first[mi + 1]) / 4}));
       lo = std::max(lo, last[mi] - w);
       hi = std::min(hi, first[mi + 1] + w);
     }
@@ -129,9 +130,11 @@ bool is_cl(const core::Move& m) { return m.tool_axis_start.has_value() || m.tool
 std::string header(const CompensatedProgramInput& in, const char* open, const char* close) {
   std::string s;
   s += fmt::format("{}vmsim compensate: {}{}\n", open, in.title, close);
-  s += fmt::format("{}the predictive-compensation paper eq. 23: the original program's moves and feeds, each programmed point moved by the "
-                   "predicted contour error there{}\n",
-                   open, close);
+  s += fmt::format(
+      "{}the predictive-compensation paper eq. 23: the original program's moves and feeds, each programmed point moved "
+      "by the "
+      "predicted contour error there{}\n",
+      open, close);
   return s;
 }
 
@@ -217,7 +220,8 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
   s += "G21 G90 G17\n";
   FeedState fs;
   // Where the last block left the programmed point, in the words' coordinates (arcs' I J K are relative to it).
-  Eigen::Vector3d last = prog.moves.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(prog.moves.front().start.head<3>());
+  Eigen::Vector3d last =
+      prog.moves.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(prog.moves.front().start.head<3>());
   for (std::size_t mi = 0; mi < prog.moves.size(); ++mi) {
     const core::Move& m = prog.moves[mi];
     const core::Move& am = ap.moves[mi];
@@ -227,9 +231,10 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
     // the interpolator times them as the original's arcs; chords would slow it at every joint.
     const bool keep_arc = !tcp && m.kind == core::MotionKind::Arc;
     // (Arcs in pieces of at most 90 deg: a full circle's corrected end is not its corrected start.)
-    const std::vector<Vec6> pts = tcp        ? chain_move_points(am, ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm)
-                                  : keep_arc ? move_points(am, ap.source_path, in.chord_tolerance_mm, 0.5 * core::units::kPi)
-                                             : move_points(am, ap.source_path, in.chord_tolerance_mm);
+    const std::vector<Vec6> pts =
+        tcp        ? chain_move_points(am, ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm)
+        : keep_arc ? move_points(am, ap.source_path, in.chord_tolerance_mm, 0.5 * core::units::kPi)
+                   : move_points(am, ap.source_path, in.chord_tolerance_mm);
     for (std::size_t i = 0; i < pts.size(); ++i) {
       const double tlo = m.tool_length_offset_mm;
       const Eigen::VectorXd q = c.corrected(pts[i], mi, i + 1 == pts.size(), tlo, out);
@@ -281,15 +286,17 @@ CompensatedProgram write_compensated_tcp_gcode(const CompensatedProgramInput& in
   const core::ToolPath& ap = *in.axis_path;
   std::string s = header(in, "(", ")");
   s += "(tool-centre-point form: X Y Z the tool tip in the workpiece frame, the rotary words the rotary axes;)\n";
-  s += "(run with the controller's five-axis transformation on: Siemens TRAORI, LinuxCNC M428; vmsim: [job] tcp = true)\n";
+  s += "(run with the controller's five-axis transformation on: Siemens TRAORI, LinuxCNC M428; vmsim: [job] tcp = "
+       "true)\n";
   s += "G21 G90 G17\n";
   auto words = [&](const Eigen::VectorXd& q, double tlo) {
     const motion::ToolPose p = in.kinematics->forward(q, tlo);
     return fmt::format("X{:.6f} Y{:.6f} Z{:.6f}", p.tip_mm.x(), p.tip_mm.y(), p.tip_mm.z()) + rotary_words(c, q);
   };
   if (!prog.moves.empty())
-    s += "G0 " + words(c.machine_axes(ap.initial_position) + c.delta.row(0).transpose(),
-                       prog.moves.front().tool_length_offset_mm) +
+    s += "G0 " +
+         words(c.machine_axes(ap.initial_position) + c.delta.row(0).transpose(),
+               prog.moves.front().tool_length_offset_mm) +
          "\n";
   FeedState fs;
   for (std::size_t mi = 0; mi < prog.moves.size(); ++mi) {
@@ -298,8 +305,8 @@ CompensatedProgram write_compensated_tcp_gcode(const CompensatedProgramInput& in
         chain_move_points(ap.moves[mi], ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm);
     for (std::size_t i = 0; i < pts.size(); ++i) {
       const std::string motion =
-          (m.rapid ? "G0 " : "G1 ") + words(c.corrected(pts[i], mi, i + 1 == pts.size(), m.tool_length_offset_mm, out),
-                                             m.tool_length_offset_mm);
+          (m.rapid ? "G0 " : "G1 ") +
+          words(c.corrected(pts[i], mi, i + 1 == pts.size(), m.tool_length_offset_mm, out), m.tool_length_offset_mm);
       s += (m.rapid ? motion : fs.block(m, static_cast<int>(pts.size()), motion)) + "\n";
       ++out.blocks;
     }
@@ -317,11 +324,13 @@ std::string write_dense_program(const Eigen::MatrixXd& setpoints, const Eigen::V
     throw core::Error(fmt::format("dense program: {} x {} setpoints, {} tool length offsets, {} machine axes", ns,
                                   setpoints.cols(), tlo_mm.size(), na));
   std::string s;
-  s += fmt::format("(vmsim compensate: {} - the predictive-compensation paper predictive contour-error compensation, "
-                   "dense form)\n",
-                   title);
+  s += fmt::format(
+      "(vmsim compensate: {} - the predictive-compensation paper predictive contour-error compensation, "
+      "dense form)\n",
+      title);
   s += "(one block per interpolation period Te; X Y Z: tool tip in the workpiece frame, as the original program)\n";
-  if (five) s += "(five-axis: tool-centre-point form, X Y Z the tip and A B C the rotary axes; vmsim: [job] tcp = true)\n";
+  if (five)
+    s += "(five-axis: tool-centre-point form, X Y Z the tip and A B C the rotary axes; vmsim: [job] tcp = true)\n";
   s += "G21 G90 G17\n";
   Eigen::VectorXd q(na);
   std::vector<int> rotary;

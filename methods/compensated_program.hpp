@@ -1,10 +1,10 @@
 #pragma once
 // The compensated NC program of `vmsim compensate`: the original program's own moves, in order, with the same feeds
 // and feed modes, each programmed point (move end) moved by the correction the compensation found at the setpoint
-// nearest to it, so that an NC's interpolator re-times it as it times the original (the predictive-compensation paper section 5 sends its
-// compensated points to the CNC). Arcs stay arcs about their programmed centre, to the corrected end point (the
-// correction at the arc's ends; a steady radial lag is corrected whole); on five-axis chains an arc of a CL or
-// tool-centre-point program becomes the points of its axis-space image (in inverse-time feed, each piece gets an
+// nearest to it, so that an NC's interpolator re-times it as it times the original (the predictive-compensation paper
+// section 5 sends its compensated points to the CNC). Arcs stay arcs about their programmed centre, to the corrected
+// end point (the correction at the arc's ends; a steady radial lag is corrected whole); on five-axis chains an arc of a
+// CL or tool-centre-point program becomes the points of its axis-space image (in inverse-time feed, each piece gets an
 // equal share of the move's time).
 #include "motion/kinematics.hpp"
 #include "core/machine.hpp"
@@ -18,21 +18,21 @@
 namespace vmsim::methods {
 
 struct CompensatedProgramInput {
-  const core::ToolPath* program = nullptr;     // as read (workpiece frame)
-  const core::ToolPath* axis_path = nullptr;   // motion::toolpath_in_axis_space(*program)
-  const core::Setpoints* setpoints = nullptr;  // the original setpoints (move_index)
+  const core::ToolPath* program = nullptr;       // as read (workpiece frame)
+  const core::ToolPath* axis_path = nullptr;     // motion::toolpath_in_axis_space(*program)
+  const core::Setpoints* setpoints = nullptr;    // the original setpoints (move_index)
   const Eigen::MatrixXd* compensated = nullptr;  // the compensated setpoints, samples x axes
   const Eigen::MatrixXd* command_tip = nullptr;  // tool tips of the original setpoints, samples x 3
   const core::Machine* machine = nullptr;
   const motion::Kinematics* kinematics = nullptr;
-  double chord_tolerance_mm = 0.5e-3;          // arcs written as G1 chords within this sag
-  std::string title;                           // first comment line
+  double chord_tolerance_mm = 0.5e-3;  // arcs written as G1 chords within this sag
+  std::string title;                   // first comment line
 };
 
 struct CompensatedProgram {
   std::string text;
-  std::string extension;          // "ngc" (G-code) or "cl" (APT CL, for CL programs)
-  int blocks = 0;                 // motion blocks written
+  std::string extension;  // "ngc" (G-code) or "cl" (APT CL, for CL programs)
+  int blocks = 0;         // motion blocks written
   double largest_tip_correction_mm = 0.0;
   double largest_axis_correction_rad = 0.0;  // tool axis (five-axis chains)
 };

@@ -53,7 +53,8 @@ void resize_samples(PathSamples& ps, Index n) {
 }
 
 Index sample_count(double length, double ds) {
-  if (!(ds > 0) || !std::isfinite(ds)) throw core::Error(fmt::format("feed plan: sample spacing {} mm (expected > 0)", ds));
+  if (!(ds > 0) || !std::isfinite(ds))
+    throw core::Error(fmt::format("feed plan: sample spacing {} mm (expected > 0)", ds));
   if (!(length > 0)) throw core::Error("feed plan: the path has no length");
   const double n = std::ceil(length / ds - 1e-9) + 1;
   if (n > 5e7) throw core::Error(fmt::format("feed plan: {:.0f} samples of {} mm: too many", n, ds));
@@ -143,7 +144,7 @@ struct WindowLp {
   ClpSimplex lp;
   std::vector<std::pair<Index, int>> jerk;  // (sample, axis) of each jerk row, rows jerk_first ..
   int jerk_first = 0;
-  Index a = 0, m = 0;                       // first sample, columns
+  Index a = 0, m = 0;  // first sample, columns
   Index nonzeros = 0;
 };
 
@@ -175,9 +176,10 @@ void solve(WindowLp& w, FeedPlanStats& st, Index window_first, const char* phase
     ++st.lp_solves;
   }
   if (!w.lp.isProvenOptimal())
-    throw core::Error(fmt::format("feed plan: the linear program of the window starting at sample {} has no solution "
-                                  "({}; Clp status {}); try a longer window or overlap",
-                                  window_first, phase, w.lp.status()));
+    throw core::Error(
+        fmt::format("feed plan: the linear program of the window starting at sample {} has no solution "
+                    "({}; Clp status {}); try a longer window or overlap",
+                    window_first, phase, w.lp.status()));
 }
 
 }  // namespace
@@ -285,7 +287,7 @@ FeedPlan plan_feed(const PathSamples& ps, const FeedPlanOptions& opt) {
   for (Index i = 0; i < n; ++i) {
     const double kap = ps.kappa_max[i];
     const double rho = kap > kTiny ? 1.0 / kap : kInf;
-    double f = L.max_feed_mm_per_s;  // eq. 17
+    double f = L.max_feed_mm_per_s;       // eq. 17
     if (contour && std::isfinite(rho)) {  // eq. 11-13
       const double eps = L.contour_error_mm * (opt.contour_scale.size() == n ? opt.contour_scale[i] : 1.0);
       plan.omega0[i] = opt.contour_model->omega0(eps * kap);
@@ -293,7 +295,8 @@ FeedPlan plan_feed(const PathSamples& ps, const FeedPlanOptions& opt) {
     }
     if (L.chord_error_mm > 0 && std::isfinite(rho)) {  // eq. 15
       const double d = L.chord_error_mm;
-      plan.bound_chord[i] = rho <= d ? 2 * rho / L.period_s : 2 * std::sqrt(rho * rho - (rho - d) * (rho - d)) / L.period_s;
+      plan.bound_chord[i] =
+          rho <= d ? 2 * rho / L.period_s : 2 * std::sqrt(rho * rho - (rho - d) * (rho - d)) / L.period_s;
     }
     for (int r = 0; r < 3; ++r) {
       if (ps.t_abs_max(i, r) > kTiny)  // eq. 22
@@ -302,7 +305,8 @@ FeedPlan plan_feed(const PathSamples& ps, const FeedPlanOptions& opt) {
         plan.bound_centripetal[i] =
             std::min(plan.bound_centripetal[i], std::sqrt(L.axis_acceleration[r] / ps.k_abs_max(i, r)));
     }
-    f = std::min({f, plan.bound_contour[i], plan.bound_chord[i], plan.bound_axis_velocity[i], plan.bound_centripetal[i]});
+    f = std::min(
+        {f, plan.bound_contour[i], plan.bound_chord[i], plan.bound_axis_velocity[i], plan.bound_centripetal[i]});
     plan.f_star[i] = f;
     ub[static_cast<std::size_t>(i)] = f * f;
   }
@@ -324,7 +328,7 @@ FeedPlan plan_feed(const PathSamples& ps, const FeedPlanOptions& opt) {
 
   std::vector<double> q(static_cast<std::size_t>(n), 0.0);
   std::vector<double> prev_q(static_cast<std::size_t>(n), 0.0);  // the previous window's final solution
-  Index prev_end = 0;                                              // .. on samples before this
+  Index prev_end = 0;                                            // .. on samples before this
   Index a = 0;
   std::vector<Row> rows;
   while (true) {
@@ -334,7 +338,8 @@ FeedPlan plan_feed(const PathSamples& ps, const FeedPlanOptions& opt) {
     const Index m = b - a;
     // Columns: q_a .. q_{b-1}; the first window's q_0 and the path's last sample are 0, later windows start from the
     // two samples the previous window fixed.
-    std::vector<double> clo(static_cast<std::size_t>(m), 0.0), chi(static_cast<std::size_t>(m)), obj(static_cast<std::size_t>(m), -1.0);
+    std::vector<double> clo(static_cast<std::size_t>(m), 0.0), chi(static_cast<std::size_t>(m)),
+        obj(static_cast<std::size_t>(m), -1.0);
     std::vector<char> fixed(static_cast<std::size_t>(m), 0);
     for (Index i = a; i < b; ++i) chi[static_cast<std::size_t>(i - a)] = ub[static_cast<std::size_t>(i)];
     if (!last) chi.back() = std::min(chi.back(), env[static_cast<std::size_t>(b - 1)]);
@@ -467,11 +472,13 @@ FeedPlan plan_feed(const PathSamples& ps, const FeedPlanOptions& opt) {
     }
     plan.stats.jerk_iterations_max = std::max(plan.stats.jerk_iterations_max, iterations);
     ++plan.stats.windows;
-    for (Index i = a; i < b; ++i) prev_q[static_cast<std::size_t>(i)] = std::max(0.0, qw[static_cast<std::size_t>(i - a)]);
+    for (Index i = a; i < b; ++i)
+      prev_q[static_cast<std::size_t>(i)] = std::max(0.0, qw[static_cast<std::size_t>(i - a)]);
     prev_end = b;
     for (Index i = a; i < keep_end; ++i)
       if (!fixed[static_cast<std::size_t>(i - a)])
-        q[static_cast<std::size_t>(i)] = std::clamp(qw[static_cast<std::size_t>(i - a)], 0.0, ub[static_cast<std::size_t>(i)]);
+        q[static_cast<std::size_t>(i)] =
+            std::clamp(qw[static_cast<std::size_t>(i - a)], 0.0, ub[static_cast<std::size_t>(i)]);
     if (last) break;
     a = keep_end - 2;
   }
@@ -525,8 +532,8 @@ FeedPlanCheck check_feed_plan(const PathSamples& ps, const Eigen::ArrayXd& f, co
       if (i > 0 && i + 1 < n && std::isfinite(L.axis_jerk[r])) {  // f (t q''/2 + 3/2 k q' + k' q)
         const double h = ps.ds;
         const double q0 = f[i - 1] * f[i - 1], q1 = f[i] * f[i], q2 = f[i + 1] * f[i + 1];
-        const double x = ps.t(i, r) * (q2 - 2 * q1 + q0) / (2 * h * h) + 1.5 * ps.k(i, r) * (q2 - q0) / (2 * h) +
-                         ps.dk(i, r) * q1;
+        const double x =
+            ps.t(i, r) * (q2 - 2 * q1 + q0) / (2 * h * h) + 1.5 * ps.k(i, r) * (q2 - q0) / (2 * h) + ps.dk(i, r) * q1;
         track(std::abs(f[i] * x) / L.axis_jerk[r], i, c.axis_jerk, c.jerk_at);
       }
     }

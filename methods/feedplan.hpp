@@ -1,8 +1,8 @@
 #pragma once
-// Contour-error-constrained feed planning (Chen et al. 2016): the largest feed along a path that keeps the contour error of
-// the axes' servos within a tolerance, the chord error within its limit, the feed below f_max and each axis within
-// its velocity, acceleration and (beyond the seed) jerk limits. A linear program in the squared feed q_i = f_i^2 at
-// equally spaced samples along the path (Chen et al. 2016 eq. 24-25), solved by COIN-OR Clp's dual simplex.
+// Contour-error-constrained feed planning (Chen et al. 2016): the largest feed along a path that keeps the contour
+// error of the axes' servos within a tolerance, the chord error within its limit, the feed below f_max and each axis
+// within its velocity, acceleration and (beyond the seed) jerk limits. A linear program in the squared feed q_i = f_i^2
+// at equally spaced samples along the path (Chen et al. 2016 eq. 24-25), solved by COIN-OR Clp's dual simplex.
 //
 // The model, with arc length s as the path parameter (Chen et al.'s psi = 1: Q_u is the unit tangent t, Q_uu the
 // curvature vector k, d^2u/dt^2 the tangential acceleration (q_{i+1} - q_i) / (2 ds), eq. 20-21):
@@ -57,10 +57,10 @@ PathSamples sample_nurbs(const motion::NurbsCurve& curve, double ds);
 PathSamples sample_path(const motion::SmoothPath& path, double ds);
 
 struct FeedPlanLimits {
-  double period_s = 0.004;           // T, the interpolation period (eq. 14-15)
-  double chord_error_mm = 0.0005;    // delta_max (eq. 15); <= 0: no chord constraint
-  double contour_error_mm = 0.020;   // eps0 (eq. 8); <= 0: no contour-error constraint
-  double max_feed_mm_per_s = 50.0;   // f_max (eq. 17), also the initial feed of Chen et al. 2016 section 4
+  double period_s = 0.004;          // T, the interpolation period (eq. 14-15)
+  double chord_error_mm = 0.0005;   // delta_max (eq. 15); <= 0: no chord constraint
+  double contour_error_mm = 0.020;  // eps0 (eq. 8); <= 0: no contour-error constraint
+  double max_feed_mm_per_s = 50.0;  // f_max (eq. 17), also the initial feed of Chen et al. 2016 section 4
   // Per axis X Y Z (mm/s, mm/s^2, mm/s^3; eq. 22, 23 and the jerk); infinity: no limit.
   Eigen::Vector3d axis_velocity = Eigen::Vector3d::Constant(50.0);
   Eigen::Vector3d axis_acceleration = Eigen::Vector3d::Constant(200.0);
@@ -71,27 +71,27 @@ struct FeedPlanOptions {
   FeedPlanLimits limits;
   const ContourErrorModel* contour_model = nullptr;  // required when limits.contour_error_mm > 0
   Eigen::ArrayXd contour_scale;  // per sample, a factor (0, 1] on eps0 (plan_feed_verified); empty: 1 everywhere
-  int window_samples = 4000;    // samples per LP window (the whole path when it has fewer)
-  int overlap_samples = 0;      // samples each window looks beyond what it keeps; 0: twice the braking distance
-  int max_jerk_iterations = 12; // linearisations of the jerk constraint per window (then the safe final solve)
-  double jerk_tolerance = 1e-3; // relative change of q that ends the iterations
+  int window_samples = 4000;     // samples per LP window (the whole path when it has fewer)
+  int overlap_samples = 0;       // samples each window looks beyond what it keeps; 0: twice the braking distance
+  int max_jerk_iterations = 12;  // linearisations of the jerk constraint per window (then the safe final solve)
+  double jerk_tolerance = 1e-3;  // relative change of q that ends the iterations
 };
 
 struct FeedPlanStats {
   int windows = 0;
   int lp_solves = 0;
-  int jerk_iterations_max = 0;           // linearisations in the window that needed the most
+  int jerk_iterations_max = 0;  // linearisations in the window that needed the most
   Eigen::Index lp_columns_max = 0, lp_rows_max = 0, lp_nonzeros_max = 0;  // largest window's LP
   int overlap_samples = 0, window_samples = 0;
-  double lp_seconds = 0.0;               // Clp's dual simplex, all solves
-  double total_seconds = 0.0;            // bounds, envelope, LP building and solving
+  double lp_seconds = 0.0;     // Clp's dual simplex, all solves
+  double total_seconds = 0.0;  // bounds, envelope, LP building and solving
 };
 
 struct FeedPlan {
-  Eigen::ArrayXd s, feed;       // per sample: arc length (mm), planned feed (mm/s)
+  Eigen::ArrayXd s, feed;  // per sample: arc length (mm), planned feed (mm/s)
   // Eq. 24's pointwise bound f* and its parts (mm/s; infinity where one does not apply), and eq. 11's w0 (rad/s).
   Eigen::ArrayXd f_star, bound_contour, bound_chord, bound_axis_velocity, bound_centripetal, omega0;
-  double time_s = 0.0;          // the plan's own traversal time (q linear in s between samples)
+  double time_s = 0.0;  // the plan's own traversal time (q linear in s between samples)
   FeedPlanStats stats;
 };
 

@@ -93,8 +93,9 @@ motion::FeedCeiling read_feed_plan(const std::filesystem::path& file, const moti
     break;
   }
   if (!magic)
-    throw core::Error(core::located(
-        f, 1, std::string("not a vmsim feed plan (expected a first line \"") + kMagic + ": ...\", as vmsim plan-feed writes)"));
+    throw core::Error(core::located(f, 1,
+                                    std::string("not a vmsim feed plan (expected a first line \"") + kMagic +
+                                        ": ...\", as vmsim plan-feed writes)"));
   if (!header) throw core::Error(f + fmt::format(": no column header ({})", kHeader));
   const int head_line = lineno;
   const auto number = [&](const std::string& key) {
@@ -108,10 +109,11 @@ motion::FeedCeiling read_feed_plan(const std::filesystem::path& file, const moti
   if (std::abs(te - period_s) > 1e-12 * period_s)
     throw core::Error(fmt::format("{}: the plan is for Te = {} s, the job interpolates at Te = {} s", f, te, period_s));
   if (std::abs(length - path.length) > kPathTolerance)
-    throw core::Error(fmt::format("{}: the plan was made for a path of {:.6f} mm, the job's path is {:.6f} mm long: it "
-                                  "was planned for another program, curve or tolerance (run vmsim plan-feed on this job "
-                                  "again)",
-                                  f, length, path.length));
+    throw core::Error(
+        fmt::format("{}: the plan was made for a path of {:.6f} mm, the job's path is {:.6f} mm long: it "
+                    "was planned for another program, curve or tolerance (run vmsim plan-feed on this job "
+                    "again)",
+                    f, length, path.length));
   if (!(points >= 1 && points == std::floor(points)))
     throw core::Error(f + fmt::format(": '# points={}': expected a whole number >= 1", points));
 
@@ -124,31 +126,36 @@ motion::FeedCeiling read_feed_plan(const std::filesystem::path& file, const moti
     if (static_cast<double>(c.s_mm.size()) >= points)
       throw core::Error(core::located(f, lineno, fmt::format("more than the {} points the header announces", points)));
     const std::vector<std::string> cells = split(line);
-    if (cells.size() != 5) throw core::Error(core::located(f, lineno, fmt::format("{} cells, expected 5", cells.size())));
+    if (cells.size() != 5)
+      throw core::Error(core::located(f, lineno, fmt::format("{} cells, expected 5", cells.size())));
     double v[5];
     for (int j = 0; j < 5; ++j)
       if (!parse_number(cells[static_cast<std::size_t>(j)], v[j]))
-        throw core::Error(core::located(f, lineno, fmt::format("cell {} '{}' is not a number", j + 1, cells[static_cast<std::size_t>(j)])));
-    if (!(v[1] > 0)) throw core::Error(core::located(f, lineno, fmt::format("feed ceiling {} mm/s: expected > 0", v[1])));
+        throw core::Error(core::located(
+            f, lineno, fmt::format("cell {} '{}' is not a number", j + 1, cells[static_cast<std::size_t>(j)])));
+    if (!(v[1] > 0))
+      throw core::Error(core::located(f, lineno, fmt::format("feed ceiling {} mm/s: expected > 0", v[1])));
     if (!c.s_mm.empty() && !(v[0] > c.s_mm.back()))
-      throw core::Error(core::located(f, lineno, fmt::format("s = {} mm: expected larger than the line before's {} mm",
-                                                             v[0], c.s_mm.back())));
+      throw core::Error(core::located(
+          f, lineno, fmt::format("s = {} mm: expected larger than the line before's {} mm", v[0], c.s_mm.back())));
     if (v[0] < -kPathTolerance || v[0] > path.length + kPathTolerance)
-      throw core::Error(core::located(f, lineno, fmt::format("s = {} mm lies off the job's path (0 .. {} mm)", v[0],
-                                                             path.length)));
+      throw core::Error(
+          core::located(f, lineno, fmt::format("s = {} mm lies off the job's path (0 .. {} mm)", v[0], path.length)));
     const core::Vec6 p = path.point(std::clamp(v[0], 0.0, path.length), cursor);
     const double d = std::hypot(p[0] - v[2], p[1] - v[3], p[2] - v[4]);
     if (d > kPathTolerance)
       throw core::Error(core::located(
           f, lineno,
-          fmt::format("the plan's point ({}, {}, {}) at s = {} mm is {:.6g} mm from the job's path there: it was planned "
-                      "for another path (run vmsim plan-feed on this job again)",
-                      cells[2], cells[3], cells[4], cells[0], d)));
+          fmt::format(
+              "the plan's point ({}, {}, {}) at s = {} mm is {:.6g} mm from the job's path there: it was planned "
+              "for another path (run vmsim plan-feed on this job again)",
+              cells[2], cells[3], cells[4], cells[0], d)));
     c.s_mm.push_back(v[0]);
     c.feed_mm_per_s.push_back(v[1]);
   }
   if (static_cast<double>(c.s_mm.size()) != points)
-    throw core::Error(core::located(f, head_line, fmt::format("{} points, the header announces {}", c.s_mm.size(), points)));
+    throw core::Error(
+        core::located(f, head_line, fmt::format("{} points, the header announces {}", c.s_mm.size(), points)));
   c.check();
   return c;
 }

@@ -1,6 +1,6 @@
 #pragma once
-// Feed plans as files (Chen et al. 2016's contour-error-constrained feed plan): `vmsim plan-feed` writes one, `vmsim run`
-// (and every command that interpolates the job, through sim::Chain) follows it through the job's `feed_plan` key
+// Feed plans as files (Chen et al. 2016's contour-error-constrained feed plan): `vmsim plan-feed` writes one, `vmsim
+// run` (and every command that interpolates the job, through sim::Chain) follows it through the job's `feed_plan` key
 // (parts/README.md).
 //
 // Format (CSV, '#' lines first):

@@ -76,9 +76,10 @@ FeedPlanServo feed_plan_servo(const core::FeedPlanSpec& spec, const core::Machin
     const bool moves = ax.program_axis < 3 && moving[ax.program_axis] > 0;
     if (!moves) continue;
     if (!given[a])
-      throw core::Error(core::located(job_file, 0, fmt::format("axis {} moves but [feedplan] has no [[feedplan.axis]] "
-                                                               "with name = \"{}\"",
-                                                               ax.name, ax.name)));
+      throw core::Error(core::located(job_file, 0,
+                                      fmt::format("axis {} moves but [feedplan] has no [[feedplan.axis]] "
+                                                  "with name = \"{}\"",
+                                                  ax.name, ax.name)));
     try {
       s.responses.push_back(frequency_response(s.simulate[a]));
     } catch (const core::Error& e) {

@@ -17,7 +17,8 @@ PlayedPlan play_plan(const PlanPlayer& player, const PathSamples& samples, const
   motion::InterpOptions io = player.interp;
   io.feed_ceiling = plan ? feed_ceiling(*plan, player.to_path_s) : motion::FeedCeiling{};
   PlayedPlan out;
-  out.interp = player.interpolate ? player.interpolate(io.feed_ceiling) : motion::interpolate(*player.program, machine, io);
+  out.interp =
+      player.interpolate ? player.interpolate(io.feed_ceiling) : motion::interpolate(*player.program, machine, io);
   const core::Setpoints& sp = out.interp.setpoints;
   if (player.simulate) {
     out.actual = player.simulate(sp);
@@ -55,7 +56,8 @@ PlayedPlan play_plan(const PlanPlayer& player, const PathSamples& samples, const
     const double ps = sp.path_length_mm[i] + w * (sp.path_length_mm[j] - sp.path_length_mm[i]);
     const double s = player.to_sample_s ? player.to_sample_s(ps) : ps;
     out.sample_s[k] = s;
-    const Eigen::Index idx = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(std::llround(s / samples.ds)), 0, n - 1);
+    const Eigen::Index idx =
+        std::clamp<Eigen::Index>(static_cast<Eigen::Index>(std::llround(s / samples.ds)), 0, n - 1);
     out.per_sample[idx] = std::max(out.per_sample[idx], std::abs(out.contour.signed_mm[k]));
   }
 

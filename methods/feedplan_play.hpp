@@ -1,10 +1,10 @@
 #pragma once
 // A feed plan played as a machine would: the interpolator follows the path under the plan's feed ceiling
 // (motion::interpolate with InterpOptions::feed_ceiling), the setpoints go through the axes' servos (the machine's
-// cascades, drives::simulate_axes, or transfer-function servos such as Chen et al.'s PID, TransferFunctionAxis), and the
-// contour error of the simulated axes is measured against the setpoints' path (motion::contour_error). Used by vmsim
-// plan-feed and the tests, and by plan_feed_verified, which goes beyond Chen et al. 2016: it tightens the plan where the
-// simulation, not only the steady-state circle model, exceeds the tolerance.
+// cascades, drives::simulate_axes, or transfer-function servos such as Chen et al.'s PID, TransferFunctionAxis), and
+// the contour error of the simulated axes is measured against the setpoints' path (motion::contour_error). Used by
+// vmsim plan-feed and the tests, and by plan_feed_verified, which goes beyond Chen et al. 2016: it tightens the plan
+// where the simulation, not only the steady-state circle model, exceeds the tolerance.
 #include "motion/contour.hpp"
 #include "motion/interp.hpp"
 #include "core/machine.hpp"
@@ -20,14 +20,14 @@
 namespace vmsim::methods {
 
 struct PlanPlayer {
-  const core::ToolPath* program = nullptr;   // the moves (in axis space), and for NURBS the chain's bookkeeping moves
+  const core::ToolPath* program = nullptr;  // the moves (in axis space), and for NURBS the chain's bookkeeping moves
   const core::Machine* machine = nullptr;
-  motion::InterpOptions interp;                // period, tolerance, geometry (NURBS); the ceiling is set per play
+  motion::InterpOptions interp;  // period, tolerance, geometry (NURBS); the ceiling is set per play
   // Plan sample arc length -> the smoothed path's arc length (NURBS: motion::NurbsPath::path_s), and back. Empty: same.
   std::function<double(double)> to_path_s, to_sample_s;
   // One transfer function per machine axis (Chen et al.'s servo); empty: the machine's [axes.drive] cascades.
   std::vector<TransferFunction> servo;
-  double settle_s = 0.3;                     // simulated after the last setpoint
+  double settle_s = 0.3;  // simulated after the last setpoint
   // The chain to play on, when given (vmsim plan-feed plays on the job's sim::Chain): the interpolator under a
   // ceiling, and the axes' positions for the setpoints (setpoint rows, then the settling rows). Empty: the members
   // above (motion::interpolate with `interp`; `servo` or the machine's cascades for settle_s).
@@ -38,12 +38,13 @@ struct PlanPlayer {
 struct PlayedPlan {
   motion::InterpResult interp;
   Eigen::MatrixXd actual;        // simulated axis positions, setpoint rows then the settling rows (axis units)
-  motion::ContourError contour;    // X Y Z, per actual row
-  Eigen::ArrayXd chord_error_mm; // per setpoint: the largest distance between the chord to the next setpoint and the path
-  Eigen::ArrayXd sample_s;       // per actual row: the plan's arc length of its foot point
-  Eigen::ArrayXd per_sample;     // per plan sample: the largest |contour error| of the rows whose foot lies in its
-                                 // interval (0 where none does)
-  double max_abs_mm = 0.0;       // largest |contour error| while the path is followed (settling rows included)
+  motion::ContourError contour;  // X Y Z, per actual row
+  Eigen::ArrayXd
+      chord_error_mm;         // per setpoint: the largest distance between the chord to the next setpoint and the path
+  Eigen::ArrayXd sample_s;    // per actual row: the plan's arc length of its foot point
+  Eigen::ArrayXd per_sample;  // per plan sample: the largest |contour error| of the rows whose foot lies in its
+                              // interval (0 where none does)
+  double max_abs_mm = 0.0;    // largest |contour error| while the path is followed (settling rows included)
 };
 
 // Throws core::Error from the interpolator or the servos. plan == nullptr: the program's own feed, no ceiling.
@@ -56,7 +57,7 @@ struct VerifiedPlan {
   std::vector<double> model_time_s;       // per round, the plan's own traversal time
   PlayedPlan played;                      // the last round's simulation
   int rounds = 0;
-  bool holds = false;                     // the last simulation is within eps0
+  bool holds = false;  // the last simulation is within eps0
 };
 
 struct VerifyOptions {

@@ -47,8 +47,9 @@ TransferFunction pid_servo_transfer_function(const PidServoParams& p) {
 
 AxisFrequencyResponse frequency_response(const TransferFunction& tf) {
   if (tf.den.empty() || tf.den.front() == 0.0 || tf.num.size() > tf.den.size())
-    throw core::Error("transfer function: the denominator must have a non-zero leading coefficient and a degree at "
-                      "least the numerator's");
+    throw core::Error(
+        "transfer function: the denominator must have a non-zero leading coefficient and a degree at "
+        "least the numerator's");
   AxisFrequencyResponse r;
   r.g = [tf](double w) { return tf.at_omega(w); };
   r.omega_max = 1e5;
@@ -74,9 +75,10 @@ ContourErrorModel::ContourErrorModel(std::vector<AxisFrequencyResponse> axes) : 
   for (const auto& a : axes_) {
     const cd g0 = a.g(kGridLow);
     if (!std::isfinite(g0.real()) || !std::isfinite(g0.imag()) || std::abs(std::abs(g0) - 1.0) > 1e-3)
-      throw core::Error(fmt::format("contour-error model: |G| = {:.6g} at {} rad/s, expected 1 (a position servo "
-                                    "follows slow commands)",
-                                    std::abs(g0), kGridLow));
+      throw core::Error(
+          fmt::format("contour-error model: |G| = {:.6g} at {} rad/s, expected 1 (a position servo "
+                      "follows slow commands)",
+                      std::abs(g0), kGridLow));
   }
   // Natural frequency: the first local maximum of |G| of any axis, else the first -3 dB frequency, else omega_max.
   omega_n_ = wmax;
@@ -88,8 +90,7 @@ ContourErrorModel::ContourErrorModel(std::vector<AxisFrequencyResponse> axes) : 
     double e = 0.0;
     for (std::size_t a = 0; a < axes_.size(); ++a) {
       const double m = std::abs(axes_[a].g(w));
-      if (!std::isfinite(m))
-        throw core::Error(fmt::format("contour-error model: |G| is not finite at {} rad/s", w));
+      if (!std::isfinite(m)) throw core::Error(fmt::format("contour-error model: |G| is not finite at {} rad/s", w));
       e = std::max(e, std::abs(1.0 - m));
       if (i >= 2 && prev[a] > prev2[a] && prev[a] >= m && prev[a] > 1.0)
         omega_n_ = std::min(omega_n_, w_[static_cast<std::size_t>(i - 1)]);
@@ -146,8 +147,9 @@ double ContourErrorModel::max_feed(double rho_mm, double eps0_mm) const {
 TransferFunctionAxis::TransferFunctionAxis(const TransferFunction& tf, double te_s) : te_(te_s) {
   if (!(te_s > 0)) throw core::Error("transfer-function axis: Te must be > 0");
   if (tf.den.empty() || tf.den.front() == 0.0 || tf.num.empty() || tf.num.size() > tf.den.size())
-    throw core::Error("transfer-function axis: need a proper transfer function (den's degree >= num's, leading "
-                      "coefficient != 0)");
+    throw core::Error(
+        "transfer-function axis: need a proper transfer function (den's degree >= num's, leading "
+        "coefficient != 0)");
   const int n = static_cast<int>(tf.den.size()) - 1;
   const double a0 = tf.den.front();
   std::vector<double> a(tf.den.size()), b(tf.den.size(), 0.0);
@@ -178,7 +180,8 @@ TransferFunctionAxis::TransferFunctionAxis(const TransferFunction& tf, double te
     reset(0.0);
     return;
   }
-  if (a[static_cast<std::size_t>(n)] == 0.0) throw core::Error("transfer-function axis: G(0) is not finite (a pole at 0)");
+  if (a[static_cast<std::size_t>(n)] == 0.0)
+    throw core::Error("transfer-function axis: G(0) is not finite (a pole at 0)");
   x_rest_ = -A.partialPivLu().solve(B);
   const double g0 = c_.dot(x_rest_) + d_;
   if (std::abs(g0 - 1.0) > 1e-6)
@@ -206,7 +209,9 @@ drives::AxisSample TransferFunctionAxis::step(const drives::AxisCommand& command
   return s;
 }
 
-std::unique_ptr<drives::AxisModel> TransferFunctionAxis::clone() const { return std::make_unique<TransferFunctionAxis>(*this); }
+std::unique_ptr<drives::AxisModel> TransferFunctionAxis::clone() const {
+  return std::make_unique<TransferFunctionAxis>(*this);
+}
 
 Eigen::MatrixXd simulate_transfer_functions(const core::Setpoints& sp, const std::vector<TransferFunction>& axes,
                                             double settle_s) {

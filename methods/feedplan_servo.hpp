@@ -2,8 +2,8 @@
 // Servo models for Chen et al.'s contour-error constrained feed planning (drives/feedplan).
 //
 // - Frequency responses G(jw) of the axes' closed loops, from which Chen et al.'s circular contour-error model
-//   eps = rho |1 - |G(j f/rho)|| (eq. 6-7) bounds the feed (eq. 11-13): a continuous transfer function (Chen et al. 2016 eq.
-//   2, the PID servo of its Table 1, or any identified model), or the machine's linearised cascade
+//   eps = rho |1 - |G(j f/rho)|| (eq. 6-7) bounds the feed (eq. 11-13): a continuous transfer function (Chen et al.
+//   2016 eq. 2, the PID servo of its Table 1, or any identified model), or the machine's linearised cascade
 //   (drives/linear_model, the exact sampled-data response at Te).
 // - ContourErrorModel: the error ratio e(w) = |1 - |G(jw)|| (the worst of the moving axes, since Chen et al.'s eq. 5
 //   assumes matched axes), the natural frequency w_n and the largest admissible w0 of eq. 11.
@@ -30,8 +30,8 @@ struct TransferFunction {
   std::complex<double> at_omega(double omega_rad_s) const { return at({0.0, omega_rad_s}); }
 };
 
-// Chen et al. 2016 Fig. 1 / Table 1: a PID on the position error (V/mm, V/(mm s), V/(mm/s)), current amplifier ka (A/V),
-// torque constant kt (N m/A), inertia J, viscous damping B, screw lead rg (mm/rad).
+// Chen et al. 2016 Fig. 1 / Table 1: a PID on the position error (V/mm, V/(mm s), V/(mm/s)), current amplifier ka
+// (A/V), torque constant kt (N m/A), inertia J, viscous damping B, screw lead rg (mm/rad).
 struct PidServoParams {
   double kp = 10.0, ki = 50.0, kd = 0.3;
   double ka = 6.5723, kt = 0.4769, inertia = 7.0028e-3, damping = 0.023569, rg = 1.5915;

@@ -37,14 +37,14 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 struct Profile {
   const core::Setpoints* sp = nullptr;
   const core::Machine* machine = nullptr;
-  std::vector<int> axes;             // adjusted machine axes
-  int xyz[3] = {-1, -1, -1};         // machine axis of X, Y, Z
-  int col[2] = {0, 0};               // column (0..2) of each adjusted axis in the X Y Z matrices
+  std::vector<int> axes;      // adjusted machine axes
+  int xyz[3] = {-1, -1, -1};  // machine axis of X, Y, Z
+  int col[2] = {0, 0};        // column (0..2) of each adjusted axis in the X Y Z matrices
   Eigen::Vector3d normal = Eigen::Vector3d::UnitY();
   double te = 1e-3;
   Index n_set = 0, rows = 0;
-  Eigen::MatrixXd command;           // rows x 3: X Y Z setpoints, the last one held over the settling rows
-  Eigen::ArrayXd weight;             // rows
+  Eigen::MatrixXd command;  // rows x 3: X Y Z setpoints, the last one held over the settling rows
+  Eigen::ArrayXd weight;    // rows
   double weight_sum = 0.0;
   motion::ContourOptions ce_options;
 
@@ -56,11 +56,13 @@ Profile make_profile(const core::Setpoints& sp, const core::Machine& m, const Og
   p.sp = &sp;
   p.machine = &m;
   p.te = sp.period_s;
-  if (!(p.te > 0.0 && std::isfinite(p.te))) throw core::Error(fmt::format("OGA: the period Te must be positive, found {}", p.te));
+  if (!(p.te > 0.0 && std::isfinite(p.te)))
+    throw core::Error(fmt::format("OGA: the period Te must be positive, found {}", p.te));
   p.n_set = sp.samples();
   if (p.n_set < 4) throw core::Error("OGA: the setpoints have fewer than 4 samples: no profile to adjust gains on");
   if (sp.position.cols() != static_cast<Index>(m.axes.size()))
-    throw core::Error(fmt::format("OGA: the setpoints have {} axes, the machine {}", sp.position.cols(), m.axes.size()));
+    throw core::Error(
+        fmt::format("OGA: the setpoints have {} axes, the machine {}", sp.position.cols(), m.axes.size()));
   if (!sp.position.allFinite()) throw core::Error("OGA: a setpoint is not finite");
   if (!(o.settle_s >= 0.0 && std::isfinite(o.settle_s)))
     throw core::Error(fmt::format("OGA: settle_s must be >= 0, found {}", o.settle_s));
@@ -81,23 +83,25 @@ Profile make_profile(const core::Setpoints& sp, const core::Machine& m, const Og
   }
   for (int a = 0; a < static_cast<int>(m.axes.size()); ++a)
     if (a != p.xyz[0] && a != p.xyz[1] && a != p.xyz[2] && moves(a))
-      throw core::Error(fmt::format("OGA: axis {} moves; Duong et al.'s offline gain adjustment is for biaxial planar "
-                                    "profiles of two of X, Y, Z",
-                                    m.axes[static_cast<std::size_t>(a)].name));
+      throw core::Error(
+          fmt::format("OGA: axis {} moves; Duong et al.'s offline gain adjustment is for biaxial planar "
+                      "profiles of two of X, Y, Z",
+                      m.axes[static_cast<std::size_t>(a)].name));
   if (p.axes.size() != 2) {
     std::string names;
     for (int a : p.axes) names += (names.empty() ? "" : ", ") + m.axes[static_cast<std::size_t>(a)].name;
-    throw core::Error(fmt::format("OGA: {} of X, Y, Z move ({}); Duong et al.'s offline gain adjustment needs a biaxial "
-                                  "planar profile: exactly two moving axes",
-                                  p.axes.size(), names.empty() ? "none" : names));
+    throw core::Error(
+        fmt::format("OGA: {} of X, Y, Z move ({}); Duong et al.'s offline gain adjustment needs a biaxial "
+                    "planar profile: exactly two moving axes",
+                    p.axes.size(), names.empty() ? "none" : names));
   }
   p.normal = Eigen::Vector3d::Zero();
   p.normal[fixed[0]] = 1.0;
   for (int a : p.axes) {
     const core::MachineAxis& ax = m.axes[static_cast<std::size_t>(a)];
     if (!ax.drive)
-      throw core::Error(core::located(m.source_file, 0,
-                                      fmt::format("axis {} moves but has no [axes.drive] section", ax.name)));
+      throw core::Error(
+          core::located(m.source_file, 0, fmt::format("axis {} moves but has no [axes.drive] section", ax.name)));
   }
   p.command.resize(p.rows, 3);
   for (Index k = 0; k < p.rows; ++k)
@@ -106,9 +110,10 @@ Profile make_profile(const core::Setpoints& sp, const core::Machine& m, const Og
     p.weight = Eigen::ArrayXd::Ones(p.rows);
   } else {
     if (o.row_weight.size() != p.rows)
-      throw core::Error(fmt::format("OGA: row_weight has {} entries, expected one per response row ({} = {} setpoints "
-                                    "+ {} settling rows)",
-                                    o.row_weight.size(), p.rows, p.n_set, p.rows - p.n_set));
+      throw core::Error(
+          fmt::format("OGA: row_weight has {} entries, expected one per response row ({} = {} setpoints "
+                      "+ {} settling rows)",
+                      o.row_weight.size(), p.rows, p.n_set, p.rows - p.n_set));
     if (!(o.row_weight >= 0.0).all() || !o.row_weight.allFinite())
       throw core::Error("OGA: row_weight must be finite and >= 0");
     p.weight = o.row_weight;
@@ -124,9 +129,9 @@ Profile make_profile(const core::Setpoints& sp, const core::Machine& m, const Og
 
 struct AxisTrack {
   std::unique_ptr<drives::AxisModel> drive, twin;
-  double nc_x = 0.0, nc_v = 0.0;             // the NC's previous setpoint and velocity (feedforward differences)
+  double nc_x = 0.0, nc_v = 0.0;              // the NC's previous setpoint and velocity (feedforward differences)
   double fd_x = 0.0, fd_v = 0.0, fd_a = 0.0;  // the twin at the previous row: position, velocity, acceleration
-  Index row = 0;                             // the row the state is at (before command `row`)
+  Index row = 0;                              // the row the state is at (before command `row`)
 
   AxisTrack clone() const {
     AxisTrack t;
@@ -184,10 +189,14 @@ inline double step_track(AxisTrack& t, double x_d, double te, double kv, double 
 
 std::string trade_units(double value, int kind) {  // linear axes: mm/s -> m/min, mm/s^2 -> m/s^2, ...
   switch (kind) {
-    case 0: return fmt::format("{:.4g} m/min", value * 60.0 / 1000.0);
-    case 1: return fmt::format("{:.4g} m/s^2", value / 1000.0);
-    case 2: return fmt::format("{:.4g} m/s^3", value / 1000.0);
-    default: return fmt::format("{:.4g} A", value);
+    case 0:
+      return fmt::format("{:.4g} m/min", value * 60.0 / 1000.0);
+    case 1:
+      return fmt::format("{:.4g} m/s^2", value / 1000.0);
+    case 2:
+      return fmt::format("{:.4g} m/s^3", value / 1000.0);
+    default:
+      return fmt::format("{:.4g} A", value);
   }
 }
 
@@ -260,10 +269,14 @@ std::vector<Window> at_least_p(const std::vector<Window>& in, Index p, Index end
 
 const char* window_kind_name(WindowKind kind) {
   switch (kind) {
-    case WindowKind::Straight: return "straight";
-    case WindowKind::Convex: return "convex";
-    case WindowKind::Concave: return "concave";
-    case WindowKind::Transition: return "transition";
+    case WindowKind::Straight:
+      return "straight";
+    case WindowKind::Convex:
+      return "convex";
+    case WindowKind::Concave:
+      return "concave";
+    case WindowKind::Transition:
+      return "transition";
   }
   return "?";
 }
@@ -288,7 +301,7 @@ Neighbours chord_neighbours(const Eigen::MatrixXd& xyz, double h) {
     while (i + 1 < k && nb.s[i + 1] <= nb.s[k] - h) ++i;  // largest i with s_i <= s_k - h
     if (i >= 0 && nb.s[i] <= nb.s[k] - h) nb.before[static_cast<std::size_t>(k)] = i;
     if (j <= k) j = k + 1;
-    while (j < n && nb.s[j] < nb.s[k] + h) ++j;            // smallest j with s_j >= s_k + h
+    while (j < n && nb.s[j] < nb.s[k] + h) ++j;  // smallest j with s_j >= s_k + h
     if (j < n) nb.after[static_cast<std::size_t>(k)] = j;
   }
   return nb;
@@ -344,11 +357,16 @@ std::vector<Window> curvature_windows(const Eigen::MatrixXd& xyz, const Eigen::V
     double rate = 0.0;
     if (i >= 0 && j >= 0) rate = std::abs(kappa[j] - kappa[i]) / (nb.s[j] - nb.s[i]);
     WindowKind kind = WindowKind::Straight;
-    if (rate > o.transition_rate_per_mm2) kind = WindowKind::Transition;
-    else if (kappa[k] > o.straight_curvature_per_mm) kind = WindowKind::Convex;
-    else if (kappa[k] < -o.straight_curvature_per_mm) kind = WindowKind::Concave;
-    if (!w.empty() && w.back().kind == kind) w.back().end = k + 1;
-    else w.push_back({k, k + 1, kind});
+    if (rate > o.transition_rate_per_mm2)
+      kind = WindowKind::Transition;
+    else if (kappa[k] > o.straight_curvature_per_mm)
+      kind = WindowKind::Convex;
+    else if (kappa[k] < -o.straight_curvature_per_mm)
+      kind = WindowKind::Concave;
+    if (!w.empty() && w.back().kind == kind)
+      w.back().end = k + 1;
+    else
+      w.push_back({k, k + 1, kind});
   }
   // Short runs join the window before (a short first one joins the next); equal neighbours merge.
   std::vector<Window> merged;
@@ -358,9 +376,12 @@ std::vector<Window> curvature_windows(const Eigen::MatrixXd& xyz, const Eigen::V
       continue;
     }
     Window& last = merged.back();
-    if (x.end - x.begin < o.min_rows || last.kind == x.kind) last.end = x.end;
-    else if (last.end - last.begin < o.min_rows) last = {last.begin, x.end, x.kind};
-    else merged.push_back(x);
+    if (x.end - x.begin < o.min_rows || last.kind == x.kind)
+      last.end = x.end;
+    else if (last.end - last.begin < o.min_rows)
+      last = {last.begin, x.end, x.kind};
+    else
+      merged.push_back(x);
   }
   return merged;
 }
@@ -372,9 +393,10 @@ int sinusoid_samples(double frequency_hz, double te_s) {
     throw core::Error(fmt::format("OGA: the gain frequency f must be positive, found {} Hz", frequency_hz));
   const double p = 1.0 / (2.0 * frequency_hz * te_s);
   if (!(p >= 1.5))
-    throw core::Error(fmt::format("OGA: the gain frequency f = {} Hz is too high for Te = {} ms: the sinusoid of eq. 3 "
-                                  "would be shorter than 2 samples (f <= 1 / (4 Te) = {} Hz)",
-                                  frequency_hz, te_s * 1e3, 1.0 / (4.0 * te_s)));
+    throw core::Error(
+        fmt::format("OGA: the gain frequency f = {} Hz is too high for Te = {} ms: the sinusoid of eq. 3 "
+                    "would be shorter than 2 samples (f <= 1 / (4 Te) = {} Hz)",
+                    frequency_hz, te_s * 1e3, 1.0 / (4.0 * te_s)));
   if (p > 1e7) throw core::Error(fmt::format("OGA: the gain frequency f = {} Hz is too low", frequency_hz));
   return static_cast<int>(std::lround(p));
 }
@@ -396,8 +418,8 @@ void gain_function(double k_prev, double k_final, int p, Index n, double* out) {
 // ---- limits ---------------------------------------------------------------------------------------------------------
 
 double limit_ratio(const MotionPeaks& p, const core::MachineAxis& ax) {
-  double r = std::max({p.velocity.value / ax.max_velocity, p.acceleration.value / ax.max_acceleration,
-                       p.jerk.value / ax.max_jerk});
+  double r = std::max(
+      {p.velocity.value / ax.max_velocity, p.acceleration.value / ax.max_acceleration, p.jerk.value / ax.max_jerk});
   if (ax.drive) r = std::max(r, p.current.value / ax.drive->current_limit_A);
   return r;
 }
@@ -441,7 +463,8 @@ MotionPeaks finite_difference_motion_peaks(const Eigen::VectorXd& x, double te, 
   return pk;
 }
 
-// ---- the search ------------------------------------------------------------------------------------------------------
+// ---- the search
+// ------------------------------------------------------------------------------------------------------
 
 OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine& m, const OgaOptions& o) {
   const auto t_start = Clock::now();
@@ -468,7 +491,8 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
     if (std::find(res.axis_names.begin(), res.axis_names.end(), name) == res.axis_names.end())
       throw core::Error(fmt::format("OGA: a range is given for axis {}, which the profile does not move", name));
     if (!(r.first > 0.0 && r.second >= r.first && std::isfinite(r.second)))
-      throw core::Error(fmt::format("OGA: the range [{}, {}] of axis {} is not 0 < min <= max", r.first, r.second, name));
+      throw core::Error(
+          fmt::format("OGA: the range [{}, {}] of axis {} is not 0 < min <= max", r.first, r.second, name));
   }
   res.sinusoid_samples = sinusoid_samples(o.frequency_hz, P.te);
   const int p = res.sinusoid_samples;
@@ -558,10 +582,11 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
   Eigen::VectorXd c1_path[2];
   if (o.reference == OgaOptions::Reference::Best) {
     if (!best_pair)
-      throw core::Error(fmt::format("OGA: no admissible configuration on axis {} (e.g. {}): there is no best fixed pair; "
-                                    "see the sweep, or use the machine's own gains as C1",
-                                    adm[0].empty() ? res.axis_names[0] : res.axis_names[1],
-                                    (adm[0].empty() ? res.sweep[0] : res.sweep[1]).front().violation));
+      throw core::Error(
+          fmt::format("OGA: no admissible configuration on axis {} (e.g. {}): there is no best fixed pair; "
+                      "see the sweep, or use the machine's own gains as C1",
+                      adm[0].empty() ? res.axis_names[0] : res.axis_names[1],
+                      (adm[0].empty() ? res.sweep[0] : res.sweep[1]).front().violation));
     res.c1 = res.best;
     c1_path[0] = path[0][best_pair->first];
     c1_path[1] = path[1][best_pair->second];
@@ -575,7 +600,8 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
       MotionPeaks unused;
       c1_path[q].resize(R);
       c1_path[q][0] = P.setpoint(a, 0);
-      for (Index k = 0; k + 1 < R; ++k) c1_path[q][k + 1] = step_track(t, P.setpoint(a, k), P.te, g.kp * kKv, g.kf, unused);
+      for (Index k = 0; k + 1 < R; ++k)
+        c1_path[q][k + 1] = step_track(t, P.setpoint(a, k), P.te, g.kp * kKv, g.kf, unused);
     }
     res.c1_mse_um2 = whole_path_mse(c1_path[0], c1_path[1]);
   }
@@ -609,10 +635,11 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
     }
     const auto& r = res.range.back();
     if (!(k1 >= r.first - 1e-12 && k1 <= r.second + 1e-12))
-      throw core::Error(fmt::format("OGA: the range [{:g}, {:g}] of axis {} does not hold C1's Kp = {:g} (m/min)/mm: "
-                                    "the schedule starts from C1's gain (eq. 3: a window's first gain is the last of "
-                                    "the one before)",
-                                    r.first, r.second, res.axis_names[static_cast<std::size_t>(q)], k1));
+      throw core::Error(
+          fmt::format("OGA: the range [{:g}, {:g}] of axis {} does not hold C1's Kp = {:g} (m/min)/mm: "
+                      "the schedule starts from C1's gain (eq. 3: a window's first gain is the last of "
+                      "the one before)",
+                      r.first, r.second, res.axis_names[static_cast<std::size_t>(q)], k1));
   }
 
   // C1 as a constant schedule; C2 starts from it.
@@ -628,8 +655,9 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
   // 3. Windows (Duong et al. section III.E), on the setpoint rows; the last one also holds the settling commands.
   t0 = Clock::now();
   std::vector<Window> windows = at_least_p(curvature_windows(P.command.topRows(N), P.normal, o.windows), p, R - 1);
-  say(fmt::format("receding windows: {} windows, p = {} samples, {}", windows.size(), p,
-                  o.from_start ? "each candidate from the start (Duong et al.)" : "from the state at each window start"));
+  say(fmt::format(
+      "receding windows: {} windows, p = {} samples, {}", windows.size(), p,
+      o.from_start ? "each candidate from the start (Duong et al.)" : "from the state at each window start"));
 
   // 4. Receding windows without overlap.
   AxisTrack track[2] = {start_track(*ax[0], P.te, P.setpoint(P.axes[0], 0)),
@@ -642,9 +670,9 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
   double sse_total = 0.0;  // row 0: at rest on the first setpoint, contour error 0
 
   struct Candidate {
-    double final_kp = 0.0;       // the gain eq. 3 aims at
-    std::vector<double> gains;   // commands [a, min(b, N))
-    Eigen::VectorXd x;           // rows a+1 .. b
+    double final_kp = 0.0;      // the gain eq. 3 aims at
+    std::vector<double> gains;  // commands [a, min(b, N))
+    Eigen::VectorXd x;          // rows a+1 .. b
     MotionPeaks peaks;
     AxisTrack end;
     bool ok = false;
@@ -737,7 +765,8 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
     const auto best = std::min_element(sse.begin(), sse.begin() + combos) - sse.begin();
     if (!std::isfinite(sse[static_cast<std::size_t>(best)]))
       throw core::Error(fmt::format("OGA: window {} (rows {} to {}): every candidate's motion diverges", wi, a, b));
-    const int pick[2] = {usable[0][static_cast<std::size_t>(best / n1)], usable[1][static_cast<std::size_t>(best % n1)]};
+    const int pick[2] = {usable[0][static_cast<std::size_t>(best / n1)],
+                         usable[1][static_cast<std::size_t>(best % n1)]};
     const double wsum = P.weight.segment(a + 1, nc).sum();
     wr.mse_um2 = wsum > 0 ? sse[static_cast<std::size_t>(best)] / wsum * 1e6 : 0.0;
     wr.hold_mse_um2 = wsum > 0 ? sse[static_cast<std::size_t>(combos)] / wsum * 1e6 : 0.0;
@@ -763,7 +792,8 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
   return res;
 }
 
-// ---- verification ------------------------------------------------------------------------------------------------------
+// ---- verification
+// ------------------------------------------------------------------------------------------------------
 
 OgaVerification verify_oga(const core::Setpoints& sp, const core::Machine& m, const OgaResult& res,
                            const OgaOptions& o) {

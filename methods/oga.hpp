@@ -26,7 +26,8 @@
 //    the same positions bit for bit, at a fraction of the cost (OgaOptions::from_start runs the seed's way, for
 //    the tests and the benchmark). Candidates are simulated and combined in parallel (OpenMP); the choice does
 //    not depend on the thread count.
-//  - The axes are independent in the model (the feed-drive simulation paper section 2.2), so each axis' candidates are simulated once
+//  - The axes are independent in the model (the feed-drive simulation paper section 2.2), so each axis' candidates are
+//  simulated once
 //    and the combinations cost only their contour error.
 //  - A candidate whose motion breaks a limit inside its window is not chosen (the seed checks only afterwards,
 //    step 5, and then changes the window length or the range by hand). If every candidate of an axis breaks one,
@@ -121,8 +122,8 @@ void gain_function(double k_prev, double k_final, int p, Eigen::Index n, double*
 // ---- limits of the actual motion --------------------------------------------------------------------------------
 
 struct Peak {
-  double value = 0.0;      // |signal| at its largest (axis units / s, s^2, s^3; A)
-  Eigen::Index row = -1;   // response row (t = row * Te)
+  double value = 0.0;     // |signal| at its largest (axis units / s, s^2, s^3; A)
+  Eigen::Index row = -1;  // response row (t = row * Te)
 };
 struct MotionPeaks {
   Peak velocity, acceleration, jerk;  // per-Te finite differences of the positions
@@ -145,9 +146,9 @@ struct AxisGains {
 // One configuration of one axis simulated on the whole profile (Duong et al. Fig. 7).
 struct ConfigCheck {
   AxisGains gains;
-  MotionPeaks twin;         // velocity, acceleration, jerk of the frictionless twin; current of the full model
+  MotionPeaks twin;  // velocity, acceleration, jerk of the frictionless twin; current of the full model
   bool admissible = false;
-  std::string violation;    // why not
+  std::string violation;  // why not
 };
 
 struct OgaOptions {
@@ -161,11 +162,11 @@ struct OgaOptions {
   // Kp range of the schedule per adjusted axis name ((m/min)/mm); an axis not named takes Duong et al.'s placement
   // around C1 ([Kp1 - 1, Kp1 + 0.5], i.e. [5, 6.5] around 6), within the contiguous admissible Kp at C1's KF.
   std::map<std::string, std::pair<double, double>> range;
-  double gain_step = 0.03;      // dK, (m/min)/mm
-  double frequency_hz = 10.0;   // f of the sinusoidal part
-  double settle_s = 0.2;        // simulated after the last setpoint (the last window holds its gains over it)
+  double gain_step = 0.03;     // dK, (m/min)/mm
+  double frequency_hz = 10.0;  // f of the sinusoidal part
+  double settle_s = 0.2;       // simulated after the last setpoint (the last window holds its gains over it)
   WindowOptions windows;
-  bool from_start = false;      // Task 2 as Duong et al.: re-simulate every candidate from the first instant
+  bool from_start = false;  // Task 2 as Duong et al.: re-simulate every candidate from the first instant
   // Contour error of a window: computed over the window's rows with this many rows before it (the actual motion
   // already decided) so the foot-point search has converged when the window starts.
   Eigen::Index lead_in_rows = 100;
@@ -185,33 +186,33 @@ struct OgaOptions {
 
 struct OgaWindowResult {
   Window window;
-  std::vector<double> final_kp;      // per adjusted axis: the gain eq. 3 aimed at (k_final)
-  std::vector<double> last_kp;       // the gain at the window's last row (= final_kp unless the window < p)
-  double mse_um2 = 0.0;              // MSE(CE) over the window's rows with the chosen gains
-  double hold_mse_um2 = 0.0;         // ... keeping the previous gains
-  std::vector<int> candidates;       // per axis: candidates simulated
-  std::vector<int> within_limits;    // per axis: those whose motion kept the limits in the window
-  std::string note;                  // limits broken by every candidate of an axis, if any
+  std::vector<double> final_kp;    // per adjusted axis: the gain eq. 3 aimed at (k_final)
+  std::vector<double> last_kp;     // the gain at the window's last row (= final_kp unless the window < p)
+  double mse_um2 = 0.0;            // MSE(CE) over the window's rows with the chosen gains
+  double hold_mse_um2 = 0.0;       // ... keeping the previous gains
+  std::vector<int> candidates;     // per axis: candidates simulated
+  std::vector<int> within_limits;  // per axis: those whose motion kept the limits in the window
+  std::string note;                // limits broken by every candidate of an axis, if any
 };
 
 struct OgaResult {
-  std::vector<int> axes;                       // the adjusted machine axes (the two of X Y Z that move)
+  std::vector<int> axes;  // the adjusted machine axes (the two of X Y Z that move)
   std::vector<std::string> axis_names;
   Eigen::Vector3d plane_normal = Eigen::Vector3d::UnitY();  // of the profile's plane (the axis that does not move)
   double period_s = 1e-3;
-  Eigen::Index rows = 0;                       // response rows: setpoints + settling
+  Eigen::Index rows = 0;  // response rows: setpoints + settling
   std::vector<double> kp_grid, kf_grid;
-  std::vector<std::vector<ConfigCheck>> sweep; // per adjusted axis: kp-major over (kp_grid, kf_grid)
-  std::vector<AxisGains> best;                 // best admissible fixed pair (Duong et al. section III.D); empty when
-  double best_mse_um2 = 0.0;                   // not searched or no configuration is admissible
+  std::vector<std::vector<ConfigCheck>> sweep;  // per adjusted axis: kp-major over (kp_grid, kf_grid)
+  std::vector<AxisGains> best;                  // best admissible fixed pair (Duong et al. section III.D); empty when
+  double best_mse_um2 = 0.0;                    // not searched or no configuration is admissible
   Eigen::Index pairs_evaluated = 0;
-  std::vector<AxisGains> c1;                   // reference case C1 (best or the machine's)
+  std::vector<AxisGains> c1;  // reference case C1 (best or the machine's)
   double c1_mse_um2 = 0.0;
   std::vector<std::pair<double, double>> range;  // per adjusted axis, (m/min)/mm
-  int sinusoid_samples = 0;                    // p
+  int sinusoid_samples = 0;                      // p
   std::vector<OgaWindowResult> windows;
   GainTable table, c1_table;                   // C2 and C1 (constant) in (m/min)/mm, the adjusted axes
-  drives::GainSchedule schedule, c1_schedule;          // the same in 1/s for simulate_axes (to_gain_schedule)
+  drives::GainSchedule schedule, c1_schedule;  // the same in 1/s for simulate_axes (to_gain_schedule)
   double c2_mse_um2 = 0.0;                     // MSE(CE) of C2 as the search summed it window by window
   std::map<std::string, double> timings_s;
 };
@@ -235,12 +236,13 @@ void set_range_of_moving_axes(const core::Setpoints& setpoints, const core::Mach
                               const std::pair<double, double>& all,
                               std::map<std::string, std::pair<double, double>>& range);
 
-// ---- verification (Duong et al. Fig. 4, section IV) ------------------------------------------------------------------
+// ---- verification (Duong et al. Fig. 4, section IV)
+// ------------------------------------------------------------------
 
 struct AxisVerification {
   std::string axis;
-  MotionPeaks twin_c1, twin_c2;      // checked (see "What the limits are checked on")
-  MotionPeaks model_c1, model_c2;    // the full nonlinear model's finite differences, for information
+  MotionPeaks twin_c1, twin_c2;            // checked (see "What the limits are checked on")
+  MotionPeaks model_c1, model_c2;          // the full nonlinear model's finite differences, for information
   std::string violation_c1, violation_c2;  // "" when the limits hold
   // Duong et al. Fig. 12: the current reference (velocity-loop output) of C2 against C1: max |i2 - i1| over
   // max |i1|, and where.
@@ -250,12 +252,12 @@ struct AxisVerification {
 };
 
 struct OgaVerification {
-  drives::AxisResponse c1, c2;               // every machine axis, the nonlinear model
-  motion::ContourError ce_c1, ce_c2;   // on the X Y Z axis positions, signed about the plane normal
+  drives::AxisResponse c1, c2;        // every machine axis, the nonlinear model
+  motion::ContourError ce_c1, ce_c2;  // on the X Y Z axis positions, signed about the plane normal
   double mse_c1_um2 = 0.0, mse_c2_um2 = 0.0, max_c1_mm = 0.0, max_c2_mm = 0.0;  // over the weighted rows
-  std::vector<AxisVerification> axes;  // the adjusted axes
-  bool limits_held = true;           // C2's twin and currents
-  std::vector<std::string> advice;   // where a limit breaks and what to change
+  std::vector<AxisVerification> axes;                                           // the adjusted axes
+  bool limits_held = true;                                                      // C2's twin and currents
+  std::vector<std::string> advice;  // where a limit breaks and what to change
 };
 
 OgaVerification verify_oga(const core::Setpoints& setpoints, const core::Machine& machine, const OgaResult& result,

@@ -25,7 +25,9 @@ int axis_by_name(const core::Machine& m, const std::string& name) {
   return -1;
 }
 
-double file_unit(const core::MachineAxis& ax) { return ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0; }
+double file_unit(const core::MachineAxis& ax) {
+  return ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0;
+}
 const char* unit_name(const core::MachineAxis& ax) { return ax.kind == core::AxisKind::Rotary ? "deg" : "mm"; }
 
 std::string gain(double v) { return std::isnan(v) ? "nan" : fmt::format("{:.17g}", v); }
@@ -50,11 +52,13 @@ drives::GainSchedule to_gain_schedule(const GainTable& t, const core::Machine& m
 }
 
 void write_gain_schedule(const std::filesystem::path& file, const GainTable& t, const core::Setpoints& sp,
-                         const core::Machine& m, const std::string& job_name, const std::vector<std::string>& comments) {
+                         const core::Machine& m, const std::string& job_name,
+                         const std::vector<std::string>& comments) {
   const Index n = sp.samples();
   if (t.kv_1000_per_min.rows() != n || t.kf.rows() != n ||
       t.kv_1000_per_min.cols() != static_cast<Index>(t.axis_names.size()) || t.kf.cols() != t.kv_1000_per_min.cols())
-    throw core::Error(fmt::format("gain schedule {}: {} rows for {} setpoints", file.string(), t.kv_1000_per_min.rows(), n));
+    throw core::Error(
+        fmt::format("gain schedule {}: {} rows for {} setpoints", file.string(), t.kv_1000_per_min.rows(), n));
   std::vector<int> axes;
   std::vector<std::string> header = {"row", "t_s"};
   for (const std::string& name : t.axis_names) {
@@ -66,7 +70,8 @@ void write_gain_schedule(const std::filesystem::path& file, const GainTable& t, 
     header.push_back(name + "_kf");
   }
   core::CsvWriter out(file);
-  out.comment(std::string(kMagic + 2) + ": position-loop gains per setpoint row (Duong et al. OGA); Kv in (m/min)/mm, KF "
+  out.comment(std::string(kMagic + 2) +
+              ": position-loop gains per setpoint row (Duong et al. OGA); Kv in (m/min)/mm, KF "
               "dimensionless");
   out.comment("job=" + job_name);
   out.comment(fmt::format("period_s={:.17g}", sp.period_s));
@@ -97,7 +102,8 @@ GainTable read_gain_table(const std::filesystem::path& file, const core::Setpoin
     if (const auto kv = core::comment_key_value(c.text)) meta[std::string(kv->first)] = std::string(kv->second);
   if (!magic)
     throw core::Error(core::located(
-        f, 1, std::string("not a vmsim gain schedule (expected a first line \"") + kMagic + ": ...\", as vmsim oga writes)"));
+        f, 1,
+        std::string("not a vmsim gain schedule (expected a first line \"") + kMagic + ": ...\", as vmsim oga writes)"));
   if (!in.has_header()) throw core::Error(f + ": no column header (row,t_s,<axis>_setpoint_mm,...)");
   const std::vector<std::string>& head = in.columns();
   const int head_line = in.header_line();
@@ -111,30 +117,34 @@ GainTable read_gain_table(const std::filesystem::path& file, const core::Setpoin
   const double te = number("period_s");
   const double samples = number("samples");
   if (std::abs(te - sp.period_s) > 1e-12 * sp.period_s)
-    throw core::Error(fmt::format("{}: the schedule is for Te = {} s, the job's setpoints have Te = {} s", f, te,
-                                  sp.period_s));
+    throw core::Error(
+        fmt::format("{}: the schedule is for Te = {} s, the job's setpoints have Te = {} s", f, te, sp.period_s));
   if (samples != static_cast<double>(sp.samples()))
-    throw core::Error(fmt::format("{}: the schedule has {} rows, the job's setpoints {}: it was computed for another "
-                                  "program, feed or interpolation (run vmsim oga on this job again)",
-                                  f, samples, sp.samples()));
+    throw core::Error(
+        fmt::format("{}: the schedule has {} rows, the job's setpoints {}: it was computed for another "
+                    "program, feed or interpolation (run vmsim oga on this job again)",
+                    f, samples, sp.samples()));
 
   // Columns: row, t_s, then per axis <A>_setpoint_<unit>, <A>_kv_1000_per_min, <A>_kf.
   if (head.size() < 2 || head[0] != "row" || head[1] != "t_s" || (head.size() - 2) % 3 != 0)
-    throw core::Error(core::located(f, head_line, "expected the columns row,t_s then <axis>_setpoint_<mm|deg>,"
-                                                  "<axis>_kv_1000_per_min,<axis>_kf for each scheduled axis"));
+    throw core::Error(core::located(f, head_line,
+                                    "expected the columns row,t_s then <axis>_setpoint_<mm|deg>,"
+                                    "<axis>_kv_1000_per_min,<axis>_kf for each scheduled axis"));
   GainTable t;
   std::vector<int> axes;
   for (std::size_t c = 2; c < head.size(); c += 3) {
     const std::string name = head[c].substr(0, head[c].find('_'));
     const int a = axis_by_name(m, name);
     if (a < 0)
-      throw core::Error(core::located(f, head_line, fmt::format("column '{}': the machine has no axis {}", head[c], name)));
+      throw core::Error(
+          core::located(f, head_line, fmt::format("column '{}': the machine has no axis {}", head[c], name)));
     const core::MachineAxis& ax = m.axes[static_cast<std::size_t>(a)];
     const std::string want[3] = {name + "_setpoint_" + unit_name(ax), name + "_kv_1000_per_min", name + "_kf"};
     for (int j = 0; j < 3; ++j)
       if (head[c + static_cast<std::size_t>(j)] != want[j])
-        throw core::Error(core::located(f, head_line, fmt::format("column {} is '{}', expected '{}'", c + j + 1,
-                                                                  head[c + static_cast<std::size_t>(j)], want[j])));
+        throw core::Error(core::located(f, head_line,
+                                        fmt::format("column {} is '{}', expected '{}'", c + j + 1,
+                                                    head[c + static_cast<std::size_t>(j)], want[j])));
     for (int b : axes)
       if (b == a) throw core::Error(core::located(f, head_line, fmt::format("axis {} appears twice", name)));
     axes.push_back(a);
@@ -153,9 +163,10 @@ GainTable read_gain_table(const std::filesystem::path& file, const core::Setpoin
       const core::MachineAxis& ax = m.axes[static_cast<std::size_t>(axes[static_cast<std::size_t>(c)])];
       const double x = in.number(base), own = sp.position(k, axes[static_cast<std::size_t>(c)]) * file_unit(ax);
       if (!(std::abs(x - own) <= kSetpointTolerance))
-        throw in.error(fmt::format("row {}: {} setpoint {} {}, the job's is {:.9f} {}: the schedule belongs to another "
-                                   "path (run vmsim oga on this job again)",
-                                   k, ax.name, in.cell(base), unit_name(ax), own, unit_name(ax)));
+        throw in.error(
+            fmt::format("row {}: {} setpoint {} {}, the job's is {:.9f} {}: the schedule belongs to another "
+                        "path (run vmsim oga on this job again)",
+                        k, ax.name, in.cell(base), unit_name(ax), own, unit_name(ax)));
       const double kv = in.number_or_nan(base + 1, true), kf = in.number_or_nan(base + 2, true);
       if (!std::isnan(kv) && !(kv > 0.0))
         throw in.error(fmt::format("{}: {} is not a gain (expected > 0 (m/min)/mm, or nan for the drive's own)",

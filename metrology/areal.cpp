@@ -25,7 +25,8 @@ ArealParameters areal_parameters(const core::HeightGrid& g) {
   }
   ArealParameters p;
   double sum = 0;
-  for (Eigen::Index j = 0; j < ny; ++j) sum += s0[static_cast<std::size_t>(j)], p.points += cnt[static_cast<std::size_t>(j)];
+  for (Eigen::Index j = 0; j < ny; ++j)
+    sum += s0[static_cast<std::size_t>(j)], p.points += cnt[static_cast<std::size_t>(j)];
   if (p.points == 0) throw core::Error("areal parameters: the surface has no valid point");
   p.mean_mm = sum / static_cast<double>(p.points);
   const double m = p.mean_mm;

@@ -11,9 +11,9 @@ struct ArealParameters {
   std::size_t gradient_points = 0;  // points where both gradients could be formed (Sdq, Sdr)
   double mean_mm = 0;               // the reference height the others are measured from
   double Sa_mm = 0, Sq_mm = 0, Sp_mm = 0, Sv_mm = 0, Sz_mm = 0;
-  double Ssk = 0, Sku = 0;          // dimensionless; NaN when Sq = 0
-  double Sdq = 0;                   // root mean square gradient (dimensionless)
-  double Sdr_percent = 0;           // developed interfacial area ratio, %
+  double Ssk = 0, Sku = 0;  // dimensionless; NaN when Sq = 0
+  double Sdq = 0;           // root mean square gradient (dimensionless)
+  double Sdr_percent = 0;   // developed interfacial area ratio, %
 };
 
 // ISO 25178-2 section 4, with the integrals over the definition area taken as means over the grid's nodes:

@@ -32,7 +32,9 @@ std::string trim(std::string_view s) {
   return std::string(s);
 }
 
-bool utf16_header(std::string_view b) { return b.size() >= 4 && b[0] == 'f' && b[1] == '\0' && b[2] == 'i' && b[3] == '\0'; }
+bool utf16_header(std::string_view b) {
+  return b.size() >= 4 && b[0] == 'f' && b[1] == '\0' && b[2] == 'i' && b[3] == '\0';
+}
 
 // The header's characters (UTF-16 code units narrowed: the keys and values are ASCII).
 std::string narrow(std::string_view b, bool utf16, std::size_t chars) {
@@ -93,7 +95,8 @@ core::HeightGrid read_bcr_bytes(std::string_view b, const std::string& name) {
       fail(name, fmt::format("header: the key \"{}\" is missing", key));
     }
     const auto v = parse_decimal_scaled(it->second);
-    if (!v || !std::isfinite(*v)) fail(name, fmt::format("header: {} = \"{}\" is not a number", key, it->second.substr(0, 40)));
+    if (!v || !std::isfinite(*v))
+      fail(name, fmt::format("header: {} = \"{}\" is not a number", key, it->second.substr(0, 40)));
     return *v;
   };
   const auto count = [&](const char* key) -> std::uint64_t {
@@ -103,10 +106,12 @@ core::HeightGrid read_bcr_bytes(std::string_view b, const std::string& name) {
     return static_cast<std::uint64_t>(v);
   };
   const double header_chars = number("headersize", 2048.0);
-  if (!(header_chars >= 1) || header_chars > static_cast<double>(kMaxHeaderChars) || header_chars != std::floor(header_chars))
+  if (!(header_chars >= 1) || header_chars > static_cast<double>(kMaxHeaderChars) ||
+      header_chars != std::floor(header_chars))
     fail(name, fmt::format("header: headersize = {} is not a size in characters", header_chars));
   const std::size_t header_bytes = static_cast<std::size_t>(header_chars) * unit;
-  if (header_bytes > b.size()) fail(name, fmt::format("headersize {} characters: the file has {} bytes", header_chars, b.size()));
+  if (header_bytes > b.size())
+    fail(name, fmt::format("headersize {} characters: the file has {} bytes", header_chars, b.size()));
   keys = parse_keys(narrow(b, utf16, static_cast<std::size_t>(header_chars)));
   const std::uint64_t nx = count("xpixels"), ny = count("ypixels");
   if (nx > kMaxPoints / ny) fail(name, fmt::format("header: {} x {} points is more than vmsim accepts", nx, ny));
@@ -114,7 +119,9 @@ core::HeightGrid read_bcr_bytes(std::string_view b, const std::string& name) {
     const auto it = keys.find(key);
     if (it == keys.end()) return -9;  // nm, the format's default
     const auto p = length_unit_pow10(it->second);
-    if (!p) fail(name, fmt::format("header: {} = \"{}\" is not a length unit (m, mm, um, nm, A)", key, it->second.substr(0, 20)));
+    if (!p)
+      fail(name,
+           fmt::format("header: {} = \"{}\" is not a length unit (m, mm, um, nm, A)", key, it->second.substr(0, 20)));
     return *p;
   };
   const int px = unit_pow("xunit"), py = unit_pow("yunit"), pz = unit_pow("zunit");

@@ -39,8 +39,7 @@ void find_path_direction(const core::HeightGrid& pred, const SurfaceCompareOptio
   if (lay.anisotropy < 0.2) c.path_direction_rad = 0, c.path_direction_from = PathDirectionFrom::NoLay;
 }
 
-void find_marks_and_profiles(const Prediction& prediction, const SurfaceCompareOptions& options,
-                             SurfaceComparison& c) {
+void find_marks_and_profiles(const Prediction& prediction, const SurfaceCompareOptions& options, SurfaceComparison& c) {
   const core::HeightGrid& pred = prediction.grid;
   const bool mesh = prediction.mesh.has_value();
   find_path_direction(pred, options, c);
@@ -119,7 +118,8 @@ SurfaceComparison compare_surfaces(core::HeightGrid scan, const Prediction& pred
 
   t0 = core::Clock::now();
   c.measured_on = resample_scan(c.scan, c.transform, pred);
-  c.deviation = prediction.mesh ? mesh_deviation(c.scan, c.transform, *prediction.mesh) : deviation(c.measured_on, pred);
+  c.deviation =
+      prediction.mesh ? mesh_deviation(c.scan, c.transform, *prediction.mesh) : deviation(c.measured_on, pred);
   c.stats = deviation_stats(c.deviation);
   if (c.stats.points == 0) throw core::Error("compare: the aligned scan and the prediction do not overlap anywhere");
   c.seconds.deviation = core::seconds_since(t0);

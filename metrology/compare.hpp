@@ -34,13 +34,13 @@ struct Prediction {
 Prediction prediction_of_mesh(core::TriangleMesh mesh, double spacing_mm);
 
 struct SurfaceCompareOptions {
-  double outlier_sigma = 6.0;             // spikes of the scan masked beyond this many robust sigmas (0: none)
-  bool align = true;                      // robust registration; false: the scan as it lies (through `initial`)
-  std::optional<RigidTransform> initial;  // the registration's start, or, without `align`, the transform itself
-  std::vector<Region> regions;            // align on these areas of the prediction only (reference faces)
-  RobustLoss loss = RobustLoss::Tukey;    // Tukey (c = 4.685 sigma, after Huber) or Huber (k = 1.345 sigma)
-  SurfaceProcessing processing;           // before the areal parameters of both
-  double mark_threshold_mm = 1e-3;        // a mark: |deviation| above this, over at least 3 x 3 nodes
+  double outlier_sigma = 6.0;                // spikes of the scan masked beyond this many robust sigmas (0: none)
+  bool align = true;                         // robust registration; false: the scan as it lies (through `initial`)
+  std::optional<RigidTransform> initial;     // the registration's start, or, without `align`, the transform itself
+  std::vector<Region> regions;               // align on these areas of the prediction only (reference faces)
+  RobustLoss loss = RobustLoss::Tukey;       // Tukey (c = 4.685 sigma, after Huber) or Huber (k = 1.345 sigma)
+  SurfaceProcessing processing;              // before the areal parameters of both
+  double mark_threshold_mm = 1e-3;           // a mark: |deviation| above this, over at least 3 x 3 nodes
   std::optional<double> path_direction_rad;  // the path direction at the marks; default: the prediction's lay
 };
 
@@ -60,27 +60,27 @@ struct MarkProfile {
 };
 
 struct SurfaceComparison {
-  core::HeightGrid scan;                  // the measured scan in its own frame, spikes masked
-  std::optional<OutlierReport> outliers;  // when outlier_sigma > 0
+  core::HeightGrid scan;                           // the measured scan in its own frame, spikes masked
+  std::optional<OutlierReport> outliers;           // when outlier_sigma > 0
   std::optional<RegistrationResult> registration;  // with align
-  RigidTransform transform;               // scan frame -> prediction frame
-  core::HeightGrid measured_on;           // the scan carried onto the prediction's grid
+  RigidTransform transform;                        // scan frame -> prediction frame
+  core::HeightGrid measured_on;                    // the scan carried onto the prediction's grid
   // Grid: measured - predicted, vertical, on the prediction's grid (negative: overcut). Mesh: the signed distance
   // along the mesh's normal (positive outside the part) on the scan's grid, scan frame.
   core::HeightGrid deviation;
   DeviationStats stats;
   double path_direction_rad = 0;
   PathDirectionFrom path_direction_from = PathDirectionFrom::Given;
-  double lay_anisotropy = 0;              // when taken from the lay
-  std::vector<Mark> marks;                // deepest first, at most 10
+  double lay_anisotropy = 0;                      // when taken from the lay
+  std::vector<Mark> marks;                        // deepest first, at most 10
   std::vector<Eigen::Vector2d> marks_in_part_mm;  // mesh: each mark's x, y carried into the part frame
-  std::vector<MarkProfile> mark_profiles;  // the three deepest marks
+  std::vector<MarkProfile> mark_profiles;         // the three deepest marks
   // Areal parameters on the nodes where both the aligned scan and the prediction are valid, after `processing`.
-  std::optional<FormFit> measured_form;   // the form removed from the measured surface (level > 0)
+  std::optional<FormFit> measured_form;  // the form removed from the measured surface (level > 0)
   ArealParameters measured_areal, predicted_areal;
   struct Seconds {
     double outliers = 0, registration = 0, deviation = 0, marks = 0, areal = 0;
-  } seconds;                              // wall time of each stage
+  } seconds;  // wall time of each stage
 };
 
 // Throws core::Error when the registration finds too few overlapping points, or when the aligned scan and the

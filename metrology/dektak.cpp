@@ -50,11 +50,16 @@ std::optional<int> column_unit(const std::string& header) {
   while (ss >> w) {
     std::string l = w;
     for (char& c : l) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (l == "micrometer" || l == "micrometers" || l == "microns") found = -6;
-    else if (l == "nanometer" || l == "nanometers") found = -9;
-    else if (l == "angstrom" || l == "angstroms") found = -10;
-    else if (l == "millimeter" || l == "millimeters") found = -3;
-    else if (const auto p = length_unit_pow10(w)) found = *p;
+    if (l == "micrometer" || l == "micrometers" || l == "microns")
+      found = -6;
+    else if (l == "nanometer" || l == "nanometers")
+      found = -9;
+    else if (l == "angstrom" || l == "angstroms")
+      found = -10;
+    else if (l == "millimeter" || l == "millimeters")
+      found = -3;
+    else if (const auto p = length_unit_pow10(w))
+      found = *p;
   }
   return found;
 }
@@ -76,7 +81,9 @@ bool looks_like_dektak(std::string_view head) {
 }
 
 DektakData read_dektak_csv(std::string_view text, const std::string& name) {
-  const auto fail_line = [&](int line, const std::string& what) { throw core::Error(fmt::format("{}:{}: {}", name, line, what)); };
+  const auto fail_line = [&](int line, const std::string& what) {
+    throw core::Error(fmt::format("{}:{}: {}", name, line, what));
+  };
   std::vector<std::string> lines;
   {
     std::size_t p = 0;
@@ -96,13 +103,18 @@ DektakData read_dektak_csv(std::string_view text, const std::string& name) {
       head = k;
       break;
     }
-  if (head == lines.size()) throw core::Error(name + ": no \"Lateral ...\" column header (a Dektak export names its columns after \"Scan Data\")");
+  if (head == lines.size())
+    throw core::Error(name +
+                      ": no \"Lateral ...\" column header (a Dektak export names its columns after \"Scan Data\")");
   const std::vector<std::string> cols = split_csv(lines[head]);
-  if (cols.size() < 2 || cols[1].empty()) fail_line(static_cast<int>(head + 1), "expected the lateral and a height column");
+  if (cols.size() < 2 || cols[1].empty())
+    fail_line(static_cast<int>(head + 1), "expected the lateral and a height column");
   const auto px = column_unit(cols[0]);
   if (!px) fail_line(static_cast<int>(head + 1), "the column \"" + cols[0] + "\" names no length unit (um, nm, mm, A)");
   const auto pz = column_unit(cols[1]);
-  if (!pz) fail_line(static_cast<int>(head + 1), "the column \"" + cols[1] + "\" names no length unit (Micrometer, um, nm, A)");
+  if (!pz)
+    fail_line(static_cast<int>(head + 1),
+              "the column \"" + cols[1] + "\" names no length unit (Micrometer, um, nm, A)");
   std::vector<double> xs, zs;
   int dec = 0;
   for (std::size_t k = head + 1; k < lines.size(); ++k) {
@@ -114,18 +126,22 @@ DektakData read_dektak_csv(std::string_view text, const std::string& name) {
     const std::vector<std::string> f = split_csv(t);
     if (f.size() < 2) fail_line(static_cast<int>(k + 1), "expected \"x,z\"");
     const auto x = parse_decimal_scaled(f[0], *px + 3);
-    if (!x || !std::isfinite(*x)) fail_line(static_cast<int>(k + 1), "lateral value \"" + f[0].substr(0, 30) + "\" is not a number");
+    if (!x || !std::isfinite(*x))
+      fail_line(static_cast<int>(k + 1), "lateral value \"" + f[0].substr(0, 30) + "\" is not a number");
     std::optional<double> z;
     const std::string zl = [&] {
       std::string l = f[1];
       for (char& c : l) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
       return l;
     }();
-    if (f[1].empty() || zl == "nan" || zl == "-nan") z = std::numeric_limits<double>::quiet_NaN();
-    else z = parse_decimal_scaled(f[1], *pz + 3);
+    if (f[1].empty() || zl == "nan" || zl == "-nan")
+      z = std::numeric_limits<double>::quiet_NaN();
+    else
+      z = parse_decimal_scaled(f[1], *pz + 3);
     if (!z) fail_line(static_cast<int>(k + 1), "height \"" + f[1].substr(0, 30) + "\" is not a number");
     if (!xs.empty() && !(*x > xs.back()))
-      fail_line(static_cast<int>(k + 1), fmt::format("lateral value {} does not increase (the previous is {})", f[0], xs.back() * std::pow(10.0, -(*px + 3))));
+      fail_line(static_cast<int>(k + 1), fmt::format("lateral value {} does not increase (the previous is {})", f[0],
+                                                     xs.back() * std::pow(10.0, -(*px + 3))));
     xs.push_back(*x), zs.push_back(*z);
     dec = std::max(dec, decimals(f[0]));
     if (xs.size() > kMaxSamples) fail_line(static_cast<int>(k + 1), "more samples than vmsim accepts");
@@ -166,9 +182,10 @@ DektakData read_dektak_csv(std::string_view text, const std::string& name) {
     const double t = std::clamp((x - xs[j]) / (xs[j + 1] - xs[j]), 0.0, 1.0);
     out.profile.z_mm[static_cast<Eigen::Index>(i)] = (1 - t) * zs[j] + t * zs[j + 1];
   }
-  out.note = fmt::format("the lateral values depart from a uniform grid by up to {:.3g} um, more than their printed rounding "
-                         "({:.3g} um); the heights were resampled linearly every {:.6g} um",
-                         worst * 1e3, half_digit * 1e3, step * 1e3);
+  out.note = fmt::format(
+      "the lateral values depart from a uniform grid by up to {:.3g} um, more than their printed rounding "
+      "({:.3g} um); the heights were resampled linearly every {:.6g} um",
+      worst * 1e3, half_digit * 1e3, step * 1e3);
   return out;
 }
 

@@ -30,7 +30,8 @@ std::vector<double> taps(double h, double cutoff) {
 }  // namespace
 
 core::HeightGrid gaussian_mean_surface(const core::HeightGrid& g, double cutoff) {
-  if (!(cutoff > 0) || !std::isfinite(cutoff)) throw core::Error(fmt::format("Gaussian filter: cut-off {} mm must be positive", cutoff));
+  if (!(cutoff > 0) || !std::isfinite(cutoff))
+    throw core::Error(fmt::format("Gaussian filter: cut-off {} mm must be positive", cutoff));
   const Eigen::Index nx = g.nx(), ny = g.ny();
   const std::vector<double> wx = taps(g.dx_mm, cutoff), wy = taps(g.dy_mm, cutoff);
   const long hx = static_cast<long>(wx.size() / 2), hy = static_cast<long>(wy.size() / 2);
@@ -46,7 +47,8 @@ core::HeightGrid gaussian_mean_surface(const core::HeightGrid& g, double cutoff)
       v[static_cast<std::size_t>(i)] = ok ? 1.0 : 0.0;
     }
     for (Eigen::Index i = 0; i < nx; ++i) {
-      const long k0 = std::max<long>(-hx, -static_cast<long>(i)), k1 = std::min<long>(hx, static_cast<long>(nx - 1 - i));
+      const long k0 = std::max<long>(-hx, -static_cast<long>(i)),
+                 k1 = std::min<long>(hx, static_cast<long>(nx - 1 - i));
       double n = 0, d = 0;
       for (long k = k0; k <= k1; ++k) {
         const double w = wx[static_cast<std::size_t>(k + hx)];
@@ -66,7 +68,8 @@ core::HeightGrid gaussian_mean_surface(const core::HeightGrid& g, double cutoff)
       const double w = wy[static_cast<std::size_t>(l + hy)];
       const double* nr = &num1(j + l, 0);
       const double* dr = &den1(j + l, 0);
-      for (Eigen::Index i = 0; i < nx; ++i) n[static_cast<std::size_t>(i)] += w * nr[i], d[static_cast<std::size_t>(i)] += w * dr[i];
+      for (Eigen::Index i = 0; i < nx; ++i)
+        n[static_cast<std::size_t>(i)] += w * nr[i], d[static_cast<std::size_t>(i)] += w * dr[i];
     }
     for (Eigen::Index i = 0; i < nx; ++i)
       if (std::isfinite(g.z_mm(j, i))) out.z_mm(j, i) = n[static_cast<std::size_t>(i)] / d[static_cast<std::size_t>(i)];
@@ -103,7 +106,8 @@ OutlierReport mask_outliers(core::HeightGrid& g, const OutlierOptions& o) {
         for (int b = 0; b <= ring; ++b)
           for (int a = -ring; a <= ring; ++a) {
             if (std::max(std::abs(a), b) != ring || (b == 0 && a <= 0)) continue;  // this ring, each pair once
-            if (ok(j + b, i + a) && ok(j - b, i - a)) pred.push_back(0.5 * (g.z_mm(j + b, i + a) + g.z_mm(j - b, i - a)));
+            if (ok(j + b, i + a) && ok(j - b, i - a))
+              pred.push_back(0.5 * (g.z_mm(j + b, i + a) + g.z_mm(j - b, i - a)));
           }
       if (pred.size() < 2) continue;  // a corner or an isolated point: not judged
       // Departure from the median of the predictions (robust to a spike among the neighbours), and from the

@@ -17,18 +17,20 @@ namespace vmsim::metrology {
 core::HeightGrid gaussian_mean_surface(const core::HeightGrid& grid, double cutoff_mm);
 
 // S-filter (ISO 25178-3): removes the short wavelengths, keeps the mean surface (the same as gaussian_mean_surface).
-inline core::HeightGrid gaussian_lowpass(const core::HeightGrid& g, double cutoff_mm) { return gaussian_mean_surface(g, cutoff_mm); }
+inline core::HeightGrid gaussian_lowpass(const core::HeightGrid& g, double cutoff_mm) {
+  return gaussian_mean_surface(g, cutoff_mm);
+}
 // L-filter (ISO 25178-3): removes the long wavelengths (form and waviness): the grid minus its mean surface.
 core::HeightGrid gaussian_highpass(const core::HeightGrid& grid, double cutoff_mm);
 
 struct OutlierOptions {
-  int window = 5;         // odd window side, nodes: the farthest ring of neighbours used at edges and holes
-  double k_sigma = 6.0;   // threshold in robust standard deviations
+  int window = 5;        // odd window side, nodes: the farthest ring of neighbours used at edges and holes
+  double k_sigma = 6.0;  // threshold in robust standard deviations
 };
 struct OutlierReport {
-  std::size_t masked = 0;     // points made invalid
-  double sigma_mm = 0;        // robust standard deviation of the departures (1.4826 MAD)
-  double threshold_mm = 0;    // k_sigma * sigma_mm
+  std::size_t masked = 0;   // points made invalid
+  double sigma_mm = 0;      // robust standard deviation of the departures (1.4826 MAD)
+  double threshold_mm = 0;  // k_sigma * sigma_mm
 };
 // Spikes (a confocal sensor's false returns): each valid point is compared with predictions of its height, the
 // means of pairs of valid neighbours symmetric about it (exact on any plane, so steep flanks are not spikes), from

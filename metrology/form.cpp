@@ -36,14 +36,16 @@ double FormFit::evaluate(double x, double y) const {
   const auto t = terms(degree);
   double z = 0;
   for (std::size_t k = 0; k < t.size(); ++k)
-    z += coefficients[static_cast<Eigen::Index>(k)] * pu[static_cast<std::size_t>(t[k].first)] * pv[static_cast<std::size_t>(t[k].second)];
+    z += coefficients[static_cast<Eigen::Index>(k)] * pu[static_cast<std::size_t>(t[k].first)] *
+         pv[static_cast<std::size_t>(t[k].second)];
   return z;
 }
 
 FormFit fit_form(const core::HeightGrid& g, int degree,
                  const Eigen::Array<std::uint8_t, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>* use) {
   if (degree < 1 || degree > 10) throw core::Error(fmt::format("form removal: degree {} (1 to 10 expected)", degree));
-  if (use && (use->rows() != g.ny() || use->cols() != g.nx())) throw core::Error("form removal: mask and grid differ in size");
+  if (use && (use->rows() != g.ny() || use->cols() != g.nx()))
+    throw core::Error("form removal: mask and grid differ in size");
   const Eigen::Index nx = g.nx(), ny = g.ny();
   FormFit f;
   f.degree = degree;
@@ -98,7 +100,8 @@ FormFit fit_form(const core::HeightGrid& g, int degree,
     }
   }
   if (f.points < static_cast<std::size_t>(m))
-    throw core::Error(fmt::format("form removal: {} valid points, a degree-{} form needs at least {}", f.points, degree, m));
+    throw core::Error(
+        fmt::format("form removal: {} valid points, a degree-{} form needs at least {}", f.points, degree, m));
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
   if (qr.rank() < m)
     throw core::Error(fmt::format("form removal: the valid points do not determine a degree-{} form (rank {} of {})",
@@ -128,7 +131,8 @@ core::HeightGrid remove_form(const core::HeightGrid& g, int degree, FormFit* fit
     // Row polynomial in u: q_a = sum_b c_ab P_b(v_j).
     std::vector<double> q(static_cast<std::size_t>(n1), 0.0);
     for (std::size_t k = 0; k < t.size(); ++k)
-      q[static_cast<std::size_t>(t[k].first)] += f.coefficients[static_cast<Eigen::Index>(k)] * pv[static_cast<std::size_t>(t[k].second)];
+      q[static_cast<std::size_t>(t[k].first)] +=
+          f.coefficients[static_cast<Eigen::Index>(k)] * pv[static_cast<std::size_t>(t[k].second)];
     double s = 0;
     for (Eigen::Index i = 0; i < nx; ++i) {
       double form = 0;

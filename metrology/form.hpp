@@ -10,7 +10,7 @@
 namespace vmsim::metrology {
 
 struct FormFit {
-  int degree = 1;                 // total degree: 1 plane, 2 quadric, ...
+  int degree = 1;  // total degree: 1 plane, 2 quadric, ...
   // z = sum c_ab P_a(u) P_b(v), a + b <= degree, with Legendre polynomials P and u, v the node coordinates
   // scaled to [-1, 1] over the grid (a basis that stays well conditioned at any degree on a full grid).
   Eigen::VectorXd coefficients;
@@ -25,8 +25,9 @@ struct FormFit {
 // Fits the form to the valid points (or, with `use`, to those valid points whose `use` value is non-zero; same
 // shape as the grid) and returns the grid minus the form. Throws core::Error when there are fewer valid points
 // than terms, or the points do not determine the form (all on one line, say).
-core::HeightGrid remove_form(const core::HeightGrid& grid, int degree, FormFit* fit = nullptr,
-                             const Eigen::Array<std::uint8_t, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>* use = nullptr);
+core::HeightGrid remove_form(
+    const core::HeightGrid& grid, int degree, FormFit* fit = nullptr,
+    const Eigen::Array<std::uint8_t, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>* use = nullptr);
 FormFit fit_form(const core::HeightGrid& grid, int degree,
                  const Eigen::Array<std::uint8_t, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>* use = nullptr);
 

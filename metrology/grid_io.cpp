@@ -105,9 +105,10 @@ core::HeightGrid read_height_csv(std::istream& is, const std::string& file_name)
       if (c.text.rfind("# x0_mm=", 0) != 0) continue;
       if (nx >= 0) throw in.error("a second grid header", c.line);
       if (std::sscanf(c.text.c_str(), "# x0_mm=%lf y0_mm=%lf dx_mm=%lf dy_mm=%lf nx=%ld ny=%ld", &g.x0_mm, &g.y0_mm,
-                      &g.dx_mm, &g.dy_mm, &nx, &ny) != 6 || nx <= 0 || ny <= 0 || nx > 100000 || ny > 100000 ||
-          static_cast<long long>(nx) * ny > kMaxNodes || !(g.dx_mm > 0) || !(g.dy_mm > 0) ||
-          !std::isfinite(g.dx_mm) || !std::isfinite(g.dy_mm) || !std::isfinite(g.x0_mm) || !std::isfinite(g.y0_mm))
+                      &g.dx_mm, &g.dy_mm, &nx, &ny) != 6 ||
+          nx <= 0 || ny <= 0 || nx > 100000 || ny > 100000 || static_cast<long long>(nx) * ny > kMaxNodes ||
+          !(g.dx_mm > 0) || !(g.dy_mm > 0) || !std::isfinite(g.dx_mm) || !std::isfinite(g.dy_mm) ||
+          !std::isfinite(g.x0_mm) || !std::isfinite(g.y0_mm))
         throw in.error("bad grid header (x0_mm= y0_mm= dx_mm= dy_mm= nx= ny=)", c.line);
       // The values come with the rows; the header's size alone does not get to allocate.
       values.reserve(static_cast<std::size_t>(std::min<long long>(static_cast<long long>(nx) * ny, 1 << 20)));
@@ -117,7 +118,8 @@ core::HeightGrid read_height_csv(std::istream& is, const std::string& file_name)
   while (in.next()) {
     headers = grid_header(headers);
     if (nx < 0) throw in.error("data before the grid header");
-    if (static_cast<long>(in.cells()) != nx) throw in.error(fmt::format("expected {} values, found {}", nx, in.cells()));
+    if (static_cast<long>(in.cells()) != nx)
+      throw in.error(fmt::format("expected {} values, found {}", nx, in.cells()));
     for (std::size_t c = 0; c < in.cells(); ++c) {
       const auto v = value_mm(in.cell(c), -3);
       if (!v) throw in.error("not a number: \"" + std::string(in.cell(c).substr(0, 40)) + "\"");
@@ -128,7 +130,8 @@ core::HeightGrid read_height_csv(std::istream& is, const std::string& file_name)
   grid_header(headers);
   if (nx < 0) throw core::Error(file_name + ": no grid header");
   if (static_cast<long>(values.size()) != nx * ny)
-    throw core::Error(file_name + fmt::format(": expected {} rows, found {}", ny, values.size() / static_cast<std::size_t>(nx)));
+    throw core::Error(file_name +
+                      fmt::format(": expected {} rows, found {}", ny, values.size() / static_cast<std::size_t>(nx)));
   g.z_mm = Eigen::Map<core::HeightArray>(values.data(), ny, nx);
   return g;
 }
@@ -178,16 +181,18 @@ Lattice lattice_of(std::vector<double> v, const std::string& what, const char* a
     if (v[k] - v[k - 1] > tol) gap = std::min(gap, v[k] - v[k - 1]);
   const double n = std::round(range / gap);
   if (!(n >= 1) || n > static_cast<double>(kMaxNodes))
-    throw core::Error(what + fmt::format(": the {} coordinates do not form a grid (range {:.9g} mm, smallest step {:.9g} mm)",
-                                         axis, range, gap));
+    throw core::Error(what +
+                      fmt::format(": the {} coordinates do not form a grid (range {:.9g} mm, smallest step {:.9g} mm)",
+                                  axis, range, gap));
   L.step = range / n;
   L.count = static_cast<long long>(n) + 1;
   for (double x : v) {
     const double k = std::round((x - lo) / L.step);
     if (std::abs(x - (lo + k * L.step)) > 1e-3 * L.step)
-      throw core::Error(what + fmt::format(": {} = {:.9g} mm is not on the grid of step {:.9g} mm from {:.9g} mm; the points "
-                                           "must lie on a regular x/y grid",
-                                           axis, x, L.step, lo));
+      throw core::Error(what +
+                        fmt::format(": {} = {:.9g} mm is not on the grid of step {:.9g} mm from {:.9g} mm; the points "
+                                    "must lie on a regular x/y grid",
+                                    axis, x, L.step, lo));
   }
   return L;
 }
@@ -220,7 +225,8 @@ core::HeightGrid points_to_grid(const Eigen::Matrix<double, Eigen::Dynamic, 3>& 
     const auto j = static_cast<Eigen::Index>(std::llround((p(k, 1) - ly.origin) / ly.step));
     const std::size_t c = static_cast<std::size_t>(j * g.nx() + i);
     if (taken[c])
-      throw core::Error(what + fmt::format(": two points at x {:.9g}, y {:.9g} mm (point {})", p(k, 0), p(k, 1), k + 1));
+      throw core::Error(what +
+                        fmt::format(": two points at x {:.9g}, y {:.9g} mm (point {})", p(k, 0), p(k, 1), k + 1));
     taken[c] = 1;
     g.z_mm(j, i) = std::isfinite(p(k, 2)) ? p(k, 2) : kNaN;
   }
@@ -252,7 +258,9 @@ core::HeightGrid read_xyz_grid(std::istream& in, const std::string& file_name) {
         if (at == std::string::npos) continue;
         const std::string u = trim(t.substr(at + std::strlen(key)));
         const auto p = length_unit_pow10(u);
-        if (!p) throw core::Error(core::located(file.string(), lineno, "unknown length unit \"" + u.substr(0, 20) + "\" (m, mm, um, nm)"));
+        if (!p)
+          throw core::Error(
+              core::located(file.string(), lineno, "unknown length unit \"" + u.substr(0, 20) + "\" (m, mm, um, nm)"));
         pow10 = *p;
       }
       continue;
@@ -263,20 +271,24 @@ core::HeightGrid read_xyz_grid(std::istream& in, const std::string& file_name) {
       if (v.empty() && !f.empty() && !std::isdigit(static_cast<unsigned char>(f[0][0])) && f[0][0] != '-' &&
           f[0][0] != '+' && f[0][0] != '.')
         continue;
-      throw core::Error(core::located(file.string(), lineno, fmt::format("expected 3 values x y z, found {}", f.size())));
+      throw core::Error(
+          core::located(file.string(), lineno, fmt::format("expected 3 values x y z, found {}", f.size())));
     }
     for (int c = 0; c < 3; ++c) {
       const auto x = value_mm(f[static_cast<std::size_t>(c)], pow10);
       if (!x || (c < 2 && !std::isfinite(*x))) {
         if (v.empty() && c == 0) goto next_line;  // a header of words
-        throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(f[static_cast<std::size_t>(c)]).substr(0, 40) + "\""));
+        throw core::Error(
+            core::located(file.string(), lineno,
+                          "not a number: \"" + std::string(f[static_cast<std::size_t>(c)]).substr(0, 40) + "\""));
       }
       v.push_back(*x);
     }
   next_line:;
   }
   if (v.empty()) throw core::Error(file.string() + ": no points (expected lines of x y z)");
-  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> pts(v.data(), static_cast<Eigen::Index>(v.size() / 3), 3);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> pts(
+      v.data(), static_cast<Eigen::Index>(v.size() / 3), 3);
   return points_to_grid(pts, file.string());
 }
 
@@ -308,7 +320,8 @@ std::vector<std::pair<std::string, std::string>> header_pairs(const std::string&
   std::vector<std::pair<std::string, std::string>> out;
   const std::size_t colon = body.find(':'), eq = body.find('=');
   if (colon != std::string::npos && (eq == std::string::npos || colon < eq)) {
-    out.emplace_back(lower(trim(std::string_view(body).substr(0, colon))), trim(std::string_view(body).substr(colon + 1)));
+    out.emplace_back(lower(trim(std::string_view(body).substr(0, colon))),
+                     trim(std::string_view(body).substr(colon + 1)));
     return out;
   }
   std::vector<std::size_t> eqs;
@@ -345,7 +358,7 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
   std::string zunit_name, data_unit;  // the unit the heights are in, as named
   int zpow10 = -3;
   bool zunit_is_length = true;
-  std::optional<int> xunit, yunit;   // SPIP's x-unit / y-unit for x-length / y-length given without a unit
+  std::optional<int> xunit, yunit;  // SPIP's x-unit / y-unit for x-length / y-length given without a unit
   std::vector<double> v;
   long long nx = -1;
   long long ny = 0;
@@ -357,22 +370,28 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
     std::vector<std::string_view> parts;
     split_fields(val, parts);
     if (parts.empty() || parts.size() > 2)
-      throw core::Error(core::located(file.string(), lineno, "expected a length \"<number> <unit>\", found \"" + val.substr(0, 40) + "\""));
+      throw core::Error(core::located(file.string(), lineno,
+                                      "expected a length \"<number> <unit>\", found \"" + val.substr(0, 40) + "\""));
     int p = fallback;
     if (parts.size() == 2) {
       const auto u = length_unit_pow10(parts[1]);
-      if (!u) throw core::Error(core::located(file.string(), lineno, "unknown length unit \"" + std::string(parts[1]).substr(0, 20) + "\" (m, mm, um, nm)"));
+      if (!u)
+        throw core::Error(
+            core::located(file.string(), lineno,
+                          "unknown length unit \"" + std::string(parts[1]).substr(0, 20) + "\" (m, mm, um, nm)"));
       p = *u;
     }
     const auto x = parse_decimal_scaled(parts[0], p + 3);
     if (!x || !std::isfinite(*x))
-      throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(parts[0]).substr(0, 40) + "\""));
+      throw core::Error(
+          core::located(file.string(), lineno, "not a number: \"" + std::string(parts[0]).substr(0, 40) + "\""));
     return *x;
   };
   const auto count = [&](const std::string& val) -> long long {
     const auto x = parse_decimal_scaled(val);
     if (!x || !(*x >= 1) || *x != std::floor(*x) || *x > static_cast<double>(kMaxNodes))
-      throw core::Error(core::located(file.string(), lineno, "expected a count of points, found \"" + val.substr(0, 40) + "\""));
+      throw core::Error(
+          core::located(file.string(), lineno, "expected a count of points, found \"" + val.substr(0, 40) + "\""));
     return static_cast<long long>(*x);
   };
   const auto set_zunit = [&](const std::string& val) {
@@ -383,32 +402,54 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
   };
   const auto header_line = [&](const std::string& body) {
     for (const auto& [key, val] : header_pairs(body)) {
-      if (key == "width") width = length(val);
-      else if (key == "height") height = length(val);
-      else if (key == "x-length") width = length(val, xunit.value_or(-3));
-      else if (key == "y-length") height = length(val, yunit.value_or(-3));
-      else if (key == "dx" || key == "x spacing") dx = length(val);
-      else if (key == "dy" || key == "y spacing") dy = length(val);
-      else if (key == "pixel size") pixel = length(val);
-      else if (key == "x0" || key == "x offset") x0 = length(val);
-      else if (key == "y0" || key == "y offset") y0 = length(val);
+      if (key == "width")
+        width = length(val);
+      else if (key == "height")
+        height = length(val);
+      else if (key == "x-length")
+        width = length(val, xunit.value_or(-3));
+      else if (key == "y-length")
+        height = length(val, yunit.value_or(-3));
+      else if (key == "dx" || key == "x spacing")
+        dx = length(val);
+      else if (key == "dy" || key == "y spacing")
+        dy = length(val);
+      else if (key == "pixel size")
+        pixel = length(val);
+      else if (key == "x0" || key == "x offset")
+        x0 = length(val);
+      else if (key == "y0" || key == "y offset")
+        y0 = length(val);
       else if (key == "x-unit" || key == "y-unit") {
         const auto u = length_unit_pow10(val);
-        if (!u) throw core::Error(core::located(file.string(), lineno, "unknown length unit \"" + val.substr(0, 20) + "\" (m, mm, um, nm)"));
+        if (!u)
+          throw core::Error(core::located(file.string(), lineno,
+                                          "unknown length unit \"" + val.substr(0, 20) + "\" (m, mm, um, nm)"));
         (key == "x-unit" ? xunit : yunit) = *u;
-      } else if (key == "value units" || key == "z unit" || key == "z units" || key == "z-unit") set_zunit(val);
-      else if (key == "data unit") data_unit = val;
-      else if (key == "h") rows_declared = count(val);
-      else if (key == "w") cols_declared = count(val);
+      } else if (key == "value units" || key == "z unit" || key == "z units" || key == "z-unit")
+        set_zunit(val);
+      else if (key == "data unit")
+        data_unit = val;
+      else if (key == "h")
+        rows_declared = count(val);
+      else if (key == "w")
+        cols_declared = count(val);
       else if (key.rfind("height conversion factor", 0) == 0) {
         // "height conversion factor (-> m)=2.9e-8": heights times the factor are in the unit named in the key.
         const std::size_t arrow = key.find("->"), close = key.find(')', arrow == std::string::npos ? 0 : arrow);
-        const std::string u = arrow == std::string::npos ? std::string() : trim(std::string_view(key).substr(arrow + 2, close == std::string::npos ? std::string::npos : close - arrow - 2));
+        const std::string u = arrow == std::string::npos
+                                  ? std::string()
+                                  : trim(std::string_view(key).substr(
+                                        arrow + 2, close == std::string::npos ? std::string::npos : close - arrow - 2));
         const auto p = length_unit_pow10(u);
-        if (!p) throw core::Error(core::located(file.string(), lineno, "height conversion factor: the key names no length unit (\"-> m\" expected)"));
+        if (!p)
+          throw core::Error(core::located(
+              file.string(), lineno, "height conversion factor: the key names no length unit (\"-> m\" expected)"));
         const auto x = parse_decimal_scaled(val);
         if (!x || !std::isfinite(*x) || *x == 0)
-          throw core::Error(core::located(file.string(), lineno, "height conversion factor: \"" + val.substr(0, 40) + "\" is not a non-zero number"));
+          throw core::Error(
+              core::located(file.string(), lineno,
+                            "height conversion factor: \"" + val.substr(0, 40) + "\" is not a non-zero number"));
         zfactor = *x;
         zpow10 = *p;
         zunit_is_length = true;
@@ -426,7 +467,8 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
     split_fields(t, f);
     // Before the first row of heights, a line that is not all numbers is a header line ("h=305 w=75").
     if (nx < 0 && t.find_first_of("=:") != std::string::npos &&
-        std::any_of(f.begin(), f.end(), [](std::string_view tok) { return !is_nan_token(tok) && !parse_decimal_scaled(tok); })) {
+        std::any_of(f.begin(), f.end(),
+                    [](std::string_view tok) { return !is_nan_token(tok) && !parse_decimal_scaled(tok); })) {
       header_line(t);
       continue;
     }
@@ -434,17 +476,22 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
       // The header is over: the heights' unit and factor are known.
       nx = static_cast<long long>(f.size());
       if (!zfactor && (!zunit_is_length || (!data_unit.empty() && !length_unit_pow10(data_unit))))
-        throw core::Error(core::located(file.string(), lineno, "the heights are in \"" + (zunit_is_length ? data_unit : zunit_name) +
-                                                               "\", not a length, and the header gives no \"height conversion factor (-> m)\""));
+        throw core::Error(
+            core::located(file.string(), lineno,
+                          "the heights are in \"" + (zunit_is_length ? data_unit : zunit_name) +
+                              "\", not a length, and the header gives no \"height conversion factor (-> m)\""));
       if (zunit_name.empty() && !zfactor && !data_unit.empty()) zpow10 = *length_unit_pow10(data_unit);
     }
     if (static_cast<long long>(f.size()) != nx)
-      throw core::Error(core::located(file.string(), lineno, fmt::format("{} values, the first row has {}", f.size(), nx)));
+      throw core::Error(
+          core::located(file.string(), lineno, fmt::format("{} values, the first row has {}", f.size(), nx)));
     // Without a factor the decimal exponent shift is exact (units.hpp); a factor applies in double arithmetic.
     const double scale = zfactor ? *zfactor * std::pow(10.0, zpow10 + 3) : 1.0;
     for (const auto& tok : f) {
       const auto z = zfactor ? value_mm(tok, -3) : value_mm(tok, zpow10);
-      if (!z) throw core::Error(core::located(file.string(), lineno, "not a number: \"" + std::string(tok).substr(0, 40) + "\""));
+      if (!z)
+        throw core::Error(
+            core::located(file.string(), lineno, "not a number: \"" + std::string(tok).substr(0, 40) + "\""));
       v.push_back(std::isfinite(*z) ? *z * scale : kNaN);
     }
     ++ny;
@@ -452,19 +499,33 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
   }
   if (nx <= 0 || ny == 0) throw core::Error(file.string() + ": no rows of heights");
   if (rows_declared && *rows_declared != ny)
-    throw core::Error(file.string() + fmt::format(": the header declares h={} rows, the file has {}", *rows_declared, ny));
+    throw core::Error(file.string() +
+                      fmt::format(": the header declares h={} rows, the file has {}", *rows_declared, ny));
   if (cols_declared && *cols_declared != nx)
-    throw core::Error(file.string() + fmt::format(": the header declares w={} columns, the rows have {} values", *cols_declared, nx));
+    throw core::Error(file.string() +
+                      fmt::format(": the header declares w={} columns, the rows have {} values", *cols_declared, nx));
   core::HeightGrid g;
-  if (dx) g.dx_mm = *dx;
-  else if (pixel) g.dx_mm = *pixel;
-  else if (width) g.dx_mm = *width / static_cast<double>(nx);
-  else throw core::Error(file.string() + ": the header gives no x spacing (\"# dx: 5 um\", \"pixel size=0.37 um\" or Gwyddion's \"# Width: 1 mm\")");
-  if (dy) g.dy_mm = *dy;
-  else if (pixel) g.dy_mm = *pixel;
-  else if (height) g.dy_mm = *height / static_cast<double>(ny);
-  else if (dx && !width) g.dy_mm = g.dx_mm;
-  else throw core::Error(file.string() + ": the header gives no y spacing (\"# dy: 5 um\" or Gwyddion's \"# Height: 1 mm\")");
+  if (dx)
+    g.dx_mm = *dx;
+  else if (pixel)
+    g.dx_mm = *pixel;
+  else if (width)
+    g.dx_mm = *width / static_cast<double>(nx);
+  else
+    throw core::Error(
+        file.string() +
+        ": the header gives no x spacing (\"# dx: 5 um\", \"pixel size=0.37 um\" or Gwyddion's \"# Width: 1 mm\")");
+  if (dy)
+    g.dy_mm = *dy;
+  else if (pixel)
+    g.dy_mm = *pixel;
+  else if (height)
+    g.dy_mm = *height / static_cast<double>(ny);
+  else if (dx && !width)
+    g.dy_mm = g.dx_mm;
+  else
+    throw core::Error(file.string() +
+                      ": the header gives no y spacing (\"# dy: 5 um\" or Gwyddion's \"# Height: 1 mm\")");
   if (!(g.dx_mm > 0) || !(g.dy_mm > 0)) throw core::Error(file.string() + ": the grid spacing must be positive");
   g.x0_mm = x0.value_or(0.0);
   g.y0_mm = y0.value_or(0.0);

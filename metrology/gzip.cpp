@@ -40,7 +40,8 @@ std::string gunzip_file(const std::filesystem::path& file, std::size_t max_bytes
     }
     if (r == Z_STREAM_END) {
       if (s.avail_in < 2 || !looks_like_gzip(std::string_view(reinterpret_cast<const char*>(s.next_in), 2))) break;
-      // Another gzip member follows (concatenated files): inflate it too. Other trailing bytes are ignored, as gzip does.
+      // Another gzip member follows (concatenated files): inflate it too. Other trailing bytes are ignored, as gzip
+      // does.
       if (inflateReset(&s) != Z_OK) break;
       continue;
     }
@@ -49,8 +50,8 @@ std::string gunzip_file(const std::filesystem::path& file, std::size_t max_bytes
   const std::string why = s.msg ? s.msg : "";
   inflateEnd(&s);
   if (r != Z_STREAM_END)
-    throw core::Error(fmt::format("{}: corrupt or truncated gzip data after {} inflated bytes{}", file.string(), out.size(),
-                                  why.empty() ? "" : " (" + why + ")"));
+    throw core::Error(fmt::format("{}: corrupt or truncated gzip data after {} inflated bytes{}", file.string(),
+                                  out.size(), why.empty() ? "" : " (" + why + ")"));
   return out;
 }
 

@@ -90,7 +90,8 @@ Lay lay_of(const core::HeightGrid& g) {
   // Structure tensor J = sum (gx^2, gx gy; gx gy, gy^2) over nodes with both central differences; the marks run
   // perpendicular to its principal eigenvector (the dominant gradient direction).
   const Eigen::Index nx = g.nx(), ny = g.ny();
-  std::vector<double> rxx(static_cast<std::size_t>(ny), 0.0), rxy(static_cast<std::size_t>(ny), 0.0), ryy(static_cast<std::size_t>(ny), 0.0);
+  std::vector<double> rxx(static_cast<std::size_t>(ny), 0.0), rxy(static_cast<std::size_t>(ny), 0.0),
+      ryy(static_cast<std::size_t>(ny), 0.0);
 #pragma omp parallel for schedule(static)
   for (Eigen::Index j = 1; j < ny - 1; ++j) {
     double xx = 0, xy = 0, yy = 0;
@@ -103,7 +104,9 @@ Lay lay_of(const core::HeightGrid& g) {
     rxx[static_cast<std::size_t>(j)] = xx, rxy[static_cast<std::size_t>(j)] = xy, ryy[static_cast<std::size_t>(j)] = yy;
   }
   double xx = 0, xy = 0, yy = 0;
-  for (Eigen::Index j = 0; j < ny; ++j) xx += rxx[static_cast<std::size_t>(j)], xy += rxy[static_cast<std::size_t>(j)], yy += ryy[static_cast<std::size_t>(j)];
+  for (Eigen::Index j = 0; j < ny; ++j)
+    xx += rxx[static_cast<std::size_t>(j)], xy += rxy[static_cast<std::size_t>(j)],
+        yy += ryy[static_cast<std::size_t>(j)];
   Lay lay;
   const double tr = xx + yy;
   if (!(tr > 0)) return lay;
@@ -118,7 +121,8 @@ Lay lay_of(const core::HeightGrid& g) {
 }
 
 Profile profile(const core::HeightGrid& g, double x, double y, double dir, double half, double step) {
-  if (!(step > 0) || !(half >= 0) || half / step > 1e6) throw core::Error("profile: the step must be positive and the length finite");
+  if (!(step > 0) || !(half >= 0) || half / step > 1e6)
+    throw core::Error("profile: the step must be positive and the length finite");
   const long n = static_cast<long>(std::floor(half / step + 1e-9));
   Profile p;
   p.s_mm.resize(2 * n + 1);

@@ -15,9 +15,9 @@ namespace vmsim::metrology {
 core::HeightGrid deviation(const core::HeightGrid& a, const core::HeightGrid& b);
 
 struct Mark {
-  double depth_mm = 0.0;            // largest |deviation| in the mark (> 0)
-  bool overcut = true;              // below the reference (material removed that should not be)
-  double x_mm = 0.0, y_mm = 0.0;    // where the largest |deviation| is
+  double depth_mm = 0.0;                        // largest |deviation| in the mark (> 0)
+  bool overcut = true;                          // below the reference (material removed that should not be)
+  double x_mm = 0.0, y_mm = 0.0;                // where the largest |deviation| is
   double x_extent_mm = 0.0, y_extent_mm = 0.0;  // extent of the region deeper than half the depth
   double area_mm2 = 0.0;
   // Along and across the path direction (when one is given): the extent of the half-depth region along the path
@@ -31,7 +31,8 @@ struct Mark {
 // direction the tool moved at the mark), also the extent along it and the width across it. Regions of fewer than
 // `min_nodes` nodes are left out (on measured deviations, noise lifts isolated nodes over the threshold).
 std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold_mm, std::size_t max_marks = 10,
-                             double path_direction_rad = std::numeric_limits<double>::quiet_NaN(), std::size_t min_nodes = 1);
+                             double path_direction_rad = std::numeric_limits<double>::quiet_NaN(),
+                             std::size_t min_nodes = 1);
 
 // The lay of a machined surface: the direction the tool marks run in (rad, in (-pi/2, pi/2], 0 = along +x), from
 // the structure tensor of its gradients (the marks run across the dominant gradient), and how strongly the texture

@@ -63,7 +63,8 @@ struct MeshDistance::Impl {
     Node nd;
     for (int k = first; k < first + count; ++k) {
       const int t = order[static_cast<std::size_t>(k)];
-      nd.box.grow(a[static_cast<std::size_t>(t)]), nd.box.grow(b[static_cast<std::size_t>(t)]), nd.box.grow(c[static_cast<std::size_t>(t)]);
+      nd.box.grow(a[static_cast<std::size_t>(t)]), nd.box.grow(b[static_cast<std::size_t>(t)]),
+          nd.box.grow(c[static_cast<std::size_t>(t)]);
     }
     const int id = static_cast<int>(nodes.size());
     nodes.push_back(nd);
@@ -72,7 +73,8 @@ struct MeshDistance::Impl {
       return id;
     }
     Box cb;
-    for (int k = first; k < first + count; ++k) cb.grow(centroid[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])]);
+    for (int k = first; k < first + count; ++k)
+      cb.grow(centroid[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])]);
     int axis = 0;
     (cb.hi - cb.lo).maxCoeff(&axis);
     const int mid = first + count / 2;
@@ -126,7 +128,8 @@ MeshDistance::Hit MeshDistance::closest(const V3& p) const {
     if (nd.left < 0) {
       for (int k = nd.first; k < nd.first + nd.count; ++k) {
         const int t = I.order[static_cast<std::size_t>(k)];
-        const V3 q = closest_on_triangle(p, I.a[static_cast<std::size_t>(t)], I.b[static_cast<std::size_t>(t)], I.c[static_cast<std::size_t>(t)]);
+        const V3 q = closest_on_triangle(p, I.a[static_cast<std::size_t>(t)], I.b[static_cast<std::size_t>(t)],
+                                         I.c[static_cast<std::size_t>(t)]);
         const double d2 = (p - q).squaredNorm();
         // Equal distances (a point closest to an edge or a vertex): the lower triangle index, for repeatability.
         if (d2 < best || (d2 == best && t < best_t)) best = d2, best_t = t, best_c = q;
@@ -134,10 +137,13 @@ MeshDistance::Hit MeshDistance::closest(const V3& p) const {
       continue;
     }
     // Nearer child last, so it is visited first.
-    const double dl = I.nodes[static_cast<std::size_t>(nd.left)].box.dist2(p), dr = I.nodes[static_cast<std::size_t>(nd.right)].box.dist2(p);
+    const double dl = I.nodes[static_cast<std::size_t>(nd.left)].box.dist2(p),
+                 dr = I.nodes[static_cast<std::size_t>(nd.right)].box.dist2(p);
     if (sp + 2 > static_cast<int>(stack.size())) throw core::Error("mesh distance: hierarchy deeper than 128 levels");
-    if (dl < dr) stack[static_cast<std::size_t>(sp++)] = nd.right, stack[static_cast<std::size_t>(sp++)] = nd.left;
-    else stack[static_cast<std::size_t>(sp++)] = nd.left, stack[static_cast<std::size_t>(sp++)] = nd.right;
+    if (dl < dr)
+      stack[static_cast<std::size_t>(sp++)] = nd.right, stack[static_cast<std::size_t>(sp++)] = nd.left;
+    else
+      stack[static_cast<std::size_t>(sp++)] = nd.left, stack[static_cast<std::size_t>(sp++)] = nd.right;
   }
   Hit h;
   h.triangle = best_t;
@@ -180,7 +186,8 @@ core::TriangleMesh grid_surface_mesh(const core::HeightGrid& g) {
   for (Eigen::Index j = 0; j + 1 < ny; ++j)
     for (Eigen::Index i = 0; i + 1 < nx; ++i) {
       const int a = id[static_cast<std::size_t>(j * nx + i)], b = id[static_cast<std::size_t>(j * nx + i + 1)];
-      const int c = id[static_cast<std::size_t>((j + 1) * nx + i)], d = id[static_cast<std::size_t>((j + 1) * nx + i + 1)];
+      const int c = id[static_cast<std::size_t>((j + 1) * nx + i)],
+                d = id[static_cast<std::size_t>((j + 1) * nx + i + 1)];
       if (a < 0 || b < 0 || c < 0 || d < 0) continue;
       t.push_back({a, b, d});  // counter-clockwise seen from above: normal +z
       t.push_back({a, d, c});
@@ -196,18 +203,22 @@ core::TriangleMesh grid_surface_mesh(const core::HeightGrid& g) {
 core::HeightGrid rasterize_top(const core::TriangleMesh& m, double h) {
   if (m.vertices_mm.rows() == 0 || m.triangles.rows() == 0) throw core::Error("rasterize: the mesh is empty");
   if (!(h > 0)) throw core::Error("rasterize: the spacing must be positive");
-  const Eigen::Vector3d lo = m.vertices_mm.colwise().minCoeff().transpose(), hi = m.vertices_mm.colwise().maxCoeff().transpose();
+  const Eigen::Vector3d lo = m.vertices_mm.colwise().minCoeff().transpose(),
+                        hi = m.vertices_mm.colwise().maxCoeff().transpose();
   const double nxd = std::floor((hi.x() - lo.x()) / h + 1e-9) + 1, nyd = std::floor((hi.y() - lo.y()) / h + 1e-9) + 1;
   if (!(nxd * nyd <= static_cast<double>(1LL << 28)))
-    throw core::Error(fmt::format("rasterize: a {:.0f} x {:.0f} grid at {} mm is too large; choose a larger spacing", nxd, nyd, h));
+    throw core::Error(
+        fmt::format("rasterize: a {:.0f} x {:.0f} grid at {} mm is too large; choose a larger spacing", nxd, nyd, h));
   core::HeightGrid g;
   g.x0_mm = lo.x(), g.y0_mm = lo.y(), g.dx_mm = g.dy_mm = h;
   g.z_mm = core::HeightArray::Constant(static_cast<Eigen::Index>(nyd), static_cast<Eigen::Index>(nxd), -HUGE_VAL);
   for (Eigen::Index t = 0; t < m.triangles.rows(); ++t) {
     const int ia = m.triangles(t, 0), ib = m.triangles(t, 1), ic = m.triangles(t, 2);
-    if (ia < 0 || ib < 0 || ic < 0 || ia >= m.vertices_mm.rows() || ib >= m.vertices_mm.rows() || ic >= m.vertices_mm.rows())
+    if (ia < 0 || ib < 0 || ic < 0 || ia >= m.vertices_mm.rows() || ib >= m.vertices_mm.rows() ||
+        ic >= m.vertices_mm.rows())
       throw core::Error(fmt::format("rasterize: triangle {} names a vertex out of range", t));
-    const V3 A = m.vertices_mm.row(ia).transpose(), B = m.vertices_mm.row(ib).transpose(), C = m.vertices_mm.row(ic).transpose();
+    const V3 A = m.vertices_mm.row(ia).transpose(), B = m.vertices_mm.row(ib).transpose(),
+             C = m.vertices_mm.row(ic).transpose();
     const double area2 = (B.x() - A.x()) * (C.y() - A.y()) - (C.x() - A.x()) * (B.y() - A.y());  // 2 x signed xy area
     if (!(area2 > 0)) continue;  // facing down, vertical or degenerate
     const auto i0 = static_cast<Eigen::Index>(std::ceil((std::min({A.x(), B.x(), C.x()}) - g.x0_mm) / h - 1e-9));

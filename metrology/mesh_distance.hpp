@@ -23,7 +23,7 @@ class MeshDistance {
   MeshDistance& operator=(const MeshDistance&) = delete;
 
   struct Hit {
-    double distance = 0;        // signed
+    double distance = 0;  // signed
     Eigen::Vector3d closest = Eigen::Vector3d::Zero();
     int triangle = -1;
   };
@@ -35,11 +35,13 @@ class MeshDistance {
 };
 
 // Signed distance of each point (rows, mm). OpenMP over points; each result is independent of the others.
-Eigen::VectorXd signed_distances(const Eigen::Matrix<double, Eigen::Dynamic, 3>& points, const core::TriangleMesh& mesh);
+Eigen::VectorXd signed_distances(const Eigen::Matrix<double, Eigen::Dynamic, 3>& points,
+                                 const core::TriangleMesh& mesh);
 
 // The deviation of a point grid (a scan) from a predicted mesh: at each valid node, the signed distance of the
 // node's point, carried through `scan_to_part`, to the mesh. Same geometry as the scan (its own frame).
-core::HeightGrid mesh_deviation(const core::HeightGrid& scan, const RigidTransform& scan_to_part, const core::TriangleMesh& mesh);
+core::HeightGrid mesh_deviation(const core::HeightGrid& scan, const RigidTransform& scan_to_part,
+                                const core::TriangleMesh& mesh);
 
 // The mesh's upper surface sampled on a grid of `spacing_mm` over its x/y extent: at each node the highest point
 // of the triangles facing up (normal z > 0) above it; nodes no such triangle covers are invalid. For registering a

@@ -20,7 +20,7 @@ struct SurfaceFilter {
   double cutoff_mm = 0.8;
 };
 struct SurfaceProcessing {
-  int level = 1;                         // form removed first: 0 none, 1 plane, N polynomial of degree N
+  int level = 1;  // form removed first: 0 none, 1 plane, N polynomial of degree N
   std::vector<SurfaceFilter> filters;
 };
 

@@ -58,8 +58,9 @@ LineScan crop(const LineScan& p, double a, double b) {
       last = i;
     }
   if (first < 0 || last - first < 1)
-    throw core::Error(fmt::format("profile range {:.6g} .. {:.6g} mm: fewer than 2 points of the profile (x {:.6g} .. {:.6g} mm) lie in it",
-                                  a, b, p.x(0), p.x(p.size() - 1)));
+    throw core::Error(fmt::format(
+        "profile range {:.6g} .. {:.6g} mm: fewer than 2 points of the profile (x {:.6g} .. {:.6g} mm) lie in it", a, b,
+        p.x(0), p.x(p.size() - 1)));
   LineScan out;
   out.x0_mm = p.x(first);
   out.dx_mm = p.dx_mm;
@@ -71,7 +72,8 @@ LineScan remove_profile_form(const LineScan& p, int degree) {
   if (degree < 0 || degree > 10) throw core::Error(fmt::format("profile form: degree {} (0 .. 10 expected)", degree));
   const std::size_t n = valid_count(p.z_mm);
   if (n < static_cast<std::size_t>(degree + 1))
-    throw core::Error(fmt::format("profile form: {} valid points cannot determine a polynomial of degree {}", n, degree));
+    throw core::Error(
+        fmt::format("profile form: {} valid points cannot determine a polynomial of degree {}", n, degree));
   const double xc = p.x0_mm + 0.5 * static_cast<double>(p.size() - 1) * p.dx_mm;
   const double half = std::max(0.5 * static_cast<double>(p.size() - 1) * p.dx_mm, p.dx_mm);
   Eigen::MatrixXd A(static_cast<Eigen::Index>(n), degree + 1);
@@ -97,10 +99,12 @@ LineScan remove_profile_form(const LineScan& p, int degree) {
 }
 
 LineScan gaussian_profile_mean_line(const LineScan& p, double cutoff_mm) {
-  if (!(cutoff_mm > 0) || !std::isfinite(cutoff_mm)) throw core::Error("profile filter: the cut-off must be a positive length");
+  if (!(cutoff_mm > 0) || !std::isfinite(cutoff_mm))
+    throw core::Error("profile filter: the cut-off must be a positive length");
   const double alpha = std::sqrt(std::log(2.0) / kPi);
   const Eigen::Index half = static_cast<Eigen::Index>(std::ceil(cutoff_mm / p.dx_mm));
-  if (half > 50000000) throw core::Error(fmt::format("profile filter: cut-off {} mm is {} samples of {} mm", cutoff_mm, half, p.dx_mm));
+  if (half > 50000000)
+    throw core::Error(fmt::format("profile filter: cut-off {} mm is {} samples of {} mm", cutoff_mm, half, p.dx_mm));
   Eigen::ArrayXd w(half + 1);
   for (Eigen::Index k = 0; k <= half; ++k) {
     const double t = static_cast<double>(k) * p.dx_mm / (alpha * cutoff_mm);
@@ -155,7 +159,8 @@ ProfileParameters profile_parameters(const LineScan& p, int sections, double sec
   // Sections: index ranges [b_k, b_{k+1}).
   std::vector<Eigen::Index> bounds;
   if (section_length_mm > 0) {
-    const Eigen::Index per = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(std::llround(section_length_mm / p.dx_mm)));
+    const Eigen::Index per =
+        std::max<Eigen::Index>(1, static_cast<Eigen::Index>(std::llround(section_length_mm / p.dx_mm)));
     const Eigen::Index count = std::max<Eigen::Index>(1, n / per);
     for (Eigen::Index k = 0; k <= count; ++k) bounds.push_back(std::min(n, k * per));
     r.section_length_mm = static_cast<double>(std::min(per, n)) * p.dx_mm;
@@ -168,7 +173,8 @@ ProfileParameters profile_parameters(const LineScan& p, int sections, double sec
   for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
     double peak = -HUGE_VAL, pit = HUGE_VAL;
     for (Eigen::Index i = bounds[k]; i < bounds[k + 1]; ++i)
-      if (std::isfinite(p.z_mm[i])) peak = std::max(peak, p.z_mm[i] - r.mean_mm), pit = std::min(pit, p.z_mm[i] - r.mean_mm);
+      if (std::isfinite(p.z_mm[i]))
+        peak = std::max(peak, p.z_mm[i] - r.mean_mm), pit = std::min(pit, p.z_mm[i] - r.mean_mm);
     if (!(peak >= pit)) continue;  // a section without a valid point
     ++r.sections;
     sp += peak, sv += -pit;
@@ -195,9 +201,10 @@ EvaluatedProfile evaluate_profile(const LineScan& p, const ProfileEvaluation& ho
   if (lc > 0) {
     const double a = e.profile.x0_mm + lc / 2, b = e.profile.x(e.profile.size() - 1) - lc / 2;
     if (!(b - a >= lc))
-      throw core::Error(fmt::format("profile: {:.4g} mm long, too short for the L-filter's cut-off {:.4g} mm (it needs at least "
-                                    "2 cut-offs: one evaluated, half a cut-off run-in and run-out)",
-                                    e.profile.length_mm(), lc));
+      throw core::Error(
+          fmt::format("profile: {:.4g} mm long, too short for the L-filter's cut-off {:.4g} mm (it needs at least "
+                      "2 cut-offs: one evaluated, half a cut-off run-in and run-out)",
+                      e.profile.length_mm(), lc));
     e.profile = crop(e.profile, a, b);
   }
   e.parameters = profile_parameters(e.profile, how.sections, lc);
@@ -278,16 +285,18 @@ Fit fit_at(const LineScan& m, const LineScan& line, double shift, bool align, Ei
 
 ProfileComparison compare_profile(const LineScan& measured, const core::HeightGrid& predicted, double x0, double y0,
                                   double x1, double y1, const ProfileAlignmentOptions& o) {
-  if (measured.size() < 3 || valid_count(measured.z_mm) < 3) throw core::Error("profile comparison: the measured profile has fewer than 3 valid points");
+  if (measured.size() < 3 || valid_count(measured.z_mm) < 3)
+    throw core::Error("profile comparison: the measured profile has fewer than 3 valid points");
   const double step = std::min(predicted.dx_mm, predicted.dy_mm) / 2;
   const LineScan line = line_across(predicted, x0, y0, x1, y1, step);
   ProfileComparison c;
   c.line_length_mm = std::hypot(x1 - x0, y1 - y0);
   if (valid_count(line.z_mm) < 2)
-    throw core::Error(fmt::format("profile comparison: the line ({:.6g}, {:.6g}) - ({:.6g}, {:.6g}) mm does not cross the predicted "
-                                  "surface (x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g} mm)",
-                                  x0, y0, x1, y1, predicted.x(0), predicted.x(predicted.nx() - 1), predicted.y(0),
-                                  predicted.y(predicted.ny() - 1)));
+    throw core::Error(
+        fmt::format("profile comparison: the line ({:.6g}, {:.6g}) - ({:.6g}, {:.6g}) mm does not cross the predicted "
+                    "surface (x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g} mm)",
+                    x0, y0, x1, y1, predicted.x(0), predicted.x(predicted.nx() - 1), predicted.y(0),
+                    predicted.y(predicted.ny() - 1)));
   const double lm = static_cast<double>(measured.size() - 1) * measured.dx_mm;
   Fit best;
   double shift = o.shift_mm;
@@ -296,30 +305,37 @@ ProfileComparison compare_profile(const LineScan& measured, const core::HeightGr
     // points thinned so that the coarse search stays near 5e7 evaluations.
     const double lo = -0.5 * lm, hi = c.line_length_mm - 0.5 * lm;
     const Eigen::Index shifts = static_cast<Eigen::Index>(std::floor((hi - lo) / step)) + 1;
-    const Eigen::Index stride = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(static_cast<double>(shifts) * static_cast<double>(measured.size()) / 5e7));
+    const Eigen::Index stride = std::max<Eigen::Index>(
+        1, static_cast<Eigen::Index>(static_cast<double>(shifts) * static_cast<double>(measured.size()) / 5e7));
     const std::size_t need = valid_count(measured.z_mm) / static_cast<std::size_t>(2 * stride);
     std::vector<Fit> fits(static_cast<std::size_t>(shifts));
 #pragma omp parallel for schedule(dynamic, 16)
-    for (Eigen::Index k = 0; k < shifts; ++k) fits[static_cast<std::size_t>(k)] = fit_at(measured, line, lo + static_cast<double>(k) * step, true, stride);
+    for (Eigen::Index k = 0; k < shifts; ++k)
+      fits[static_cast<std::size_t>(k)] = fit_at(measured, line, lo + static_cast<double>(k) * step, true, stride);
     Eigen::Index kb = -1;
     for (Eigen::Index k = 0; k < shifts; ++k) {
       const Fit& f = fits[static_cast<std::size_t>(k)];
       if (f.n >= need && f.n >= 3 && (kb < 0 || f.ms < fits[static_cast<std::size_t>(kb)].ms)) kb = k;
     }
-    if (kb < 0) throw core::Error("profile comparison: the measured profile overlaps the valid part of the line nowhere by half its length");
+    if (kb < 0)
+      throw core::Error(
+          "profile comparison: the measured profile overlaps the valid part of the line nowhere by half its length");
     // Golden-section refinement within one step either side, on all points.
     double a = lo + static_cast<double>(kb - 1) * step, b = lo + static_cast<double>(kb + 1) * step;
     const double g = (std::sqrt(5.0) - 1) / 2;
     double u = b - g * (b - a), v = a + g * (b - a);
     Fit fu = fit_at(measured, line, u, true, 1), fv = fit_at(measured, line, v, true, 1);
     while (b - a > step / 100) {
-      if (fu.ms < fv.ms) b = v, v = u, fv = fu, u = b - g * (b - a), fu = fit_at(measured, line, u, true, 1);
-      else a = u, u = v, fu = fv, v = a + g * (b - a), fv = fit_at(measured, line, v, true, 1);
+      if (fu.ms < fv.ms)
+        b = v, v = u, fv = fu, u = b - g * (b - a), fu = fit_at(measured, line, u, true, 1);
+      else
+        a = u, u = v, fu = fv, v = a + g * (b - a), fv = fit_at(measured, line, v, true, 1);
     }
     shift = fu.ms < fv.ms ? u : v;
   }
   best = fit_at(measured, line, shift, o.align, 1);
-  if (best.n < 3) throw core::Error("profile comparison: fewer than 3 measured points lie on the valid part of the line");
+  if (best.n < 3)
+    throw core::Error("profile comparison: fewer than 3 measured points lie on the valid part of the line");
   c.shift_mm = shift, c.offset_mm = best.a, c.tilt = best.b, c.s_centre_mm = best.c;
   c.measured.x0_mm = c.predicted.x0_mm = c.deviation.x0_mm = shift;
   c.measured.dx_mm = c.predicted.dx_mm = c.deviation.dx_mm = measured.dx_mm;

@@ -40,18 +40,20 @@ LineScan remove_profile_form(const LineScan& p, int degree);
 LineScan gaussian_profile_mean_line(const LineScan& p, double cutoff_mm);
 // S-filter: keeps the mean line (removes wavelengths shorter than lambda_s). L-filter: the profile minus its mean
 // line with cut-off lambda_c (the roughness profile).
-inline LineScan profile_lowpass(const LineScan& p, double cutoff_mm) { return gaussian_profile_mean_line(p, cutoff_mm); }
+inline LineScan profile_lowpass(const LineScan& p, double cutoff_mm) {
+  return gaussian_profile_mean_line(p, cutoff_mm);
+}
 LineScan profile_highpass(const LineScan& p, double cutoff_mm);
 
 struct ProfileParameters {
-  std::size_t points = 0;              // valid points in the evaluation length
-  double evaluation_length_mm = 0;     // points x spacing
-  int sections = 0;                    // sections used for Rp, Rv, Rz, Rzx
+  std::size_t points = 0;           // valid points in the evaluation length
+  double evaluation_length_mm = 0;  // points x spacing
+  int sections = 0;                 // sections used for Rp, Rv, Rz, Rzx
   double section_length_mm = 0;
-  double mean_mm = 0;                  // the reference line's height (heights are measured from it)
+  double mean_mm = 0;  // the reference line's height (heights are measured from it)
   double Ra_mm = 0, Rq_mm = 0, Rsk = 0, Rku = 0;
   double Rp_mm = 0, Rv_mm = 0, Rz_mm = 0;  // means over the sections
-  double Rt_mm = 0, Rzx_mm = 0;           // over the whole evaluation length; the largest section height
+  double Rt_mm = 0, Rzx_mm = 0;            // over the whole evaluation length; the largest section height
 };
 
 // The height parameters of ISO 21920-2 over the whole profile as given (the evaluation length), the heights taken
@@ -72,7 +74,7 @@ ProfileParameters profile_parameters(const LineScan& p, int sections = 5, double
 // The sections for Rp, Rv, Rz are then lambda_c long (ISO 21920-3: the section length is the cut-off), or, with no
 // L-filter, `sections` equal pieces of the evaluation length.
 struct ProfileFilter {
-  char kind = 'L';         // 'S' or 'L'
+  char kind = 'L';  // 'S' or 'L'
   double cutoff_mm = 0.8;
 };
 struct ProfileEvaluation {
@@ -81,7 +83,7 @@ struct ProfileEvaluation {
   int sections = 5;
 };
 struct EvaluatedProfile {
-  LineScan profile;        // the profile the parameters are computed on (form removed, filtered, ends dropped)
+  LineScan profile;  // the profile the parameters are computed on (form removed, filtered, ends dropped)
   ProfileParameters parameters;
 };
 EvaluatedProfile evaluate_profile(const LineScan& p, const ProfileEvaluation& how);
@@ -89,7 +91,8 @@ EvaluatedProfile evaluate_profile(const LineScan& p, const ProfileEvaluation& ho
 // The heights along the straight line from (x0, y0) to (x1, y1) across a grid, every `step_mm` from s = 0 at the
 // start (bilinear; NaN off the grid and in cells with an invalid corner). x of the result is the distance along
 // the line.
-LineScan line_across(const core::HeightGrid& grid, double x0_mm, double y0_mm, double x1_mm, double y1_mm, double step_mm);
+LineScan line_across(const core::HeightGrid& grid, double x0_mm, double y0_mm, double x1_mm, double y1_mm,
+                     double step_mm);
 
 // A measured profile held against a line across a predicted surface. The measured profile's x runs along the line
 // from its start: s = x - x_first + shift. With `align`, the shift along the line is searched (every predicted
@@ -99,19 +102,20 @@ LineScan line_across(const core::HeightGrid& grid, double x0_mm, double y0_mm, d
 // Without `align` the profile lies as measured (shift 0, no offset or tilt).
 struct ProfileAlignmentOptions {
   bool align = true;
-  double shift_mm = 0.0;             // the shift when not aligning (or the centre of the search)
+  double shift_mm = 0.0;  // the shift when not aligning (or the centre of the search)
 };
 struct ProfileComparison {
   double line_length_mm = 0;
-  double shift_mm = 0;               // measured x_first sits at s = shift along the line
-  double offset_mm = 0, tilt = 0;    // fitted: measured ~ predicted + offset + tilt * (s - s_centre)
+  double shift_mm = 0;             // measured x_first sits at s = shift along the line
+  double offset_mm = 0, tilt = 0;  // fitted: measured ~ predicted + offset + tilt * (s - s_centre)
   double s_centre_mm = 0;
-  LineScan measured, predicted;      // on the measured samples, x = s along the line; predicted NaN off the line
-  LineScan deviation;                // measured (aligned) - predicted, where both are valid
-  std::size_t points = 0;            // samples where both are valid
+  LineScan measured, predicted;  // on the measured samples, x = s along the line; predicted NaN off the line
+  LineScan deviation;            // measured (aligned) - predicted, where both are valid
+  std::size_t points = 0;        // samples where both are valid
   double rms_mm = 0, mean_mm = 0, min_mm = 0, max_mm = 0;
 };
-ProfileComparison compare_profile(const LineScan& measured, const core::HeightGrid& predicted, double x0_mm, double y0_mm,
-                                  double x1_mm, double y1_mm, const ProfileAlignmentOptions& options = {});
+ProfileComparison compare_profile(const LineScan& measured, const core::HeightGrid& predicted, double x0_mm,
+                                  double y0_mm, double x1_mm, double y1_mm,
+                                  const ProfileAlignmentOptions& options = {});
 
 }  // namespace vmsim::metrology

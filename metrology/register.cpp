@@ -48,7 +48,8 @@ bool sample_bilinear(const core::HeightGrid& g, double x, double y, double& z, d
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-const char* const kDirection[6] = {"rotation x", "rotation y", "rotation z", "translation x", "translation y", "translation z"};
+const char* const kDirection[6] = {"rotation x",    "rotation y",    "rotation z",
+                                   "translation x", "translation y", "translation z"};
 
 // The predicted surface with its central-difference gradients (for smooth normals between nodes).
 struct Target {
@@ -128,8 +129,10 @@ Linearisation linearise(const std::vector<Eigen::Vector3d>& pts, const Target& t
   const auto weight = [&](double x) {
     const double a = std::abs(x);
     switch (loss) {
-      case RobustLoss::None: return 1.0;
-      case RobustLoss::Huber: return a <= c ? 1.0 : c / a;
+      case RobustLoss::None:
+        return 1.0;
+      case RobustLoss::Huber:
+        return a <= c ? 1.0 : c / a;
       case RobustLoss::Tukey: {
         if (a >= c) return 0.0;
         const double u = 1 - (x / c) * (x / c);
@@ -217,14 +220,16 @@ Step solve_step(const Linearisation& L, const RigidTransform& T, double radius) 
 
 }  // namespace
 
-RegistrationResult register_scan(const core::HeightGrid& scan, const core::HeightGrid& pred, const RegistrationOptions& o) {
+RegistrationResult register_scan(const core::HeightGrid& scan, const core::HeightGrid& pred,
+                                 const RegistrationOptions& o) {
   if (scan.nx() < 2 || scan.ny() < 2 || pred.nx() < 2 || pred.ny() < 2)
     throw core::Error("registration: both surfaces need at least 2 x 2 points");
   // The scan's points: valid nodes on a regular subsample.
   std::size_t valid = 0;
   for (Eigen::Index k = 0; k < scan.z_mm.size(); ++k) valid += std::isfinite(scan.z_mm.data()[k]) ? 1 : 0;
-  const Eigen::Index stride =
-      std::max<Eigen::Index>(1, static_cast<Eigen::Index>(std::ceil(std::sqrt(static_cast<double>(valid) / static_cast<double>(std::max<std::size_t>(o.max_points, 16))))));
+  const Eigen::Index stride = std::max<Eigen::Index>(
+      1, static_cast<Eigen::Index>(std::ceil(
+             std::sqrt(static_cast<double>(valid) / static_cast<double>(std::max<std::size_t>(o.max_points, 16))))));
   std::vector<std::pair<Eigen::Index, Eigen::Index>> nodes;
   for (Eigen::Index j = 0; j < scan.ny(); j += stride)
     for (Eigen::Index i = 0; i < scan.nx(); i += stride)
@@ -252,12 +257,14 @@ RegistrationResult register_scan(const core::HeightGrid& scan, const core::Heigh
     // Footprint: keep x/y when at least half of the scan's extent lies on the prediction.
     const double sx0 = scan.x0_mm, sx1 = scan.x(scan.nx() - 1), sy0 = scan.y0_mm, sy1 = scan.y(scan.ny() - 1);
     const double px0 = pred.x0_mm, px1 = pred.x(pred.nx() - 1), py0 = pred.y0_mm, py1 = pred.y(pred.ny() - 1);
-    const double ox = std::max(0.0, std::min(sx1, px1) - std::max(sx0, px0)), oy = std::max(0.0, std::min(sy1, py1) - std::max(sy0, py0));
+    const double ox = std::max(0.0, std::min(sx1, px1) - std::max(sx0, px0)),
+                 oy = std::max(0.0, std::min(sy1, py1) - std::max(sy0, py0));
     const bool overlap = ox * oy >= 0.5 * (sx1 - sx0) * (sy1 - sy0);
     const Eigen::Vector3d target_centre = overlap ? cs : Eigen::Vector3d(fp.x_centre_mm, fp.y_centre_mm, cs.z());
     T.R = R0;
     T.t = target_centre - R0 * cs;
-    res.initial_guess = std::string("plane-parallel tilt, ") + (overlap ? "x/y as scanned" : "scan centre on the prediction's centre");
+    res.initial_guess =
+        std::string("plane-parallel tilt, ") + (overlap ? "x/y as scanned" : "scan centre on the prediction's centre");
     // Height: the median gap over the points that land on the prediction.
     const Target tgt(pred);
     std::vector<double> gaps;
@@ -267,7 +274,9 @@ RegistrationResult register_scan(const core::HeightGrid& scan, const core::Heigh
       Eigen::Vector3d n;
       if (tgt.eval(q.x(), q.y(), f, n)) gaps.push_back(f - q.z());
     }
-    if (gaps.size() < 6) throw core::Error("registration: the initial guess puts fewer than 6 scan points on the prediction; give an initial transform");
+    if (gaps.size() < 6)
+      throw core::Error(
+          "registration: the initial guess puts fewer than 6 scan points on the prediction; give an initial transform");
     T.t.z() += median_of(gaps);
     res.initial_guess += ", z from the median height difference";
   }
@@ -291,16 +300,19 @@ RegistrationResult register_scan(const core::HeightGrid& scan, const core::Heigh
     rad = std::max(std::sqrt(rad / static_cast<double>(std::max<std::size_t>(pts.size(), 1))), h);
     // Huber first (convex, forgiving of a rough start), then the chosen loss on the last level.
     const std::vector<std::pair<RobustLoss, double>> phases =
-        last && o.loss != RobustLoss::Huber ? std::vector<std::pair<RobustLoss, double>>{{RobustLoss::Huber, 1.345}, {o.loss, o.tuning}}
-                                            : std::vector<std::pair<RobustLoss, double>>{{RobustLoss::Huber, o.loss == RobustLoss::Huber ? o.tuning : 1.345}};
+        last && o.loss != RobustLoss::Huber
+            ? std::vector<std::pair<RobustLoss, double>>{{RobustLoss::Huber, 1.345}, {o.loss, o.tuning}}
+            : std::vector<std::pair<RobustLoss, double>>{
+                  {RobustLoss::Huber, o.loss == RobustLoss::Huber ? o.tuning : 1.345}};
     for (const auto& [loss, tuning] : phases) {
       bool done = false;
       for (int it = 0; it < o.max_iterations && !done; ++it) {
         const Linearisation L = linearise(pts, tgt, T, o.regions, loss, tuning);
         if (L.points < 6)
-          throw core::Error(fmt::format("registration: only {} scan points fall on the prediction{}; check the initial "
-                                        "transform or the regions",
-                                        L.points, o.regions.empty() ? "" : " inside the regions"));
+          throw core::Error(
+              fmt::format("registration: only {} scan points fall on the prediction{}; check the initial "
+                          "transform or the regions",
+                          L.points, o.regions.empty() ? "" : " inside the regions"));
         const Step s = solve_step(L, T, rad);
         T = s.T;
         ++res.iterations;
@@ -315,7 +327,8 @@ RegistrationResult register_scan(const core::HeightGrid& scan, const core::Heigh
   res.transform = T;
   const Target tgt(pred);
   const Linearisation L = linearise(points_of(scan), tgt, T, o.regions, o.loss, o.tuning);
-  res.points = L.points, res.inliers = L.inliers, res.rms_mm = L.rms, res.mean_mm = L.mean, res.robust_sigma_mm = L.sigma;
+  res.points = L.points, res.inliers = L.inliers, res.rms_mm = L.rms, res.mean_mm = L.mean,
+  res.robust_sigma_mm = L.sigma;
   std::sort(weak_final.begin(), weak_final.end());
   weak_final.erase(std::unique(weak_final.begin(), weak_final.end()), weak_final.end());
   for (int d : weak_final) res.weak_directions.emplace_back(kDirection[d]);

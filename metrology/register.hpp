@@ -36,8 +36,8 @@ enum class RobustLoss { None, Huber, Tukey };
 
 struct RegistrationOptions {
   RobustLoss loss = RobustLoss::Tukey;
-  double tuning = 4.685;          // Tukey's c (or Huber's k, 1.345) in robust standard deviations
-  std::vector<Region> regions;    // if any: only scan points that land in one of them take part
+  double tuning = 4.685;                  // Tukey's c (or Huber's k, 1.345) in robust standard deviations
+  std::vector<Region> regions;            // if any: only scan points that land in one of them take part
   std::optional<RigidTransform> initial;  // else the automatic guess (see register_scan)
   std::size_t max_points = 200000;        // scan points used (a regular subsample of the valid nodes)
   int max_iterations = 60;                // per level
@@ -45,15 +45,15 @@ struct RegistrationOptions {
 };
 
 struct RegistrationResult {
-  RigidTransform transform;           // scan frame -> predicted frame
-  double rms_mm = 0;                  // RMS point-to-surface distance of the inliers at the end
-  double mean_mm = 0;                 // mean signed distance of the inliers (scan above prediction > 0)
-  double robust_sigma_mm = 0;         // 1.4826 MAD of the distances
-  std::size_t points = 0;             // scan points that overlapped the prediction (and the regions)
-  std::size_t inliers = 0;            // of which had a non-zero weight
+  RigidTransform transform;    // scan frame -> predicted frame
+  double rms_mm = 0;           // RMS point-to-surface distance of the inliers at the end
+  double mean_mm = 0;          // mean signed distance of the inliers (scan above prediction > 0)
+  double robust_sigma_mm = 0;  // 1.4826 MAD of the distances
+  std::size_t points = 0;      // scan points that overlapped the prediction (and the regions)
+  std::size_t inliers = 0;     // of which had a non-zero weight
   int iterations = 0;
   bool converged = false;
-  std::string initial_guess;          // how the start was found
+  std::string initial_guess;  // how the start was found
   // Directions the surface does not constrain (a flat face leaves x, y translation and rotation about z free):
   // held at the initial guess by damping and named here, e.g. "translation x".
   std::vector<std::string> weak_directions;
@@ -80,6 +80,7 @@ core::HeightGrid resample_scan(const core::HeightGrid& scan, const RigidTransfor
 
 // Bilinear height (and, with gx/gy, gradient of the bilinear patch) at (x, y); false outside the grid or where a
 // corner of the cell is invalid.
-bool sample_bilinear(const core::HeightGrid& g, double x, double y, double& z, double* gx = nullptr, double* gy = nullptr);
+bool sample_bilinear(const core::HeightGrid& g, double x, double y, double& z, double* gx = nullptr,
+                     double* gy = nullptr);
 
 }  // namespace vmsim::metrology

@@ -23,9 +23,9 @@ struct MarkSeen {
 struct ScanPlan {
   core::HeightGrid scan;
   SensorReport sensor;
-  ArealParameters predicted_areal, scan_areal;   // least-squares planes removed
+  ArealParameters predicted_areal, scan_areal;     // least-squares planes removed
   std::optional<core::HeightGrid> scan_deviation;  // with a reference: the scan minus the reference, scan's grid
-  std::vector<MarkSeen> marks;                   // with a reference: the predicted marks, deepest first
+  std::vector<MarkSeen> marks;                     // with a reference: the predicted marks, deepest first
 };
 
 // Marks are the regions of the prediction's deviation from `reference` deeper than mark_threshold_mm (at least

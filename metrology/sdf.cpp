@@ -55,7 +55,8 @@ struct Header {
 };
 
 void check_header(const std::filesystem::path& file, const Header& h, const std::string& where) {
-  if (h.nx < 1 || h.ny < 1) fail(file, where + fmt::format("NumPoints {} x NumProfiles {}: both must be at least 1", h.nx, h.ny));
+  if (h.nx < 1 || h.ny < 1)
+    fail(file, where + fmt::format("NumPoints {} x NumProfiles {}: both must be at least 1", h.nx, h.ny));
   if (!(h.dx_mm > 0) || !(h.dy_mm > 0) || !std::isfinite(h.dx_mm) || !std::isfinite(h.dy_mm))
     fail(file, where + "Xscale and Yscale must be positive lengths in metres");
   if (!std::isfinite(h.zscale_mm) || h.zscale_mm == 0) fail(file, where + "Zscale must be a non-zero number");
@@ -64,7 +65,8 @@ void check_header(const std::filesystem::path& file, const Header& h, const std:
 }
 
 core::HeightGrid read_binary(const std::filesystem::path& file, const std::string& bytes) {
-  if (bytes.size() < kBinaryHeader) fail(file, fmt::format("{} bytes: shorter than the 81-byte binary SDF header", bytes.size()));
+  if (bytes.size() < kBinaryHeader)
+    fail(file, fmt::format("{} bytes: shorter than the 81-byte binary SDF header", bytes.size()));
   Header h;
   const char* p = bytes.data() + 8 + 10 + 12 + 12;
   h.nx = load_le<std::uint16_t>(p);
@@ -92,14 +94,42 @@ core::HeightGrid read_binary(const std::filesystem::path& file, const std::strin
     double v = 0;
     bool bad = false;
     switch (h.data_type) {
-      case 0: v = static_cast<unsigned char>(*q); break;
-      case 1: { const auto u = load_le<std::uint16_t>(q); bad = u == 0xffff; v = u; break; }
-      case 2: { const auto u = load_le<std::uint32_t>(q); bad = u == 0xffffffffu; v = u; break; }
-      case 3: v = load_le<float>(q); break;
-      case 4: v = static_cast<signed char>(*q); break;
-      case 5: { const auto s = load_le<std::int16_t>(q); bad = s == INT16_MIN; v = s; break; }
-      case 6: { const auto s = load_le<std::int32_t>(q); bad = s == INT32_MIN; v = s; break; }
-      default: v = load_le<double>(q); break;
+      case 0:
+        v = static_cast<unsigned char>(*q);
+        break;
+      case 1: {
+        const auto u = load_le<std::uint16_t>(q);
+        bad = u == 0xffff;
+        v = u;
+        break;
+      }
+      case 2: {
+        const auto u = load_le<std::uint32_t>(q);
+        bad = u == 0xffffffffu;
+        v = u;
+        break;
+      }
+      case 3:
+        v = load_le<float>(q);
+        break;
+      case 4:
+        v = static_cast<signed char>(*q);
+        break;
+      case 5: {
+        const auto s = load_le<std::int16_t>(q);
+        bad = s == INT16_MIN;
+        v = s;
+        break;
+      }
+      case 6: {
+        const auto s = load_le<std::int32_t>(q);
+        bad = s == INT32_MIN;
+        v = s;
+        break;
+      }
+      default:
+        v = load_le<double>(q);
+        break;
     }
     const double z = v * h.zscale_mm;
     g.z_mm.data()[i] = bad || !std::isfinite(z) ? kNaN : z;
@@ -127,28 +157,40 @@ core::HeightGrid read_ascii(const std::filesystem::path& file, const std::string
       break;
     }
     const std::size_t eq = t.find('=');
-    if (eq == std::string::npos) fail(file, fmt::format("line {}: expected \"Key = value\" before the \"*\" that starts the data", lineno));
+    if (eq == std::string::npos)
+      fail(file, fmt::format("line {}: expected \"Key = value\" before the \"*\" that starts the data", lineno));
     const std::string key = trim(std::string_view(t).substr(0, eq)), val = trim(std::string_view(t).substr(eq + 1));
     seen[key] = true;
     const auto integer = [&](long lo, long hi) {
       const auto v = parse_decimal_scaled(val);
       if (!v || *v != std::floor(*v) || *v < static_cast<double>(lo) || *v > static_cast<double>(hi))
-        fail(file, fmt::format("line {}: {}: expected an integer from {} to {}, found \"{}\"", lineno, key, lo, hi, val.substr(0, 40)));
+        fail(file, fmt::format("line {}: {}: expected an integer from {} to {}, found \"{}\"", lineno, key, lo, hi,
+                               val.substr(0, 40)));
       return static_cast<long>(*v);
     };
     const auto metres_as_mm = [&]() {
       const auto v = parse_decimal_scaled(val, 3);
-      if (!v || !std::isfinite(*v)) fail(file, fmt::format("line {}: {}: expected a number of metres, found \"{}\"", lineno, key, val.substr(0, 40)));
+      if (!v || !std::isfinite(*v))
+        fail(file,
+             fmt::format("line {}: {}: expected a number of metres, found \"{}\"", lineno, key, val.substr(0, 40)));
       return *v;
     };
-    if (key == "NumPoints") h.nx = integer(1, 1 << 20);
-    else if (key == "NumProfiles") h.ny = integer(1, 1 << 20);
-    else if (key == "Xscale") h.dx_mm = metres_as_mm();
-    else if (key == "Yscale") h.dy_mm = metres_as_mm();
-    else if (key == "Zscale") h.zscale_mm = metres_as_mm();
-    else if (key == "Compression") h.compression = static_cast<int>(integer(0, 255));
-    else if (key == "DataType") h.data_type = static_cast<int>(integer(0, 255));
-    else if (key == "CheckType") h.check_type = static_cast<int>(integer(0, 255));
+    if (key == "NumPoints")
+      h.nx = integer(1, 1 << 20);
+    else if (key == "NumProfiles")
+      h.ny = integer(1, 1 << 20);
+    else if (key == "Xscale")
+      h.dx_mm = metres_as_mm();
+    else if (key == "Yscale")
+      h.dy_mm = metres_as_mm();
+    else if (key == "Zscale")
+      h.zscale_mm = metres_as_mm();
+    else if (key == "Compression")
+      h.compression = static_cast<int>(integer(0, 255));
+    else if (key == "DataType")
+      h.data_type = static_cast<int>(integer(0, 255));
+    else if (key == "CheckType")
+      h.check_type = static_cast<int>(integer(0, 255));
   }
   if (!star) fail(file, "no \"*\" line ending the header");
   for (const char* k : {"NumPoints", "NumProfiles", "Xscale", "Yscale", "Zscale", "DataType"})
@@ -175,7 +217,8 @@ core::HeightGrid read_ascii(const std::filesystem::path& file, const std::string
         end_star = true;
         break;
       }
-      if (z.size() >= n) fail(file, fmt::format("line {}: more than the {} x {} values the header declares", lineno, h.nx, h.ny));
+      if (z.size() >= n)
+        fail(file, fmt::format("line {}: more than the {} x {} values the header declares", lineno, h.nx, h.ny));
       std::string low(tok);
       for (char& c : low) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
       if (low == "nan" || low == "bad") {
@@ -218,8 +261,10 @@ core::HeightGrid read_sdf(const std::filesystem::path& file) {
   std::ostringstream ss;
   ss << in.rdbuf();
   const std::string bytes = std::move(ss).str();
-  if (bytes.size() >= 8 && (bytes.compare(0, 4, "bISO") == 0 || bytes.compare(0, 4, "bBCR") == 0)) return read_binary(file, bytes);
-  if (bytes.size() >= 8 && (bytes.compare(0, 4, "aISO") == 0 || bytes.compare(0, 4, "aBCR") == 0)) return read_ascii(file, bytes);
+  if (bytes.size() >= 8 && (bytes.compare(0, 4, "bISO") == 0 || bytes.compare(0, 4, "bBCR") == 0))
+    return read_binary(file, bytes);
+  if (bytes.size() >= 8 && (bytes.compare(0, 4, "aISO") == 0 || bytes.compare(0, 4, "aBCR") == 0))
+    return read_ascii(file, bytes);
   fail(file, "not an SDF file: it starts neither with aISO-1.0 (ASCII) nor bISO-1.0 (binary)");
 }
 

@@ -35,13 +35,15 @@ double normal(std::uint64_t seed, std::uint64_t index) {  // Box-Muller
 core::HeightGrid simulate_scan(const core::HeightGrid& pred, const SensorOptions& o, SensorReport* report) {
   if (!(o.step_mm > 0) || !(o.spot_mm >= 0) || !(o.noise_mm >= 0) || !(o.max_slope_deg > 0 && o.max_slope_deg <= 90) ||
       !(o.dropout_probability >= 0 && o.dropout_probability < 1))
-    throw core::Error("sensor: step > 0, spot >= 0, noise >= 0, 0 < max slope <= 90 deg and 0 <= dropout < 1 are required");
+    throw core::Error(
+        "sensor: step > 0, spot >= 0, noise >= 0, 0 < max slope <= 90 deg and 0 <= dropout < 1 are required");
   const double x0 = o.x_min_mm.value_or(pred.x0_mm), x1 = o.x_max_mm.value_or(pred.x(pred.nx() - 1));
   const double y0 = o.y_min_mm.value_or(pred.y0_mm), y1 = o.y_max_mm.value_or(pred.y(pred.ny() - 1));
   if (!(x1 >= x0) || !(y1 >= y0)) throw core::Error("sensor: the scanned area is empty");
   const double nxd = std::floor((x1 - x0) / o.step_mm + 1e-9) + 1, nyd = std::floor((y1 - y0) / o.step_mm + 1e-9) + 1;
   if (nxd * nyd > static_cast<double>(1LL << 28))
-    throw core::Error(fmt::format("sensor: a {:.0f} x {:.0f} scan is more points than vmsim handles; choose a larger step", nxd, nyd));
+    throw core::Error(fmt::format(
+        "sensor: a {:.0f} x {:.0f} scan is more points than vmsim handles; choose a larger step", nxd, nyd));
   SensorReport r;
   // Spot: FWHM = 2 sqrt(2 ln 2) sigma. As an ISO 16610-61 kernel exp(-pi (x / (alpha lc))^2) = exp(-x^2 / (2 sigma^2)):
   // lc = sqrt(2 pi) sigma / alpha.

@@ -21,11 +21,11 @@ struct SensorOptions {
 };
 
 struct SensorReport {
-  std::size_t points = 0;             // scan nodes
-  std::size_t slope_dropouts = 0;     // flank steeper than max_slope_deg
+  std::size_t points = 0;          // scan nodes
+  std::size_t slope_dropouts = 0;  // flank steeper than max_slope_deg
   std::size_t random_dropouts = 0;
-  std::size_t outside = 0;            // not over valid predicted surface
-  double spot_sigma_mm = 0;           // the Gaussian spot's standard deviation
+  std::size_t outside = 0;   // not over valid predicted surface
+  double spot_sigma_mm = 0;  // the Gaussian spot's standard deviation
   // Wavelength whose amplitude the spot halves: exp(-2 pi^2 sigma^2 / L^2) = 1/2.
   double half_amplitude_wavelength_mm = 0;
 };
@@ -33,6 +33,7 @@ struct SensorReport {
 // The measured heights: the predicted surface averaged over the spot (a Gaussian low-pass of the heights, edges
 // renormalised as gaussian_mean_surface), sampled bilinearly at the scan's nodes, with Gaussian noise; points whose
 // smoothed surface is steeper than max_slope_deg, or that draw a random dropout, are invalid (NaN).
-core::HeightGrid simulate_scan(const core::HeightGrid& predicted, const SensorOptions& options, SensorReport* report = nullptr);
+core::HeightGrid simulate_scan(const core::HeightGrid& predicted, const SensorOptions& options,
+                               SensorReport* report = nullptr);
 
 }  // namespace vmsim::metrology

@@ -46,15 +46,65 @@ std::string field(std::string_view b, std::size_t off, std::size_t len) {
 
 // Header offsets (bytes). Names as in the MountainsMap description.
 enum : std::size_t {
-  kSignature = 0, kFormat = 12, kObjects = 14, kVersion = 16, kType = 18, kObjectName = 20, kOperator = 50,
-  kPSize = 80, kAcquisition = 82, kRange = 84, kSpecialPoints = 86, kAbsolute = 88, kGaugeResolution = 90,
-  kWSize = 94, kPointBits = 98, kZmin = 100, kZmax = 104, kPointsPerLine = 108, kLines = 112, kTotalPoints = 116,
-  kXSpacing = 120, kYSpacing = 124, kZSpacing = 128, kXName = 132, kYName = 148, kZName = 164, kXStepUnit = 180,
-  kYStepUnit = 196, kZStepUnit = 212, kXLengthUnit = 228, kYLengthUnit = 244, kZLengthUnit = 260, kXRatio = 276,
-  kYRatio = 280, kZRatio = 284, kImprint = 288, kInverted = 290, kLevelled = 292, kObsolete = 294, kSeconds = 306,
-  kMinutes = 308, kHours = 310, kDay = 312, kMonth = 314, kYear = 316, kDayOfWeek = 318, kDuration = 320,
-  kCompressedSize = 324, kObsolete2 = 328, kCommentSize = 334, kPrivateSize = 336, kClientZone = 338,
-  kXOffset = 466, kYOffset = 470, kZOffset = 474, kTSpacing = 478, kTOffset = 482, kTName = 486, kTStepUnit = 499
+  kSignature = 0,
+  kFormat = 12,
+  kObjects = 14,
+  kVersion = 16,
+  kType = 18,
+  kObjectName = 20,
+  kOperator = 50,
+  kPSize = 80,
+  kAcquisition = 82,
+  kRange = 84,
+  kSpecialPoints = 86,
+  kAbsolute = 88,
+  kGaugeResolution = 90,
+  kWSize = 94,
+  kPointBits = 98,
+  kZmin = 100,
+  kZmax = 104,
+  kPointsPerLine = 108,
+  kLines = 112,
+  kTotalPoints = 116,
+  kXSpacing = 120,
+  kYSpacing = 124,
+  kZSpacing = 128,
+  kXName = 132,
+  kYName = 148,
+  kZName = 164,
+  kXStepUnit = 180,
+  kYStepUnit = 196,
+  kZStepUnit = 212,
+  kXLengthUnit = 228,
+  kYLengthUnit = 244,
+  kZLengthUnit = 260,
+  kXRatio = 276,
+  kYRatio = 280,
+  kZRatio = 284,
+  kImprint = 288,
+  kInverted = 290,
+  kLevelled = 292,
+  kObsolete = 294,
+  kSeconds = 306,
+  kMinutes = 308,
+  kHours = 310,
+  kDay = 312,
+  kMonth = 314,
+  kYear = 316,
+  kDayOfWeek = 318,
+  kDuration = 320,
+  kCompressedSize = 324,
+  kObsolete2 = 328,
+  kCommentSize = 334,
+  kPrivateSize = 336,
+  kClientZone = 338,
+  kXOffset = 466,
+  kYOffset = 470,
+  kZOffset = 474,
+  kTSpacing = 478,
+  kTOffset = 482,
+  kTName = 486,
+  kTStepUnit = 499
 };
 
 // One object's header, as read from the bytes at `base`.
@@ -78,12 +128,15 @@ Object parse_header(std::string_view b, std::size_t base, const std::string& nam
   const std::string_view sig = b.substr(base, 12);
   o.compressed = sig == "DSCOMPRESSED";
   if (sig != "DIGITAL SURF" && !o.compressed)
-    fail(name, base == 0 ? std::string("not a Digital Surf file: it starts neither with \"DIGITAL SURF\" nor \"DSCOMPRESSED\"")
-                         : fmt::format("byte {}: the next object does not start with \"DIGITAL SURF\" or \"DSCOMPRESSED\"", base));
+    fail(name,
+         base == 0
+             ? std::string("not a Digital Surf file: it starts neither with \"DIGITAL SURF\" nor \"DSCOMPRESSED\"")
+             : fmt::format("byte {}: the next object does not start with \"DIGITAL SURF\" or \"DSCOMPRESSED\"", base));
   const std::string_view h = b.substr(base, kHeader);
   o.format = at<std::int16_t>(h, kFormat);
   if (o.format != 0)
-    fail_at(kFormat, fmt::format("format {}: vmsim reads PC (little-endian, 0) files; 257 is the Macintosh byte order", o.format));
+    fail_at(kFormat, fmt::format("format {}: vmsim reads PC (little-endian, 0) files; 257 is the Macintosh byte order",
+                                 o.format));
   o.objects = at<std::uint16_t>(h, kObjects);
   o.type = at<std::int16_t>(h, kType);
   o.special = at<std::int16_t>(h, kSpecialPoints);
@@ -137,23 +190,27 @@ std::string object_points(std::string_view b, std::size_t base, const Object& o,
     return v;
   };
   const std::uint32_t streams = u32("stream count");
-  if (streams < 1 || streams > 64) fail(name, fmt::format("byte {}: {} compressed streams, expected 1 to 64", p - 4, streams));
+  if (streams < 1 || streams > 64)
+    fail(name, fmt::format("byte {}: {} compressed streams, expected 1 to 64", p - 4, streams));
   std::vector<std::uint32_t> rawlen(streams), ziplen(streams);
   std::uint64_t sum = 0, zipped = 0;
   for (std::uint32_t s = 0; s < streams; ++s) {
     rawlen[s] = u32("stream sizes"), ziplen[s] = u32("stream sizes");
     sum += rawlen[s], zipped += ziplen[s];
   }
-  if (sum < need) fail(name, fmt::format("compressed streams hold {} bytes, {} x {} points need {}", sum, o.nx, o.ny, need));
+  if (sum < need)
+    fail(name, fmt::format("compressed streams hold {} bytes, {} x {} points need {}", sum, o.nx, o.ny, need));
   // Deflate expands at most ~1032:1: streams that claim more are corrupt (and would make vmsim allocate for them).
   if (zipped > b.size() || sum > 1032 * zipped + 1024)
     fail(name, fmt::format("compressed streams of {} bytes cannot hold the {} bytes they declare", zipped, sum));
   std::string raw(static_cast<std::size_t>(sum), '\0');
   std::size_t out = 0;
   for (std::uint32_t s = 0; s < streams; ++s) {
-    if (p + ziplen[s] > b.size()) fail(name, fmt::format("byte {}: compressed stream {} runs past the end of the file", p, s + 1));
+    if (p + ziplen[s] > b.size())
+      fail(name, fmt::format("byte {}: compressed stream {} runs past the end of the file", p, s + 1));
     uLongf len = rawlen[s];
-    if (uncompress(reinterpret_cast<Bytef*>(raw.data() + out), &len, reinterpret_cast<const Bytef*>(b.data() + p), ziplen[s]) != Z_OK ||
+    if (uncompress(reinterpret_cast<Bytef*>(raw.data() + out), &len, reinterpret_cast<const Bytef*>(b.data() + p),
+                   ziplen[s]) != Z_OK ||
         len != rawlen[s])
       fail(name, fmt::format("byte {}: compressed stream {} is corrupt", p, s + 1));
     p += ziplen[s];
@@ -166,18 +223,30 @@ std::string object_points(std::string_view b, std::size_t base, const Object& o,
 
 const char* type_name(int t) {
   switch (t) {
-    case 1: return "profile";
-    case 2: return "surface";
-    case 3: return "binary image";
-    case 4: return "series of profiles";
-    case 5: return "series of surfaces";
-    case 7: return "multilayer profile";
-    case 8: return "multilayer surface";
-    case 10: return "intensity image";
-    case 12: return "RGB image";
-    case 20: return "spectrum";
-    case 21: return "hyperspectral map";
-    default: return "object";
+    case 1:
+      return "profile";
+    case 2:
+      return "surface";
+    case 3:
+      return "binary image";
+    case 4:
+      return "series of profiles";
+    case 5:
+      return "series of surfaces";
+    case 7:
+      return "multilayer profile";
+    case 8:
+      return "multilayer surface";
+    case 10:
+      return "intensity image";
+    case 12:
+      return "RGB image";
+    case 20:
+      return "spectrum";
+    case 21:
+      return "hyperspectral map";
+    default:
+      return "object";
   }
 }
 
@@ -194,31 +263,38 @@ SurData read_sur_bytes(std::string_view b, const std::string& name) {
   const bool profile = o.type == 1 || o.type == 4 || o.type == 7;
   const bool surface = o.type == 2 || o.type == 5 || o.type == 8;
   if (!profile && !surface)
-    fail(name, fmt::format("header byte {}: object type {} ({}); vmsim reads heights: surfaces (2), profiles (1), their "
-                           "series (5, 4) and multilayers (8, 7)", kType, o.type, type_name(o.type)));
+    fail(name,
+         fmt::format("header byte {}: object type {} ({}); vmsim reads heights: surfaces (2), profiles (1), their "
+                     "series (5, 4) and multilayers (8, 7)",
+                     kType, o.type, type_name(o.type)));
   SurData out;
   out.profile = profile;
   std::vector<std::string> notes;
   // Lengths: the step unit (see sur.hpp). A step unit that is not a length falls back on the length unit and ratio.
-  const auto axis_pow = [&](const std::string& step, const std::string& len, float ratio, std::size_t off, const char* axis,
-                            double& scale) {
+  const auto axis_pow = [&](const std::string& step, const std::string& len, float ratio, std::size_t off,
+                            const char* axis, double& scale) {
     if (const auto p = sur_unit(step)) {
       scale = std::pow(10.0, *p + 3);
       if (const auto q = sur_unit(len); q && ratio != 0 && std::isfinite(ratio)) {
         const double expect = std::pow(10.0, *q - *p);
         if (std::abs(static_cast<double>(ratio) - expect) > 1e-4 * expect)
-          notes.push_back(fmt::format("the {} unit ratio is {:g}, but 1 {} = {:g} {}; vmsim used the step unit {} (as "
-                                      "Gwyddion and SurfaceTopography do)", axis, ratio, len, expect, step, step));
+          notes.push_back(
+              fmt::format("the {} unit ratio is {:g}, but 1 {} = {:g} {}; vmsim used the step unit {} (as "
+                          "Gwyddion and SurfaceTopography do)",
+                          axis, ratio, len, expect, step, step));
       }
       return;
     }
     const auto q = sur_unit(len);
     if (!q || ratio == 0 || !std::isfinite(ratio))
-      fail(name, fmt::format("header byte {}: {} step unit \"{}\" is not a length (m, mm, um, nm expected), and the length "
-                             "unit \"{}\" with ratio {:g} cannot stand in", off, axis, step, len, ratio));
+      fail(name,
+           fmt::format("header byte {}: {} step unit \"{}\" is not a length (m, mm, um, nm expected), and the length "
+                       "unit \"{}\" with ratio {:g} cannot stand in",
+                       off, axis, step, len, ratio));
     scale = std::pow(10.0, *q + 3) / static_cast<double>(ratio);
-    notes.push_back(fmt::format("the {} step unit \"{}\" is not a length; vmsim took the length unit {} and the ratio {:g}",
-                                axis, step, len, ratio));
+    notes.push_back(
+        fmt::format("the {} step unit \"{}\" is not a length; vmsim took the length unit {} and the ratio {:g}", axis,
+                    step, len, ratio));
   };
   double sx = 1, sy = 1, sz = 1;
   axis_pow(o.xstep, o.xlen, o.rx, kXStepUnit, "x", sx);
@@ -229,7 +305,8 @@ SurData read_sur_bytes(std::string_view b, const std::string& name) {
   g.dy_mm = profile ? g.dx_mm : static_cast<double>(o.dy) * sy;
   if (!(g.dx_mm > 0) || !(g.dy_mm > 0) || !std::isfinite(g.dx_mm) || !std::isfinite(g.dy_mm))
     fail(name, fmt::format("header bytes {}-{}: x and y spacing must be positive", kXSpacing, kYSpacing + 3));
-  if (!std::isfinite(o.dz) || o.dz == 0) fail(name, fmt::format("header byte {}: z spacing must be a non-zero number", kZSpacing));
+  if (!std::isfinite(o.dz) || o.dz == 0)
+    fail(name, fmt::format("header byte {}: z spacing must be a non-zero number", kZSpacing));
   g.x0_mm = static_cast<double>(o.xoff) * sx;
   g.y0_mm = profile ? 0.0 : static_cast<double>(o.yoff) * sy;
   if (!std::isfinite(g.x0_mm) || !std::isfinite(g.y0_mm)) g.x0_mm = g.y0_mm = 0;
@@ -245,7 +322,8 @@ SurData read_sur_bytes(std::string_view b, const std::string& name) {
   for (std::size_t i = 0; i < n; ++i) {
     const std::int64_t v = o.bits == 16 ? at<std::int16_t>(raw, i * 2) : at<std::int32_t>(raw, i * 4);
     const double z = static_cast<double>(v) * scale + zoff_mm;
-    g.z_mm.data()[i] = (special && v == nonmeasured) || !std::isfinite(z) ? std::numeric_limits<double>::quiet_NaN() : z;
+    g.z_mm.data()[i] =
+        (special && v == nonmeasured) || !std::isfinite(z) ? std::numeric_limits<double>::quiet_NaN() : z;
   }
   if (o.inverted >= 1 && o.inverted <= 3) {
     g.z_mm = -g.z_mm;
@@ -290,7 +368,8 @@ SurData read_sur_data(const std::filesystem::path& file) {
 
 void write_sur(const std::filesystem::path& file, const core::HeightGrid& g) {
   const Eigen::Index nx = g.nx(), ny = g.ny();
-  if (nx < 1 || ny < 1 || nx > INT32_MAX / std::max<Eigen::Index>(ny, 1)) fail(file.string(), "cannot write an empty or huge grid as .sur");
+  if (nx < 1 || ny < 1 || nx > INT32_MAX / std::max<Eigen::Index>(ny, 1))
+    fail(file.string(), "cannot write an empty or huge grid as .sur");
   double lo = HUGE_VAL, hi = -HUGE_VAL;
   for (Eigen::Index k = 0; k < g.z_mm.size(); ++k) {
     const double z = g.z_mm.data()[k];
@@ -315,7 +394,7 @@ void write_sur(const std::filesystem::path& file, const core::HeightGrid& g) {
   put16(kFormat, 0);  // PC
   put16(kObjects, 1);
   put16(kVersion, 1);
-  put16(kType, 2);    // surface
+  put16(kType, 2);  // surface
   put_str(kObjectName, 30, "vmsim");
   put_str(kOperator, 30, "vmsim");
   put16(kSpecialPoints, 1);  // there may be non-measured points (Zmin - 2)
@@ -330,7 +409,8 @@ void write_sur(const std::filesystem::path& file, const core::HeightGrid& g) {
   putf(kYSpacing, static_cast<float>(g.dy_mm));
   putf(kZSpacing, dz);
   put_str(kXName, 16, "X"), put_str(kYName, 16, "Y"), put_str(kZName, 16, "Z");
-  for (std::size_t off : {kXStepUnit, kYStepUnit, kZStepUnit, kXLengthUnit, kYLengthUnit, kZLengthUnit}) put_str(off, 16, "mm");
+  for (std::size_t off : {kXStepUnit, kYStepUnit, kZStepUnit, kXLengthUnit, kYLengthUnit, kZLengthUnit})
+    put_str(off, 16, "mm");
   putf(kXRatio, 1), putf(kYRatio, 1), putf(kZRatio, 1);
   putf(kXOffset, static_cast<float>(g.x0_mm));
   putf(kYOffset, static_cast<float>(g.y0_mm));
@@ -339,7 +419,9 @@ void write_sur(const std::filesystem::path& file, const core::HeightGrid& g) {
   for (Eigen::Index k = 0; k < g.z_mm.size(); ++k) {
     const double z = g.z_mm.data()[k];
     std::int32_t v = -2;  // Zmin - 2: non-measured
-    if (std::isfinite(z)) v = static_cast<std::int32_t>(std::clamp(std::llround((z - static_cast<double>(zoff)) / static_cast<double>(dz)), 0LL, static_cast<long long>(kSteps)));
+    if (std::isfinite(z))
+      v = static_cast<std::int32_t>(std::clamp(std::llround((z - static_cast<double>(zoff)) / static_cast<double>(dz)),
+                                               0LL, static_cast<long long>(kSteps)));
     std::memcpy(&data[static_cast<std::size_t>(k) * 4], &v, 4);
   }
   core::AtomicFile out(file);

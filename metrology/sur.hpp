@@ -27,9 +27,9 @@
 namespace vmsim::metrology {
 
 struct SurData {
-  core::HeightGrid grid;   // a profile (object type 1) is one row
-  bool profile = false;    // the object read is a profile
-  std::string note;        // what the user should know (other objects not read, a unit ratio that disagrees)
+  core::HeightGrid grid;  // a profile (object type 1) is one row
+  bool profile = false;   // the object read is a profile
+  std::string note;       // what the user should know (other objects not read, a unit ratio that disagrees)
 };
 
 // Throws core::Error naming the file, the header field or byte offset, and what was expected.

@@ -47,8 +47,10 @@ SurfaceFile read_bytes(const std::string& bytes, const std::string& name, const 
     SurData d = read_sur_bytes(bytes, name);
     out.format = "sur";
     out.note = d.note;
-    if (d.profile) set_profile(out, line_scan_of_row(d.grid));
-    else out.grid = std::move(d.grid);
+    if (d.profile)
+      set_profile(out, line_scan_of_row(d.grid));
+    else
+      out.grid = std::move(d.grid);
     return out;
   }
   if (looks_like_bcr(head)) {
@@ -59,7 +61,8 @@ SurfaceFile read_bytes(const std::string& bytes, const std::string& name, const 
   if (head.rfind("PK\x03\x04", 0) == 0 || head.rfind("aISO", 0) == 0 || head.rfind("bISO", 0) == 0)
     throw core::Error(name + ": a compressed X3P or SDF file; vmsim reads these uncompressed (gunzip it first)");
   if (std::any_of(head.begin(), head.end(), [](char c) { return c == '\0'; }))
-    throw core::Error(name + ": binary data of unknown format (vmsim reads X3P, .sur, SDF, BCR-STM, CSV and ASCII grids)");
+    throw core::Error(name +
+                      ": binary data of unknown format (vmsim reads X3P, .sur, SDF, BCR-STM, CSV and ASCII grids)");
   if (looks_like_dektak(head)) {
     DektakData d = read_dektak_csv(bytes, name);
     out.format = "dektak";
@@ -102,15 +105,20 @@ SurfaceFile read_surface_file(const std::filesystem::path& file) {
   if (head.rfind("PK\x03\x04", 0) == 0) {
     X3pData d = read_x3p(file);
     if (d.grid.z_mm.size() == 0)
-      throw core::Error(file.string() + ": the X3P point list does not lie on a regular x/y grid; vmsim compares grids");
+      throw core::Error(file.string() +
+                        ": the X3P point list does not lie on a regular x/y grid; vmsim compares grids");
     out.format = "x3p";
     for (const std::string& n : d.meta.notes) add_note(out, n);
-    if (!d.meta.rotation_identity) add_note(out, "the file's Record1/Axes/Rotation is not the identity and was not applied");
-    if (d.meta.feature_type == "PRF" && d.grid.ny() == 1) set_profile(out, line_scan_of_row(d.grid));
-    else out.grid = std::move(d.grid);
+    if (!d.meta.rotation_identity)
+      add_note(out, "the file's Record1/Axes/Rotation is not the identity and was not applied");
+    if (d.meta.feature_type == "PRF" && d.grid.ny() == 1)
+      set_profile(out, line_scan_of_row(d.grid));
+    else
+      out.grid = std::move(d.grid);
     return out;
   }
-  if (head.rfind("aISO", 0) == 0 || head.rfind("bISO", 0) == 0 || head.rfind("aBCR", 0) == 0 || head.rfind("bBCR", 0) == 0) {
+  if (head.rfind("aISO", 0) == 0 || head.rfind("bISO", 0) == 0 || head.rfind("aBCR", 0) == 0 ||
+      head.rfind("bBCR", 0) == 0) {
     out.grid = read_sdf(file);
     out.format = "sdf";
     return out;
@@ -128,7 +136,8 @@ SurfaceFile read_surface_file(const std::filesystem::path& file) {
     return out;
   }
   if (std::any_of(head.begin(), head.end(), [](char c) { return c == '\0'; }))
-    throw core::Error(file.string() + ": a binary file of unknown format (vmsim reads X3P, .sur, SDF, BCR-STM, CSV and ASCII grids)");
+    throw core::Error(file.string() +
+                      ": a binary file of unknown format (vmsim reads X3P, .sur, SDF, BCR-STM, CSV and ASCII grids)");
   const std::string ext = lower_ext(file);
   if (ext == ".xyz" || ext == ".asc" || ext == ".pts") {
     out.grid = read_xyz_grid(file);
@@ -142,13 +151,20 @@ SurfaceFile read_surface_file(const std::filesystem::path& file) {
 
 void write_surface(const std::filesystem::path& file, const core::HeightGrid& grid) {
   const std::string ext = lower_ext(file);
-  if (ext == ".x3p") write_x3p(file, grid);
-  else if (ext == ".sdf") write_sdf(file, grid);
-  else if (ext == ".sur") write_sur(file, grid);
-  else if (ext == ".csv") write_height_csv(file, grid);
-  else if (ext == ".xyz") write_xyz(file, grid);
-  else if (ext == ".npy") write_height_npy(file, grid);
-  else throw core::Error(file.string() + ": unknown surface format (write .x3p, .sdf, .sur, .csv, .xyz or .npy)");
+  if (ext == ".x3p")
+    write_x3p(file, grid);
+  else if (ext == ".sdf")
+    write_sdf(file, grid);
+  else if (ext == ".sur")
+    write_sur(file, grid);
+  else if (ext == ".csv")
+    write_height_csv(file, grid);
+  else if (ext == ".xyz")
+    write_xyz(file, grid);
+  else if (ext == ".npy")
+    write_height_npy(file, grid);
+  else
+    throw core::Error(file.string() + ": unknown surface format (write .x3p, .sdf, .sur, .csv, .xyz or .npy)");
 }
 
 }  // namespace vmsim::metrology

@@ -22,8 +22,8 @@ namespace vmsim::metrology {
 struct SurfaceFile {
   core::HeightGrid grid;            // a profile is here too, as one row
   std::optional<LineScan> profile;  // set when the file holds a profile (a stylus trace, X3P PRF, .sur profile)
-  std::string format;               // "x3p", "sur", "sdf", "bcr", "dektak", "csv", "xyz", "matrix"; "+gzip" when inflated
-  std::string note;                 // what the reader wants the user to know (a folder inside an X3P zip, ...)
+  std::string format;  // "x3p", "sur", "sdf", "bcr", "dektak", "csv", "xyz", "matrix"; "+gzip" when inflated
+  std::string note;    // what the reader wants the user to know (a folder inside an X3P zip, ...)
 };
 
 SurfaceFile read_surface_file(const std::filesystem::path& file);

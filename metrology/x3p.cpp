@@ -104,10 +104,10 @@ class ZipReader {
     if (zip_stat_index(za_, index, 0, &st) != 0 || !(st.valid & ZIP_STAT_SIZE))
       fail(file_, name + ": cannot read the zip entry's size: " + zip_strerror(za_));
     if (exact && st.size != *exact)
-      fail(file_, fmt::format("{}: {} bytes, expected {} for the declared dimensions and data types", name, st.size,
-                              *exact));
-    if (st.size > max_bytes) fail(file_, fmt::format("{}: {} bytes, more than the {} bytes vmsim accepts", name,
-                                                     st.size, max_bytes));
+      fail(file_,
+           fmt::format("{}: {} bytes, expected {} for the declared dimensions and data types", name, st.size, *exact));
+    if (st.size > max_bytes)
+      fail(file_, fmt::format("{}: {} bytes, more than the {} bytes vmsim accepts", name, st.size, max_bytes));
     zip_file_t* zf = zip_fopen_index(za_, index, 0);
     if (!zf) fail(file_, name + ": cannot open the zip entry: " + zip_strerror(za_));
     std::string out;
@@ -174,12 +174,12 @@ std::string text_of(pugi::xml_node n) { return n ? trimmed(n.child_value()) : st
 
 // One axis of Record1/Axes.
 struct Axis {
-  char type = 'I';           // I incremental, A absolute
-  char data = 'D';           // I L F D
+  char type = 'I';  // I incremental, A absolute
+  char data = 'D';  // I L F D
   bool has_data_type = false;
-  double inc_mm = 1000.0;    // Increment (m) in mm; 1 m when absent (older files leave it out on CZ)
+  double inc_mm = 1000.0;  // Increment (m) in mm; 1 m when absent (older files leave it out on CZ)
   double off_mm = 0.0;
-  bool unit_inc = true;      // Increment is exactly 1 (metre values): text values convert with one rounding
+  bool unit_inc = true;  // Increment is exactly 1 (metre values): text values convert with one rounding
   bool zero_off = true;
   double coord(double raw) const { return zero_off ? inc_mm * raw : off_mm + inc_mm * raw; }
   std::size_t size() const { return data == 'I' ? 2 : data == 'L' ? 4 : data == 'F' ? 4 : 8; }
@@ -207,12 +207,14 @@ Axis parse_axis(const XmlContext& cx, pugi::xml_node axes, const char* name) {
   if (!n) cx.error(axes, path, "missing (ISO 5436-2 requires CX, CY and CZ)");
   Axis a;
   const std::string t = text_of(child(n, "AxisType"));
-  if (t != "I" && t != "A") cx.error(n, path + "/AxisType", "expected I (incremental) or A (absolute), found \"" + t + "\"");
+  if (t != "I" && t != "A")
+    cx.error(n, path + "/AxisType", "expected I (incremental) or A (absolute), found \"" + t + "\"");
   a.type = t[0];
   if (const pugi::xml_node d = child(n, "DataType")) {
     const std::string dt = text_of(d);
     if (dt != "I" && dt != "L" && dt != "F" && dt != "D")
-      cx.error(d, path + "/DataType", "expected I (int16), L (int32), F (float32) or D (float64), found \"" + dt + "\"");
+      cx.error(d, path + "/DataType",
+               "expected I (int16), L (int32), F (float32) or D (float64), found \"" + dt + "\"");
     a.data = dt[0];
     a.has_data_type = true;
   }
@@ -259,10 +261,14 @@ T load_le(const char* p) {
 
 double decode(const char* p, char type) {
   switch (type) {
-    case 'I': return load_le<std::int16_t>(p);
-    case 'L': return load_le<std::int32_t>(p);
-    case 'F': return load_le<float>(p);
-    default: return load_le<double>(p);
+    case 'I':
+      return load_le<std::int16_t>(p);
+    case 'L':
+      return load_le<std::int32_t>(p);
+    case 'F':
+      return load_le<float>(p);
+    default:
+      return load_le<double>(p);
   }
 }
 
@@ -329,16 +335,17 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
   }
   if (mains.empty()) fail(file, "main.xml: missing from the zip (every X3P file has one)");
   if (mains.size() > 1)
-    fail(file, fmt::format("the zip holds {} main.xml files ({}); an X3P file has one", mains.size(),
-                           [&] {
-                             std::string l;
-                             for (const auto& m : mains) l += (l.empty() ? "" : ", ") + m;
-                             return l;
-                           }()));
+    fail(file, fmt::format("the zip holds {} main.xml files ({}); an X3P file has one", mains.size(), [&] {
+           std::string l;
+           for (const auto& m : mains) l += (l.empty() ? "" : ", ") + m;
+           return l;
+         }()));
   const std::string main_name = mains.front();
   const std::string folder = main_name.substr(0, main_name.size() - std::string("main.xml").size());
   zip.set_base(folder);
-  if (!folder.empty()) notes.push_back("main.xml is in the folder \"" + folder + "\" of the zip, not at its root; vmsim read the X3P from there");
+  if (!folder.empty())
+    notes.push_back("main.xml is in the folder \"" + folder +
+                    "\" of the zip, not at its root; vmsim read the X3P from there");
   const auto main_idx = zip.find(main_name.substr(folder.size()));
   if (!main_idx) fail(file, "main.xml: missing from the zip (every X3P file has one)");
   std::vector<std::string> used = {zip.name(*main_idx)};
@@ -347,14 +354,18 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
   pugi::xml_document doc;
   const pugi::xml_parse_result pr = doc.load_buffer(xml.data(), xml.size(), pugi::parse_default, pugi::encoding_auto);
   if (!pr) {
-    const int line = 1 + static_cast<int>(std::count(xml.begin(), xml.begin() + std::clamp<std::ptrdiff_t>(pr.offset, 0, static_cast<std::ptrdiff_t>(xml.size())), '\n'));
+    const int line =
+        1 + static_cast<int>(std::count(
+                xml.begin(),
+                xml.begin() + std::clamp<std::ptrdiff_t>(pr.offset, 0, static_cast<std::ptrdiff_t>(xml.size())), '\n'));
     fail(file, fmt::format("main.xml:{}: not well-formed XML: {}", line, pr.description()));
   }
   const XmlContext cx{file, xml};
   const pugi::xml_node root = doc.document_element();
   if (!root || (local_name(root.name()) != "ISO5436_2" && local_name(root.name()) != "ISO5436"))
     fail(file, std::string("main.xml: the root element is \"") + (root ? root.name() : "") + "\", expected ISO5436_2");
-  if (local_name(root.name()) == "ISO5436") notes.push_back("main.xml's root element is ISO5436 (as x3ptools writes it), read as ISO5436_2");
+  if (local_name(root.name()) == "ISO5436")
+    notes.push_back("main.xml's root element is ISO5436 (as x3ptools writes it), read as ISO5436_2");
 
   X3pData out;
   X3pMeta& meta = out.meta;
@@ -413,9 +424,11 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     if (nz != 1)
       cx.error(mdim, "Record3/MatrixDimension/SizeZ", fmt::format("{} layers; vmsim reads single-layer data (1)", nz));
     if (nx > kMaxPoints / ny)
-      cx.error(mdim, "Record3/MatrixDimension", fmt::format("{} x {} points is more than the {} vmsim accepts", nx, ny, kMaxPoints));
+      cx.error(mdim, "Record3/MatrixDimension",
+               fmt::format("{} x {} points is more than the {} vmsim accepts", nx, ny, kMaxPoints));
     npoints = nx * ny;
-    if (meta.feature_type == "PCL") cx.error(mdim, "Record1/FeatureType", "PCL (point list) data must use ListDimension");
+    if (meta.feature_type == "PCL")
+      cx.error(mdim, "Record1/FeatureType", "PCL (point list) data must use ListDimension");
   } else if (ldim) {
     npoints = parse_count(cx, r3, "ListDimension", "Record3");
     if (meta.feature_type != "PCL")
@@ -466,8 +479,9 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     if (options.verify_checksums) {
       const std::string want = hex_lower(text_of(child(link, "MD5ChecksumPointData")));
       if (!want.empty() && want != core::md5_hex(data))
-        cx.error(link, "Record3/DataLink/MD5ChecksumPointData",
-                 "MD5 of " + data_name + " is " + core::md5_hex(data) + ", the file states " + want + " (corrupt data)");
+        cx.error(
+            link, "Record3/DataLink/MD5ChecksumPointData",
+            "MD5 of " + data_name + " is " + core::md5_hex(data) + ", the file states " + want + " (corrupt data)");
     }
     const char* p = data.data();
     for (std::uint64_t i = 0; i < npoints; ++i)
@@ -495,7 +509,8 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     const pugi::xml_node vendor = child(root, "VendorSpecificID");
     if (vendor && text_of(vendor) == kVendorUri && matrix && stored.size() == 1 && ax[2].data == 'D' &&
         ax[2].unit_inc && ax[2].zero_off)
-      if (const auto ci = zip.find(kVendorEntry)) zcorr = zip.read(*ci, kVendorEntry, kMaxPoints, npoints), used.push_back(zip.name(*ci));
+      if (const auto ci = zip.find(kVendorEntry))
+        zcorr = zip.read(*ci, kVendorEntry, kMaxPoints, npoints), used.push_back(zip.name(*ci));
   } else if (list) {
     std::uint64_t count = 0;
     for (pugi::xml_node d = list.first_child(); d; d = d.next_sibling())
@@ -506,7 +521,8 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     std::uint64_t i = 0;
     for (pugi::xml_node d = list.first_child(); d; d = d.next_sibling()) {
       if (d.type() != pugi::node_element) continue;
-      if (local_name(d.name()) != "Datum") cx.error(d, "Record3/DataList", std::string("unexpected element ") + d.name());
+      if (local_name(d.name()) != "Datum")
+        cx.error(d, "Record3/DataList", std::string("unexpected element ") + d.name());
       if (i >= npoints)
         cx.error(d, "Record3/DataList", fmt::format("more than the {} Datum elements the dimensions declare", npoints));
       const std::string s = text_of(d);
@@ -525,11 +541,14 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
       }
       // The values of the absolute axes, in x y z order; some writers list every axis (incremental ones as indices).
       std::vector<int> order;
-      if (parts.size() == stored.size()) order = stored;
-      else if (parts.size() == 3) order = {0, 1, 2};
+      if (parts.size() == stored.size())
+        order = stored;
+      else if (parts.size() == 3)
+        order = {0, 1, 2};
       else
         cx.error(d, "Record3/DataList/Datum",
-                 fmt::format("\"{}\": {} values, expected {} (one per absolute axis, separated by ;)", s, parts.size(), stored.size()));
+                 fmt::format("\"{}\": {} values, expected {} (one per absolute axis, separated by ;)", s, parts.size(),
+                             stored.size()));
       for (std::size_t c = 0; c < order.size(); ++c) {
         const int k = order[c];
         if (ax[k].type != 'A') continue;  // an incremental axis' index: its position comes from the point index
@@ -586,7 +605,8 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
       if (v.size() > 8) l += fmt::format(" and {} more", v.size() - 8);
       return l;
     };
-    if (!junk.empty()) notes.push_back("ignored " + std::to_string(junk.size()) + " macOS metadata entries (" + join(junk) + ")");
+    if (!junk.empty())
+      notes.push_back("ignored " + std::to_string(junk.size()) + " macOS metadata entries (" + join(junk) + ")");
     if (!other.empty()) notes.push_back("ignored entries main.xml does not name: " + join(other));
   }
   meta.notes = notes;
@@ -615,7 +635,8 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
       for (std::uint64_t i = 0; i < npoints; ++i) {
         if (!valid[i] || !std::isfinite(coord[k][i])) continue;
         const std::uint64_t c = k == 0 ? i % nx : i / nx;
-        if (!seen[c]) value[c] = coord[k][i], seen[c] = 1;
+        if (!seen[c])
+          value[c] = coord[k][i], seen[c] = 1;
         else if (std::abs(coord[k][i] - value[c]) > 1e-9 * std::max(1.0, std::abs(value[c])))
           fail(file, fmt::format("absolute {} axis: points of matrix {} {} have different coordinates ({:.9g} and "
                                  "{:.9g} mm); vmsim needs a regular grid",
@@ -653,14 +674,24 @@ std::string xml_escape(const std::string& s) {
   std::string o;
   for (char c : s) {
     switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
+      case '&':
+        o += "&amp;";
+        break;
+      case '<':
+        o += "&lt;";
+        break;
+      case '>':
+        o += "&gt;";
+        break;
+      case '"':
+        o += "&quot;";
+        break;
       default:
         // Control characters are not allowed in XML 1.0 text.
-        if (static_cast<unsigned char>(c) < 0x20 && c != '\n' && c != '\t' && c != '\r') o += ' ';
-        else o += c;
+        if (static_cast<unsigned char>(c) < 0x20 && c != '\n' && c != '\t' && c != '\r')
+          o += ' ';
+        else
+          o += c;
     }
   }
   return o;
@@ -772,12 +803,14 @@ void write_x3p(const std::filesystem::path& file, const core::HeightGrid& g, con
   x += "<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\" ?>\n";
   x += "<p:ISO5436_2 xmlns:p=\"http://www.opengps.eu/2008/ISO5436_2\" "
        "xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" "
-       "xsi:schemaLocation=\"http://www.opengps.eu/2008/ISO5436_2 http://www.opengps.eu/2008/ISO5436_2/ISO5436_2.xsd\">\n";
+       "xsi:schemaLocation=\"http://www.opengps.eu/2008/ISO5436_2 "
+       "http://www.opengps.eu/2008/ISO5436_2/ISO5436_2.xsd\">\n";
   x += "  <Record1>\n    <Revision>ISO5436 - 2000</Revision>\n    <FeatureType>SUR</FeatureType>\n    <Axes>\n";
   const auto axis = [&](const char* name, const char* type, double inc_mm, double off_mm) {
-    x += fmt::format("      <{0}>\n        <AxisType>{1}</AxisType>\n        <DataType>D</DataType>\n"
-                     "        <Increment>{2}</Increment>\n        <Offset>{3}</Offset>\n      </{0}>\n",
-                     name, type, format_scaled(inc_mm, -3), format_scaled(off_mm, -3));
+    x += fmt::format(
+        "      <{0}>\n        <AxisType>{1}</AxisType>\n        <DataType>D</DataType>\n"
+        "        <Increment>{2}</Increment>\n        <Offset>{3}</Offset>\n      </{0}>\n",
+        name, type, format_scaled(inc_mm, -3), format_scaled(off_mm, -3));
   };
   axis("CX", "I", g.dx_mm, g.x0_mm);
   axis("CY", "I", g.dy_mm, g.y0_mm);
@@ -796,9 +829,10 @@ void write_x3p(const std::filesystem::path& file, const core::HeightGrid& g, con
   x += "      <Identification>" + xml_escape(o.probing_id) + "</Identification>\n    </ProbingSystem>\n";
   x += "    <Comment>" + xml_escape(o.comment) + "</Comment>\n";
   x += "  </Record2>\n";
-  x += fmt::format("  <Record3>\n    <MatrixDimension>\n      <SizeX>{}</SizeX>\n      <SizeY>{}</SizeY>\n"
-                   "      <SizeZ>1</SizeZ>\n    </MatrixDimension>\n",
-                   nx, ny);
+  x += fmt::format(
+      "  <Record3>\n    <MatrixDimension>\n      <SizeX>{}</SizeX>\n      <SizeY>{}</SizeY>\n"
+      "      <SizeZ>1</SizeZ>\n    </MatrixDimension>\n",
+      nx, ny);
   x += "    <DataLink>\n      <PointDataLink>bindata/data.bin</PointDataLink>\n";
   x += "      <MD5ChecksumPointData>" + core::md5_hex(data) + "</MD5ChecksumPointData>\n";
   if (invalid > 0) {

@@ -18,16 +18,16 @@
 namespace vmsim::metrology {
 
 struct X3pMeta {
-  std::string feature_type;        // SUR (surface), PRF (profile), PCL (point list)
-  std::string revision;            // Record1/Revision
+  std::string feature_type;  // SUR (surface), PRF (profile), PCL (point list)
+  std::string revision;      // Record1/Revision
   std::string date, creator, manufacturer, model, serial, version, probing_type, probing_id, comment;  // Record2
-  std::array<char, 3> axis_type{};      // 'I' incremental or 'A' absolute, for CX CY CZ
-  std::array<char, 3> data_type{};      // 'I' int16, 'L' int32, 'F' float32, 'D' float64 ('\0' if not given)
-  bool binary = false;                  // data in bindata/ (DataLink) rather than in main.xml (DataList)
-  bool valid_mask = false;              // a valid-points file was present
-  bool rotation_identity = true;        // Record1/Axes/Rotation absent or the identity
-  bool main_checksum_checked = false;   // md5checksum.hex was present and matched
-  std::size_t invalid_points = 0;       // points invalid in the mask, empty <Datum/>, NaN or infinite
+  std::array<char, 3> axis_type{};     // 'I' incremental or 'A' absolute, for CX CY CZ
+  std::array<char, 3> data_type{};     // 'I' int16, 'L' int32, 'F' float32, 'D' float64 ('\0' if not given)
+  bool binary = false;                 // data in bindata/ (DataLink) rather than in main.xml (DataList)
+  bool valid_mask = false;             // a valid-points file was present
+  bool rotation_identity = true;       // Record1/Axes/Rotation absent or the identity
+  bool main_checksum_checked = false;  // md5checksum.hex was present and matched
+  std::size_t invalid_points = 0;      // points invalid in the mask, empty <Datum/>, NaN or infinite
   // What a user should know about a file written by another tool: main.xml found in a folder of the zip, junk
   // entries (__MACOSX/, .DS_Store) and entries main.xml does not name left aside, x3ptools' root element.
   std::vector<std::string> notes;
@@ -50,13 +50,13 @@ struct X3pReadOptions {
 X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& options = {});
 
 struct X3pWriteOptions {
-  std::string comment;                           // Record2/Comment
-  std::string creator = "vmsim";                 // Record2/Creator
+  std::string comment;                            // Record2/Comment
+  std::string creator = "vmsim";                  // Record2/Creator
   std::string model = "vmsim virtual machining";  // Record2/Instrument/Model
-  std::string probing_type = "Software";         // Software (a prediction) or NonContacting (a simulated scan)
-  std::string probing_id = "vmsim";              // Record2/ProbingSystem/Identification
-  std::string version = "vmsim";                 // Record2/Instrument/Version (the app puts its version here)
-  std::string date;                              // xsd:dateTime; empty: now (UTC)
+  std::string probing_type = "Software";          // Software (a prediction) or NonContacting (a simulated scan)
+  std::string probing_id = "vmsim";               // Record2/ProbingSystem/Identification
+  std::string version = "vmsim";                  // Record2/Instrument/Version (the app puts its version here)
+  std::string date;                               // xsd:dateTime; empty: now (UTC)
   // Deflate level of bindata/data.bin: 0 stores it (measured heights are noise in their last bits and deflate
   // to ~90 % at ~1 s per 4 M points), 1 (fast) .. 9 (small). The other entries are always deflated.
   int compression_level = 0;

@@ -1,5 +1,5 @@
-// Contour error (Duong et al. section III.B eq. 1-2, the predictive-compensation paper section 4): for every actual position, the exact
-// shortest distance to the commanded path near the place the tool is following, signed.
+// Contour error (Duong et al. section III.B eq. 1-2, the predictive-compensation paper section 4): for every actual
+// position, the exact shortest distance to the commanded path near the place the tool is following, signed.
 //
 // The two-step search of the predictive-compensation paper:
 //  1. nearest command sample, searched around the previous foot point (not the whole path: Duong et al.'s step 2
@@ -28,10 +28,10 @@
 //    the foot slides back down the outgoing leg, whose points are as near as the return leg's, and would be left
 //    at its start, arc-length far from the move that follows.
 //  - Index window: candidates are also limited to `window_samples` distinct points either side of the previous
-//    foot (the predictive-compensation paper's buffer of length m). Default: twice the largest tracking error (command at the same
-//    instant minus actual) over the smallest distinct command step, in [32, 65536]. Jerk-limited stops make the
-//    smallest step tiny, so the default is usually the upper bound; the arc-length budget is the working limit,
-//    the window only a hard cap on the cost of one sample.
+//    foot (the predictive-compensation paper's buffer of length m). Default: twice the largest tracking error (command
+//    at the same instant minus actual) over the smallest distinct command step, in [32, 65536]. Jerk-limited stops make
+//    the smallest step tiny, so the default is usually the upper bound; the arc-length budget is the working limit, the
+//    window only a hard cap on the cost of one sample.
 //
 // Sign (eq. 2): sign(n . E) with E = foot point - actual, i.e. command minus actual like Duong et al.'s E_X = X_d -
 // X_a, taken at the foot point rather than at the same instant: Duong et al.'s E_i is the "minimum tracking error",
@@ -65,22 +65,22 @@ constexpr int kMinWindow = 32, kMaxWindow = 65536;
 
 // The command path with consecutive repeats merged.
 struct DistinctPath {
-  std::vector<double> p;             // x y z per point
-  std::vector<double> s;             // arc length at each point
-  std::vector<Eigen::Index> last;    // last command row of each point's run of repeats
-  std::vector<double> n;             // principal normal per point (x y z), only without a plane normal
+  std::vector<double> p;           // x y z per point
+  std::vector<double> s;           // arc length at each point
+  std::vector<Eigen::Index> last;  // last command row of each point's run of repeats
+  std::vector<double> n;           // principal normal per point (x y z), only without a plane normal
   Eigen::Index size() const { return static_cast<Eigen::Index>(s.size()); }
 };
 
 void check_input(const Eigen::MatrixXd& m, const char* what) {
   if (m.cols() != 3)
     throw core::Error(std::string("contour_error: the ") + what + " has " + std::to_string(m.cols()) +
-                " columns; expected 3 (x y z in mm)");
+                      " columns; expected 3 (x y z in mm)");
   for (Eigen::Index k = 0; k < m.rows(); ++k)
     for (int j = 0; j < 3; ++j)
       if (!std::isfinite(m(k, j)))
         throw core::Error(std::string("contour_error: the ") + what + " row " + std::to_string(k) + " column " +
-                    std::to_string(j) + " is not finite");
+                          std::to_string(j) + " is not finite");
 }
 
 DistinctPath merge_repeats(const Eigen::MatrixXd& c) {

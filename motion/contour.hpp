@@ -20,7 +20,7 @@ struct ContourError {
   Eigen::ArrayXd signed_mm;     // per actual sample
   Eigen::ArrayXi foot_segment;  // command segment [i, i+1] holding the foot point
   double max_abs_mm = 0.0, rms_mm = 0.0, mse_um2 = 0.0;
-  int window_samples = 0;       // the search window used (the option, or the default chosen from the data)
+  int window_samples = 0;  // the search window used (the option, or the default chosen from the data)
 };
 
 // command, actual: samples x 3 (mm), the same sampling instants (actual may have extra settling rows; the

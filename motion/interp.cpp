@@ -46,10 +46,10 @@ constexpr double kEps = 1e-12;
 
 // Fractions of each axis limit the plan may use. The plan's continuous bounds are exact up to O(Te) terms;
 // these margins keep the first plan within the limits almost everywhere, so the repair loop rarely runs.
-constexpr double kVelocityMargin = 1.0;   // chords are shorter than arcs: finite-difference speed <= v
+constexpr double kVelocityMargin = 1.0;  // chords are shorter than arcs: finite-difference speed <= v
 constexpr double kAccelMargin = 0.97;
 constexpr double kJerkMargin = 0.97;
-constexpr double kCurvatureShare = 0.9;   // share of axis acceleration the centripetal term may take
+constexpr double kCurvatureShare = 0.9;      // share of axis acceleration the centripetal term may take
 constexpr double kCurvatureRateShare = 0.9;  // share of axis jerk for v^3 dK/ds (blends, where a_t = 0)
 // Half-width of the zone around a point of speed limit v* over which the raw profile holds v*: v* T / 2 (a dwell
 // of one filter length T; see spread_speed_limits).
@@ -67,9 +67,9 @@ double feed_gain(const PathPiece& pc, const core::Vec6& t) {
 }
 
 struct NodeGeom {
-  double vlim = kInf;       // speed limit from feed, axis velocity, curvature and its rate (path units / s)
-  core::Vec6 t_abs = core::Vec6::Zero();  // |unit tangent| per axis (max over the two sides of a junction)
-  core::Vec6 k_abs = core::Vec6::Zero();  // |curvature vector| per axis
+  double vlim = kInf;  // speed limit from feed, axis velocity, curvature and its rate (path units / s)
+  core::Vec6 t_abs = core::Vec6::Zero();   // |unit tangent| per axis (max over the two sides of a junction)
+  core::Vec6 k_abs = core::Vec6::Zero();   // |curvature vector| per axis
   core::Vec6 dk_abs = core::Vec6::Zero();  // |d(curvature vector)/ds| per axis
 };
 
@@ -140,10 +140,10 @@ double tangential_accel(const NodeGeom& g, double v, double filter_s, const Limi
 
 struct Plan {
   // Planning nodes along the path.
-  std::vector<double> s;        // arc length
-  std::vector<double> vlim;     // velocity-limit curve
-  std::vector<double> alim;     // tangential acceleration limit
-  std::vector<char> stop;       // the axes must be at rest here (path ends, exact-stop corners)
+  std::vector<double> s;                 // arc length
+  std::vector<double> vlim;              // velocity-limit curve
+  std::vector<double> alim;              // tangential acceleration limit
+  std::vector<char> stop;                // the axes must be at rest here (path ends, exact-stop corners)
   std::vector<double> scale_v, scale_a;  // local reductions made by the repair loop
 };
 
@@ -182,10 +182,10 @@ std::vector<double> erode(const std::vector<double>& s, const std::vector<double
 // each node taking the first (smallest) value that reaches it. Windows that straddle a zone's edge can still
 // see faster raw motion; the finite-difference check and repair below catch what this misses.
 struct SpreadNodes {
-  std::vector<double> s, vlim;   // planning nodes plus the zone edges, with the spread limits
+  std::vector<double> s, vlim;  // planning nodes plus the zone edges, with the spread limits
   std::vector<char> stop;
-  std::vector<std::size_t> base; // the planning node at or before each node
-  std::vector<char> inserted;    // a zone edge (not a planning node)
+  std::vector<std::size_t> base;  // the planning node at or before each node
+  std::vector<char> inserted;     // a zone edge (not a planning node)
 };
 
 SpreadNodes spread_speed_limits(const std::vector<double>& s, const std::vector<double>& v,
@@ -208,9 +208,8 @@ SpreadNodes spread_speed_limits(const std::vector<double>& s, const std::vector<
     ev.push_back({std::max(0.0, s[j] - r), 1, v[j]});
     ev.push_back({std::min(s_end, s[j] + r), 0, v[j]});
   }
-  std::sort(ev.begin(), ev.end(), [](const Event& a, const Event& b) {
-    return a.x < b.x || (a.x == b.x && a.open > b.open);
-  });
+  std::sort(ev.begin(), ev.end(),
+            [](const Event& a, const Event& b) { return a.x < b.x || (a.x == b.x && a.open > b.open); });
   // Breakpoints of the envelope: (x, value just left, value just right).
   struct Break {
     double x, left, right;
@@ -312,9 +311,11 @@ Profile cap_peaks(const std::vector<double>& s, const std::vector<double>& q_in,
     while (b < hi_k && q[b + 1] >= qc) ++b;
     // Crossings of v^2 = qc inside the neighbouring intervals (v^2 is linear in s there).
     const double sl = (a > 0 && q[a] > q[a - 1] && q[a - 1] < qc)
-                          ? s[a - 1] + (qc - q[a - 1]) / (q[a] - q[a - 1]) * (s[a] - s[a - 1]) : s[a];
+                          ? s[a - 1] + (qc - q[a - 1]) / (q[a] - q[a - 1]) * (s[a] - s[a - 1])
+                          : s[a];
     const double sr = (b + 1 < n && q[b] > q[b + 1] && q[b + 1] < qc)
-                          ? s[b + 1] - (qc - q[b + 1]) / (q[b] - q[b + 1]) * (s[b + 1] - s[b]) : s[b];
+                          ? s[b + 1] - (qc - q[b + 1]) / (q[b] - q[b + 1]) * (s[b + 1] - s[b])
+                          : s[b];
     c = {a, b, qc, sl, sr};
     return (sr - sl) >= filter_s * std::sqrt(qc);
   };
@@ -350,7 +351,10 @@ Profile cap_peaks(const std::vector<double>& s, const std::vector<double>& q_in,
       } else {
         for (int it = 0; it < 60; ++it) {
           const double mid = 0.5 * (lo + hi);
-          if (reach(p0, p1, lo_k, hi_k, mid, c)) lo = mid; else hi = mid;
+          if (reach(p0, p1, lo_k, hi_k, mid, c))
+            lo = mid;
+          else
+            hi = mid;
         }
       }
       reach(p0, p1, lo_k, hi_k, lo, c);
@@ -470,8 +474,7 @@ struct Violation {
 };
 
 // Finite differences of the path-space positions (rest before the first and after the last sample).
-std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const Limits6& lim,
-                                    std::size_t max_report) {
+std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const Limits6& lim, std::size_t max_report) {
   std::vector<Violation> out;
   const Eigen::Index n = x.rows();
   auto at = [&](Eigen::Index k, int i) { return x(std::clamp<Eigen::Index>(k, 0, n - 1), i); };
@@ -484,9 +487,12 @@ std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const L
       const double j = (x0 - 3 * x1 + 3 * x2 - x3) / (te * te * te);
       // Round-off in the differences is ~1e-12 relative; 1e-9 keeps it from triggering repairs.
       constexpr double kSlack = 1 + 1e-9;
-      if (std::abs(v) > lim.v[i] * kSlack) out.push_back({k, i, 1, v, lim.v[i]});
-      else if (std::abs(a) > lim.a[i] * kSlack) out.push_back({k, i, 2, a, lim.a[i]});
-      else if (std::abs(j) > lim.j[i] * kSlack) out.push_back({k, i, 3, j, lim.j[i]});
+      if (std::abs(v) > lim.v[i] * kSlack)
+        out.push_back({k, i, 1, v, lim.v[i]});
+      else if (std::abs(a) > lim.a[i] * kSlack)
+        out.push_back({k, i, 2, a, lim.a[i]});
+      else if (std::abs(j) > lim.j[i] * kSlack)
+        out.push_back({k, i, 3, j, lim.j[i]});
       if (out.size() >= max_report) return out;
     }
   }
@@ -523,7 +529,8 @@ SmoothPathOptions smooth_path_options(const Limits6& lim, const InterpOptions& o
 void check_geometry(const SmoothPath& sp, const core::ToolPath& path) {
   const std::string& src = path.source_path;
   if (path.moves.empty()) {
-    if (!sp.pieces.empty()) throw core::Error(core::located(src, 0, "interpolator: a path geometry for a program without moves"));
+    if (!sp.pieces.empty())
+      throw core::Error(core::located(src, 0, "interpolator: a path geometry for a program without moves"));
     return;
   }
   if (sp.pieces.empty()) throw core::Error(core::located(src, 0, "interpolator: the path geometry has no pieces"));
@@ -531,15 +538,18 @@ void check_geometry(const SmoothPath& sp, const core::ToolPath& path) {
   for (const PathPiece& pc : sp.pieces) {
     if (pc.move_index < 0 || pc.move_index_next < 0 || static_cast<std::size_t>(pc.move_index) >= path.moves.size() ||
         static_cast<std::size_t>(pc.move_index_next) >= path.moves.size())
-      throw core::Error(core::located(src, 0, "interpolator: a piece of the path geometry names a move the program does not have"));
+      throw core::Error(
+          core::located(src, 0, "interpolator: a piece of the path geometry names a move the program does not have"));
     if (std::abs(pc.s_begin - s) > 1e-9 * std::max(1.0, s) || !(pc.length > 0))
-      throw core::Error(core::located(src, 0, "interpolator: the path geometry's pieces are not contiguous in arc length"));
+      throw core::Error(
+          core::located(src, 0, "interpolator: the path geometry's pieces are not contiguous in arc length"));
     s += pc.length;
   }
   const core::Vec6 a = to_path_space(path.initial_position), b = to_path_space(path.moves.back().end);
   if ((sp.pieces.front().point_u(sp.pieces.front().u_begin) - a).cwiseAbs().maxCoeff() > 1e-6 ||
       (sp.pieces.back().point_u(sp.pieces.back().u_end) - b).cwiseAbs().maxCoeff() > 1e-6)
-    throw core::Error(core::located(src, 0, "interpolator: the path geometry does not start and end where the moves do"));
+    throw core::Error(
+        core::located(src, 0, "interpolator: the path geometry does not start and end where the moves do"));
 }
 
 }  // namespace
@@ -561,7 +571,8 @@ double FeedCeiling::min_over(double s0, double s1) const {
   double v = std::min(at(s0), at(s1));
   // Breakpoints strictly inside: v^2 is linear between them, so the smallest value is at one of them or an end.
   auto it = std::upper_bound(s_mm.begin(), s_mm.end(), s0);
-  for (; it != s_mm.end() && *it < s1; ++it) v = std::min(v, feed_mm_per_s[static_cast<std::size_t>(it - s_mm.begin())]);
+  for (; it != s_mm.end() && *it < s1; ++it)
+    v = std::min(v, feed_mm_per_s[static_cast<std::size_t>(it - s_mm.begin())]);
   return v;
 }
 
@@ -572,9 +583,10 @@ void FeedCeiling::check() const {
     if (!std::isfinite(s_mm[i]) || (i > 0 && !(s_mm[i] > s_mm[i - 1])))
       throw core::Error(fmt::format("feed ceiling: position {} ({} mm) does not increase", i, s_mm[i]));
     if (!(feed_mm_per_s[i] > 0) || !std::isfinite(feed_mm_per_s[i]))
-      throw core::Error(fmt::format("feed ceiling: feed {} at {} mm (expected > 0: the interpolator starts and stops at "
-                              "rest by itself)",
-                              feed_mm_per_s[i], s_mm[i]));
+      throw core::Error(
+          fmt::format("feed ceiling: feed {} at {} mm (expected > 0: the interpolator starts and stops at "
+                      "rest by itself)",
+                      feed_mm_per_s[i], s_mm[i]));
   }
 }
 
@@ -599,14 +611,16 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
   for (const core::Move& m : path.moves) {
     for (int i = 0; i < 6; ++i) {
       if (machine.axis_index(i) < 0 && std::abs(m.end[i] - m.start[i]) > 1e-12)
-        throw core::Error(core::located(path.source_path, m.source_line,
-                            fmt::format("the program moves axis {}, which machine \"{}\" ({}) does not have",
-                                        axis_names[i], machine.name, machine.source_file)));
+        throw core::Error(
+            core::located(path.source_path, m.source_line,
+                          fmt::format("the program moves axis {}, which machine \"{}\" ({}) does not have",
+                                      axis_names[i], machine.name, machine.source_file)));
     }
     for (const auto* axis : {&m.tool_axis_start, &m.tool_axis_end}) {
       if (*axis && machine.kinematics == "xyz" && ((**axis) - Eigen::Vector3d::UnitZ()).norm() > 1e-9)
-        throw core::Error(core::located(path.source_path, m.source_line,
-                            "the program tilts the tool axis, which a 3-axis machine (kinematics \"xyz\") cannot do"));
+        throw core::Error(
+            core::located(path.source_path, m.source_line,
+                          "the program tilts the tool axis, which a 3-axis machine (kinematics \"xyz\") cannot do"));
     }
   }
 
@@ -614,16 +628,19 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
   core::Vec6 at = path.initial_position;
   for (const core::Move& m : path.moves) {
     if ((m.start - at).cwiseAbs().maxCoeff() > 1e-6)
-      throw core::Error(core::located(path.source_path, m.source_line,
-                          fmt::format("move starts at ({:.6f}, {:.6f}, {:.6f}) but the axes are at ({:.6f}, {:.6f}, "
-                                      "{:.6f}); was the tool path converted to axis coordinates?",
-                                      m.start[0], m.start[1], m.start[2], at[0], at[1], at[2])));
+      throw core::Error(
+          core::located(path.source_path, m.source_line,
+                        fmt::format("move starts at ({:.6f}, {:.6f}, {:.6f}) but the axes are at ({:.6f}, {:.6f}, "
+                                    "{:.6f}); was the tool path converted to axis coordinates?",
+                                    m.start[0], m.start[1], m.start[2], at[0], at[1], at[2])));
     at = m.end;
   }
 
   SmoothPath built;
-  if (options.geometry) check_geometry(*options.geometry, path);
-  else built = build_smooth_path(path, smooth_path_options(lim, options));
+  if (options.geometry)
+    check_geometry(*options.geometry, path);
+  else
+    built = build_smooth_path(path, smooth_path_options(lim, options));
   const SmoothPath& sp = options.geometry ? *options.geometry : built;
   if (options.check_estimate) options.check_estimate(estimate_setpoints(sp, machine, te));
 
@@ -635,8 +652,7 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
   out.period_s = te;
   for (const core::MachineAxis& ax : machine.axes) out.axis_names.push_back(ax.name);
 
-  auto write_samples = [&](const std::vector<double>& s_f, const Eigen::MatrixXd& xp,
-                           const std::vector<int>& move_of) {
+  auto write_samples = [&](const std::vector<double>& s_f, const Eigen::MatrixXd& xp, const std::vector<int>& move_of) {
     const Eigen::Index n = xp.rows();
     out.position.resize(n, static_cast<Eigen::Index>(machine.axes.size()));
     for (std::size_t a = 0; a < machine.axes.size(); ++a) {
@@ -679,7 +695,8 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
     int n = 2;
     if (pc.kind == PathPiece::Kind::Quintic) n = 16;
     if (pc.kind == PathPiece::Kind::Arc)
-      n = std::max(4, static_cast<int>(std::ceil(std::abs(pc.dtheta * (pc.u_end - pc.u_begin)) / (core::units::kPi / 36))));
+      n = std::max(
+          4, static_cast<int>(std::ceil(std::abs(pc.dtheta * (pc.u_end - pc.u_begin)) / (core::units::kPi / 36))));
     n = std::max(n, static_cast<int>(std::ceil(pc.length / node_spacing)));
     const bool curved = pc.kind != PathPiece::Kind::Line;
     // Nodes evenly spaced in the curve parameter (no arc-length inversion; blends are nearly uniform anyway).
@@ -812,11 +829,15 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
     if (pass + 1 >= kMaxPasses) {
       const Violation& v = bad.front();
       const core::Move& mv = path.moves[static_cast<std::size_t>(move_of[std::min<Eigen::Index>(v.sample, ns - 1)])];
-      throw core::Error(core::located(path.source_path, mv.source_line,
-                          fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > {:.6g}) "
-                                      "after {} passes; please report this program",
-                                      axis_names[v.axis], v.order == 1 ? "velocity" : v.order == 2 ? "acceleration" : "jerk",
-                                      std::abs(v.value), v.limit, kMaxPasses)));
+      throw core::Error(
+          core::located(path.source_path, mv.source_line,
+                        fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > {:.6g}) "
+                                    "after {} passes; please report this program",
+                                    axis_names[v.axis],
+                                    v.order == 1   ? "velocity"
+                                    : v.order == 2 ? "acceleration"
+                                                   : "jerk",
+                                    std::abs(v.value), v.limit, kMaxPasses)));
     }
     // Lower the limits on the nodes that fed the offending samples (the filter window and the differences).
     std::vector<char> touched(nn, 0);
@@ -848,10 +869,10 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
         const double f = ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0;
         const char* unit = ax.kind == core::AxisKind::Rotary ? "deg" : "mm";
         const core::Move& mv = path.moves[static_cast<std::size_t>(std::max(0, out.move_index[k]))];
-        throw core::Error(core::located(path.source_path, mv.source_line,
-                            fmt::format("axis {} reaches {:.4f} {}, outside its travel [{:g}, {:g}] {} ({})", ax.name,
-                                        col[k] * f, unit, ax.travel_min * f, ax.travel_max * f, unit,
-                                        machine.source_file)));
+        throw core::Error(core::located(
+            path.source_path, mv.source_line,
+            fmt::format("axis {} reaches {:.4f} {}, outside its travel [{:g}, {:g}] {} ({})", ax.name, col[k] * f, unit,
+                        ax.travel_min * f, ax.travel_max * f, unit, machine.source_file)));
       }
     }
   }

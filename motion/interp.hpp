@@ -15,8 +15,8 @@ namespace vmsim::motion {
 // A ceiling on the feed along the path, e.g. Chen et al.'s contour-error-constrained feed plan (drives/feedplan): at
 // arc length s of the smoothed path the interpolator follows (smooth_path_for), the speed of the programmed point
 // (X Y Z, mm/s; the path speed for moves of the rotary axes alone) is at most ceiling(s). The squared ceiling is
-// linear in s between the points, as the plan's squared feed is (Chen et al. 2016 eq. 21), and constant beyond the ends.
-// s_mm strictly increasing, feeds > 0 (the interpolator starts and stops at rest by itself).
+// linear in s between the points, as the plan's squared feed is (Chen et al. 2016 eq. 21), and constant beyond the
+// ends. s_mm strictly increasing, feeds > 0 (the interpolator starts and stops at rest by itself).
 struct FeedCeiling {
   std::vector<double> s_mm, feed_mm_per_s;
   bool empty() const { return s_mm.empty(); }
@@ -26,10 +26,10 @@ struct FeedCeiling {
 };
 
 struct InterpOptions {
-  double period_s = 1e-3;        // Te
-  double tolerance_mm = 0.020;   // corner tolerance: largest distance of a setpoint from the programmed path
-  double feed_scale = 1.0;       // feed override applied to every programmed feed
-  FeedCeiling feed_ceiling;      // empty: none
+  double period_s = 1e-3;       // Te
+  double tolerance_mm = 0.020;  // corner tolerance: largest distance of a setpoint from the programmed path
+  double feed_scale = 1.0;      // feed override applied to every programmed feed
+  FeedCeiling feed_ceiling;     // empty: none
   // The path to follow when it is not the moves' lines and arcs (a NURBS made G2 by core/nurbs): its pieces' move
   // indices name the ToolPath's moves, which then serve for bookkeeping (feeds, start and end, source lines) and
   // must join the same points. Null: the moves' lines and arcs, blended within the tolerance (core/smooth_path).
@@ -42,10 +42,10 @@ struct InterpOptions {
 
 struct InterpStats {
   double cycle_time_s = 0.0;
-  int moves = 0;                 // ToolPath moves interpolated
-  int blends = 0;                // corners and curvature jumps smoothed within the tolerance
-  int exact_stops = 0;           // corners too sharp to blend: the axes stop there
-  int repair_passes = 0;         // re-plans needed to bring every finite difference within the limits
+  int moves = 0;          // ToolPath moves interpolated
+  int blends = 0;         // corners and curvature jumps smoothed within the tolerance
+  int exact_stops = 0;    // corners too sharp to blend: the axes stop there
+  int repair_passes = 0;  // re-plans needed to bring every finite difference within the limits
 };
 
 struct InterpResult {

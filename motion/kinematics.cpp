@@ -18,11 +18,16 @@ namespace vmsim::motion {
 
 const char* family_name(KinematicFamily family) {
   switch (family) {
-    case KinematicFamily::Cartesian: return "cartesian";
-    case KinematicFamily::TableTable: return "table-table";
-    case KinematicFamily::HeadTable: return "head-table";
-    case KinematicFamily::HeadHead: return "head-head";
-    case KinematicFamily::ForwardOnly: return "forward only";
+    case KinematicFamily::Cartesian:
+      return "cartesian";
+    case KinematicFamily::TableTable:
+      return "table-table";
+    case KinematicFamily::HeadTable:
+      return "head-table";
+    case KinematicFamily::HeadHead:
+      return "head-head";
+    case KinematicFamily::ForwardOnly:
+      return "forward only";
   }
   return "?";
 }
@@ -106,8 +111,8 @@ class ChainKinematics final : public Kinematics {
         j.index = m.axis_index(cj.program_axis);
         if (j.index < 0)
           throw core::Error(fmt::format("{}: the chain's joint {} names axis {}, which the machine has no [[axes]] for",
-                                  cj.where.empty() ? m.source_file : cj.where, kAxisNames[cj.program_axis],
-                                  kAxisNames[cj.program_axis]));
+                                        cj.where.empty() ? m.source_file : cj.where, kAxisNames[cj.program_axis],
+                                        kAxisNames[cj.program_axis]));
         j.program_axis = cj.program_axis;
         j.rotary = cj.kind == core::AxisKind::Rotary;
         j.u = cj.direction.normalized();
@@ -149,8 +154,10 @@ class ChainKinematics final : public Kinematics {
     const Eigen::Matrix3d m = linear_map(q);
     const double det = m.determinant();
     if (!(std::abs(det) > 1e-9))
-      throw core::Error(fmt::format("{}: the linear axes cannot place the tip here: their directions do not span space in "
-                              "this pose (determinant {:.3g})", file_, det));
+      throw core::Error(
+          fmt::format("{}: the linear axes cannot place the tip here: their directions do not span space in "
+                      "this pose (determinant {:.3g})",
+                      file_, det));
     const Eigen::Vector3d lin = m.inverse() * (tip - b);
     for (int k = 0; k < 3; ++k) q[lin_[k]] = lin[k];
     return q;
@@ -192,10 +199,10 @@ class ChainKinematics final : public Kinematics {
       std::string why;
       for (const std::string& r : reasons) why += (why.empty() ? "" : "; ") + r;
       const Eigen::Vector3d v = pose.axis.normalized();
-      throw core::Error(fmt::format("{}: machine \"{}\" cannot reach tip ({:.4f}, {:.4f}, {:.4f}) mm with tool axis ({:.6f}, "
-                              "{:.6f}, {:.6f}): {}",
-                              file_, name_, pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z(), v.x(), v.y(), v.z(),
-                              why));
+      throw core::Error(
+          fmt::format("{}: machine \"{}\" cannot reach tip ({:.4f}, {:.4f}, {:.4f}) mm with tool axis ({:.6f}, "
+                      "{:.6f}, {:.6f}): {}",
+                      file_, name_, pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z(), v.x(), v.y(), v.z(), why));
     }
     return std::move(all.front());
   }
@@ -209,12 +216,12 @@ class ChainKinematics final : public Kinematics {
     require_size(near, n_, "the near vector");
     if (family_ == KinematicFamily::ForwardOnly)
       throw core::Error(fmt::format("{}: machine \"{}\" has no inverse transform (forward only): {}", file_, name_,
-                              forward_only_reason_));
+                                    forward_only_reason_));
     const double an = pose.axis.norm();
     if (!(an > 1e-9) || !std::isfinite(an) || !pose.tip_mm.allFinite())
       throw core::Error(fmt::format("{}: no tool pose to reach (tip ({}, {}, {}), axis ({}, {}, {}))", file_,
-                              pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z(), pose.axis.x(), pose.axis.y(),
-                              pose.axis.z()));
+                                    pose.tip_mm.x(), pose.tip_mm.y(), pose.tip_mm.z(), pose.axis.x(), pose.axis.y(),
+                                    pose.axis.z()));
     for (Eigen::Index i = 0; i < near.size(); ++i)
       if (!std::isfinite(near[i])) throw core::Error(file_ + ": the inverse needs finite near axes");
     const Eigen::Vector3d v = pose.axis / an;
@@ -226,8 +233,7 @@ class ChainKinematics final : public Kinematics {
         for (const Joint& j : *chain)
           if (!j.continuous && !(q[j.index] >= j.lo - kTravelSlack && q[j.index] <= j.hi + kTravelSlack)) {
             reasons.push_back(j.rotary ? fmt::format("{} = {:.4f} deg is outside its travel [{:.4f}, {:.4f}] deg",
-                                                     kAxisNames[j.program_axis], deg(q[j.index]), deg(j.lo),
-                                                     deg(j.hi))
+                                                     kAxisNames[j.program_axis], deg(q[j.index]), deg(j.lo), deg(j.hi))
                                        : fmt::format("{} = {:.4f} mm is outside its travel [{:.4f}, {:.4f}] mm",
                                                      kAxisNames[j.program_axis], q[j.index], j.lo, j.hi));
             return;
@@ -242,9 +248,10 @@ class ChainKinematics final : public Kinematics {
       // No rotary joint: the tool axis is the tool direction, always.
       const double err = std::atan2(v.cross(d_).norm(), v.dot(d_));
       if (err > kAxisSlack)
-        throw core::Error(fmt::format("{}: machine \"{}\" cannot tilt the tool: axis ({:.6f}, {:.6f}, {:.6f}) is {:.6f} deg "
-                                "from its fixed tool direction",
-                                file_, name_, v.x(), v.y(), v.z(), deg(err)));
+        throw core::Error(
+            fmt::format("{}: machine \"{}\" cannot tilt the tool: axis ({:.6f}, {:.6f}, {:.6f}) is {:.6f} deg "
+                        "from its fixed tool direction",
+                        file_, name_, v.x(), v.y(), v.z(), deg(err)));
       consider(near);
     } else {
       solve_rotary(v, near, reasons, consider);
@@ -300,7 +307,7 @@ class ChainKinematics final : public Kinematics {
 
  private:
   struct Joint {
-    int index = -1;         // machine axis index: q[index] is the joint value
+    int index = -1;  // machine axis index: q[index] is the joint value
     int program_axis = 0;
     bool rotary = false;
     Eigen::Vector3d u = Eigen::Vector3d::UnitZ(), p = Eigen::Vector3d::Zero();
@@ -386,10 +393,10 @@ class ChainKinematics final : public Kinematics {
     }
     if (ja_->u.cross(jb_->u).norm() < 1e-9) {
       family_ = KinematicFamily::ForwardOnly;
-      forward_only_reason_ = fmt::format("the rotary axes {} ({}) and {} ({}) are parallel: they turn the tool axis "
-                                         "about one direction only",
-                                         kAxisNames[ja_->program_axis], ja_->where, kAxisNames[jb_->program_axis],
-                                         jb_->where);
+      forward_only_reason_ = fmt::format(
+          "the rotary axes {} ({}) and {} ({}) are parallel: they turn the tool axis "
+          "about one direction only",
+          kAxisNames[ja_->program_axis], ja_->where, kAxisNames[jb_->program_axis], jb_->where);
     } else if (jb_->u.cross(d_).norm() < 1e-9) {
       family_ = KinematicFamily::ForwardOnly;
       forward_only_reason_ = fmt::format("the rotary axis {} ({}) lies along the tool: it cannot tilt it",
@@ -463,8 +470,9 @@ class ChainKinematics final : public Kinematics {
       const auto qb = equivalent(*jb_, tb, near[jb_->index]);
       if (!qa || !qb) {
         const Joint& bad = qa ? *jb_ : *ja_;
-        reasons.push_back(fmt::format("{} = {:.4f} deg (or any turn from it) is outside its travel [{:.4f}, {:.4f}] deg",
-                                      kAxisNames[bad.program_axis], deg(qa ? tb : ta), deg(bad.lo), deg(bad.hi)));
+        reasons.push_back(
+            fmt::format("{} = {:.4f} deg (or any turn from it) is outside its travel [{:.4f}, {:.4f}] deg",
+                        kAxisNames[bad.program_axis], deg(qa ? tb : ta), deg(bad.lo), deg(bad.hi)));
         continue;
       }
       Eigen::VectorXd q = near;
@@ -478,8 +486,8 @@ class ChainKinematics final : public Kinematics {
   std::size_t n_;
   std::vector<Joint> wp_, tool_;
   Eigen::Vector3d origin_, gauge_, d_;
-  int lin_[3] = {-1, -1, -1};         // machine index of the linear joint of program axis X, Y, Z
-  std::vector<const Joint*> rot_;     // rotary joints
+  int lin_[3] = {-1, -1, -1};      // machine index of the linear joint of program axis X, Y, Z
+  std::vector<const Joint*> rot_;  // rotary joints
   KinematicFamily family_ = KinematicFamily::ForwardOnly;
   std::string forward_only_reason_;
   const Joint* ja_ = nullptr;
@@ -598,7 +606,9 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
       return m;
     }
     const ChainKinematics& k = kin();
-    auto fail = [&](const std::string& msg) -> core::Error { return core::Error(core::located(path.source_path, pm.source_line, msg)); };
+    auto fail = [&](const std::string& msg) -> core::Error {
+      return core::Error(core::located(path.source_path, pm.source_line, msg));
+    };
     std::optional<core::ArcFrame> geom;
     if (pm.kind == core::MotionKind::Arc) geom = core::arc_frame(pm, path.source_path);
     const core::ArcFrame* g = geom ? &*geom : nullptr;
@@ -630,12 +640,13 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
     if (mi > 0) {
       const core::Vec6 s6 = to_v6(q0, pm.start);
       if ((s6 - prev_end).cwiseAbs().maxCoeff() > 1e-6)
-        throw fail(fmt::format("the move starts at axes ({:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}) but the "
-                               "previous move ended at ({:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}): a tool length "
-                               "change or a switch between tool-centre-point and joint programming needs a move of its "
-                               "own",
-                               s6[0], s6[1], s6[2], s6[3], s6[4], s6[5], prev_end[0], prev_end[1], prev_end[2],
-                               prev_end[3], prev_end[4], prev_end[5]));
+        throw fail(
+            fmt::format("the move starts at axes ({:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}) but the "
+                        "previous move ended at ({:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}, {:.6f}): a tool length "
+                        "change or a switch between tool-centre-point and joint programming needs a move of its "
+                        "own",
+                        s6[0], s6[1], s6[2], s6[3], s6[4], s6[5], prev_end[0], prev_end[1], prev_end[2], prev_end[3],
+                        prev_end[4], prev_end[5]));
       q0 = to_q(prev_end);  // exact continuity
     }
     Eigen::VectorXd q1 = image(1.0, q0);
@@ -777,7 +788,8 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
     // turning, or linear axes that are not orthonormal), the move gets its programmed duration as an inverse-time
     // feed: RS274/NGC (NIST IR 6556, 2.1.2.5): the tip's length over F, or the rotary words' angle over F (deg/min)
     // when the tip does not move.
-    if (!pm.rapid && pm.feed_mode == core::FeedMode::UnitsPerMinute && (!rot_const || !ortho) && pm.feed_mm_per_min > 0) {
+    if (!pm.rapid && pm.feed_mode == core::FeedMode::UnitsPerMinute && (!rot_const || !ortho) &&
+        pm.feed_mm_per_min > 0) {
       double amount = tip_length(pm, g);
       if (!(amount > 1e-9)) {
         if (cl) {
@@ -835,10 +847,9 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
       std::vector<std::string> errors, reasons;
       std::vector<Eigen::VectorXd> branches;
       try {
-        branches = mi == 0 ? k.solutions(ToolPose{pm.start.head<3>(), a0}, pm.tool_length_offset_mm,
-                                         to_q(prev_end), reasons)
-                           : k.solutions(ToolPose{pm.end.head<3>(), a1}, pm.tool_length_offset_mm, to_q(prev_end),
-                                         reasons);
+        branches =
+            mi == 0 ? k.solutions(ToolPose{pm.start.head<3>(), a0}, pm.tool_length_offset_mm, to_q(prev_end), reasons)
+                    : k.solutions(ToolPose{pm.end.head<3>(), a1}, pm.tool_length_offset_mm, to_q(prev_end), reasons);
       } catch (const core::Error&) {
         branches.clear();  // convert() below names the problem with its line
       }
@@ -916,7 +927,8 @@ core::Vec6 tip_from_axes(const core::Vec6& axes, double tool_length_offset_mm, c
   return t;
 }
 
-core::ToolPath toolpath_in_axis_space(const core::ToolPath& path, const core::Machine& machine, const AxisSpaceOptions& options) {
+core::ToolPath toolpath_in_axis_space(const core::ToolPath& path, const core::Machine& machine,
+                                      const AxisSpaceOptions& options) {
   if (machine.kinematics == "chain") return chain_toolpath(path, machine, options);
   require_xyz(machine);
   core::ToolPath out = path;

@@ -22,10 +22,10 @@ struct ToolPose {
 // joints sit. The inverse solves the tool axis for the two rotary angles in closed form (two solutions in general),
 // then the linear axes for the tip.
 enum class KinematicFamily {
-  Cartesian,    // "xyz", or a chain without rotary joints: the tool axis never turns
-  TableTable,   // both rotary joints carry the workpiece (A tilting + C rotary: Mikron UCP 710, LinuxCNC xyzac-trt; B/C)
-  HeadTable,    // one rotary joint carries the workpiece, one the tool
-  HeadHead,     // both rotary joints carry the tool (fork heads)
+  Cartesian,   // "xyz", or a chain without rotary joints: the tool axis never turns
+  TableTable,  // both rotary joints carry the workpiece (A tilting + C rotary: Mikron UCP 710, LinuxCNC xyzac-trt; B/C)
+  HeadTable,   // one rotary joint carries the workpiece, one the tool
+  HeadHead,    // both rotary joints carry the tool (fork heads)
   ForwardOnly,  // any other chain (one or three rotary joints, parallel rotary axes, ...): no inverse
 };
 const char* family_name(KinematicFamily family);
@@ -94,6 +94,7 @@ struct AxisSpaceOptions {
 //   Every chain move gets Move::tip_per_mm and tip_per_deg (the chain's Jacobian along it), with which the
 //   interpolator's corner blends keep its tolerance on the tool tip (core/smooth_path).
 //   Errors (unreachable poses, travel, a start that does not join the previous move) name the program file and line.
-core::ToolPath toolpath_in_axis_space(const core::ToolPath& path, const core::Machine& machine, const AxisSpaceOptions& options = {});
+core::ToolPath toolpath_in_axis_space(const core::ToolPath& path, const core::Machine& machine,
+                                      const AxisSpaceOptions& options = {});
 
 }  // namespace vmsim::motion

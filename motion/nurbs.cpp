@@ -16,8 +16,8 @@ namespace {
 // 5-point Gauss-Legendre on [-1, 1].
 constexpr std::array<double, 5> kGlX = {0.0, 0.5384693101056831, -0.5384693101056831, 0.9061798459386640,
                                         -0.9061798459386640};
-constexpr std::array<double, 5> kGlW = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665,
-                                        0.2369268850561891, 0.2369268850561891};
+constexpr std::array<double, 5> kGlW = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665, 0.2369268850561891,
+                                        0.2369268850561891};
 constexpr int kTablePerSpan = 64;
 constexpr int kMaxDegree = 9;
 
@@ -92,8 +92,8 @@ void basis_derivs(const NurbsCurve& c, int i, double u, int nd, double ders[4][k
 }
 
 // Quintic Hermite through (P0, V0, A0) at t = 0 and (P1, V1, A1) at t = 1, monomial coefficients (as smooth_path).
-Eigen::Matrix<double, 6, 6> quintic_hermite(const core::Vec6& P0, const core::Vec6& V0, const core::Vec6& A0, const core::Vec6& P1,
-                                            const core::Vec6& V1, const core::Vec6& A1) {
+Eigen::Matrix<double, 6, 6> quintic_hermite(const core::Vec6& P0, const core::Vec6& V0, const core::Vec6& A0,
+                                            const core::Vec6& P1, const core::Vec6& V1, const core::Vec6& A1) {
   Eigen::Matrix<double, 6, 6> c;
   c.col(0) = P0;
   c.col(1) = V0;
@@ -144,12 +144,13 @@ void check_nurbs(const NurbsCurve& c) {
   if (c.degree < 1 || c.degree > kMaxDegree)
     throw core::Error(fmt::format("{}: degree {} (expected 1..{})", src, c.degree, kMaxDegree));
   const std::size_t n = c.points.size(), p = static_cast<std::size_t>(c.degree);
-  if (n < p + 1) throw core::Error(fmt::format("{}: {} control points, a degree-{} curve needs at least {}", src, n, p, p + 1));
+  if (n < p + 1)
+    throw core::Error(fmt::format("{}: {} control points, a degree-{} curve needs at least {}", src, n, p, p + 1));
   if (c.weights.size() != n)
     throw core::Error(fmt::format("{}: {} weights for {} control points", src, c.weights.size(), n));
   if (c.knots.size() != n + p + 1)
     throw core::Error(fmt::format("{}: {} knots; {} control points of degree {} need {} (points + degree + 1)", src,
-                            c.knots.size(), n, p, n + p + 1));
+                                  c.knots.size(), n, p, n + p + 1));
   for (std::size_t i = 0; i < n; ++i) {
     if (!(c.weights[i] > 0) || !std::isfinite(c.weights[i]))
       throw core::Error(fmt::format("{}: weight {} of control point {} (expected > 0)", src, c.weights[i], i));
@@ -158,7 +159,7 @@ void check_nurbs(const NurbsCurve& c) {
   for (std::size_t i = 0; i + 1 < c.knots.size(); ++i)
     if (!(c.knots[i + 1] >= c.knots[i]))
       throw core::Error(fmt::format("{}: knot {} ({}) is below knot {} ({}): knots must not decrease", src, i + 1,
-                              c.knots[i + 1], i, c.knots[i]));
+                                    c.knots[i + 1], i, c.knots[i]));
   if (!(c.u_max() > c.u_min())) throw core::Error(fmt::format("{}: the knots leave an empty parameter range", src));
   // Inside the range, a knot of multiplicity > degree would cut the curve (and > degree - 2 only lowers its
   // continuity, which the G2 path checks where it matters).
@@ -166,8 +167,8 @@ void check_nurbs(const NurbsCurve& c) {
     std::size_t m = 1;
     while (i + m < n && c.knots[i + m] == c.knots[i]) ++m;
     if (m > p && c.knots[i] > c.u_min() && c.knots[i] < c.u_max())
-      throw core::Error(fmt::format("{}: knot {} has multiplicity {} > degree {}: the curve is cut there", src, c.knots[i],
-                              m, p));
+      throw core::Error(
+          fmt::format("{}: knot {} has multiplicity {} > degree {}: the curve is cut there", src, c.knots[i], m, p));
   }
 }
 
@@ -184,7 +185,8 @@ NurbsCurve read_nurbs_csv(const std::filesystem::path& cp_file, const std::files
     c.points.emplace_back(row[static_cast<std::size_t>(ix)], row[static_cast<std::size_t>(iy)],
                           iz >= 0 ? row[static_cast<std::size_t>(iz)] : 0.0);
     const double w = iw >= 0 ? row[static_cast<std::size_t>(iw)] : 1.0;
-    if (!(w > 0)) throw core::Error(core::located(cp_file.string(), cp.lines[r], fmt::format("weight {} (expected > 0)", w)));
+    if (!(w > 0))
+      throw core::Error(core::located(cp_file.string(), cp.lines[r], fmt::format("weight {} (expected > 0)", w)));
     c.weights.push_back(w);
   }
   const CsvTable kt = read_csv(knot_file);
@@ -193,8 +195,8 @@ NurbsCurve read_nurbs_csv(const std::filesystem::path& cp_file, const std::files
   for (std::size_t r = 0; r < kt.rows.size(); ++r) {
     const double k = kt.rows[r][static_cast<std::size_t>(ik)];
     if (!c.knots.empty() && k < c.knots.back())
-      throw core::Error(core::located(knot_file.string(), kt.lines[r], fmt::format("knot {} is below the one before ({})", k,
-                                                                       c.knots.back())));
+      throw core::Error(core::located(knot_file.string(), kt.lines[r],
+                                      fmt::format("knot {} is below the one before ({})", k, c.knots.back())));
     c.knots.push_back(k);
   }
   c.source = cp_file.string() + " + " + knot_file.string();
@@ -286,8 +288,10 @@ double NurbsArcLength::u_at(double s) const {
   double u = ua + (ub - ua) * (s - cum_[k]) / std::max(cum_[k + 1] - cum_[k], 1e-300);
   for (int it = 0; it < 30; ++it) {
     const double f = cum_[k] + integrate(ua, u) - s;
-    if (f > 0) hi = u;
-    else lo = u;
+    if (f > 0)
+      hi = u;
+    else
+      lo = u;
     const double sp = nurbs_derivs(*curve_, u).d1.norm();
     double un = sp > 0 ? u - f / sp : 0.5 * (lo + hi);
     if (!(un > lo && un < hi)) un = 0.5 * (lo + hi);  // Newton left the bracket: bisect
@@ -332,9 +336,10 @@ NurbsPath nurbs_to_path(const NurbsCurve& curve, const NurbsPathOptions& options
   auto build = [&](double u0, double u1) {
     const double h = u1 - u0;
     const NurbsDerivs a = nurbs_derivs(curve, u0), b = nurbs_derivs(curve, u1);
-    Candidate c{u0, u1, quintic_hermite(vec6(a.p), vec6(h * a.d1), vec6(h * h * a.d2), vec6(b.p), vec6(h * b.d1),
-                                        vec6(h * h * b.d2)),
-                0.0};
+    Candidate c{
+        u0, u1,
+        quintic_hermite(vec6(a.p), vec6(h * a.d1), vec6(h * h * a.d2), vec6(b.p), vec6(h * b.d1), vec6(h * h * b.d2)),
+        0.0};
     // Parametric distance at 32 interior points: an upper bound on the geometric one.
     for (int i = 0; i < 32; ++i) {
       const double t = (i + 0.5) / 32;
@@ -357,15 +362,17 @@ NurbsPath nurbs_to_path(const NurbsCurve& curve, const NurbsPathOptions& options
     const int m = std::max(1, static_cast<int>(std::ceil(len / options.max_piece_mm)));
     for (int i = 0; i < m; ++i) {
       // Depth-first halving keeps the pieces in order.
-      std::vector<std::pair<double, double>> stack{{ua + (ub - ua) * i / m, i + 1 == m ? ub : ua + (ub - ua) * (i + 1) / m}};
+      std::vector<std::pair<double, double>> stack{
+          {ua + (ub - ua) * i / m, i + 1 == m ? ub : ua + (ub - ua) * (i + 1) / m}};
       while (!stack.empty()) {
         const auto [u0, u1] = stack.back();
         stack.pop_back();
         Candidate c = build(u0, u1);
         if (c.deviation > options.tolerance_mm) {
           if (u1 - u0 < 1e-12 * std::max(1.0, std::abs(u1)))
-            throw core::Error(fmt::format("{}: the curve cannot be followed within {} mm near u = {} (is it regular there?)",
-                                    curve.source, options.tolerance_mm, u0));
+            throw core::Error(
+                fmt::format("{}: the curve cannot be followed within {} mm near u = {} (is it regular there?)",
+                            curve.source, options.tolerance_mm, u0));
           const double um = 0.5 * (u0 + u1);
           stack.push_back({um, u1});
           stack.push_back({u0, um});
@@ -406,7 +413,7 @@ NurbsPath nurbs_to_path(const NurbsCurve& curve, const NurbsPathOptions& options
     }
     if (!(min_speed > 1e-6 * max_speed))
       throw core::Error(fmt::format("{}: the curve is not regular near u = {} (no tangent): it cannot be followed",
-                              curve.source, c.u0));
+                                    curve.source, c.u0));
     pc.finalize();
     pc.s_begin = s;
     s += pc.length;

@@ -74,11 +74,11 @@ class NurbsArcLength {
 
 // The G2 path of a curve (see the top of this file).
 struct NurbsPath {
-  SmoothPath path;                  // the quintic chain, in path space (A B C zero)
-  core::ToolPath program;                 // one line move per piece, joint to joint, at feed_mm_per_min
-  std::vector<double> joint_u;      // curve parameter at each joint (pieces + 1)
-  std::vector<double> joint_s;      // the curve's own arc length at each joint
-  double max_deviation_mm = 0.0;    // largest distance found between a piece and the curve
+  SmoothPath path;                // the quintic chain, in path space (A B C zero)
+  core::ToolPath program;         // one line move per piece, joint to joint, at feed_mm_per_min
+  std::vector<double> joint_u;    // curve parameter at each joint (pieces + 1)
+  std::vector<double> joint_s;    // the curve's own arc length at each joint
+  double max_deviation_mm = 0.0;  // largest distance found between a piece and the curve
 
   // The chain's arc length at the curve's arc length s (linear within each piece between the joints' values).
   double path_s(double curve_s) const;

@@ -19,18 +19,21 @@ SetpointEstimate estimate_setpoints(const SmoothPath& path, const core::Machine&
     double t = 0;
     if (pc.kind == PathPiece::Kind::Arc) {
       // The plane's two axes travel at least r |dtheta| together, at most at the speed of both limits combined.
-      const double arc = std::min(std::abs(pc.r0), std::abs(pc.r0 + pc.dr)) * std::abs(pc.dtheta) * (pc.u_end - pc.u_begin);
+      const double arc =
+          std::min(std::abs(pc.r0), std::abs(pc.r0 + pc.dr)) * std::abs(pc.dtheta) * (pc.u_end - pc.u_begin);
       const double v12 = std::hypot(vmax[pc.arc_i1], vmax[pc.arc_i2]);
       t = std::max(t, arc / v12);
-      if (pc.arc_i1 < 3 && pc.arc_i2 < 3) xyz = std::max(xyz, arc);
-      else abc = std::max(abc, arc);
+      if (pc.arc_i1 < 3 && pc.arc_i2 < 3)
+        xyz = std::max(xyz, arc);
+      else
+        abc = std::max(abc, arc);
     }
     for (int i = 0; i < 6; ++i)
       if (std::isfinite(vmax[i]) && vmax[i] > 0) t = std::max(t, std::abs(d[i]) / vmax[i]);
     if (!pc.rapid && pc.feed_limit > 0 && std::isfinite(pc.feed_limit)) {
-      const double metric = pc.feed_metric == PathPiece::FeedMetric::Path ? pc.length
+      const double metric = pc.feed_metric == PathPiece::FeedMetric::Path                  ? pc.length
                             : pc.feed_metric == PathPiece::FeedMetric::Abc || xyz <= 1e-12 ? abc
-                                                                                            : xyz;
+                                                                                           : xyz;
       t = std::max(t, metric / pc.feed_limit);
     }
     e.cycle_time_s += t;

@@ -90,7 +90,8 @@ CurveJet PathPiece::jet_u(double u) const {
 
 double PathPiece::speed_u(double u) const {
   switch (kind) {
-    case Kind::Line: return b.norm();
+    case Kind::Line:
+      return b.norm();
     case Kind::Arc: {
       core::Vec6 d = b;
       const double th = theta0 + u * dtheta, r = r0 + u * dr;
@@ -195,8 +196,8 @@ std::size_t SmoothPath::piece_at(double s, std::size_t hint) const {
     if (s <= p.s_begin + p.length || hint + 1 == n) return hint;
     ++hint;
   }
-  auto it = std::upper_bound(pieces.begin(), pieces.end(), s,
-                             [](double v, const PathPiece& p) { return v < p.s_begin; });
+  auto it =
+      std::upper_bound(pieces.begin(), pieces.end(), s, [](double v, const PathPiece& p) { return v < p.s_begin; });
   return it == pieces.begin() ? 0 : static_cast<std::size_t>(it - pieces.begin()) - 1;
 }
 
@@ -290,8 +291,8 @@ double distance_to_portion(const Portion& por, const core::Vec6& q) {
 }
 
 // Quintic Hermite through (P0, V0, A0) at u = 0 and (P1, V1, A1) at u = 1, as monomial coefficients.
-Eigen::Matrix<double, 6, 6> quintic_hermite(const core::Vec6& P0, const core::Vec6& V0, const core::Vec6& A0, const core::Vec6& P1,
-                                            const core::Vec6& V1, const core::Vec6& A1) {
+Eigen::Matrix<double, 6, 6> quintic_hermite(const core::Vec6& P0, const core::Vec6& V0, const core::Vec6& A0,
+                                            const core::Vec6& P1, const core::Vec6& V1, const core::Vec6& A1) {
   Eigen::Matrix<double, 6, 6> c;
   c.col(0) = P0;
   c.col(1) = V0;
@@ -304,8 +305,8 @@ Eigen::Matrix<double, 6, 6> quintic_hermite(const core::Vec6& P0, const core::Ve
 
 struct BlendTrial {
   PathPiece blend;
-  double ua = 0, ub = 0;         // new end parameter of A, new start parameter of B
-  double deviation = kInf;       // largest distance from the blend to the programmed corner
+  double ua = 0, ub = 0;    // new end parameter of A, new start parameter of B
+  double deviation = kInf;  // largest distance from the blend to the programmed corner
   bool regular = false;
 };
 
@@ -400,12 +401,14 @@ PathPiece piece_from_move(const core::ToolPath& path, std::size_t index, double 
     p.feed_limit = kInf;
   } else if (m.feed_mode == core::FeedMode::InverseTime) {
     if (!(m.inverse_time_per_min > 0))
-      throw core::Error(core::located(path.source_path, m.source_line, "inverse-time feed move without a positive F word"));
+      throw core::Error(
+          core::located(path.source_path, m.source_line, "inverse-time feed move without a positive F word"));
     p.feed_metric = PathPiece::FeedMetric::Path;
     p.feed_limit = p.length * m.inverse_time_per_min * feed_scale / 60.0;
   } else {
     if (!(m.feed_mm_per_min > 0))
-      throw core::Error(core::located(path.source_path, m.source_line, "feed move with no feed rate (F is 0 or missing)"));
+      throw core::Error(
+          core::located(path.source_path, m.source_line, "feed move with no feed rate (F is 0 or missing)"));
     p.feed_metric = xyz_moves ? PathPiece::FeedMetric::Xyz : PathPiece::FeedMetric::Abc;
     p.feed_limit = m.feed_mm_per_min * feed_scale / 60.0;
   }
@@ -425,7 +428,8 @@ void pieces_from_move(const core::ToolPath& path, std::size_t index, double feed
     return;
   }
   if (m.kind != core::MotionKind::Line || m.via_s.size() != m.via.size())
-    throw core::Error(core::located(path.source_path, m.source_line, "via points on an arc, or without their path parameters"));
+    throw core::Error(
+        core::located(path.source_path, m.source_line, "via points on an arc, or without their path parameters"));
   core::ToolPath one;
   one.source_path = path.source_path;
   core::Move part = m;

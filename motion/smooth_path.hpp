@@ -37,9 +37,9 @@ struct PathPiece {
   double c1 = 0, c2 = 0, r0 = 0, dr = 0, theta0 = 0, dtheta = 0;
 
   double u_begin = 0.0, u_end = 1.0;
-  double s_begin = 0.0;     // arc length from the path start to this piece's start
-  double length = 0.0;      // arc length of [u_begin, u_end]
-  bool uniform = true;      // |dp/du| constant: s is linear in u (lines, true helices)
+  double s_begin = 0.0;  // arc length from the path start to this piece's start
+  double length = 0.0;   // arc length of [u_begin, u_end]
+  bool uniform = true;   // |dp/du| constant: s is linear in u (lines, true helices)
   // Arc-length table for non-uniform pieces: cumulative length at u_begin + k (u_end - u_begin) / kTable.
   static constexpr int kTable = 64;
   std::vector<double> cum;
@@ -53,15 +53,15 @@ struct PathPiece {
   double feed_limit = 0.0;  // in the metric's units per s; infinity for rapids
   bool stop_after = false;  // the axes must stop at the end of this piece (a corner too sharp to blend)
 
-  CurveJet jet_u(double u) const;           // derivatives w.r.t. u
+  CurveJet jet_u(double u) const;  // derivatives w.r.t. u
   core::Vec6 point_u(double u) const;
-  double speed_u(double u) const;         // |dp/du|
+  double speed_u(double u) const;  // |dp/du|
   // Local arc length (0 .. length) to the curve parameter, and back.
   double u_at(double s_local) const;
   double s_at(double u) const;
   PathJet jet_s(double s_local) const { return jet_at_u(u_at(s_local)); }  // derivatives w.r.t. arc length
-  PathJet jet_at_u(double u) const;         // the same, at a curve parameter (no arc-length inversion)
-  void finalize();                          // computes length (and the table for non-uniform pieces)
+  PathJet jet_at_u(double u) const;  // the same, at a curve parameter (no arc-length inversion)
+  void finalize();                   // computes length (and the table for non-uniform pieces)
 };
 
 struct SmoothPathOptions {

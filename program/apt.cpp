@@ -78,11 +78,10 @@ namespace vmsim::program {
 namespace {
 
 constexpr std::string_view kNonMotionWords[] = {
-    "PARTNO", "MACHIN", "MODE",   "SELECT", "SELCTL", "TOOLNO",        "TPRINT",    "PPRINT", "PRINT",
-    "INSERT", "SPINDL", "COOLNT", "END",    "STOP",   "OPSTOP",        "OPSKIP",    "PAINT",  "TOOL PATH",
-    "END-OF-PATH",      "AUTOPS", "INTOL",  "OUTTOL", "TOLER",         "LINTOL",    "CLEARP", "THICK",
-    "OFSTNO", "SEQNO",  "CLAMP",  "HEAD",   "TURRET", "LEADER",        "REWIND",    "NOPOST", "DISPLY",
-    "PPLOT",  "CSI_TOOL_PATH",    "OPERATION",        "PITCH"};
+    "PARTNO", "MACHIN", "MODE",   "SELECT", "SELCTL", "TOOLNO", "TPRINT",        "PPRINT",    "PRINT",       "INSERT",
+    "SPINDL", "COOLNT", "END",    "STOP",   "OPSTOP", "OPSKIP", "PAINT",         "TOOL PATH", "END-OF-PATH", "AUTOPS",
+    "INTOL",  "OUTTOL", "TOLER",  "LINTOL", "CLEARP", "THICK",  "OFSTNO",        "SEQNO",     "CLAMP",       "HEAD",
+    "TURRET", "LEADER", "REWIND", "NOPOST", "DISPLY", "PPLOT",  "CSI_TOOL_PATH", "OPERATION", "PITCH"};
 
 // Known, without motion, with an effect vmsim does not model: errors unless AptOptions::lenient (then warnings).
 constexpr std::string_view kUnmodelledWords[] = {"DELAY", "DWELL", "CUTCOM", "ORIGIN"};
@@ -283,8 +282,9 @@ class AptReader {
       if (!handle(st)) break;  // FINI
     }
     if (!units_line_ && !options_.default_unit)
-      warn(0, "no UNITS/ record and no [job] program_units: lengths read as mm (NX CLSF files of inch parts have no "
-              "UNITS/; give program_units = \"inch\" in the job)");
+      warn(0,
+           "no UNITS/ record and no [job] program_units: lengths read as mm (NX CLSF files of inch parts have no "
+           "UNITS/; give program_units = \"inch\" in the job)");
     if (pending_arc_)
       fail(pending_arc_->line,
            pending_arc_->word + "/ is not followed by its GOTO/ end point (expected GOTO/x,y,z after it)");
@@ -308,7 +308,9 @@ class AptReader {
     std::optional<double> sweep_deg;  // MOVARC/...,ANGLE,deg
   };
 
-  [[noreturn]] void fail(int line, const std::string& message) const { throw core::Error(core::located(file_, line, message)); }
+  [[noreturn]] void fail(int line, const std::string& message) const {
+    throw core::Error(core::located(file_, line, message));
+  }
   void warn(int line, const std::string& message) { path_.warnings.push_back(core::located(file_, line, message)); }
 
   // Into the workpiece frame (the first MSYS/ frame) from the frame of the current MSYS/.
@@ -410,7 +412,8 @@ class AptReader {
         tilted_arc_to(st, arc, target, axis);
         return;
       }
-    static constexpr PlaneAxes kPlanes[3] = {{core::ArcPlane::YZ, 1, 2, 0}, {core::ArcPlane::ZX, 2, 0, 1}, {core::ArcPlane::XY, 0, 1, 2}};
+    static constexpr PlaneAxes kPlanes[3] = {
+        {core::ArcPlane::YZ, 1, 2, 0}, {core::ArcPlane::ZX, 2, 0, 1}, {core::ArcPlane::XY, 0, 1, 2}};
     const PlaneAxes p = kPlanes[m];
     const Eigen::Vector2d c(arc.centre[p.first], arc.centre[p.second]);
     const Eigen::Vector2d s((*position_)[p.first], (*position_)[p.second]);
@@ -439,8 +442,8 @@ class AptReader {
     axis_ = axis;
   }
 
-  // An arc (or helix) about a tilted axis n, counter-clockwise about n (ISO 4343): chords within kTiltedArcSag_mm of it,
-  // the height along n and the radius linear in the swept angle (as core/arc for the coordinate planes), the tool
+  // An arc (or helix) about a tilted axis n, counter-clockwise about n (ISO 4343): chords within kTiltedArcSag_mm of
+  // it, the height along n and the radius linear in the swept angle (as core/arc for the coordinate planes), the tool
   // axis along the great circle between its end values.
   void tilted_arc_to(const Statement& st, const PendingArc& arc, const Eigen::Vector3d& target,
                      const Eigen::Vector3d& axis) {
@@ -455,8 +458,8 @@ class AptReader {
       fail(st.line, "arc start is " + num(rs) + " mm from the axis of " + where + ", radius " + num(arc.radius) +
                         " mm (expected the tool on the circle when the arc starts)");
     if (std::abs(re - arc.radius) > tol)
-      fail(st.line, "GOTO/ end point is " + num(re) + " mm from the axis of " + where + ", radius " +
-                        num(arc.radius) + " mm (expected the arc's end point on its circle)");
+      fail(st.line, "GOTO/ end point is " + num(re) + " mm from the axis of " + where + ", radius " + num(arc.radius) +
+                        " mm (expected the arc's end point on its circle)");
     // Angle from us to ue about n, counter-clockwise, in (0, 2 pi]; a whole turn when they coincide.
     const Eigen::Vector3d e1 = us / rs, e2 = n.cross(e1);
     double sweep = std::atan2(ue.dot(e2), ue.dot(e1));
@@ -468,7 +471,8 @@ class AptReader {
     const double r_max = std::max(rs, re);
     const double step = 2 * std::acos(std::max(0.0, 1 - kTiltedArcSag_mm / r_max));
     const int chords = std::max(1, static_cast<int>(std::ceil(sweep / std::max(step, 1e-6))));
-    if (chords > 100'000) fail(arc.line, where + " needs more than 100 000 chords of 1 um sag (expected a radius below 2 km)");
+    if (chords > 100'000)
+      fail(arc.line, where + " needs more than 100 000 chords of 1 um sag (expected a radius below 2 km)");
     const Eigen::Vector3d a0 = axis_;
     const double turn = std::atan2(a0.cross(axis).norm(), a0.dot(axis));
     for (int k = 1; k <= chords; ++k) {
@@ -800,9 +804,9 @@ core::ToolPath read_apt_text(const std::string& text, const std::string& name, c
 }
 
 bool looks_like_apt(std::string_view text) {
-  static constexpr std::string_view kFirstWords[] = {"TOOL PATH", "TLDATA", "MSYS",   "UNITS",  "MULTAX", "CUTTER",
-                                                     "FROM",      "GOTO",   "LOADTL", "LOAD",   "MACHIN", "PPRINT",
-                                                     "FEDRAT",    "SPINDL", "TLAXIS", "PAINT",  "CLEARP", "RAPID"};
+  static constexpr std::string_view kFirstWords[] = {"TOOL PATH", "TLDATA", "MSYS",   "UNITS", "MULTAX", "CUTTER",
+                                                     "FROM",      "GOTO",   "LOADTL", "LOAD",  "MACHIN", "PPRINT",
+                                                     "FEDRAT",    "SPINDL", "TLAXIS", "PAINT", "CLEARP", "RAPID"};
   std::size_t pos = 0;
   while (pos < text.size()) {
     std::size_t eol = text.find_first_of("\r\n", pos);

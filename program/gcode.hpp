@@ -39,12 +39,12 @@ struct GcodeOptions {
 // One canonical machining call as `rs274 -g` prints it (without its running number), and its source line.
 struct CanonCall {
   int source_line = 0;
-  std::string n_word;   // "N....." when the block had no N word, else the N word padded as rs274 does
-  std::string text;     // e.g. STRAIGHT_FEED(1.0000, 2.0000, 3.0000, 0.0000, 0.0000, 0.0000)
+  std::string n_word;  // "N....." when the block had no N word, else the N word padded as rs274 does
+  std::string text;    // e.g. STRAIGHT_FEED(1.0000, 2.0000, 3.0000, 0.0000, 0.0000, 0.0000)
 };
 
 struct GcodeResult {
-  core::ToolPath path;                 // mm, rad, offsets applied (see toolpath.hpp)
+  core::ToolPath path;           // mm, rad, offsets applied (see toolpath.hpp)
   std::vector<CanonCall> canon;  // program units, offsets as separate calls, as LinuxCNC's canon layer sees them
 };
 

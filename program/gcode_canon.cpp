@@ -37,8 +37,8 @@ void CanonWriter::print(const char* format, ...) {
 
 void CanonWriter::push(std::string text) {
   if (calls_.size() >= max_calls_)
-    throw core::Error(core::located(file_, line_,
-                        "more than " + std::to_string(max_calls_) + " canonical calls: possible endless loop"));
+    throw core::Error(core::located(
+        file_, line_, "more than " + std::to_string(max_calls_) + " canonical calls: possible endless loop"));
   calls_.push_back(CanonCall{line_, *n_word_, std::move(text)});
 }
 

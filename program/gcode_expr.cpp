@@ -16,21 +16,26 @@ double rad_to_deg(double rad) { return static_cast<double>((static_cast<long dou
 
 int precedence(BinaryOp op) {
   switch (op) {
-    case BinaryOp::Power: return 6;
+    case BinaryOp::Power:
+      return 6;
     case BinaryOp::Times:
     case BinaryOp::Divide:
-    case BinaryOp::Modulo: return 5;
+    case BinaryOp::Modulo:
+      return 5;
     case BinaryOp::Plus:
-    case BinaryOp::Minus: return 4;
+    case BinaryOp::Minus:
+      return 4;
     case BinaryOp::Eq:
     case BinaryOp::Ne:
     case BinaryOp::Gt:
     case BinaryOp::Ge:
     case BinaryOp::Lt:
-    case BinaryOp::Le: return 3;
+    case BinaryOp::Le:
+      return 3;
     case BinaryOp::And:
     case BinaryOp::Or:
-    case BinaryOp::Xor: return 2;
+    case BinaryOp::Xor:
+      return 2;
   }
   return 0;
 }
@@ -51,28 +56,37 @@ double check_finite(double v) {
 
 double unary(UnaryFn fn, double x) {
   switch (fn) {
-    case UnaryFn::Abs: return std::fabs(x);
+    case UnaryFn::Abs:
+      return std::fabs(x);
     case UnaryFn::Acos:
       if (x < -1.0 || x > 1.0) throw ExprError("argument to ACOS is outside [-1, 1]");
       return rad_to_deg(std::acos(x));
     case UnaryFn::Asin:
       if (x < -1.0 || x > 1.0) throw ExprError("argument to ASIN is outside [-1, 1]");
       return rad_to_deg(std::asin(x));
-    case UnaryFn::Cos: return std::cos(deg_to_rad(x));
-    case UnaryFn::Exp: return std::exp(x);
-    case UnaryFn::Fix: return std::floor(x);
-    case UnaryFn::Fup: return std::ceil(x);
+    case UnaryFn::Cos:
+      return std::cos(deg_to_rad(x));
+    case UnaryFn::Exp:
+      return std::exp(x);
+    case UnaryFn::Fix:
+      return std::floor(x);
+    case UnaryFn::Fup:
+      return std::ceil(x);
     // LinuxCNC: (int)(x + (x < 0 ? -0.5 : 0.5)); trunc gives the same without int overflow.
-    case UnaryFn::Round: return std::trunc(x + (x < 0.0 ? -0.5 : 0.5));
+    case UnaryFn::Round:
+      return std::trunc(x + (x < 0.0 ? -0.5 : 0.5));
     case UnaryFn::Ln:
       if (x <= 0.0) throw ExprError("argument to LN is zero or negative");
       return std::log(x);
-    case UnaryFn::Sin: return std::sin(deg_to_rad(x));
+    case UnaryFn::Sin:
+      return std::sin(deg_to_rad(x));
     case UnaryFn::Sqrt:
       if (x < 0.0) throw ExprError("argument to SQRT is negative");
       return std::sqrt(x);
-    case UnaryFn::Tan: return std::tan(deg_to_rad(x));
-    case UnaryFn::Trunc: return std::trunc(x);
+    case UnaryFn::Tan:
+      return std::tan(deg_to_rad(x));
+    case UnaryFn::Trunc:
+      return std::trunc(x);
   }
   return x;
 }
@@ -82,7 +96,8 @@ double binary(BinaryOp op, double l, double r) {
     case BinaryOp::Power:
       if (l < 0.0 && std::floor(r) != r) throw ExprError("negative number raised to a non-integer power");
       return std::pow(l, r);
-    case BinaryOp::Times: return l * r;
+    case BinaryOp::Times:
+      return l * r;
     case BinaryOp::Divide:
       if (r == 0.0) throw ExprError("division by zero");
       return l / r;
@@ -92,17 +107,28 @@ double binary(BinaryOp op, double l, double r) {
       if (m < 0.0) m += std::fabs(r);
       return m;
     }
-    case BinaryOp::Plus: return l + r;
-    case BinaryOp::Minus: return l - r;
-    case BinaryOp::Eq: return std::fabs(l - r) < kToleranceEqual ? 1.0 : 0.0;
-    case BinaryOp::Ne: return std::fabs(l - r) >= kToleranceEqual ? 1.0 : 0.0;
-    case BinaryOp::Gt: return l > r ? 1.0 : 0.0;
-    case BinaryOp::Ge: return (std::fabs(l - r) < kToleranceEqual || l >= r) ? 1.0 : 0.0;
-    case BinaryOp::Lt: return l < r ? 1.0 : 0.0;
-    case BinaryOp::Le: return (std::fabs(l - r) < kToleranceEqual || l <= r) ? 1.0 : 0.0;
-    case BinaryOp::And: return (l == 0.0 || r == 0.0) ? 0.0 : 1.0;
-    case BinaryOp::Or: return (l != 0.0 || r != 0.0) ? 1.0 : 0.0;
-    case BinaryOp::Xor: return ((l == 0.0) != (r == 0.0)) ? 1.0 : 0.0;
+    case BinaryOp::Plus:
+      return l + r;
+    case BinaryOp::Minus:
+      return l - r;
+    case BinaryOp::Eq:
+      return std::fabs(l - r) < kToleranceEqual ? 1.0 : 0.0;
+    case BinaryOp::Ne:
+      return std::fabs(l - r) >= kToleranceEqual ? 1.0 : 0.0;
+    case BinaryOp::Gt:
+      return l > r ? 1.0 : 0.0;
+    case BinaryOp::Ge:
+      return (std::fabs(l - r) < kToleranceEqual || l >= r) ? 1.0 : 0.0;
+    case BinaryOp::Lt:
+      return l < r ? 1.0 : 0.0;
+    case BinaryOp::Le:
+      return (std::fabs(l - r) < kToleranceEqual || l <= r) ? 1.0 : 0.0;
+    case BinaryOp::And:
+      return (l == 0.0 || r == 0.0) ? 0.0 : 1.0;
+    case BinaryOp::Or:
+      return (l != 0.0 || r != 0.0) ? 1.0 : 0.0;
+    case BinaryOp::Xor:
+      return ((l == 0.0) != (r == 0.0)) ? 1.0 : 0.0;
   }
   return 0.0;
 }
@@ -136,12 +162,18 @@ double ExprPool::evaluate(ExprId id, const ParamSource& params) const { return c
 double ExprPool::eval(ExprId id, const ParamSource& params) const {
   const ExprNode& n = (*this)[id];
   switch (n.op) {
-    case ExprOp::Number: return n.number;
-    case ExprOp::Param: return params.numbered(eval(n.lhs, params));
-    case ExprOp::NamedParam: return params.named(n.name);
-    case ExprOp::Exists: return params.exists(n.name) ? 1.0 : 0.0;
-    case ExprOp::Negate: return -eval(n.lhs, params);
-    case ExprOp::Unary: return check_finite(unary(static_cast<UnaryFn>(n.fn), eval(n.lhs, params)));
+    case ExprOp::Number:
+      return n.number;
+    case ExprOp::Param:
+      return params.numbered(eval(n.lhs, params));
+    case ExprOp::NamedParam:
+      return params.named(n.name);
+    case ExprOp::Exists:
+      return params.exists(n.name) ? 1.0 : 0.0;
+    case ExprOp::Negate:
+      return -eval(n.lhs, params);
+    case ExprOp::Unary:
+      return check_finite(unary(static_cast<UnaryFn>(n.fn), eval(n.lhs, params)));
     case ExprOp::Atan2: {
       const double y = eval(n.lhs, params);
       const double x = eval(n.rhs, params);
@@ -196,7 +228,8 @@ int ExprParser::named_param_name() {
   // at '<'; the name runs to '>' (blanks were already removed and letters lowered, as LinuxCNC does)
   ++pos_;
   const std::size_t end = text_.find('>', pos_);
-  if (end == std::string_view::npos) throw ExprError("named parameter #<" + std::string(text_.substr(pos_)) + " has no closing '>'");
+  if (end == std::string_view::npos)
+    throw ExprError("named parameter #<" + std::string(text_.substr(pos_)) + " has no closing '>'");
   if (end == pos_) throw ExprError("named parameter #<> has an empty name");
   const std::string name(text_.substr(pos_, end - pos_));
   pos_ = end + 1;
@@ -221,10 +254,10 @@ bool ExprParser::peek_operator(BinaryOp& op, std::size_t& length) const {
   };
   // Longer spellings first ("**" before "*", "xor" before "or").
   static constexpr Token kTokens[] = {
-      {"**", BinaryOp::Power}, {"*", BinaryOp::Times},  {"/", BinaryOp::Divide}, {"mod", BinaryOp::Modulo},
-      {"+", BinaryOp::Plus},   {"-", BinaryOp::Minus},  {"eq", BinaryOp::Eq},    {"ne", BinaryOp::Ne},
-      {"gt", BinaryOp::Gt},    {"ge", BinaryOp::Ge},    {"lt", BinaryOp::Lt},    {"le", BinaryOp::Le},
-      {"and", BinaryOp::And},  {"xor", BinaryOp::Xor},  {"or", BinaryOp::Or},
+      {"**", BinaryOp::Power}, {"*", BinaryOp::Times}, {"/", BinaryOp::Divide}, {"mod", BinaryOp::Modulo},
+      {"+", BinaryOp::Plus},   {"-", BinaryOp::Minus}, {"eq", BinaryOp::Eq},    {"ne", BinaryOp::Ne},
+      {"gt", BinaryOp::Gt},    {"ge", BinaryOp::Ge},   {"lt", BinaryOp::Lt},    {"le", BinaryOp::Le},
+      {"and", BinaryOp::And},  {"xor", BinaryOp::Xor}, {"or", BinaryOp::Or},
   };
   for (const Token& t : kTokens) {
     if (rest.starts_with(t.text)) {

@@ -25,18 +25,32 @@ inline constexpr double kToleranceEqual = 1e-4;
 
 enum class ExprOp : std::uint8_t { Number, Param, NamedParam, Exists, Negate, Unary, Atan2, Binary };
 // Trunc (towards zero) is the Sinumerik reader's TRUNC; RS274/NGC has no such function.
-enum class UnaryFn : std::uint8_t { Abs, Acos, Asin, Cos, Exp, Fix, Fup, Round, Ln, Sin, Sqrt, Tan, Trunc };  // ATAN is binary
+enum class UnaryFn : std::uint8_t {
+  Abs,
+  Acos,
+  Asin,
+  Cos,
+  Exp,
+  Fix,
+  Fup,
+  Round,
+  Ln,
+  Sin,
+  Sqrt,
+  Tan,
+  Trunc
+};  // ATAN is binary
 // In LinuxCNC's precedence order, highest first: ** ; * / MOD ; + - ; comparisons ; AND OR XOR.
 enum class BinaryOp : std::uint8_t { Power, Times, Divide, Modulo, Plus, Minus, Eq, Ne, Gt, Ge, Lt, Le, And, Or, Xor };
 
 struct ExprNode {
   ExprOp op = ExprOp::Number;
-  std::uint8_t fn = 0;     // UnaryFn or BinaryOp
-  std::int16_t height = 1; // height of the tree below and including this node
-  ExprId lhs = kNoExpr;    // operand, parameter index expression, left operand, ATAN's y
-  ExprId rhs = kNoExpr;    // right operand, ATAN's x
-  std::int32_t name = -1;  // interned parameter name (NamedParam, Exists)
-  double number = 0.0;     // Number
+  std::uint8_t fn = 0;      // UnaryFn or BinaryOp
+  std::int16_t height = 1;  // height of the tree below and including this node
+  ExprId lhs = kNoExpr;     // operand, parameter index expression, left operand, ATAN's y
+  ExprId rhs = kNoExpr;     // right operand, ATAN's x
+  std::int32_t name = -1;   // interned parameter name (NamedParam, Exists)
+  double number = 0.0;      // Number
 };
 
 // An expression that cannot be parsed or evaluated; the caller adds the file, line and word.
@@ -99,15 +113,13 @@ class ExprParser {
   int named_param_name();
 
  private:
-  ExprId bracketed();              // '[' expr ']'
-  ExprId expression(int min_prec); // operator-precedence climbing, left associative at every level
+  ExprId bracketed();               // '[' expr ']'
+  ExprId expression(int min_prec);  // operator-precedence climbing, left associative at every level
   ExprId function(const std::string& name);
   ExprId number();
   bool peek_operator(BinaryOp& op, std::size_t& length) const;
   ExprId make(ExprNode node);
-  char peek(std::size_t ahead = 0) const {
-    return pos_ + ahead < text_.size() ? text_[pos_ + ahead] : '\0';
-  }
+  char peek(std::size_t ahead = 0) const { return pos_ + ahead < text_.size() ? text_[pos_ + ahead] : '\0'; }
 
   std::string_view text_;
   std::size_t& pos_;

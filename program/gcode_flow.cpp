@@ -13,14 +13,20 @@ bool is_loop(OKind k) { return k == OKind::While || k == OKind::Do || k == OKind
 
 const char* closer(OKind k) {
   switch (k) {
-    case OKind::Sub: return "endsub";
+    case OKind::Sub:
+      return "endsub";
     case OKind::If:
     case OKind::ElseIf:
-    case OKind::Else: return "endif";
-    case OKind::While: return "endwhile";
-    case OKind::Do: return "while";
-    case OKind::Repeat: return "endrepeat";
-    default: return "?";
+    case OKind::Else:
+      return "endif";
+    case OKind::While:
+      return "endwhile";
+    case OKind::Do:
+      return "while";
+    case OKind::Repeat:
+      return "endrepeat";
+    default:
+      return "?";
   }
 }
 
@@ -81,7 +87,8 @@ void Interpreter::build_flow() {
     };
     switch (o.kind) {
       case OKind::Sub: {
-        if (!open.empty()) flow_error_[i] = name + " is inside " + where(open.back()) + "; subroutines must be defined at the top level";
+        if (!open.empty())
+          flow_error_[i] = name + " is inside " + where(open.back()) + "; subroutines must be defined at the top level";
         const auto [it, inserted] = subs_.try_emplace(o.label, i);
         if (!inserted && flow_error_[i].empty())
           flow_error_[i] = name + " is defined twice (first on line " + std::to_string(lines[it->second].number) + ")";
@@ -106,7 +113,9 @@ void Interpreter::build_flow() {
         if (!found) flow_error_[i] = name + " is not inside " + oword_name(o.label) + " sub";
         break;
       }
-      case OKind::If: open.push_back({o.kind, o.label, i, i}); break;
+      case OKind::If:
+        open.push_back({o.kind, o.label, i, i});
+        break;
       case OKind::ElseIf:
       case OKind::Else:
         if (Open* top = closes({OKind::If})) {
@@ -143,7 +152,9 @@ void Interpreter::build_flow() {
         }
         break;
       case OKind::Do:
-      case OKind::Repeat: open.push_back({o.kind, o.label, i, i}); break;
+      case OKind::Repeat:
+        open.push_back({o.kind, o.label, i, i});
+        break;
       case OKind::EndRepeat:
         if (Open* top = closes({OKind::Repeat})) {
           match_[top->line] = static_cast<int>(i);
@@ -163,7 +174,8 @@ void Interpreter::build_flow() {
         if (!found) flow_error_[i] = name + " is not inside an " + oword_name(o.label) + " loop";
         break;
       }
-      case OKind::Call: break;
+      case OKind::Call:
+        break;
     }
   }
   // Mismatches found on the way explain blocks left open, so they are the ones to report first.
@@ -190,7 +202,8 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
   if (!flow_error_[idx].empty()) fail(flow_error_[idx]);
   const auto jump = [&](std::size_t i) { return static_cast<std::size_t>(match_[i]); };
   switch (o.kind) {
-    case OKind::Sub: return jump(idx) + 1;  // a definition: skip its body
+    case OKind::Sub:
+      return jump(idx) + 1;  // a definition: skip its body
     case OKind::EndSub:
     case OKind::Return: {
       const std::size_t sub_line = jump(idx);  // endsub and return both point at their sub
@@ -216,8 +229,9 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
     }
     case OKind::Call: {
       const auto it = subs_.find(o.label);
-      if (it == subs_.end()) fail(name() + ": there is no " + oword_name(o.label) + " sub in " + file_ +
-                                     " (subroutines in separate files are not supported)");
+      if (it == subs_.end())
+        fail(name() + ": there is no " + oword_name(o.label) + " sub in " + file_ +
+             " (subroutines in separate files are not supported)");
       if (!flow_error_[it->second].empty()) {
         line_ = it->second;
         fail(flow_error_[it->second]);
@@ -260,11 +274,13 @@ std::size_t Interpreter::exec_oword(std::size_t idx) {
       return j + 1;
     }
     case OKind::EndIf:
-    case OKind::Do: return idx + 1;
+    case OKind::Do:
+      return idx + 1;
     case OKind::While:
       if (do_end_[idx]) return eval_condition(idx) ? jump(idx) + 1 : idx + 1;
       return eval_condition(idx) ? idx + 1 : jump(idx) + 1;
-    case OKind::EndWhile: return jump(idx);  // back to the while, which tests again
+    case OKind::EndWhile:
+      return jump(idx);  // back to the while, which tests again
     case OKind::Repeat: {
       double count = 0.0;
       try {

@@ -19,72 +19,189 @@ constexpr double kMmPerInch = 25.4;
 // Modal groups of the G codes vmsim executes (LinuxCNC's numbering), -1 for anything else.
 int g_group(int g) {
   switch (g) {
-    case 40: case 100: case 280: case 281: case 300: case 301: case 520: case 530:
-    case 920: case 921: case 922: case 923: return 0;
-    case 0: case 10: case 20: case 30: case 730: case 800: case 810: case 820: case 830: case 850: case 890:
+    case 40:
+    case 100:
+    case 280:
+    case 281:
+    case 300:
+    case 301:
+    case 520:
+    case 530:
+    case 920:
+    case 921:
+    case 922:
+    case 923:
+      return 0;
+    case 0:
+    case 10:
+    case 20:
+    case 30:
+    case 730:
+    case 800:
+    case 810:
+    case 820:
+    case 830:
+    case 850:
+    case 890:
       return 1;
-    case 170: case 180: case 190: return 2;
-    case 900: case 910: return 3;
-    case 901: case 911: return 4;
-    case 930: case 940: return 5;
-    case 200: case 210: return 6;
-    case 400: return 7;
-    case 430: case 431: case 432: case 490: return 8;
-    case 980: case 990: return 10;
-    case 540: case 550: case 560: case 570: case 580: case 590: case 591: case 592: case 593: return 12;
-    case 610: case 611: case 640: return 13;
-    case 960: case 970: return 14;
-    default: return -1;
+    case 170:
+    case 180:
+    case 190:
+      return 2;
+    case 900:
+    case 910:
+      return 3;
+    case 901:
+    case 911:
+      return 4;
+    case 930:
+    case 940:
+      return 5;
+    case 200:
+    case 210:
+      return 6;
+    case 400:
+      return 7;
+    case 430:
+    case 431:
+    case 432:
+    case 490:
+      return 8;
+    case 980:
+    case 990:
+      return 10;
+    case 540:
+    case 550:
+    case 560:
+    case 570:
+    case 580:
+    case 590:
+    case 591:
+    case 592:
+    case 593:
+      return 12;
+    case 610:
+    case 611:
+    case 640:
+      return 13;
+    case 960:
+    case 970:
+      return 14;
+    default:
+      return -1;
   }
 }
 
 const char* g_group_name(int group) {
   switch (group) {
-    case 0: return "non-modal";
-    case 1: return "motion";
-    case 2: return "plane selection";
-    case 3: return "distance mode";
-    case 4: return "arc centre mode";
-    case 5: return "feed mode";
-    case 6: return "units";
-    case 7: return "cutter compensation";
-    case 8: return "tool length offset";
-    case 10: return "canned cycle return";
-    case 12: return "coordinate system";
-    case 13: return "path control";
-    case 14: return "spindle mode";
-    default: return "?";
+    case 0:
+      return "non-modal";
+    case 1:
+      return "motion";
+    case 2:
+      return "plane selection";
+    case 3:
+      return "distance mode";
+    case 4:
+      return "arc centre mode";
+    case 5:
+      return "feed mode";
+    case 6:
+      return "units";
+    case 7:
+      return "cutter compensation";
+    case 8:
+      return "tool length offset";
+    case 10:
+      return "canned cycle return";
+    case 12:
+      return "coordinate system";
+    case 13:
+      return "path control";
+    case 14:
+      return "spindle mode";
+    default:
+      return "?";
   }
 }
 
 // Why a G code LinuxCNC knows is not executed; nullptr if it is not one of those.
 const char* g_unsupported(int g) {
   switch (g) {
-    case 410: case 420: case 411: case 421:
+    case 410:
+    case 420:
+    case 411:
+    case 421:
       return "(cutter radius compensation) is not supported; post the program for the tool centre path "
              "(vmsim follows the programmed point) and use G40";
-    case 50: case 51: case 52: case 53: return "(spline / NURBS motion) is not supported";
-    case 70: case 80: return "(lathe diameter/radius mode) is not supported";
-    case 330: case 331: case 760: return "(spindle-synchronised motion / threading) is not supported";
-    case 382: case 383: case 384: case 385:
+    case 50:
+    case 51:
+    case 52:
+    case 53:
+      return "(spline / NURBS motion) is not supported";
+    case 70:
+    case 80:
+      return "(lathe diameter/radius mode) is not supported";
+    case 330:
+    case 331:
+    case 760:
+      return "(spindle-synchronised motion / threading) is not supported";
+    case 382:
+    case 383:
+    case 384:
+    case 385:
       return "(probing) is not supported: where the probe stops is not known before the machine runs";
-    case 171: case 181: case 191: return "(U V W arc planes) is not supported";
-    case 700: case 710: case 711: case 720: case 721: return "(lathe cycle) is not supported";
-    case 740: case 840: case 860: case 870: case 880:
+    case 171:
+    case 181:
+    case 191:
+      return "(U V W arc planes) is not supported";
+    case 700:
+    case 710:
+    case 711:
+    case 720:
+    case 721:
+      return "(lathe cycle) is not supported";
+    case 740:
+    case 840:
+    case 860:
+    case 870:
+    case 880:
       return "(canned cycle) is not supported; vmsim executes G73 G81 G82 G83 G85 G89";
-    case 950: return "(feed per revolution) is not supported; use G94 (units per minute) or G93 (inverse time)";
-    default: return nullptr;
+    case 950:
+      return "(feed per revolution) is not supported; use G94 (units per minute) or G93 (inverse time)";
+    default:
+      return nullptr;
   }
 }
 
 int m_group(int m) {
   switch (m) {
-    case 0: case 1: case 2: case 30: case 60: return 4;
-    case 6: case 61: return 6;
-    case 3: case 4: case 5: return 7;
-    case 7: case 8: case 9: return 8;
-    case 48: case 49: case 50: case 51: case 52: case 53: return 9;
-    default: return -1;
+    case 0:
+    case 1:
+    case 2:
+    case 30:
+    case 60:
+      return 4;
+    case 6:
+    case 61:
+      return 6;
+    case 3:
+    case 4:
+    case 5:
+      return 7;
+    case 7:
+    case 8:
+    case 9:
+      return 8;
+    case 48:
+    case 49:
+    case 50:
+    case 51:
+    case 52:
+    case 53:
+      return 9;
+    default:
+      return -1;
   }
 }
 
@@ -94,7 +211,8 @@ const char* m_unsupported(int m) {
   if (m >= 70 && m <= 73) return "(saving/restoring modal state) is not supported";
   if (m == 98 || m == 99) return "(Fanuc-style subroutine call/return) is not supported; use O-word subroutines";
   if (m >= 100 && m <= 199)
-    return "is a user-defined M code; if it makes no motion, accept it with --no-motion-m (GcodeOptions::no_motion_mcodes)";
+    return "is a user-defined M code; if it makes no motion, accept it with --no-motion-m "
+           "(GcodeOptions::no_motion_mcodes)";
   return nullptr;
 }
 
@@ -193,7 +311,8 @@ void Interpreter::check_codes(Block& b) {
     const int group = m_group(m);
     if (group < 0) {
       if (const char* why = m_unsupported(m)) fail(word('M', m) + " " + why);
-      fail(word('M', m) + " is not an M code LinuxCNC knows; if the machine remaps it to an action without motion, "
+      fail(word('M', m) +
+           " is not an M code LinuxCNC knows; if the machine remaps it to an action without motion, "
            "declare it (--no-motion-m, GcodeOptions::no_motion_mcodes)");
     }
     if (b.m_mode[static_cast<std::size_t>(group)] != -1)
@@ -282,7 +401,8 @@ void Interpreter::comment(const std::string& text) {
   std::size_t start = 0;
   while (start < text.size() && std::isspace(static_cast<unsigned char>(text[start]))) ++start;
   std::string lc;
-  for (std::size_t i = start; i < text.size(); ++i) lc += static_cast<char>(std::tolower(static_cast<unsigned char>(text[i])));
+  for (std::size_t i = start; i < text.size(); ++i)
+    lc += static_cast<char>(std::tolower(static_cast<unsigned char>(text[i])));
   const auto expand = [&](std::size_t skip) {
     // Parameters in the text are replaced by their values ("%lf", ###### when undefined).
     const std::string s = text.substr(start + skip);
@@ -312,7 +432,8 @@ void Interpreter::comment(const std::string& text) {
         if (close == std::string::npos) fail("(debug,...): named parameter without a closing '>'");
         std::string name;
         for (std::size_t k = i + 1; k < close; ++k)
-          if (!std::isspace(static_cast<unsigned char>(s[k]))) name += static_cast<char>(std::tolower(static_cast<unsigned char>(s[k])));
+          if (!std::isspace(static_cast<unsigned char>(s[k])))
+            name += static_cast<char>(std::tolower(static_cast<unsigned char>(s[k])));
         i = close + 1;
         const int id = prog_.names.find(name);
         if (id >= 0 && exists(id)) {
@@ -370,7 +491,8 @@ const ToolEntry* Interpreter::tool_entry(int number, const char* what) const {
     fail(std::string(what) + ": tool " + std::to_string(number) +
          " is unknown: give the LinuxCNC tool table (--tool-table / GcodeOptions::tool_table)");
   const ToolEntry* t = tools_->find(number);
-  if (t == nullptr) fail(std::string(what) + ": tool " + std::to_string(number) + " is not in the tool table " + tools_->source_path);
+  if (t == nullptr)
+    fail(std::string(what) + ": tool " + std::to_string(number) + " is not in the tool table " + tools_->source_path);
   return t;
 }
 
@@ -419,7 +541,8 @@ void Interpreter::m_codes(const Block& b) {
       canon_.print("STOP_SPINDLE_TURNING(0)");
       spindle_ = 0;
       break;
-    default: break;
+    default:
+      break;
   }
   switch (b.m_mode[8]) {
     case 7:
@@ -435,7 +558,8 @@ void Interpreter::m_codes(const Block& b) {
       canon_.print("FLOOD_OFF()");
       mist_ = flood_ = false;
       break;
-    default: break;
+    default:
+      break;
   }
   // M50-M53 without P mean "enable" (LinuxCNC's P default is -1, not 0).
   const bool enable = !b.has('P') || b['P'] != 0.0;
@@ -458,9 +582,14 @@ void Interpreter::m_codes(const Block& b) {
       canon_.print(enable ? "ENABLE_SPEED_OVERRIDE(0)" : "DISABLE_SPEED_OVERRIDE(0)");
       speed_override_ = enable;
       break;
-    case 52: canon_.print(enable ? "ENABLE_ADAPTIVE_FEED()" : "DISABLE_ADAPTIVE_FEED()"); break;
-    case 53: canon_.print(enable ? "ENABLE_FEED_HOLD()" : "DISABLE_FEED_HOLD()"); break;
-    default: break;
+    case 52:
+      canon_.print(enable ? "ENABLE_ADAPTIVE_FEED()" : "DISABLE_ADAPTIVE_FEED()");
+      break;
+    case 53:
+      canon_.print(enable ? "ENABLE_FEED_HOLD()" : "DISABLE_FEED_HOLD()");
+      break;
+    default:
+      break;
   }
 }
 
@@ -495,17 +624,26 @@ void Interpreter::g_codes(Block& b) {
                                                      : "interpreter: retract mode set to old_z");
   }
   switch (b.g_mode[0]) {
-    case 100: setup_g10(b); break;
+    case 100:
+      setup_g10(b);
+      break;
     case 280:
-    case 300: home(b.g_mode[0], b); break;
+    case 300:
+      home(b.g_mode[0], b);
+      break;
     case 281:
-    case 301: save_home(b.g_mode[0]); break;
+    case 301:
+      save_home(b.g_mode[0]);
+      break;
     case 520:
     case 920:
     case 921:
     case 922:
-    case 923: axis_offsets(b.g_mode[0], b); break;
-    default: break;
+    case 923:
+      axis_offsets(b.g_mode[0], b);
+      break;
+    default:
+      break;
   }
   if (b.motion != -1) motion(b.motion, b);
 }

@@ -68,14 +68,14 @@ class CanonWriter {
 struct Block {
   static constexpr int kMaxCodes = 16;  // each G code needs its own modal group, so 16 is more than enough
   std::array<double, 26> value{};
-  std::uint32_t present = 0;            // bit (letter - 'A')
-  std::array<int, 16> g_mode;           // modal group -> G code x10, -1 = none
-  std::array<int, 11> m_mode;           // M modal group -> M code, -1 = none
+  std::uint32_t present = 0;             // bit (letter - 'A')
+  std::array<int, 16> g_mode;            // modal group -> G code x10, -1 = none
+  std::array<int, 11> m_mode;            // M modal group -> M code, -1 = none
   std::array<int, kMaxCodes> g_codes{};  // x10, as written
   std::array<int, kMaxCodes> m_codes{};
   int n_g = 0, n_m = 0;
-  bool no_motion_m = false;             // a remapped no-motion M code is in the block
-  int motion = -1;                      // the motion this block makes (G code x10), -1 = none
+  bool no_motion_m = false;  // a remapped no-motion M code is in the block
+  int motion = -1;           // the motion this block makes (G code x10), -1 = none
 
   Block() {
     g_mode.fill(-1);
@@ -146,9 +146,9 @@ class Interpreter final : public ParamSource {
   void set_inverse_time_rate(double length);
 
   // ---- geometry and units
-  double to_user_len(double v) const;    // program units -> machine units (tool table, #5xxx)
-  double from_user_len(double v) const;  // machine units -> program units
-  core::Vec6 machine(const Pos& p) const;      // ToolPath frame: mm, rad, work offsets applied
+  double to_user_len(double v) const;      // program units -> machine units (tool table, #5xxx)
+  double from_user_len(double v) const;    // machine units -> program units
+  core::Vec6 machine(const Pos& p) const;  // ToolPath frame: mm, rad, work offsets applied
   void current_in_system(int system, Pos& out) const;
   static void rotate(double& x, double& y, double deg);
   const ToolEntry* tool_entry(int number, const char* what) const;
@@ -191,15 +191,15 @@ class Interpreter final : public ParamSource {
   bool inverse_time_ = false;
   double feed_rate_ = 0.0;  // program units/min (deg/min); under G93 the last computed rate
   double speed_ = 0.0;
-  int motion_mode_ = 800;   // G80
+  int motion_mode_ = 800;        // G80
   bool retract_r_plane_ = true;  // LinuxCNC starts in G99
   int origin_index_ = 1;
-  Pos origin_offset_{};     // G54..G59.3
-  Pos axis_offset_{};       // G92 / G52
+  Pos origin_offset_{};       // G54..G59.3
+  Pos axis_offset_{};         // G92 / G52
   double rotation_xy_ = 0.0;  // degrees
-  Pos tool_offset_{};       // G43 (x y z a b c)
-  int current_tool_ = 0;    // in the spindle
-  int selected_tool_ = 0;   // last T word
+  Pos tool_offset_{};         // G43 (x y z a b c)
+  int current_tool_ = 0;      // in the spindle
+  int selected_tool_ = 0;     // last T word
   ControlMode control_ = ControlMode::Continuous;
   double control_tolerance_ = 0.0;
   double naivecam_tolerance_ = 0.0;
@@ -212,7 +212,7 @@ class Interpreter final : public ParamSource {
   double block_f_ = 0;  // F word of the executing block (inverse time)
   bool tlo_active_ = false;
   // Physical feed LinuxCNC's canon layer holds after SET_FEED_RATE: unit changes (G20/G21) do not alter it.
-  double feed_linear_mm_ = 0.0;   // mm/min
+  double feed_linear_mm_ = 0.0;    // mm/min
   double feed_angular_deg_ = 0.0;  // deg/min, for moves of the rotary axes only
 
   // ---- output

@@ -42,11 +42,21 @@ struct OKeyword {
   OKind kind;
 };
 constexpr OKeyword kOKeywords[] = {
-    {"sub", OKind::Sub},         {"endsub", OKind::EndSub},       {"return", OKind::Return},
-    {"call", OKind::Call},       {"if", OKind::If},               {"elseif", OKind::ElseIf},
-    {"else", OKind::Else},       {"endif", OKind::EndIf},         {"while", OKind::While},
-    {"endwhile", OKind::EndWhile}, {"do", OKind::Do},             {"repeat", OKind::Repeat},
-    {"endrepeat", OKind::EndRepeat}, {"break", OKind::Break},     {"continue", OKind::Continue},
+    {"sub", OKind::Sub},
+    {"endsub", OKind::EndSub},
+    {"return", OKind::Return},
+    {"call", OKind::Call},
+    {"if", OKind::If},
+    {"elseif", OKind::ElseIf},
+    {"else", OKind::Else},
+    {"endif", OKind::EndIf},
+    {"while", OKind::While},
+    {"endwhile", OKind::EndWhile},
+    {"do", OKind::Do},
+    {"repeat", OKind::Repeat},
+    {"endrepeat", OKind::EndRepeat},
+    {"break", OKind::Break},
+    {"continue", OKind::Continue},
 };
 
 class LineReader {
@@ -107,7 +117,9 @@ class LineReader {
     } catch (const ExprError& e) {
       throw LineError(std::string("parameter setting: ") + e.what());
     }
-    if (peek() != '=') throw LineError("parameter setting needs '=' after the parameter, found " + (peek() ? show(peek()) : std::string("end of line")));
+    if (peek() != '=')
+      throw LineError("parameter setting needs '=' after the parameter, found " +
+                      (peek() ? show(peek()) : std::string("end of line")));
     ++pos_;
     try {
       a.value = parser().value();
@@ -163,7 +175,8 @@ class LineReader {
         case OKind::While:
         case OKind::Repeat:
           if (peek() != '[')
-            throw LineError(name + " " + keyword + " needs a bracketed expression, e.g. " + name + " " + keyword + " [#1 LT 3]");
+            throw LineError(name + " " + keyword + " needs a bracketed expression, e.g. " + name + " " + keyword +
+                            " [#1 LT 3]");
           o.expr = parser().value();
           break;
         case OKind::Return:
@@ -177,7 +190,8 @@ class LineReader {
       throw LineError(name + " " + keyword + ": " + e.what());
     }
     if (pos_ < text_.size())
-      throw LineError(name + " " + keyword + ": unexpected " + show(peek()) + " (an O-word line holds only the O-word and comments)");
+      throw LineError(name + " " + keyword + ": unexpected " + show(peek()) +
+                      " (an O-word line holds only the O-word and comments)");
     return o;
   }
 
@@ -234,7 +248,8 @@ void intern_comment_names(const std::string& comment, NameTable& names) {
 std::string oword_name(const std::string& label) {
   std::string s = "o";
   s += label;
-  return s; }
+  return s;
+}
 
 const char* oword_keyword(OKind kind) {
   for (const OKeyword& k : kOKeywords)

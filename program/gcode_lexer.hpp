@@ -29,27 +29,41 @@ struct Assignment {
 };
 
 enum class OKind : std::uint8_t {
-  Sub, EndSub, Return, Call, If, ElseIf, Else, EndIf, While, EndWhile, Do, Repeat, EndRepeat, Break, Continue
+  Sub,
+  EndSub,
+  Return,
+  Call,
+  If,
+  ElseIf,
+  Else,
+  EndIf,
+  While,
+  EndWhile,
+  Do,
+  Repeat,
+  EndRepeat,
+  Break,
+  Continue
 };
 
 struct OWord {
   OKind kind = OKind::Sub;
-  std::string label;          // "100" or "<name>" (as written after O, numbers without leading zeros)
-  std::vector<ExprId> args;   // call arguments
-  ExprId expr = kNoExpr;      // condition, repeat count, return value
+  std::string label;         // "100" or "<name>" (as written after O, numbers without leading zeros)
+  std::vector<ExprId> args;  // call arguments
+  ExprId expr = kNoExpr;     // condition, repeat count, return value
 };
 
 struct SourceLine {
-  int number = 0;              // 1-based line of the file
+  int number = 0;                 // 1-based line of the file
   std::string n_word = "N.....";  // what rs274 prints for the line: "N....." or 'N' and the digits written
-  bool percent = false;        // a line holding only '%'
-  bool block_delete = false;   // starts with '/'
-  bool has_content = false;    // anything to execute (words, settings, a comment or an O-word)
+  bool percent = false;           // a line holding only '%'
+  bool block_delete = false;      // starts with '/'
+  bool has_content = false;       // anything to execute (words, settings, a comment or an O-word)
   std::vector<Word> words;
   std::vector<Assignment> assignments;
   std::optional<std::string> comment;  // text inside the last ( ) of the line, as written
   std::optional<OWord> oword;
-  std::string error;           // non-empty: why the line cannot be read
+  std::string error;  // non-empty: why the line cannot be read
   // An O-word line that could not be read (its error above): the flow matcher reports it, not the end of its block.
   bool unreadable_oword = false;
 };

@@ -28,9 +28,12 @@ struct PlaneAxes {
 };
 PlaneAxes axes_of(Plane p) {
   switch (p) {
-    case Plane::XY: return {0, 1, 2, 'X', 'Y', 'Z'};
-    case Plane::XZ: return {2, 0, 1, 'Z', 'X', 'Y'};
-    case Plane::YZ: return {1, 2, 0, 'Y', 'Z', 'X'};
+    case Plane::XY:
+      return {0, 1, 2, 'X', 'Y', 'Z'};
+    case Plane::XZ:
+      return {2, 0, 1, 'Z', 'X', 'Y'};
+    case Plane::YZ:
+      return {1, 2, 0, 'Y', 'Z', 'X'};
   }
   return {0, 1, 2, 'X', 'Y', 'Z'};
 }
@@ -176,14 +179,20 @@ void Interpreter::motion(int g, Block& b) {
   if (!cycle_code) cycle_il_flag_ = false;  // the "initial level" lasts while cycles follow each other
   switch (g) {
     case 0:
-    case 10: straight(g, b); break;
+    case 10:
+      straight(g, b);
+      break;
     case 20:
-    case 30: arc(g, b); break;
+    case 30:
+      arc(g, b);
+      break;
     case 800:
       canon_.print("COMMENT(\"%s\")", "interpreter: motion mode set to none");
       motion_mode_ = 800;
       break;
-    default: cycle(g, b); break;
+    default:
+      cycle(g, b);
+      break;
   }
 }
 
@@ -261,7 +270,8 @@ void Interpreter::arc(int g, const Block& b) {
     off1 = b.has(l1) ? b[l1] : 0.0;
     off2 = b.has(l2) ? b[l2] : 0.0;
   } else if (!b.has(ax.la) && !b.has(ax.lb)) {
-    fail(code + " R: " + std::string(1, ax.la) + " and " + std::string(1, ax.lb) + " words are both missing (an R arc cannot be a full circle)");
+    fail(code + " R: " + std::string(1, ax.la) + " and " + std::string(1, ax.lb) +
+         " words are both missing (an R arc cannot be a full circle)");
   }
   int turns = 1;
   if (b.has('P')) {
@@ -287,7 +297,8 @@ void Interpreter::arc(int g, const Block& b) {
     const double mid_y = (y2 + y1) / 2.0;
     double half_length = std::hypot(mid_x - x2, mid_y - y2);
     if (half_length - abs_radius > tolerance)
-      fail(code + " R" + num(radius) + ": radius too small to reach the end point (chord/2 = " + num(half_length) + ")");
+      fail(code + " R" + num(radius) + ": radius too small to reach the end point (chord/2 = " + num(half_length) +
+           ")");
     if (half_length / abs_radius > 1 - kTiny) half_length = abs_radius;  // a semicircle, within rounding
     const long double base = std::atan2(y2 - y1, x2 - x1);
     // R > 0: the short arc (up to a semicircle), R < 0: the long one.
@@ -303,9 +314,9 @@ void Interpreter::arc(int g, const Block& b) {
     cy = ijk_absolute_ ? off2 : y1 + off2;
     const double r1 = std::hypot(cx - x1, cy - y1);
     const double r2 = std::hypot(cx - x2, cy - y2);
-    const std::string detail = "start=(" + std::string(1, a) + num(x1) + "," + c + num(y1) + ") centre=(" + a + num(cx) +
-                               "," + c + num(cy) + ") end=(" + a + num(x2) + "," + c + num(y2) + ") r1=" + num(r1) +
-                               " r2=" + num(r2);
+    const std::string detail = "start=(" + std::string(1, a) + num(x1) + "," + c + num(y1) + ") centre=(" + a +
+                               num(cx) + "," + c + num(cy) + ") end=(" + a + num(x2) + "," + c + num(y2) +
+                               ") r1=" + num(r1) + " r2=" + num(r2);
     if (r1 < radius_tolerance || r2 < radius_tolerance) fail(code + ": zero-radius arc: " + detail);
     const double abs_err = std::fabs(r1 - r2);
     const double rel_err = abs_err / std::max(r1, r2);
@@ -378,7 +389,8 @@ void Interpreter::cycle(int g, Block& b) {
     bb = pos_[ax.b];
   }
   if (r < cc)
-    fail(code + ": the R plane (" + num(r) + ") is below the hole bottom " + std::string(1, ax.lc) + " (" + num(cc) + ")");
+    fail(code + ": the R plane (" + num(r) + ") is below the hole bottom " + std::string(1, ax.lc) + " (" + num(cc) +
+         ")");
 
   double dwell = 0.0, delta = 0.0;
   if (g == 820 || g == 890) {
@@ -471,7 +483,8 @@ void Interpreter::cycle(int g, Block& b) {
         canon_.print("DWELL(%.4f)", dwell);
         move(false, aa, bb, clear_cc);
         break;
-      default: fail(code + " is not a canned cycle vmsim executes");
+      default:
+        fail(code + " is not a canned cycle vmsim executes");
     }
   }
   cycle_cc_ = cc_word;

@@ -214,8 +214,8 @@ void Interpreter::axis_offsets(int g, const Block& b) {
       axis_offset_[i] = v;
     }
   }
-  canon_.print("SET_G92_OFFSET(%.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", axis_offset_[0], axis_offset_[1],
-               axis_offset_[2], axis_offset_[3], axis_offset_[4], axis_offset_[5]);
+  canon_.print("SET_G92_OFFSET(%.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", axis_offset_[0], axis_offset_[1], axis_offset_[2],
+               axis_offset_[3], axis_offset_[4], axis_offset_[5]);
 }
 
 void Interpreter::save_home(int g) {

@@ -15,11 +15,55 @@ namespace {
 
 // LinuxCNC's predefined named parameters (#<_x>, #<_metric>, ...): read-only, computed when read.
 enum class PredefKind : std::uint8_t {
-  None, X, Y, Z, A, B, C, U, V, W, Line, MotionMode, Plane, Ccomp, Metric, Imperial, Absolute, Incremental,
-  InverseTime, UnitsPerMinute, UnitsPerRev, CoordSystem, ToolOffset, RetractRPlane, RetractOldZ, SpindleRpmMode,
-  SpindleCssMode, IjkAbsolute, LatheDiameter, LatheRadius, SpindleOn, SpindleCw, Mist, Flood, SpeedOverride,
-  FeedOverride, AdaptiveFeed, FeedHold, Feed, Rpm, CurrentTool, CurrentPocket, SelectedTool, SelectedPocket,
-  CallLevel, RemapLevel, Task, VMajor, VMinor
+  None,
+  X,
+  Y,
+  Z,
+  A,
+  B,
+  C,
+  U,
+  V,
+  W,
+  Line,
+  MotionMode,
+  Plane,
+  Ccomp,
+  Metric,
+  Imperial,
+  Absolute,
+  Incremental,
+  InverseTime,
+  UnitsPerMinute,
+  UnitsPerRev,
+  CoordSystem,
+  ToolOffset,
+  RetractRPlane,
+  RetractOldZ,
+  SpindleRpmMode,
+  SpindleCssMode,
+  IjkAbsolute,
+  LatheDiameter,
+  LatheRadius,
+  SpindleOn,
+  SpindleCw,
+  Mist,
+  Flood,
+  SpeedOverride,
+  FeedOverride,
+  AdaptiveFeed,
+  FeedHold,
+  Feed,
+  Rpm,
+  CurrentTool,
+  CurrentPocket,
+  SelectedTool,
+  SelectedPocket,
+  CallLevel,
+  RemapLevel,
+  Task,
+  VMajor,
+  VMinor
 };
 
 struct PredefName {
@@ -27,25 +71,53 @@ struct PredefName {
   PredefKind kind;
 };
 constexpr PredefName kPredef[] = {
-    {"_x", PredefKind::X}, {"_y", PredefKind::Y}, {"_z", PredefKind::Z}, {"_a", PredefKind::A},
-    {"_b", PredefKind::B}, {"_c", PredefKind::C}, {"_u", PredefKind::U}, {"_v", PredefKind::V},
-    {"_w", PredefKind::W}, {"_line", PredefKind::Line}, {"_motion_mode", PredefKind::MotionMode},
-    {"_plane", PredefKind::Plane}, {"_ccomp", PredefKind::Ccomp}, {"_metric", PredefKind::Metric},
-    {"_imperial", PredefKind::Imperial}, {"_absolute", PredefKind::Absolute},
-    {"_incremental", PredefKind::Incremental}, {"_inverse_time", PredefKind::InverseTime},
-    {"_units_per_minute", PredefKind::UnitsPerMinute}, {"_units_per_rev", PredefKind::UnitsPerRev},
-    {"_coord_system", PredefKind::CoordSystem}, {"_tool_offset", PredefKind::ToolOffset},
-    {"_retract_r_plane", PredefKind::RetractRPlane}, {"_retract_old_z", PredefKind::RetractOldZ},
-    {"_spindle_rpm_mode", PredefKind::SpindleRpmMode}, {"_spindle_css_mode", PredefKind::SpindleCssMode},
-    {"_ijk_absolute_mode", PredefKind::IjkAbsolute}, {"_lathe_diameter_mode", PredefKind::LatheDiameter},
-    {"_lathe_radius_mode", PredefKind::LatheRadius}, {"_spindle_on", PredefKind::SpindleOn},
-    {"_spindle_cw", PredefKind::SpindleCw}, {"_mist", PredefKind::Mist}, {"_flood", PredefKind::Flood},
-    {"_speed_override", PredefKind::SpeedOverride}, {"_feed_override", PredefKind::FeedOverride},
-    {"_adaptive_feed", PredefKind::AdaptiveFeed}, {"_feed_hold", PredefKind::FeedHold},
-    {"_feed", PredefKind::Feed}, {"_rpm", PredefKind::Rpm}, {"_current_tool", PredefKind::CurrentTool},
-    {"_current_pocket", PredefKind::CurrentPocket}, {"_selected_tool", PredefKind::SelectedTool},
-    {"_selected_pocket", PredefKind::SelectedPocket}, {"_call_level", PredefKind::CallLevel},
-    {"_remap_level", PredefKind::RemapLevel}, {"_task", PredefKind::Task}, {"_vmajor", PredefKind::VMajor},
+    {"_x", PredefKind::X},
+    {"_y", PredefKind::Y},
+    {"_z", PredefKind::Z},
+    {"_a", PredefKind::A},
+    {"_b", PredefKind::B},
+    {"_c", PredefKind::C},
+    {"_u", PredefKind::U},
+    {"_v", PredefKind::V},
+    {"_w", PredefKind::W},
+    {"_line", PredefKind::Line},
+    {"_motion_mode", PredefKind::MotionMode},
+    {"_plane", PredefKind::Plane},
+    {"_ccomp", PredefKind::Ccomp},
+    {"_metric", PredefKind::Metric},
+    {"_imperial", PredefKind::Imperial},
+    {"_absolute", PredefKind::Absolute},
+    {"_incremental", PredefKind::Incremental},
+    {"_inverse_time", PredefKind::InverseTime},
+    {"_units_per_minute", PredefKind::UnitsPerMinute},
+    {"_units_per_rev", PredefKind::UnitsPerRev},
+    {"_coord_system", PredefKind::CoordSystem},
+    {"_tool_offset", PredefKind::ToolOffset},
+    {"_retract_r_plane", PredefKind::RetractRPlane},
+    {"_retract_old_z", PredefKind::RetractOldZ},
+    {"_spindle_rpm_mode", PredefKind::SpindleRpmMode},
+    {"_spindle_css_mode", PredefKind::SpindleCssMode},
+    {"_ijk_absolute_mode", PredefKind::IjkAbsolute},
+    {"_lathe_diameter_mode", PredefKind::LatheDiameter},
+    {"_lathe_radius_mode", PredefKind::LatheRadius},
+    {"_spindle_on", PredefKind::SpindleOn},
+    {"_spindle_cw", PredefKind::SpindleCw},
+    {"_mist", PredefKind::Mist},
+    {"_flood", PredefKind::Flood},
+    {"_speed_override", PredefKind::SpeedOverride},
+    {"_feed_override", PredefKind::FeedOverride},
+    {"_adaptive_feed", PredefKind::AdaptiveFeed},
+    {"_feed_hold", PredefKind::FeedHold},
+    {"_feed", PredefKind::Feed},
+    {"_rpm", PredefKind::Rpm},
+    {"_current_tool", PredefKind::CurrentTool},
+    {"_current_pocket", PredefKind::CurrentPocket},
+    {"_selected_tool", PredefKind::SelectedTool},
+    {"_selected_pocket", PredefKind::SelectedPocket},
+    {"_call_level", PredefKind::CallLevel},
+    {"_remap_level", PredefKind::RemapLevel},
+    {"_task", PredefKind::Task},
+    {"_vmajor", PredefKind::VMajor},
     {"_vminor", PredefKind::VMinor},
 };
 
@@ -77,8 +149,8 @@ Interpreter::Interpreter(const ParsedProgram& program, std::string file, const G
   }
   if (options.start_mm)
     for (std::size_t i = 0; i < 3; ++i) pos_[i] = (*options.start_mm)[i];  // programs start in G21: mm
-  params_[5220] = 1.0;  // G54 active
-  params_[5599] = 1.0;  // (debug, ...) messages on, as in LinuxCNC
+  params_[5220] = 1.0;                                                     // G54 active
+  params_[5599] = 1.0;                                                     // (debug, ...) messages on, as in LinuxCNC
   path_.source_path = file_;
   frames_.emplace_back();  // the main program's frame (its named locals, its repeat counters)
 }
@@ -87,7 +159,8 @@ double Interpreter::numbered(double index) const {
   const double r = std::nearbyint(index);
   if (std::fabs(r - index) > 1e-4) throw ExprError("parameter number #" + fmt_num(index) + " is not a whole number");
   if (r < 1.0 || r >= kNumParams)
-    throw ExprError("parameter number #" + fmt_num(index) + " is out of range (1 to " + std::to_string(kNumParams - 1) + ")");
+    throw ExprError("parameter number #" + fmt_num(index) + " is out of range (1 to " + std::to_string(kNumParams - 1) +
+                    ")");
   const int i = static_cast<int>(r);
   if (i >= 5420 && i <= 5428) return i <= 5425 ? pos_[static_cast<std::size_t>(i - 5420)] : 0.0;
   if (i >= 5400 && i <= 5413) {
@@ -105,59 +178,103 @@ double Interpreter::named(int id) const {
   const auto kind = static_cast<PredefKind>(predef_[static_cast<std::size_t>(id)]);
   const auto flag = [](bool b) { return b ? 1.0 : 0.0; };
   switch (kind) {
-    case PredefKind::None: break;
-    case PredefKind::X: return pos_[0];
-    case PredefKind::Y: return pos_[1];
-    case PredefKind::Z: return pos_[2];
-    case PredefKind::A: return pos_[3];
-    case PredefKind::B: return pos_[4];
-    case PredefKind::C: return pos_[5];
+    case PredefKind::None:
+      break;
+    case PredefKind::X:
+      return pos_[0];
+    case PredefKind::Y:
+      return pos_[1];
+    case PredefKind::Z:
+      return pos_[2];
+    case PredefKind::A:
+      return pos_[3];
+    case PredefKind::B:
+      return pos_[4];
+    case PredefKind::C:
+      return pos_[5];
     case PredefKind::U:
     case PredefKind::V:
-    case PredefKind::W: return 0.0;
-    case PredefKind::Line: return line_ < prog_.lines.size() ? prog_.lines[line_].number : 0;
-    case PredefKind::MotionMode: return motion_mode_;
-    case PredefKind::Plane: return plane_ == Plane::XY ? 170 : plane_ == Plane::XZ ? 180 : 190;
-    case PredefKind::Ccomp: return 400;
-    case PredefKind::Metric: return flag(!inch_);
-    case PredefKind::Imperial: return flag(inch_);
-    case PredefKind::Absolute: return flag(absolute_);
-    case PredefKind::Incremental: return flag(!absolute_);
-    case PredefKind::InverseTime: return flag(inverse_time_);
-    case PredefKind::UnitsPerMinute: return flag(!inverse_time_);
-    case PredefKind::UnitsPerRev: return 0.0;
+    case PredefKind::W:
+      return 0.0;
+    case PredefKind::Line:
+      return line_ < prog_.lines.size() ? prog_.lines[line_].number : 0;
+    case PredefKind::MotionMode:
+      return motion_mode_;
+    case PredefKind::Plane:
+      return plane_ == Plane::XY ? 170 : plane_ == Plane::XZ ? 180 : 190;
+    case PredefKind::Ccomp:
+      return 400;
+    case PredefKind::Metric:
+      return flag(!inch_);
+    case PredefKind::Imperial:
+      return flag(inch_);
+    case PredefKind::Absolute:
+      return flag(absolute_);
+    case PredefKind::Incremental:
+      return flag(!absolute_);
+    case PredefKind::InverseTime:
+      return flag(inverse_time_);
+    case PredefKind::UnitsPerMinute:
+      return flag(!inverse_time_);
+    case PredefKind::UnitsPerRev:
+      return 0.0;
     case PredefKind::CoordSystem: {
       static constexpr int kCodes[] = {540, 550, 560, 570, 580, 590, 591, 592, 593};
       return kCodes[origin_index_ - 1];
     }
-    case PredefKind::ToolOffset: return flag(tlo_active_);
-    case PredefKind::RetractRPlane: return flag(retract_r_plane_);
-    case PredefKind::RetractOldZ: return flag(!retract_r_plane_);
-    case PredefKind::SpindleRpmMode: return 1.0;
-    case PredefKind::SpindleCssMode: return 0.0;
-    case PredefKind::IjkAbsolute: return flag(ijk_absolute_);
-    case PredefKind::LatheDiameter: return 0.0;
-    case PredefKind::LatheRadius: return 1.0;
-    case PredefKind::SpindleOn: return flag(spindle_ != 0);
-    case PredefKind::SpindleCw: return flag(spindle_ == 1);
-    case PredefKind::Mist: return flag(mist_);
-    case PredefKind::Flood: return flag(flood_);
-    case PredefKind::SpeedOverride: return flag(speed_override_);
-    case PredefKind::FeedOverride: return flag(feed_override_);
-    case PredefKind::AdaptiveFeed: return 0.0;
-    case PredefKind::FeedHold: return 1.0;
-    case PredefKind::Feed: return feed_rate_;
-    case PredefKind::Rpm: return speed_;
+    case PredefKind::ToolOffset:
+      return flag(tlo_active_);
+    case PredefKind::RetractRPlane:
+      return flag(retract_r_plane_);
+    case PredefKind::RetractOldZ:
+      return flag(!retract_r_plane_);
+    case PredefKind::SpindleRpmMode:
+      return 1.0;
+    case PredefKind::SpindleCssMode:
+      return 0.0;
+    case PredefKind::IjkAbsolute:
+      return flag(ijk_absolute_);
+    case PredefKind::LatheDiameter:
+      return 0.0;
+    case PredefKind::LatheRadius:
+      return 1.0;
+    case PredefKind::SpindleOn:
+      return flag(spindle_ != 0);
+    case PredefKind::SpindleCw:
+      return flag(spindle_ == 1);
+    case PredefKind::Mist:
+      return flag(mist_);
+    case PredefKind::Flood:
+      return flag(flood_);
+    case PredefKind::SpeedOverride:
+      return flag(speed_override_);
+    case PredefKind::FeedOverride:
+      return flag(feed_override_);
+    case PredefKind::AdaptiveFeed:
+      return 0.0;
+    case PredefKind::FeedHold:
+      return 1.0;
+    case PredefKind::Feed:
+      return feed_rate_;
+    case PredefKind::Rpm:
+      return speed_;
     case PredefKind::CurrentTool:
-    case PredefKind::CurrentPocket: return current_tool_;
+    case PredefKind::CurrentPocket:
+      return current_tool_;
     case PredefKind::SelectedTool:
-    case PredefKind::SelectedPocket: return selected_tool_;
-    case PredefKind::CallLevel: return static_cast<double>(frames_.size() - 1);
-    case PredefKind::RemapLevel: return 0.0;
+    case PredefKind::SelectedPocket:
+      return selected_tool_;
+    case PredefKind::CallLevel:
+      return static_cast<double>(frames_.size() - 1);
+    case PredefKind::RemapLevel:
+      return 0.0;
     // A simulated run is the machine's run (LinuxCNC's task), not a preview.
-    case PredefKind::Task: return 1.0;
-    case PredefKind::VMajor: return 2.0;
-    case PredefKind::VMinor: return 9.0;
+    case PredefKind::Task:
+      return 1.0;
+    case PredefKind::VMajor:
+      return 2.0;
+    case PredefKind::VMinor:
+      return 9.0;
   }
   const std::string& name = prog_.names.name(id);
   if (name[0] == '_') {
@@ -202,13 +319,15 @@ void Interpreter::apply_assignments(const SourceLine& line) {
         if (r < 1.0 || r >= kNumParams)
           throw ExprError("parameter number #" + fmt_num(idx) + " is out of range (1 to 5601)");
         p.index = static_cast<int>(r);
-        if (p.index >= 5400 && p.index <= 5428) throw ExprError("parameter #" + std::to_string(p.index) + " is read-only");
+        if (p.index >= 5400 && p.index <= 5428)
+          throw ExprError("parameter #" + std::to_string(p.index) + " is read-only");
       } else if (static_cast<PredefKind>(predef_[static_cast<std::size_t>(a.name)]) != PredefKind::None) {
         throw ExprError("#<" + prog_.names.name(a.name) + "> is a read-only predefined parameter");
       }
       p.value = prog_.exprs.evaluate(a.value, *this);
     } catch (const ExprError& e) {
-      const std::string target = a.name >= 0 ? "#<" + prog_.names.name(a.name) + ">" : "#" + (p.index ? std::to_string(p.index) : std::string("..."));
+      const std::string target = a.name >= 0 ? "#<" + prog_.names.name(a.name) + ">"
+                                             : "#" + (p.index ? std::to_string(p.index) : std::string("..."));
       fail("setting " + target + ": " + e.what());
     }
     pending[n++] = p;

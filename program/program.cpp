@@ -22,10 +22,14 @@ Dialect parse_dialect(const std::string& name) {
 
 const char* dialect_name(Dialect dialect) {
   switch (dialect) {
-    case Dialect::Auto: return "auto";
-    case Dialect::Rs274ngc: return "rs274ngc";
-    case Dialect::Sinumerik: return "sinumerik";
-    case Dialect::Apt: return "apt";
+    case Dialect::Auto:
+      return "auto";
+    case Dialect::Rs274ngc:
+      return "rs274ngc";
+    case Dialect::Sinumerik:
+      return "sinumerik";
+    case Dialect::Apt:
+      return "apt";
   }
   return "auto";
 }
@@ -80,7 +84,8 @@ core::ToolPath read_program(const std::filesystem::path& path, const ProgramOpti
       return std::move(r.path);
     }
     case Dialect::Rs274ngc:
-    case Dialect::Auto: break;
+    case Dialect::Auto:
+      break;
   }
   GcodeOptions g;
   g.tool_table = options.tool_table;

@@ -22,9 +22,9 @@ const char* dialect_name(Dialect dialect);
 
 struct ProgramOptions {
   std::optional<std::filesystem::path> tool_table;  // LinuxCNC tool table for G43 H / T words
-  std::vector<int> no_motion_mcodes;                 // G-code: remapped M codes without motion (see gcode.hpp)
-  std::optional<std::array<double, 3>> start_mm;     // G-code and Sinumerik: where the tool starts
-  std::uint64_t max_blocks = 20'000'000;             // G-code and Sinumerik: blocks executed before "possible endless loop"
+  std::vector<int> no_motion_mcodes;                // G-code: remapped M codes without motion (see gcode.hpp)
+  std::optional<std::array<double, 3>> start_mm;    // G-code and Sinumerik: where the tool starts
+  std::uint64_t max_blocks = 20'000'000;  // G-code and Sinumerik: blocks executed before "possible endless loop"
   Dialect dialect = Dialect::Auto;
   // Sinumerik and APT: statements known to have no motion that vmsim does not model become warnings (path.warnings).
   bool lenient = false;

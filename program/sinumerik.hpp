@@ -57,35 +57,35 @@ struct SinumerikOptions {
   const MachineTransform* machine = nullptr;
   // Arcs in a plane the workpiece frame has no name for (a frame turned by 45 deg): chords within this distance.
   double arc_chord_tolerance_mm = 1e-3;
-  std::uint64_t max_blocks = 20'000'000;      // executed blocks (a GOTOB loop counts every pass)
+  std::uint64_t max_blocks = 20'000'000;  // executed blocks (a GOTOB loop counts every pass)
   std::size_t max_canon_calls = 5'000'000;
 };
 
 // An interpolation setting the program makes (CYCLE832, G60/G64/G642, SOFT/BRISK, FFWON/FFWOF), in program order.
 struct InterpSetting {
   int source_line = 0;
-  std::string what;                  // "CYCLE832 finishing", "G642", "SOFT", "FFWON", ...
+  std::string what;                    // "CYCLE832 finishing", "G642", "SOFT", "FFWON", ...
   std::optional<double> tolerance_mm;  // CYCLE832's contour tolerance
 };
 
 struct SinumerikStats {
-  int lines = 0;               // lines of the file
-  std::uint64_t blocks = 0;    // blocks executed (jumps and loops count every pass)
-  int rapid_blocks = 0;        // G0 blocks with motion
-  int linear_blocks = 0;       // G1 blocks with motion
-  int arc_blocks = 0;          // G2/G3 blocks
-  int cycle_calls = 0;         // drilling cycle executions
-  int tool_changes = 0;        // M6
-  int frame_statements = 0;    // TRANS/ATRANS/ROT/AROT
-  int tcp_moves = 0;           // ToolPath moves under TRAORI / CYCLE800
-  int chorded_arcs = 0;        // arcs in an oblique plane, given as chords
+  int lines = 0;             // lines of the file
+  std::uint64_t blocks = 0;  // blocks executed (jumps and loops count every pass)
+  int rapid_blocks = 0;      // G0 blocks with motion
+  int linear_blocks = 0;     // G1 blocks with motion
+  int arc_blocks = 0;        // G2/G3 blocks
+  int cycle_calls = 0;       // drilling cycle executions
+  int tool_changes = 0;      // M6
+  int frame_statements = 0;  // TRANS/ATRANS/ROT/AROT
+  int tcp_moves = 0;         // ToolPath moves under TRAORI / CYCLE800
+  int chorded_arcs = 0;      // arcs in an oblique plane, given as chords
 };
 
 struct SinumerikResult {
   core::ToolPath path;
-  std::vector<CanonCall> canon;         // LinuxCNC's canonical-call vocabulary, workpiece frame, mm and degrees
-  std::vector<std::string> warnings;    // lenient: what was accepted without being modelled, "file:line: ..."
-  std::vector<std::string> tools;       // T="name" in order of first call; tool number = index + 1
+  std::vector<CanonCall> canon;       // LinuxCNC's canonical-call vocabulary, workpiece frame, mm and degrees
+  std::vector<std::string> warnings;  // lenient: what was accepted without being modelled, "file:line: ..."
+  std::vector<std::string> tools;     // T="name" in order of first call; tool number = index + 1
   std::vector<InterpSetting> interp_settings;
   // The smallest CYCLE832 contour tolerance in force during a feed move: the interpolation tolerance the program asks
   // for (a job that gives none in [interpolation] uses it). Empty when no feed move runs under CYCLE832.

@@ -42,8 +42,9 @@ void Executor::call(const Call& c, bool from_mcall) {
   if (c.name == "WAITM" || c.name == "WAITE" || c.name == "WAITS" || c.name == "SETMS" || c.name == "GROUP_BEGIN" ||
       c.name == "GROUP_END")
     return not_modelled(c.name + "(): NC command without motion");
-  fail(c.name + "(): subprogram or cycle not supported (vmsim reads CYCLE800, CYCLE81, CYCLE82, CYCLE83, CYCLE832 "
-                "and MSG)");
+  fail(c.name +
+       "(): subprogram or cycle not supported (vmsim reads CYCLE800, CYCLE81, CYCLE82, CYCLE83, CYCLE832 "
+       "and MSG)");
 }
 
 // CYCLE832(_TOL, _TOLM, _OTOL): contour tolerance and machining technology (units digit of _TOLM: 0 deselect,
@@ -92,7 +93,8 @@ void Executor::cycle800(const Call& c) {
          "the retraction as moves");
   const int mode = static_cast<int>(std::llround(arg(c, 3, 57)));
   if (((mode >> 6) & 3) != 0)
-    fail("CYCLE800: swivel mode _MODE=" + std::to_string(mode) + " is not axis by axis (bits 7-6 = 00): solid, "
+    fail("CYCLE800: swivel mode _MODE=" + std::to_string(mode) +
+         " is not axis by axis (bits 7-6 = 00): solid, "
          "projection and direct rotary angles are not supported");
   Frame r;
   const double ang[3] = {arg(c, 7, 0), arg(c, 8, 0), arg(c, 9, 0)};
@@ -109,8 +111,9 @@ void Executor::cycle800(const Call& c) {
   const Eigen::Vector3d x1(arg(c, 10, 0) * len, arg(c, 11, 0) * len, arg(c, 12, 0) * len);
   const Frame swivel = Frame::translation(x0).then(r).then(Frame::translation(x1));
   if (!options_.machine)
-    fail("CYCLE800 turns the rotary axes through the machine's kinematics: read the program with a machine "
-         "(a job with a chain machine file)");
+    fail(
+        "CYCLE800 turns the rotary axes through the machine's kinematics: read the program with a machine "
+        "(a job with a chain machine file)");
   const Eigen::Vector3d tool_axis = swivel.rotation.col(2);
   // The rotary axes turn (the linear axes stand still), as a joint rapid move; then the swivelled plane's moves are
   // tool-centre-point moves with the rotary axes fixed.

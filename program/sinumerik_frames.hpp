@@ -21,7 +21,8 @@ struct Frame {
   // This frame followed by `inner` (inner's coordinates are expressed in this frame's).
   Frame then(const Frame& inner) const { return {rotation * inner.rotation, rotation * inner.offset + offset}; }
   bool is_identity() const {
-    return (rotation - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-15 && offset.cwiseAbs().maxCoeff() < 1e-15;
+    return (rotation - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-15 &&
+           offset.cwiseAbs().maxCoeff() < 1e-15;
   }
 
   static Frame translation(const Eigen::Vector3d& v) { return {Eigen::Matrix3d::Identity(), v}; }

@@ -20,13 +20,20 @@ constexpr int kNumR = 1000;
 
 int axis_index(char letter) {
   switch (letter) {
-    case 'X': return 0;
-    case 'Y': return 1;
-    case 'Z': return 2;
-    case 'A': return 3;
-    case 'B': return 4;
-    case 'C': return 5;
-    default: return -1;
+    case 'X':
+      return 0;
+    case 'Y':
+      return 1;
+    case 'Z':
+      return 2;
+    case 'A':
+      return 3;
+    case 'B':
+      return 4;
+    case 'C':
+      return 5;
+    default:
+      return -1;
   }
 }
 
@@ -50,9 +57,13 @@ std::string fmt4(double v) {
 }  // namespace
 
 Executor::Executor(const Program& program, std::string file, const SinumerikOptions& options)
-    : prog_(program), file_(std::move(file)), options_(options), r_(kNumR, 0.0),
+    : prog_(program),
+      file_(std::move(file)),
+      options_(options),
+      r_(kNumR, 0.0),
       canon_(options.max_canon_calls, file_) {
-  if (options_.start_mm) cur_.head<3>() = Eigen::Vector3d((*options_.start_mm)[0], (*options_.start_mm)[1], (*options_.start_mm)[2]);
+  if (options_.start_mm)
+    cur_.head<3>() = Eigen::Vector3d((*options_.start_mm)[0], (*options_.start_mm)[1], (*options_.start_mm)[2]);
   result_.path.source_path = file_;
   result_.path.initial_position = cur_;
   result_.stats.lines = static_cast<int>(prog_.blocks.size());
@@ -64,7 +75,8 @@ void Executor::fail(const std::string& message) const { throw core::Error(core::
 
 double Executor::numbered(double index) const {
   const double r = std::round(index);
-  if (r < 0 || r >= kNumR) throw gcode::ExprError("R" + std::to_string(static_cast<long long>(r)) + " does not exist (R0 .. R999)");
+  if (r < 0 || r >= kNumR)
+    throw gcode::ExprError("R" + std::to_string(static_cast<long long>(r)) + " does not exist (R0 .. R999)");
   return r_[static_cast<std::size_t>(r)];
 }
 double Executor::named(int name_id) const {
@@ -97,7 +109,9 @@ void Executor::match_blocks() {
     const Block& b = prog_.blocks[i];
     switch (b.control) {
       case Control::If:
-      case Control::While: stack.push_back(i); break;
+      case Control::While:
+        stack.push_back(i);
+        break;
       case Control::Else:
         if (stack.empty() || prog_.blocks[stack.back()].control != Control::If) {
           flow_error_[i] = "ELSE without IF";
@@ -125,7 +139,8 @@ void Executor::match_blocks() {
           stack.pop_back();
         }
         break;
-      default: break;
+      default:
+        break;
     }
   }
   for (std::size_t i : stack)
@@ -149,9 +164,9 @@ std::size_t Executor::jump(const Block& b) const {
       if (hit(i)) return i;
   if (b.goto_kind == GotoKind::AnyNoError) return index_ + 1;
   fail("jump target " + b.goto_target + " not found " +
-       (b.goto_kind == GotoKind::Forward ? "after this block (GOTOF)" : b.goto_kind == GotoKind::Backward
-                                                                            ? "before this block (GOTOB)"
-                                                                            : "in the program"));
+       (b.goto_kind == GotoKind::Forward    ? "after this block (GOTOF)"
+        : b.goto_kind == GotoKind::Backward ? "before this block (GOTOB)"
+                                            : "in the program"));
 }
 
 SinumerikResult Executor::run() {
@@ -169,7 +184,10 @@ SinumerikResult Executor::run() {
     if (!flow_error_[index_].empty()) fail(flow_error_[index_]);
     std::size_t next = index_ + 1;
     switch (b.control) {
-      case Control::Goto: declare_and_assign(b); next = jump(b); break;
+      case Control::Goto:
+        declare_and_assign(b);
+        next = jump(b);
+        break;
       case Control::IfGoto:
         declare_and_assign(b);
         if (eval(b.condition) != 0.0) next = jump(b);
@@ -177,12 +195,17 @@ SinumerikResult Executor::run() {
       case Control::If:
         if (eval(b.condition) == 0.0) next = static_cast<std::size_t>(match_[index_]) + 1;  // ELSE's next, or ENDIF's
         break;
-      case Control::Else: next = static_cast<std::size_t>(if_end_[index_]) + 1; break;  // the IF part ran
+      case Control::Else:
+        next = static_cast<std::size_t>(if_end_[index_]) + 1;
+        break;  // the IF part ran
       case Control::While:
         if (eval(b.condition) == 0.0) next = static_cast<std::size_t>(match_[index_]) + 1;
         break;
-      case Control::EndWhile: next = static_cast<std::size_t>(match_[index_]); break;
-      case Control::EndIf: break;
+      case Control::EndWhile:
+        next = static_cast<std::size_t>(match_[index_]);
+        break;
+      case Control::EndIf:
+        break;
       case Control::None:
         if (!b.empty && execute(b)) {
           index_ = n;
@@ -298,7 +321,10 @@ bool Executor::g_codes(const Block& b, int& motion, bool& supa) {
   bool motion_g = false;
   for (int g : b.g_codes) {
     switch (g) {
-      case 0: case 1: case 2: case 3:
+      case 0:
+      case 1:
+      case 2:
+      case 3:
         if (motion_g) fail("two motion G functions (G0..G3) in one block");
         motion_g = true;
         motion = g;
@@ -309,28 +335,68 @@ bool Executor::g_codes(const Block& b, int& motion, bool& supa) {
         canon_.print("DWELL(%.4f)", eval(b.f));
         break;
       }
-      case 9: canon_.print("COMMENT(\"interpreter: G9 exact stop in this block\")"); break;
-      case 17: case 18: case 19:
+      case 9:
+        canon_.print("COMMENT(\"interpreter: G9 exact stop in this block\")");
+        break;
+      case 17:
+      case 18:
+      case 19:
         plane_ = g;
         canon_.print("SELECT_PLANE(CANON_PLANE_%s)", g == 17 ? "XY" : g == 18 ? "XZ" : "YZ");
         break;
-      case 40: case 450: case 451: break;  // radius compensation off; corner modes of G41/G42 only
-      case 41: case 42: fail("G" + std::to_string(g) + ": cutter radius compensation is not supported (the path would need the tool's radius)");
-      case 53: case 153: supa = true; break;
-      case 60: set_control_mode("G60", std::nullopt, true); break;
-      case 64: set_control_mode("G64", std::nullopt, false); break;
-      case 641: case 642: case 643: case 644: case 645:
-        set_control_mode("G" + std::to_string(g), contour_tolerance_mm_ > 0 ? std::optional<double>(contour_tolerance_mm_)
-                                                                             : std::nullopt, false);
+      case 40:
+      case 450:
+      case 451:
+        break;  // radius compensation off; corner modes of G41/G42 only
+      case 41:
+      case 42:
+        fail("G" + std::to_string(g) +
+             ": cutter radius compensation is not supported (the path would need the tool's radius)");
+      case 53:
+      case 153:
+        supa = true;
         break;
-      case 601: case 602: case 603: break;  // exact-stop windows of G60/G9
-      case 70: case 700: inch_ = true; break;
-      case 71: case 710: inch_ = false; break;
-      case 90: absolute_ = true; break;
-      case 91: absolute_ = false; break;
-      case 94: break;
-      case 93: fail("G93: inverse-time feed is not supported by the Sinumerik reader");
-      case 95: case 96: case 97: fail("G" + std::to_string(g) + ": feed per revolution / constant cutting speed is not supported");
+      case 60:
+        set_control_mode("G60", std::nullopt, true);
+        break;
+      case 64:
+        set_control_mode("G64", std::nullopt, false);
+        break;
+      case 641:
+      case 642:
+      case 643:
+      case 644:
+      case 645:
+        set_control_mode("G" + std::to_string(g),
+                         contour_tolerance_mm_ > 0 ? std::optional<double>(contour_tolerance_mm_) : std::nullopt,
+                         false);
+        break;
+      case 601:
+      case 602:
+      case 603:
+        break;  // exact-stop windows of G60/G9
+      case 70:
+      case 700:
+        inch_ = true;
+        break;
+      case 71:
+      case 710:
+        inch_ = false;
+        break;
+      case 90:
+        absolute_ = true;
+        break;
+      case 91:
+        absolute_ = false;
+        break;
+      case 94:
+        break;
+      case 93:
+        fail("G93: inverse-time feed is not supported by the Sinumerik reader");
+      case 95:
+      case 96:
+      case 97:
+        fail("G" + std::to_string(g) + ": feed per revolution / constant cutting speed is not supported");
       case 500:
         zero_offset_ = 0;
         canon_.print("COMMENT(\"interpreter: G500 settable zero offset off\")");
@@ -341,7 +407,8 @@ bool Executor::g_codes(const Block& b, int& motion, bool& supa) {
           // The settable frames' offsets are the controller's, not the program's: the workpiece zero is taken at the
           // machine zero (sinumerik.hpp).
           if (g <= 57)
-            canon_.print("SET_G5X_OFFSET(%d, %.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", g - 53, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+            canon_.print("SET_G5X_OFFSET(%d, %.4f, %.4f, %.4f, %.4f, %.4f, %.4f)", g - 53, 0.0, 0.0, 0.0, 0.0, 0.0,
+                         0.0);
           else
             canon_.print("COMMENT(\"interpreter: G%d settable zero offset (taken as zero)\")", g);
           break;
@@ -381,7 +448,9 @@ void Executor::keywords(const Block& b, bool& supa) {
       // No effect on the path vmsim interpolates: the compressor's smoothing, feed references at the tool centre,
       // the preprocessing stop, orientation references (vmsim interpolates rotary axes linearly: ORIAXES).
     } else if (w == "ORIVECT") {
-      fail("ORIVECT: great-circle orientation interpolation is not supported (vmsim interpolates the rotary axes: ORIAXES)");
+      fail(
+          "ORIVECT: great-circle orientation interpolation is not supported (vmsim interpolates the rotary axes: "
+          "ORIAXES)");
     } else if (w == "RET") {
       // acted on after the block's motion
     } else {
@@ -403,30 +472,48 @@ void Executor::m_functions(const Block& b, bool& end) {
           options_.no_motion_mcodes.end())
         continue;
       const std::string what = "M" + std::to_string(m) + ": the machine maker's M function (no motion known)";
-      if (!options_.lenient)
-        fail(what + "; list it in [job] no_motion_mcodes, or read with --lenient");
+      if (!options_.lenient) fail(what + "; list it in [job] no_motion_mcodes, or read with --lenient");
       result_.warnings.push_back(core::located(file_, line_, what + ": accepted without effect (lenient)"));
       continue;
     }
     switch (m) {
-      case 0: canon_.print("PROGRAM_STOP()"); break;
-      case 1: canon_.print("OPTIONAL_PROGRAM_STOP()"); break;
-      case 2: case 17: case 30: end = true; break;
-      case 3: canon_.print("START_SPINDLE_CLOCKWISE(0)"); break;
-      case 4: canon_.print("START_SPINDLE_COUNTERCLOCKWISE(0)"); break;
-      case 5: canon_.print("STOP_SPINDLE_TURNING(0)"); break;
+      case 0:
+        canon_.print("PROGRAM_STOP()");
+        break;
+      case 1:
+        canon_.print("OPTIONAL_PROGRAM_STOP()");
+        break;
+      case 2:
+      case 17:
+      case 30:
+        end = true;
+        break;
+      case 3:
+        canon_.print("START_SPINDLE_CLOCKWISE(0)");
+        break;
+      case 4:
+        canon_.print("START_SPINDLE_COUNTERCLOCKWISE(0)");
+        break;
+      case 5:
+        canon_.print("STOP_SPINDLE_TURNING(0)");
+        break;
       case 6:
         current_tool_ = selected_tool_;
         ++result_.stats.tool_changes;
         canon_.print("CHANGE_TOOL(%d)", current_tool_);
         break;
-      case 7: canon_.print("MIST_ON()"); break;
-      case 8: canon_.print("FLOOD_ON()"); break;
+      case 7:
+        canon_.print("MIST_ON()");
+        break;
+      case 8:
+        canon_.print("FLOOD_ON()");
+        break;
       case 9:
         canon_.print("MIST_OFF()");
         canon_.print("FLOOD_OFF()");
         break;
-      default: break;
+      default:
+        break;
     }
   }
   for (int h : b.h_codes) {
@@ -487,7 +574,8 @@ void Executor::frame_statement(const Block& b) {
       frame_ = b.frame == FrameOp::Rot ? r : frame_.then(r);
       break;
     }
-    case FrameOp::None: break;
+    case FrameOp::None:
+      break;
   }
   const Frame t = total_frame();
   const Eigen::Vector3d z = t.rotation.col(2);
@@ -512,7 +600,8 @@ void Executor::push_move(core::Move m) {
   if ((m.end - m.start).cwiseAbs().maxCoeff() <= 1e-9 && m.kind == core::MotionKind::Line) return;
   if (m.tcp) ++result_.stats.tcp_moves;
   if (!m.rapid && contour_tolerance_mm_ > 0)
-    smallest_feed_tolerance_ = std::min(smallest_feed_tolerance_.value_or(contour_tolerance_mm_), contour_tolerance_mm_);
+    smallest_feed_tolerance_ =
+        std::min(smallest_feed_tolerance_.value_or(contour_tolerance_mm_), contour_tolerance_mm_);
   result_.path.moves.push_back(std::move(m));
 }
 
@@ -567,8 +656,10 @@ bool Executor::motion(const Block& b, int g, bool supa) {
   core::Vec6 end;
   end.head<3>() = frame.apply(p);
   end.tail<3>() = rot;
-  if (g == 0) ++result_.stats.rapid_blocks;
-  else ++result_.stats.linear_blocks;
+  if (g == 0)
+    ++result_.stats.rapid_blocks;
+  else
+    ++result_.stats.linear_blocks;
   line_to(g == 0, end);
   return true;
 }
@@ -602,7 +693,8 @@ void Executor::arc_to(const Block& b, int g, const Eigen::Vector3d& end_prog, co
     const Eigen::Vector2d chord = e - s;
     const double d = chord.norm();
     if (d < 1e-9) fail("CR=: a full circle needs its centre (I J K)");
-    if (std::fabs(r) < d / 2 - 1e-6) fail("CR=" + fmt4(r) + ": the radius is shorter than half the chord (" + fmt4(d / 2) + ")");
+    if (std::fabs(r) < d / 2 - 1e-6)
+      fail("CR=" + fmt4(r) + ": the radius is shorter than half the chord (" + fmt4(d / 2) + ")");
     const double h = std::sqrt(std::max(0.0, r * r - d * d / 4));
     const Eigen::Vector2d left(-chord.y() / d, chord.x() / d);
     // A counter-clockwise arc of up to 180 degrees has its centre left of the chord; CR < 0 or G2 flips the side.
@@ -634,8 +726,9 @@ void Executor::arc_to(const Block& b, int g, const Eigen::Vector3d& end_prog, co
   end.tail<3>() = rot_end;
   if (feed_mm_per_min_ <= 0.0) fail("a feed move (G1, G2, G3) without a feed: program F first");
   if (k >= 0) {
-    const std::array<int, 3> wp = k == 2 ? std::array<int, 3>{0, 1, 2} : k == 1 ? std::array<int, 3>{2, 0, 1}
-                                                                                : std::array<int, 3>{1, 2, 0};
+    const std::array<int, 3> wp = k == 2   ? std::array<int, 3>{0, 1, 2}
+                                  : k == 1 ? std::array<int, 3>{2, 0, 1}
+                                           : std::array<int, 3>{1, 2, 0};
     const Eigen::Vector3d cw = frame.apply(c3);
     const int rotation = static_cast<int>(sense * (n_w[k] > 0 ? 1 : -1)) * (1 + turns);
     const double plane4[4] = {end[wp[0]], end[wp[1]], cw[wp[0]], cw[wp[1]]};
@@ -696,7 +789,8 @@ void Executor::arc_to(const Block& b, int g, const Eigen::Vector3d& end_prog, co
 
 namespace vmsim::program {
 
-SinumerikResult interpret_sinumerik_text(std::string_view text, const std::string& name, const SinumerikOptions& options) {
+SinumerikResult interpret_sinumerik_text(std::string_view text, const std::string& name,
+                                         const SinumerikOptions& options) {
   const sinumerik::Program parsed = sinumerik::parse_program(text);
   sinumerik::Executor executor(parsed, name, options);
   return executor.run();

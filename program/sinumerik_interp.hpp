@@ -78,13 +78,13 @@ class Executor final : public gcode::ParamSource {
   SinumerikOptions options_;
 
   // ---- control flow
-  std::vector<long> match_;             // IF -> ELSE/ENDIF, ELSE -> ENDIF, WHILE <-> ENDWHILE
-  std::vector<long> if_end_;            // IF / ELSE -> the ENDIF that closes it
+  std::vector<long> match_;   // IF -> ELSE/ENDIF, ELSE -> ENDIF, WHILE <-> ENDWHILE
+  std::vector<long> if_end_;  // IF / ELSE -> the ENDIF that closes it
   std::vector<std::string> flow_error_;
-  std::size_t index_ = 0;               // executing block
+  std::size_t index_ = 0;  // executing block
 
   // ---- variables
-  std::vector<double> r_;               // R0 .. R999
+  std::vector<double> r_;  // R0 .. R999
   std::unordered_map<int, double> vars_;
   std::unordered_map<int, bool> is_int_;
 
@@ -93,18 +93,18 @@ class Executor final : public gcode::ParamSource {
   bool traori_ = false;
   bool swivel_active_ = false;
   bool tcp() const { return traori_ || swivel_active_; }
-  Frame frame_;                          // programmable frame (TRANS/ROT/...)
-  Frame swivel_;                         // CYCLE800's swivel frame
-  int motion_mode_ = 0;                  // G0 G1 G2 G3
-  int plane_ = 17;                       // G17 G18 G19
-  bool absolute_ = true;                 // G90
-  bool inch_ = false;                    // G70 / G700
-  double feed_mm_per_min_ = 0.0;         // F (per minute; degrees per minute for rotary-only moves)
-  int zero_offset_ = 0;                  // 0 = G500, 54.., 505..
+  Frame frame_;                   // programmable frame (TRANS/ROT/...)
+  Frame swivel_;                  // CYCLE800's swivel frame
+  int motion_mode_ = 0;           // G0 G1 G2 G3
+  int plane_ = 17;                // G17 G18 G19
+  bool absolute_ = true;          // G90
+  bool inch_ = false;             // G70 / G700
+  double feed_mm_per_min_ = 0.0;  // F (per minute; degrees per minute for rotary-only moves)
+  int zero_offset_ = 0;           // 0 = G500, 54.., 505..
   int selected_tool_ = 0;
   int current_tool_ = 0;
-  std::optional<Call> modal_call_;       // MCALL
-  double contour_tolerance_mm_ = 0.0;    // CYCLE832's tolerance in force (0: none)
+  std::optional<Call> modal_call_;     // MCALL
+  double contour_tolerance_mm_ = 0.0;  // CYCLE832's tolerance in force (0: none)
   std::optional<double> smallest_feed_tolerance_;
 
   // ---- output

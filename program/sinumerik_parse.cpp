@@ -40,9 +40,10 @@ std::string show(char c) {
 
 // Commands without operands that the reader knows (the executor gives each its meaning).
 constexpr std::array<std::string_view, 31> kKeywords = {
-    "TRAORI", "TRAFOOF", "SUPA",     "SOFT",   "BRISK", "DRIVE",  "FFWON",  "FFWOF",   "COMPOF", "COMPON", "COMPCURV",
-    "COMPCAD", "FNORM",  "UPATH",    "SPATH",  "CFC",   "CFTCP",  "CFIN",   "STOPRE",  "ORIWKS", "ORIMKS", "ORIAXES",
-    "ORIVECT", "RET",    "SPOS",     "WAITM",  "WAITS", "STOPFIFO", "STARTFIFO", "GROUP_BEGIN", "GROUP_END"};
+    "TRAORI", "TRAFOOF", "SUPA",     "SOFT",     "BRISK",     "DRIVE",       "FFWON",    "FFWOF",
+    "COMPOF", "COMPON",  "COMPCURV", "COMPCAD",  "FNORM",     "UPATH",       "SPATH",    "CFC",
+    "CFTCP",  "CFIN",    "STOPRE",   "ORIWKS",   "ORIMKS",    "ORIAXES",     "ORIVECT",  "RET",
+    "SPOS",   "WAITM",   "WAITS",    "STOPFIFO", "STARTFIFO", "GROUP_BEGIN", "GROUP_END"};
 
 // Expression parser over the (uppercased) line. Siemens' operator priority, highest first (NC programming, Work
 // preparation, "Priority of the operations"): NOT; * / DIV MOD; + -; AND; XOR; OR; the comparisons == <> < > <= >=.
@@ -107,7 +108,9 @@ class ExprReader {
   ExprId binary(BinaryOp op, ExprId l, ExprId r) {
     return make({.op = ExprOp::Binary, .fn = static_cast<std::uint8_t>(op), .lhs = l, .rhs = r});
   }
-  ExprId unary(UnaryFn fn, ExprId a) { return make({.op = ExprOp::Unary, .fn = static_cast<std::uint8_t>(fn), .lhs = a}); }
+  ExprId unary(UnaryFn fn, ExprId a) {
+    return make({.op = ExprOp::Unary, .fn = static_cast<std::uint8_t>(fn), .lhs = a});
+  }
   ExprId logical_not(ExprId a) { return binary(BinaryOp::Eq, a, number_node(0.0)); }
 
   // A word operator (AND, DIV, ...) at pos_ followed by something that cannot continue an identifier.
@@ -275,9 +278,9 @@ class ExprReader {
       UnaryFn fn;
     };
     static constexpr Fn kFns[] = {
-        {"SIN", UnaryFn::Sin},     {"COS", UnaryFn::Cos},     {"TAN", UnaryFn::Tan},       {"ASIN", UnaryFn::Asin},
-        {"ACOS", UnaryFn::Acos},   {"SQRT", UnaryFn::Sqrt},   {"ABS", UnaryFn::Abs},       {"TRUNC", UnaryFn::Trunc},
-        {"ROUND", UnaryFn::Round}, {"ROUNDUP", UnaryFn::Fup}, {"LN", UnaryFn::Ln},         {"EXP", UnaryFn::Exp},
+        {"SIN", UnaryFn::Sin},     {"COS", UnaryFn::Cos},     {"TAN", UnaryFn::Tan}, {"ASIN", UnaryFn::Asin},
+        {"ACOS", UnaryFn::Acos},   {"SQRT", UnaryFn::Sqrt},   {"ABS", UnaryFn::Abs}, {"TRUNC", UnaryFn::Trunc},
+        {"ROUND", UnaryFn::Round}, {"ROUNDUP", UnaryFn::Fup}, {"LN", UnaryFn::Ln},   {"EXP", UnaryFn::Exp},
     };
     const std::vector<ExprId> args = arguments(name);
     auto need = [&](std::size_t n) {
@@ -386,7 +389,9 @@ class LineReader {
 
  private:
   // Address letters that take a numeric constant directly ("X-14.5", "G0").
-  static bool constant_address(char c) { return std::string_view("ABCDFGHIJKMSTXYZ").find(c) != std::string_view::npos; }
+  static bool constant_address(char c) {
+    return std::string_view("ABCDFGHIJKMSTXYZ").find(c) != std::string_view::npos;
+  }
   static bool axis_letter(char c) { return std::string_view("XYZABCIJK").find(c) != std::string_view::npos; }
 
   void statement() {
@@ -428,8 +433,10 @@ class LineReader {
     }
     if (name == "TRANS" || name == "ATRANS" || name == "ROT" || name == "AROT") {
       if (block_.frame != FrameOp::None) throw LineError("two frame statements in one block");
-      block_.frame = name == "TRANS" ? FrameOp::Trans : name == "ATRANS" ? FrameOp::ATrans : name == "ROT" ? FrameOp::Rot
-                                                                                                          : FrameOp::ARot;
+      block_.frame = name == "TRANS"    ? FrameOp::Trans
+                     : name == "ATRANS" ? FrameOp::ATrans
+                     : name == "ROT"    ? FrameOp::Rot
+                                        : FrameOp::ARot;
       return;
     }
     if (peek() == '=') {
@@ -451,7 +458,7 @@ class LineReader {
   }
 
   void goto_target(const std::string& kw) {
-    block_.goto_kind = kw == "GOTOF" ? GotoKind::Forward
+    block_.goto_kind = kw == "GOTOF"   ? GotoKind::Forward
                        : kw == "GOTOB" ? GotoKind::Backward
                        : kw == "GOTO"  ? GotoKind::Any
                                        : GotoKind::AnyNoError;
@@ -501,7 +508,8 @@ class LineReader {
         ++pos_;
         continue;
       }
-      if (peek() != '\0') throw LineError("DEF " + type + ": expected ',' or the end of the line but found " + show(peek()));
+      if (peek() != '\0')
+        throw LineError("DEF " + type + ": expected ',' or the end of the line but found " + show(peek()));
       return;
     }
   }
@@ -559,7 +567,8 @@ class LineReader {
       return set_address(name, expr_.expression(), AxisMode::Default);
     if (name == "G" || name == "M" || name == "H") throw LineError(name + "=<expression> is not supported");
     if (name.size() == 1 || name == "AP" || name == "RP" || name == "AR" || name == "CT" || name == "CIP")
-      throw LineError("address " + name + "= is not supported (polar coordinates, CIP/CT arcs and further axes are not)");
+      throw LineError("address " + name +
+                      "= is not supported (polar coordinates, CIP/CT arcs and further axes are not)");
     if (name.front() == '$') throw LineError("system variable " + name + " is not supported");
     Assignment a;
     a.name = program_.names.intern(name);
@@ -575,9 +584,14 @@ class LineReader {
       block_.axes.push_back({name[0], e, mode});
       return;
     }
-    ExprId* slot = name == "F" ? &block_.f : name == "S" ? &block_.s : name == "D" ? &block_.d
-                 : name == "T" ? &block_.t_number : name == "CR" ? &block_.cr : name == "TURN" ? &block_.turn
-                 : name == "RPL" ? &block_.rpl : nullptr;
+    ExprId* slot = name == "F"      ? &block_.f
+                   : name == "S"    ? &block_.s
+                   : name == "D"    ? &block_.d
+                   : name == "T"    ? &block_.t_number
+                   : name == "CR"   ? &block_.cr
+                   : name == "TURN" ? &block_.turn
+                   : name == "RPL"  ? &block_.rpl
+                                    : nullptr;
     if (slot == nullptr) throw LineError("unknown address " + name);
     if (*slot != kNoExpr || (name == "T" && block_.t_name)) throw LineError("two " + name + " words in one block");
     *slot = e;
@@ -687,9 +701,9 @@ Program parse_program(std::string_view text) {
 
 bool looks_like_sinumerik(std::string_view text) {
   // Statements only the 840D dialect has; comments (after ';' or inside '(' ')') are not looked at.
-  static constexpr std::string_view kMarkers[] = {"DEF ", "MSG(", "MSG (", "CYCLE", "TRAORI", "TRAFOOF", "SUPA",
-                                                  "T=\"",  "GOTOF", "GOTOB", "=AC(",  "=IC(",   "CR=",     "AROT",
-                                                  "ATRANS", "ENDIF", "G642", "G710"};
+  static constexpr std::string_view kMarkers[] = {"DEF ", "MSG(", "MSG (",  "CYCLE", "TRAORI", "TRAFOOF",
+                                                  "SUPA", "T=\"", "GOTOF",  "GOTOB", "=AC(",   "=IC(",
+                                                  "CR=",  "AROT", "ATRANS", "ENDIF", "G642",   "G710"};
   std::size_t start = 0;
   for (int lines = 0; lines < 400 && start < text.size(); ++lines) {
     std::size_t end = text.find('\n', start);

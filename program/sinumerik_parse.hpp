@@ -35,11 +35,11 @@ struct Assignment {
   int name = -1;           // >= 0: a DEF variable (interned, uppercase)
   ExprId index = kNoExpr;  // R parameter number (name < 0)
   ExprId value = kNoExpr;
-  std::string text;        // as written, for messages
+  std::string text;  // as written, for messages
 };
 
 struct Declaration {
-  std::string type;        // REAL INT BOOL
+  std::string type;  // REAL INT BOOL
   int name = -1;
   std::string text;
   ExprId init = kNoExpr;
@@ -55,7 +55,12 @@ struct Call {
 enum class FrameOp : std::uint8_t { None, Trans, ATrans, Rot, ARot };
 
 enum class Control : std::uint8_t { None, Goto, IfGoto, If, Else, EndIf, While, EndWhile };
-enum class GotoKind : std::uint8_t { Forward /* GOTOF */, Backward /* GOTOB */, Any /* GOTO */, AnyNoError /* GOTOC */ };
+enum class GotoKind : std::uint8_t {
+  Forward /* GOTOF */,
+  Backward /* GOTOB */,
+  Any /* GOTO */,
+  AnyNoError /* GOTOC */
+};
 
 // A keyword the reader knows, with its source column.
 struct Keyword {
@@ -64,12 +69,12 @@ struct Keyword {
 };
 
 struct Block {
-  int number = 0;            // 1-based line of the file
-  std::string n_word;        // "N10" as written, "" when the line has none
-  std::string label;         // "NAME" of a "NAME:" label, uppercase
-  bool skip = false;         // starts with '/'
-  bool empty = true;         // nothing to execute (blank or comment only)
-  std::string comment;       // text after ';', trimmed
+  int number = 0;       // 1-based line of the file
+  std::string n_word;   // "N10" as written, "" when the line has none
+  std::string label;    // "NAME" of a "NAME:" label, uppercase
+  bool skip = false;    // starts with '/'
+  bool empty = true;    // nothing to execute (blank or comment only)
+  std::string comment;  // text after ';', trimmed
 
   std::vector<Declaration> declarations;
   std::vector<Assignment> assignments;
@@ -82,20 +87,20 @@ struct Block {
   std::vector<Keyword> keywords;      // TRAORI, SUPA, FFWON, ... (known, non-address commands)
   FrameOp frame = FrameOp::None;
   std::optional<Call> call;
-  bool mcall = false;                 // MCALL: the call (if any) becomes modal; MCALL alone ends it
+  bool mcall = false;  // MCALL: the call (if any) becomes modal; MCALL alone ends it
 
   Control control = Control::None;
   GotoKind goto_kind = GotoKind::Forward;
-  std::string goto_target;            // label or block number ("N100"), uppercase
+  std::string goto_target;  // label or block number ("N100"), uppercase
   ExprId condition = kNoExpr;
 
-  std::string error;                  // non-empty: why the line cannot be read
+  std::string error;  // non-empty: why the line cannot be read
 };
 
 struct Program {
-  std::vector<Block> blocks;          // one per line of the file
+  std::vector<Block> blocks;  // one per line of the file
   gcode::ExprPool exprs;
-  gcode::NameTable names;             // DEF variables, uppercase
+  gcode::NameTable names;  // DEF variables, uppercase
 };
 
 // Splits the text into lines (LF or CRLF) and reads each one.

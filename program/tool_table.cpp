@@ -64,27 +64,46 @@ ToolTable parse_tool_table(const std::string& text, const std::string& source_pa
           if (entry.number < 0) throw core::Error(core::located(source_path, line, "tool number must not be negative"));
           has_t = true;
           break;
-        case 'P': entry.pocket = parse_int(token, source_path, line); break;
-        case 'X': entry.offset[0] = parse_number(token, source_path, line); break;
-        case 'Y': entry.offset[1] = parse_number(token, source_path, line); break;
-        case 'Z': entry.offset[2] = parse_number(token, source_path, line); break;
-        case 'A': entry.offset[3] = parse_number(token, source_path, line); break;
-        case 'B': entry.offset[4] = parse_number(token, source_path, line); break;
-        case 'C': entry.offset[5] = parse_number(token, source_path, line); break;
-        case 'D': entry.diameter = parse_number(token, source_path, line); break;
+        case 'P':
+          entry.pocket = parse_int(token, source_path, line);
+          break;
+        case 'X':
+          entry.offset[0] = parse_number(token, source_path, line);
+          break;
+        case 'Y':
+          entry.offset[1] = parse_number(token, source_path, line);
+          break;
+        case 'Z':
+          entry.offset[2] = parse_number(token, source_path, line);
+          break;
+        case 'A':
+          entry.offset[3] = parse_number(token, source_path, line);
+          break;
+        case 'B':
+          entry.offset[4] = parse_number(token, source_path, line);
+          break;
+        case 'C':
+          entry.offset[5] = parse_number(token, source_path, line);
+          break;
+        case 'D':
+          entry.diameter = parse_number(token, source_path, line);
+          break;
         // Lathe data (front/back angle, orientation) and U V W offsets: read, not used by a milling machine.
         case 'I':
         case 'J':
-        case 'Q': parse_number(token, source_path, line); break;
+        case 'Q':
+          parse_number(token, source_path, line);
+          break;
         case 'U':
         case 'V':
         case 'W':
           if (parse_number(token, source_path, line) != 0.0)
-            throw core::Error(core::located(source_path, line, "tool offset \"" + token + "\": U, V and W axes are not supported"));
+            throw core::Error(
+                core::located(source_path, line, "tool offset \"" + token + "\": U, V and W axes are not supported"));
           break;
         default:
-          throw core::Error(core::located(source_path, line,
-                              "unknown tool table field \"" + token + "\" (expected T P X Y Z A B C D I J Q)"));
+          throw core::Error(core::located(
+              source_path, line, "unknown tool table field \"" + token + "\" (expected T P X Y Z A B C D I J Q)"));
       }
     }
     if (!any) continue;

@@ -8,11 +8,11 @@
 namespace vmsim::program {
 
 struct ToolEntry {
-  int number = 0;        // T
-  int pocket = 0;        // P
+  int number = 0;         // T
+  int pocket = 0;         // P
   double offset[6] = {};  // X Y Z A B C offsets (length units of the table, degrees)
-  double diameter = 0;   // D
-  int index = 0;         // 1-based order in the file (what LinuxCNC's CHANGE_TOOL reports)
+  double diameter = 0;    // D
+  int index = 0;          // 1-based order in the file (what LinuxCNC's CHANGE_TOOL reports)
   int source_line = 0;
 };
 

@@ -68,7 +68,8 @@ auto call_released(const py::object& callback, F&& f) {
 // The optional `progress=` argument every long call takes, and its help text.
 inline constexpr const char* kProgressDoc =
     "progress: None, or a callable progress(stage: str, done: float, total: float) called at each stage's start and "
-    "end, and about every 0.1 s inside the drives' loops (total 0 when unknown); an exception it raises stops the call. Ctrl-C stops the call with "
+    "end, and about every 0.1 s inside the drives' loops (total 0 when unknown); an exception it raises stops the "
+    "call. Ctrl-C stops the call with "
     "KeyboardInterrupt.";
 
 void bind_common(py::module_& m);

@@ -58,7 +58,8 @@ std::string to_toml(py::handle v) {
     return out + "]";
   }
   // numpy scalars and other numbers
-  if (py::hasattr(v, "__float__")) return py::repr(py::float_(py::reinterpret_borrow<py::object>(v))).cast<std::string>();
+  if (py::hasattr(v, "__float__"))
+    return py::repr(py::float_(py::reinterpret_borrow<py::object>(v))).cast<std::string>();
   throw core::Error("job.override: cannot write a value of type " +
                     py::str(v.get_type().attr("__name__")).cast<std::string>() +
                     " as TOML (use bool, int, float, str, a path, a list or a dict)");
@@ -203,8 +204,9 @@ py::object PyJob::get(const std::string& key) const {
   const fs::path file = machine ? job.machine_file : job.file;
   const toml::table t = core::parse_toml_file(file);
   const toml::node* n = find_key(t, segs);
-  if (!n) throw py::key_error(key + ": not set in " + (machine ? "the machine file " : "the job file ") + file.string() +
-                              " (the default then applies; parts/README.md lists every key)");
+  if (!n)
+    throw py::key_error(key + ": not set in " + (machine ? "the machine file " : "the job file ") + file.string() +
+                        " (the default then applies; parts/README.md lists every key)");
   return toml_to_python(*n);
 }
 
@@ -224,32 +226,37 @@ s^3; drive: the cascade's parameters as the file gives them, or None).)")
       .def_readonly("name", &core::Machine::name)
       .def_readonly("file", &core::Machine::source_file)
       .def_readonly("kinematics", &core::Machine::kinematics)
-      .def_property_readonly("axis_names", [](const core::Machine& mc) {
-        std::vector<std::string> n;
-        for (const auto& a : mc.axes) n.push_back(a.name);
-        return n;
-      })
-      .def_property_readonly("axes", [](const core::Machine& mc) {
-        py::list l;
-        for (const auto& a : mc.axes) {
-          py::dict d;
-          d["name"] = a.name;
-          d["kind"] = a.kind == core::AxisKind::Rotary ? "rotary" : "linear";
-          d["travel_min"] = a.travel_min;
-          d["travel_max"] = a.travel_max;
-          d["continuous"] = a.continuous;
-          d["max_velocity"] = a.max_velocity;
-          d["max_acceleration"] = a.max_acceleration;
-          d["max_jerk"] = a.max_jerk;
-          d["has_drive"] = a.drive.has_value();
-          l.append(d);
-        }
-        return l;
-      })
-      .def("__repr__", [](const core::Machine& mc) { return "<vmsim.Machine " + mc.name + " (" + mc.source_file + ")>"; });
+      .def_property_readonly("axis_names",
+                             [](const core::Machine& mc) {
+                               std::vector<std::string> n;
+                               for (const auto& a : mc.axes) n.push_back(a.name);
+                               return n;
+                             })
+      .def_property_readonly("axes",
+                             [](const core::Machine& mc) {
+                               py::list l;
+                               for (const auto& a : mc.axes) {
+                                 py::dict d;
+                                 d["name"] = a.name;
+                                 d["kind"] = a.kind == core::AxisKind::Rotary ? "rotary" : "linear";
+                                 d["travel_min"] = a.travel_min;
+                                 d["travel_max"] = a.travel_max;
+                                 d["continuous"] = a.continuous;
+                                 d["max_velocity"] = a.max_velocity;
+                                 d["max_acceleration"] = a.max_acceleration;
+                                 d["max_jerk"] = a.max_jerk;
+                                 d["has_drive"] = a.drive.has_value();
+                                 l.append(d);
+                               }
+                               return l;
+                             })
+      .def("__repr__",
+           [](const core::Machine& mc) { return "<vmsim.Machine " + mc.name + " (" + mc.source_file + ")>"; });
 
-  m.def("load_machine", [](const fs::path& p) { return std::make_shared<core::Machine>(core::load_machine(p)); },
-        py::arg("path"), "Reads a machine file (TOML, parts/README.md). Raises vmsim.Error naming the file, line and key.");
+  m.def(
+      "load_machine", [](const fs::path& p) { return std::make_shared<core::Machine>(core::load_machine(p)); },
+      py::arg("path"),
+      "Reads a machine file (TOML, parts/README.md). Raises vmsim.Error naming the file, line and key.");
 
   m.def(
       "read_program",
@@ -263,8 +270,8 @@ s^3; drive: the cascade's parameters as the file gives them, or None).)")
         py::gil_scoped_release release;
         return std::make_shared<core::ToolPath>(program::read_program(path, o));
       },
-      py::arg("path"), py::arg("dialect") = "auto", py::arg("tool_table") = py::none(), py::arg("start_mm") = py::none(),
-      py::arg("lenient") = false,
+      py::arg("path"), py::arg("dialect") = "auto", py::arg("tool_table") = py::none(),
+      py::arg("start_mm") = py::none(), py::arg("lenient") = false,
       R"(Reads a program (RS274/NGC G-code, Sinumerik 840D, APT/CL) into a vmsim.Program: its moves in the workpiece
 frame. dialect: "auto" (by extension and content) | "rs274ngc" | "sinumerik" | "apt"; tool_table: a LinuxCNC tool
 table; start_mm: where the tool starts (x, y, z). Raises vmsim.Error naming the file and line.)");
@@ -301,12 +308,14 @@ job.override("machine.axes.X.drive.kv_1000_per_min", 6), exactly as a `vmsim stu
 (keys under "machine." change the job's machine file; "feed_scale" multiplies every programmed feed). An override
 is checked at once: a refused one raises vmsim.Error and leaves the job as it was.)")
       .def_property_readonly("name", [](const PyJob& j) { return j.job().name; })
-      .def_property_readonly("file", [](const PyJob& j) { return j.file(); }, "the job file as loaded (overrides apply to a copy)")
+      .def_property_readonly(
+          "file", [](const PyJob& j) { return j.file(); }, "the job file as loaded (overrides apply to a copy)")
       .def_property_readonly("machine_file", [](const PyJob& j) { return j.job().machine_file; })
       .def_property_readonly("program_file", [](const PyJob& j) { return j.job().program_file; })
       .def_property_readonly("feed_scale", &PyJob::feed_scale)
-      .def_property_readonly("overrides", [](const PyJob& j) { return to_python(j.overrides_json()); },
-                             "{key: value as TOML text} of every override in force")
+      .def_property_readonly(
+          "overrides", [](const PyJob& j) { return to_python(j.overrides_json()); },
+          "{key: value as TOML text} of every override in force")
       .def_property_readonly("machine", [](const PyJob& j) { return std::make_shared<core::Machine>(j.job().machine); })
       .def("get", &PyJob::get, py::arg("key"),
            "The value of a dotted key in the job file (\"machine.\" keys: in its machine file), with the overrides; "
@@ -317,27 +326,37 @@ is checked at once: a refused one raises vmsim.Error and leaves the job as it wa
            "naming the key when the job no longer loads.")
       .def("__setitem__", &PyJob::override_key)
       .def("reset", &PyJob::reset, "Drops every override.")
-      .def("program", [](const PyJob& j) { return std::make_shared<core::ToolPath>(sim::read_job_program(j.job())); },
-           "The job's program as the chain reads it (the job's tool table, start and dialect), a vmsim.Program.")
-      .def("interpolate", &interpolate_job, py::arg("progress") = py::none(),
-           (std::string("Runs the job's interpolator (sim::Chain: period, tolerance, feed plan, feed_scale) and returns "
-                        "its vmsim.Setpoints.\n") + kProgressDoc).c_str())
-      .def("simulate", &simulate_job, py::arg("full_rate_trace") = false, py::arg("progress") = py::none(),
-           (std::string("Runs the job's motion as `vmsim motion` does (interpolator, drives, contour error) and returns "
-                        "a vmsim.Motion. full_rate_trace: also every current-loop sample (large).\n") + kProgressDoc).c_str())
+      .def(
+          "program", [](const PyJob& j) { return std::make_shared<core::ToolPath>(sim::read_job_program(j.job())); },
+          "The job's program as the chain reads it (the job's tool table, start and dialect), a vmsim.Program.")
+      .def(
+          "interpolate", &interpolate_job, py::arg("progress") = py::none(),
+          (std::string("Runs the job's interpolator (sim::Chain: period, tolerance, feed plan, feed_scale) and returns "
+                       "its vmsim.Setpoints.\n") +
+           kProgressDoc)
+              .c_str())
+      .def(
+          "simulate", &simulate_job, py::arg("full_rate_trace") = false, py::arg("progress") = py::none(),
+          (std::string("Runs the job's motion as `vmsim motion` does (interpolator, drives, contour error) and returns "
+                       "a vmsim.Motion. full_rate_trace: also every current-loop sample (large).\n") +
+           kProgressDoc)
+              .c_str())
       .def("run", &run_job, py::arg("out") = py::none(), py::arg("render") = false, py::arg("progress") = py::none(),
            (std::string("Runs the whole chain as `vmsim run` does and returns a vmsim.Result. out: a directory to "
                         "write the files `vmsim run --no-render` writes (the same writer; report.json and "
                         "report.html). render=True is not available from Python yet (the pictures' code lives in "
-                        "the command line).\n") + kProgressDoc).c_str())
+                        "the command line).\n") +
+            kProgressDoc)
+               .c_str())
       .def("__repr__", [](const PyJob& j) {
         return "<vmsim.Job " + j.job().name + " (" + j.file().string() + ")" +
                (j.overrides_json().empty() ? std::string() : " with " + j.overrides_json().dump()) + ">";
       });
 
-  m.def("load_job", [](const fs::path& p) { return std::make_shared<PyJob>(p); }, py::arg("path"),
-        "Reads a job file (job.toml, parts/README.md) and its machine file. Raises vmsim.Error naming the file, line "
-        "and key.");
+  m.def(
+      "load_job", [](const fs::path& p) { return std::make_shared<PyJob>(p); }, py::arg("path"),
+      "Reads a job file (job.toml, parts/README.md) and its machine file. Raises vmsim.Error naming the file, line "
+      "and key.");
 }
 
 }  // namespace vmsim::python

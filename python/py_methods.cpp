@@ -120,15 +120,17 @@ void bind_methods(py::module_& m) {
           if (validate) vtrace = sysid::read_position_trace_csv(*validate);
           data = sysid::prepare_identification(tr, vtrace ? &*vtrace : nullptr, o);
           for (const sysid::AxisData& a : data.axes) ids.push_back(sysid::identify_axis(a, data.source, o));
-          if (save_to) sysid::save_axis_models(*save_to, sysid::axis_model_file(data, ids), {"Written by vmsim.identify (Python)"});
+          if (save_to)
+            sysid::save_axis_models(*save_to, sysid::axis_model_file(data, ids),
+                                    {"Written by vmsim.identify (Python)"});
         }
         for (const auto& a : ids) out[py::str(a.name)] = identified_axis(a);
         return out;
       },
       py::arg("traces"), py::arg("validate") = py::none(),
-      py::arg("structures") = std::vector<std::string>{"arx", "armax", "oe"}, py::arg("orders_nb_na") = std::pair<int, int>{2, 5},
-      py::arg("nc") = 2, py::arg("delay") = py::none(), py::arg("use") = "best",
-      py::arg("axes") = std::vector<std::string>{}, py::arg("save_to") = py::none(),
+      py::arg("structures") = std::vector<std::string>{"arx", "armax", "oe"},
+      py::arg("orders_nb_na") = std::pair<int, int>{2, 5}, py::arg("nc") = 2, py::arg("delay") = py::none(),
+      py::arg("use") = "best", py::arg("axes") = std::vector<std::string>{}, py::arg("save_to") = py::none(),
       R"(Each axis of position traces (CSV, as `vmsim motion` writes trace.csv or an NC's trace) identified as a
 discrete transfer function from command to encoder position (the predictive-compensation paper), as `vmsim identify`
 does: ARX, ARMAX, OE with orders (nb, na), ARMAX noise order nc, delay nk (None: the best ARX loss over 1..5), ranked
@@ -140,7 +142,10 @@ tracking_fit_percent, r2, mse, ...}}}}; save_to writes the axis-model file ([job
       [](const PyJob& pj, std::vector<double> kp_grid, std::vector<double> kf_grid, double gain_step,
          double frequency_hz, const std::string& reference, std::optional<std::pair<double, double>> kp_range,
          bool verify, py::object progress) {
-        if (pj.feed_scale() != 1.0) throw core::Error("oga: the job's feed_scale override applies to vmsim run and motion; OGA adjusts the gains for the program's own feeds");
+        if (pj.feed_scale() != 1.0)
+          throw core::Error(
+              "oga: the job's feed_scale override applies to vmsim run and motion; OGA adjusts the gains for the "
+              "program's own feeds");
         sim::OgaJobOptions o;
         o.search.kp_grid = grid_of(kp_grid, "kp_grid");
         o.search.kf_grid = grid_of(kf_grid, "kf_grid");
@@ -148,9 +153,12 @@ tracking_fit_percent, r2, mse, ...}}}}; save_to writes the axis-model file ([job
         o.search.gain_step = gain_step;
         if (!(frequency_hz > 0)) throw core::Error("frequency_hz: expected a frequency > 0");
         o.search.frequency_hz = frequency_hz;
-        if (reference == "best") o.search.reference = methods::OgaOptions::Reference::Best;
-        else if (reference == "machine") o.search.reference = methods::OgaOptions::Reference::Machine;
-        else throw core::Error("reference \"" + reference + "\": expected best or machine");
+        if (reference == "best")
+          o.search.reference = methods::OgaOptions::Reference::Best;
+        else if (reference == "machine")
+          o.search.reference = methods::OgaOptions::Reference::Machine;
+        else
+          throw core::Error("reference \"" + reference + "\": expected best or machine");
         o.range_all = kp_range;
         o.verify = verify;
         const auto loaded = pj.loaded();
@@ -167,9 +175,10 @@ tracking_fit_percent, r2, mse, ...}}}}; save_to writes the axis-model file ([job
         d["setpoints"] = py::cast(std::make_shared<motion::InterpResult>(r->interp));
         return d;
       },
-      py::arg("job"), py::arg("kp_grid") = std::vector<double>{1, 0.5, 9}, py::arg("kf_grid") = std::vector<double>{0, 0.1, 1.2},
-      py::arg("gain_step") = 0.03, py::arg("frequency_hz") = 10.0, py::arg("reference") = "best",
-      py::arg("kp_range") = py::none(), py::arg("verify") = true, py::arg("progress") = py::none(),
+      py::arg("job"), py::arg("kp_grid") = std::vector<double>{1, 0.5, 9},
+      py::arg("kf_grid") = std::vector<double>{0, 0.1, 1.2}, py::arg("gain_step") = 0.03,
+      py::arg("frequency_hz") = 10.0, py::arg("reference") = "best", py::arg("kp_range") = py::none(),
+      py::arg("verify") = true, py::arg("progress") = py::none(),
       R"(Offline gain adjustment (Duong et al.) on a job's biaxial profile, as `vmsim oga` runs it with the same
 options: kp_grid, kf_grid as (MIN, STEP, MAX) in (m/min)/mm, gain_step dK, frequency_hz f, reference "best" | "machine"
 (C1), kp_range (MIN, MAX) for every adjusted axis. Returns a dict: report (report.json's figures), c2 and c1
@@ -184,9 +193,10 @@ options: kp_grid, kf_grid as (MIN, STEP, MAX) in (m/min)/mm, gain_step dK, frequ
         });
         py::dict d;
         d["report"] = report_of("plan-feed", loaded->job, r->report, r->timings);
-        d["ceiling_s_mm"] = py::array_t<double>(static_cast<py::ssize_t>(r->ceiling.s_mm.size()), r->ceiling.s_mm.data());
-        d["ceiling_feed_mm_per_s"] =
-            py::array_t<double>(static_cast<py::ssize_t>(r->ceiling.feed_mm_per_s.size()), r->ceiling.feed_mm_per_s.data());
+        d["ceiling_s_mm"] =
+            py::array_t<double>(static_cast<py::ssize_t>(r->ceiling.s_mm.size()), r->ceiling.s_mm.data());
+        d["ceiling_feed_mm_per_s"] = py::array_t<double>(static_cast<py::ssize_t>(r->ceiling.feed_mm_per_s.size()),
+                                                         r->ceiling.feed_mm_per_s.data());
         d["model_peak_mm"] = r->model_peak_mm;
         d["model_peak_free_mm"] = r->model_peak_free_mm;
         return d;

@@ -21,7 +21,8 @@ namespace {
 
 py::object num(double v) { return std::isfinite(v) ? py::object(py::float_(v)) : py::object(py::none()); }
 
-// The keys `vmsim stats` prints under "areal" (app/cmd_surface.cpp areal_json); NaN (Ssk, Sku of a flat surface) as None.
+// The keys `vmsim stats` prints under "areal" (app/cmd_surface.cpp areal_json); NaN (Ssk, Sku of a flat surface) as
+// None.
 py::dict areal_dict(const metrology::ArealParameters& p) {
   py::dict d;
   d["points"] = p.points;
@@ -43,10 +44,14 @@ metrology::SurfaceProcessing processing_of(py::handle level, py::handle filters)
   metrology::SurfaceProcessing how;
   if (py::isinstance<py::str>(level)) {
     const std::string s = level.cast<std::string>();
-    if (s == "none") how.level = 0;
-    else if (s == "plane") how.level = 1;
-    else if (s.rfind("poly:", 0) == 0) how.level = std::stoi(s.substr(5));
-    else throw core::Error("level: expected \"none\", \"plane\", \"poly:N\" or an integer degree, found \"" + s + "\"");
+    if (s == "none")
+      how.level = 0;
+    else if (s == "plane")
+      how.level = 1;
+    else if (s.rfind("poly:", 0) == 0)
+      how.level = std::stoi(s.substr(5));
+    else
+      throw core::Error("level: expected \"none\", \"plane\", \"poly:N\" or an integer degree, found \"" + s + "\"");
   } else {
     how.level = level.cast<int>();
   }
@@ -61,7 +66,8 @@ metrology::SurfaceProcessing processing_of(py::handle level, py::handle filters)
         try {
           sf.cutoff_mm = std::stod(s.substr(1));
         } catch (const std::exception&) {
-          throw core::Error("filters: expected \"L0.8\" or \"S0.0025\" (kind, then the cut-off in mm), found \"" + s + "\"");
+          throw core::Error("filters: expected \"L0.8\" or \"S0.0025\" (kind, then the cut-off in mm), found \"" + s +
+                            "\"");
         }
       } else {
         const py::sequence t = f.cast<py::sequence>();
@@ -69,7 +75,8 @@ metrology::SurfaceProcessing processing_of(py::handle level, py::handle filters)
         kind = t[0].cast<std::string>();
         sf.cutoff_mm = t[1].cast<double>();
       }
-      if (kind != "L" && kind != "S") throw core::Error("filters: kind must be \"L\" (high-pass) or \"S\" (low-pass), found \"" + kind + "\"");
+      if (kind != "L" && kind != "S")
+        throw core::Error("filters: kind must be \"L\" (high-pass) or \"S\" (low-pass), found \"" + kind + "\"");
       if (!(sf.cutoff_mm > 0) || !std::isfinite(sf.cutoff_mm)) throw core::Error("filters: the cut-off must be > 0 mm");
       sf.kind = kind[0];
       how.filters.push_back(sf);
@@ -146,7 +153,8 @@ vmsim.Grid (invalid points NaN, mask False) with .format and .note (what the rea
         py::gil_scoped_release release;
         metrology::write_surface(p, g);
       },
-      py::arg("path"), py::arg("grid"), "Writes a grid by the file's extension: .x3p, .sdf, .sur, .csv, .xyz, .npy (atomically).");
+      py::arg("path"), py::arg("grid"),
+      "Writes a grid by the file's extension: .x3p, .sdf, .sur, .csv, .xyz, .npy (atomically).");
 
   m.def(
       "write_x3p",

@@ -41,7 +41,8 @@ Eigen::ArrayXd times(Eigen::Index n, double period_s) {
 }  // namespace
 
 void bind_results(py::module_& m) {
-  py::class_<motion::InterpResult, std::shared_ptr<motion::InterpResult>>(m, "Setpoints", R"(The interpolator's output: the
+  py::class_<motion::InterpResult, std::shared_ptr<motion::InterpResult>>(m, "Setpoints",
+                                                                          R"(The interpolator's output: the
 axis commands every period_s (Te).
 
 position: (samples, axes) float64, axis units (mm; rad for rotary axes), column k = axis_names[k] (a Fortran-ordered
@@ -52,57 +53,74 @@ smoothed path; move_index: the program move each sample lies on; cycle_time_s; s
       .def_property_readonly(
           "position", [](motion::InterpResult& r) -> Eigen::MatrixXd& { return r.setpoints.position; }, kRef)
       .def_property_readonly(
-          "path_speed_mm_per_s", [](motion::InterpResult& r) -> Eigen::ArrayXd& { return r.setpoints.path_speed_mm_per_s; }, kRef)
+          "path_speed_mm_per_s",
+          [](motion::InterpResult& r) -> Eigen::ArrayXd& { return r.setpoints.path_speed_mm_per_s; }, kRef)
       .def_property_readonly(
           "path_length_mm", [](motion::InterpResult& r) -> Eigen::ArrayXd& { return r.setpoints.path_length_mm; }, kRef)
       .def_property_readonly(
           "move_index", [](motion::InterpResult& r) -> Eigen::ArrayXi& { return r.setpoints.move_index; }, kRef)
-      .def_property_readonly("t_s", [](const motion::InterpResult& r) { return times(r.setpoints.samples(), r.setpoints.period_s); })
+      .def_property_readonly(
+          "t_s", [](const motion::InterpResult& r) { return times(r.setpoints.samples(), r.setpoints.period_s); })
       .def_property_readonly("samples", [](const motion::InterpResult& r) { return r.setpoints.samples(); })
       .def_property_readonly("cycle_time_s", [](const motion::InterpResult& r) { return r.stats.cycle_time_s; })
-      .def_property_readonly("stats", [](const motion::InterpResult& r) {
-        py::dict d;
-        d["cycle_time_s"] = r.stats.cycle_time_s;
-        d["moves"] = r.stats.moves;
-        d["blends"] = r.stats.blends;
-        d["exact_stops"] = r.stats.exact_stops;
-        d["repair_passes"] = r.stats.repair_passes;
-        return d;
-      })
+      .def_property_readonly("stats",
+                             [](const motion::InterpResult& r) {
+                               py::dict d;
+                               d["cycle_time_s"] = r.stats.cycle_time_s;
+                               d["moves"] = r.stats.moves;
+                               d["blends"] = r.stats.blends;
+                               d["exact_stops"] = r.stats.exact_stops;
+                               d["repair_passes"] = r.stats.repair_passes;
+                               return d;
+                             })
       .def("__len__", [](const motion::InterpResult& r) { return r.setpoints.samples(); })
       .def("__repr__", [](const motion::InterpResult& r) {
         return "<vmsim.Setpoints " + std::to_string(r.setpoints.samples()) + " samples x " +
-               std::to_string(r.setpoints.axis_names.size()) + " axes, Te " + std::to_string(r.setpoints.period_s) + " s>";
+               std::to_string(r.setpoints.axis_names.size()) + " axes, Te " + std::to_string(r.setpoints.period_s) +
+               " s>";
       });
 
-  py::class_<drives::AxisResponse, std::shared_ptr<drives::AxisResponse>>(m, "Response", R"(The drives' actual motion: one row
+  py::class_<drives::AxisResponse, std::shared_ptr<drives::AxisResponse>>(m, "Response",
+                                                                          R"(The drives' actual motion: one row
 per setpoint (row k at t = k Te), then the settling rows.
 
 position, velocity, acceleration, jerk: (rows, axes) float64 in axis units (mm, rad) per s, s^2, s^3;
 current_A, current_setpoint_A, current_mean_A, current_peak_A: (rows, axes) motor currents (A). Fortran-ordered views.)")
       .def_readonly("period_s", &drives::AxisResponse::period_s)
       .def_readonly("axis_names", &drives::AxisResponse::axis_names)
-      .def_property_readonly("position", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.position; }, kRef)
-      .def_property_readonly("velocity", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.velocity; }, kRef)
-      .def_property_readonly("acceleration", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.acceleration; }, kRef)
-      .def_property_readonly("jerk", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.jerk; }, kRef)
-      .def_property_readonly("current_A", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.current_A; }, kRef)
+      .def_property_readonly(
+          "position", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.position; }, kRef)
+      .def_property_readonly(
+          "velocity", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.velocity; }, kRef)
+      .def_property_readonly(
+          "acceleration", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.acceleration; }, kRef)
+      .def_property_readonly(
+          "jerk", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.jerk; }, kRef)
+      .def_property_readonly(
+          "current_A", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.current_A; }, kRef)
       .def_property_readonly(
           "current_setpoint_A", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.current_setpoint_A; }, kRef)
-      .def_property_readonly("current_mean_A", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.current_mean_A; }, kRef)
-      .def_property_readonly("current_peak_A", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.current_peak_A; }, kRef)
+      .def_property_readonly(
+          "current_mean_A", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.current_mean_A; }, kRef)
+      .def_property_readonly(
+          "current_peak_A", [](drives::AxisResponse& r) -> Eigen::MatrixXd& { return r.current_peak_A; }, kRef)
       .def_property_readonly("t_s", [](const drives::AxisResponse& r) { return times(r.samples(), r.period_s); })
       .def("__len__", [](const drives::AxisResponse& r) { return r.samples(); });
 
-  py::class_<sim::MotionRun, std::shared_ptr<sim::MotionRun>>(m, "Motion", R"(A job's motion (`vmsim motion`): the program,
+  py::class_<sim::MotionRun, std::shared_ptr<sim::MotionRun>>(m, "Motion",
+                                                              R"(A job's motion (`vmsim motion`): the program,
 the setpoints, the drives' response, and the contour error of the actual tool tip against the commanded path.
 
 contour_error_mm: signed, per response row (positive: outside a curve); contour_foot_segment: the command segment
 holding each foot point; report: the figures `vmsim motion` writes to report.json (a dict).)")
-      .def_property_readonly("program", [](sim::MotionRun& r) -> core::ToolPath& { return r.program; }, kRef)
-      .def_property_readonly("setpoints", [](sim::MotionRun& r) -> motion::InterpResult& { return r.interp; }, kRef)
-      .def_property_readonly("response", [](sim::MotionRun& r) -> drives::AxisResponse& { return r.response; }, kRef)
-      .def_property_readonly("contour_error_mm", [](sim::MotionRun& r) -> Eigen::ArrayXd& { return r.contour.signed_mm; }, kRef)
+      .def_property_readonly(
+          "program", [](sim::MotionRun& r) -> core::ToolPath& { return r.program; }, kRef)
+      .def_property_readonly(
+          "setpoints", [](sim::MotionRun& r) -> motion::InterpResult& { return r.interp; }, kRef)
+      .def_property_readonly(
+          "response", [](sim::MotionRun& r) -> drives::AxisResponse& { return r.response; }, kRef)
+      .def_property_readonly(
+          "contour_error_mm", [](sim::MotionRun& r) -> Eigen::ArrayXd& { return r.contour.signed_mm; }, kRef)
       .def_property_readonly(
           "contour_foot_segment", [](sim::MotionRun& r) -> Eigen::ArrayXi& { return r.contour.foot_segment; }, kRef)
       .def_property_readonly("contour_error_max_abs_mm", [](const sim::MotionRun& r) { return r.contour.max_abs_mm; })
@@ -123,9 +141,13 @@ vmsim.Mesh with point_data["deviation_mm"], or None; out, files: where job.run(o
           "surface", [](PyResult& r) -> core::HeightGrid* { return r.run.surface ? &*r.run.surface : nullptr; }, kRef)
       .def_property_readonly(
           "reference",
-          [](PyResult& r) -> core::HeightGrid* { return r.run.reference_surface ? &*r.run.reference_surface : nullptr; }, kRef)
+          [](PyResult& r) -> core::HeightGrid* {
+            return r.run.reference_surface ? &*r.run.reference_surface : nullptr;
+          },
+          kRef)
       .def_property_readonly(
-          "deviation", [](PyResult& r) -> core::HeightGrid* { return r.run.deviation ? &*r.run.deviation : nullptr; }, kRef)
+          "deviation", [](PyResult& r) -> core::HeightGrid* { return r.run.deviation ? &*r.run.deviation : nullptr; },
+          kRef)
       .def_property_readonly(
           "mesh",
           [](PyResult& r) -> core::TriangleMesh* {
@@ -134,19 +156,21 @@ vmsim.Mesh with point_data["deviation_mm"], or None; out, files: where job.run(o
             return nullptr;
           },
           kRef)
-      .def_property_readonly("needle_offset_mm", [](PyResult& r) -> Eigen::VectorXd& { return r.run.needle_offset_mm; }, kRef)
+      .def_property_readonly(
+          "needle_offset_mm", [](PyResult& r) -> Eigen::VectorXd& { return r.run.needle_offset_mm; }, kRef)
       .def_property_readonly(
           "needle_reference_mm", [](PyResult& r) -> Eigen::VectorXd& { return r.run.needle_reference_mm; }, kRef)
       .def_property_readonly(
           "needle_deviation_mm", [](PyResult& r) -> Eigen::VectorXd& { return r.run.needle_deviation_mm; }, kRef)
-      .def_property_readonly("marks", [](const PyResult& r) { return to_python(r.report.value("marks", nlohmann::json::array())); })
+      .def_property_readonly(
+          "marks", [](const PyResult& r) { return to_python(r.report.value("marks", nlohmann::json::array())); })
       .def_property_readonly("report", [](const PyResult& r) { return to_python(r.report); })
       .def_property_readonly("reference_name", [](const PyResult& r) { return r.run.cut.reference.name; })
       .def_readonly("out", &PyResult::out)
       .def_readonly("files", &PyResult::files)
       .def("__repr__", [](const PyResult& r) {
-        return "<vmsim.Result " + r.report.value("job", std::string()) + ": " + std::to_string(r.report["marks"].size()) +
-               " marks>";
+        return "<vmsim.Result " + r.report.value("job", std::string()) + ": " +
+               std::to_string(r.report["marks"].size()) + " marks>";
       });
 }
 

@@ -70,10 +70,12 @@ marks invalid points).)")
       .def(py::init(&grid_from), py::arg("z_mm"), py::arg("dx_mm"), py::arg("dy_mm") = py::none(),
            py::arg("x0_mm") = 0.0, py::arg("y0_mm") = 0.0, py::arg("mask") = py::none())
       .def_property_readonly(
-          "z_mm", [](core::HeightGrid& g) -> core::HeightArray& { return g.z_mm; }, py::return_value_policy::reference_internal,
+          "z_mm", [](core::HeightGrid& g) -> core::HeightArray& { return g.z_mm; },
+          py::return_value_policy::reference_internal,
           "heights (mm), shape (ny, nx), NaN where invalid; a view of the grid")
       .def_property_readonly(
-          "mask", [](const core::HeightGrid& g) { return Eigen::Array<bool, -1, -1, Eigen::RowMajor>(g.z_mm.isFinite()); },
+          "mask",
+          [](const core::HeightGrid& g) { return Eigen::Array<bool, -1, -1, Eigen::RowMajor>(g.z_mm.isFinite()); },
           "True where the height is valid (a new array)")
       .def_readwrite("x0_mm", &core::HeightGrid::x0_mm, "x of column 0 (mm)")
       .def_readwrite("y0_mm", &core::HeightGrid::y0_mm, "y of row 0 (mm)")
@@ -83,12 +85,19 @@ marks invalid points).)")
       .def_property_readonly("ny", &core::HeightGrid::ny)
       .def_property_readonly("shape", [](const core::HeightGrid& g) { return py::make_tuple(g.ny(), g.nx()); })
       .def_property_readonly(
-          "x_mm", [](const core::HeightGrid& g) { return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(g.nx(), 0, g.nx() - 1) * g.dx_mm + g.x0_mm); },
+          "x_mm",
+          [](const core::HeightGrid& g) {
+            return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(g.nx(), 0, g.nx() - 1) * g.dx_mm + g.x0_mm);
+          },
           "x of each column (mm)")
       .def_property_readonly(
-          "y_mm", [](const core::HeightGrid& g) { return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(g.ny(), 0, g.ny() - 1) * g.dy_mm + g.y0_mm); },
+          "y_mm",
+          [](const core::HeightGrid& g) {
+            return Eigen::ArrayXd(Eigen::ArrayXd::LinSpaced(g.ny(), 0, g.ny() - 1) * g.dy_mm + g.y0_mm);
+          },
           "y of each row (mm)")
-      .def("copy", [](const core::HeightGrid& g) { return std::make_shared<core::HeightGrid>(g); }, "a deep copy")
+      .def(
+          "copy", [](const core::HeightGrid& g) { return std::make_shared<core::HeightGrid>(g); }, "a deep copy")
       .def("__repr__", [](const core::HeightGrid& g) {
         return "<vmsim.Grid " + std::to_string(g.ny()) + "x" + std::to_string(g.nx()) + " at " +
                std::to_string(g.dx_mm) + " x " + std::to_string(g.dy_mm) + " mm>";
@@ -99,15 +108,19 @@ marks invalid points).)")
 vertices_mm: (n, 3) float64; triangles: (m, 3) int32 vertex indices, counter-clockwise seen from outside;
 point_data: {name: (n,) float64} per-vertex scalars (e.g. "deviation_mm"). Views of the mesh (no copy).)")
       .def_property_readonly(
-          "vertices_mm", [](core::TriangleMesh& t) -> auto& { return t.vertices_mm; }, py::return_value_policy::reference_internal)
+          "vertices_mm", [](core::TriangleMesh & t) -> auto& { return t.vertices_mm; },
+          py::return_value_policy::reference_internal)
       .def_property_readonly(
-          "triangles", [](core::TriangleMesh& t) -> auto& { return t.triangles; }, py::return_value_policy::reference_internal)
-      .def_property_readonly("point_data", [](py::object self) {
-        auto& t = self.cast<core::TriangleMesh&>();
-        py::dict d;
-        for (const auto& [name, v] : t.point_data) d[py::str(name)] = view(v.data(), v.size(), self);
-        return d;
-      })
+          "triangles", [](core::TriangleMesh & t) -> auto& { return t.triangles; },
+          py::return_value_policy::reference_internal)
+      .def_property_readonly("point_data",
+                             [](py::object self) {
+                               auto& t = self.cast<core::TriangleMesh&>();
+                               py::dict d;
+                               for (const auto& [name, v] : t.point_data)
+                                 d[py::str(name)] = view(v.data(), v.size(), self);
+                               return d;
+                             })
       .def("__repr__", [](const core::TriangleMesh& t) {
         return "<vmsim.Mesh " + std::to_string(t.vertices_mm.rows()) + " vertices, " +
                std::to_string(t.triangles.rows()) + " triangles>";
@@ -125,70 +138,98 @@ tool_number; tool_length_offset_mm; source_line (1-based line of the program tha
       .def_readonly("source_path", &core::ToolPath::source_path)
       .def_readonly("warnings", &core::ToolPath::warnings)
       .def_readonly("tool_diameter_mm", &core::ToolPath::tool_diameter_mm)
-      .def_property_readonly("initial_position", [](const core::ToolPath& p) { return Eigen::VectorXd(p.initial_position); })
-      .def_property_readonly("start", [](const core::ToolPath& p) {
-        Eigen::Matrix<double, -1, 6, Eigen::RowMajor> a(static_cast<Eigen::Index>(p.moves.size()), 6);
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a.row(static_cast<Eigen::Index>(k)) = p.moves[k].start.transpose();
-        return a;
-      })
-      .def_property_readonly("end", [](const core::ToolPath& p) {
-        Eigen::Matrix<double, -1, 6, Eigen::RowMajor> a(static_cast<Eigen::Index>(p.moves.size()), 6);
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a.row(static_cast<Eigen::Index>(k)) = p.moves[k].end.transpose();
-        return a;
-      })
-      .def_property_readonly("centre_mm", [](const core::ToolPath& p) {
-        Eigen::Matrix<double, -1, 2, Eigen::RowMajor> a(static_cast<Eigen::Index>(p.moves.size()), 2);
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a.row(static_cast<Eigen::Index>(k)) = p.moves[k].centre_mm.transpose();
-        return a;
-      })
-      .def_property_readonly("kind", [](const core::ToolPath& p) {
-        py::list l;
-        for (const core::Move& mv : p.moves) l.append(mv.kind == core::MotionKind::Arc ? "arc" : "line");
-        return py::module_::import("numpy").attr("array")(l);
-      })
-      .def_property_readonly("plane", [](const core::ToolPath& p) {
-        py::list l;
-        for (const core::Move& mv : p.moves)
-          l.append(mv.plane == core::ArcPlane::XY ? "XY" : mv.plane == core::ArcPlane::ZX ? "ZX" : "YZ");
-        return py::module_::import("numpy").attr("array")(l);
-      })
-      .def_property_readonly("rapid", [](const core::ToolPath& p) {
-        Eigen::Array<bool, -1, 1> a(static_cast<Eigen::Index>(p.moves.size()));
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a[static_cast<Eigen::Index>(k)] = p.moves[k].rapid;
-        return a;
-      })
-      .def_property_readonly("feed_mm_per_min", [](const core::ToolPath& p) {
-        Eigen::ArrayXd a(static_cast<Eigen::Index>(p.moves.size()));
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a[static_cast<Eigen::Index>(k)] = p.moves[k].feed_mm_per_min;
-        return a;
-      })
-      .def_property_readonly("inverse_time_per_min", [](const core::ToolPath& p) {
-        Eigen::ArrayXd a(static_cast<Eigen::Index>(p.moves.size()));
-        for (std::size_t k = 0; k < p.moves.size(); ++k)
-          a[static_cast<Eigen::Index>(k)] =
-              p.moves[k].feed_mode == core::FeedMode::InverseTime ? p.moves[k].inverse_time_per_min : 0.0;
-        return a;
-      })
-      .def_property_readonly("tool_length_offset_mm", [](const core::ToolPath& p) {
-        Eigen::ArrayXd a(static_cast<Eigen::Index>(p.moves.size()));
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a[static_cast<Eigen::Index>(k)] = p.moves[k].tool_length_offset_mm;
-        return a;
-      })
-      .def_property_readonly("rotation", [](const core::ToolPath& p) {
-        Eigen::ArrayXi a(static_cast<Eigen::Index>(p.moves.size()));
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a[static_cast<Eigen::Index>(k)] = p.moves[k].rotation;
-        return a;
-      })
-      .def_property_readonly("tool_number", [](const core::ToolPath& p) {
-        Eigen::ArrayXi a(static_cast<Eigen::Index>(p.moves.size()));
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a[static_cast<Eigen::Index>(k)] = p.moves[k].tool_number;
-        return a;
-      })
-      .def_property_readonly("source_line", [](const core::ToolPath& p) {
-        Eigen::ArrayXi a(static_cast<Eigen::Index>(p.moves.size()));
-        for (std::size_t k = 0; k < p.moves.size(); ++k) a[static_cast<Eigen::Index>(k)] = p.moves[k].source_line;
-        return a;
-      })
+      .def_property_readonly("initial_position",
+                             [](const core::ToolPath& p) { return Eigen::VectorXd(p.initial_position); })
+      .def_property_readonly("start",
+                             [](const core::ToolPath& p) {
+                               Eigen::Matrix<double, -1, 6, Eigen::RowMajor> a(
+                                   static_cast<Eigen::Index>(p.moves.size()), 6);
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a.row(static_cast<Eigen::Index>(k)) = p.moves[k].start.transpose();
+                               return a;
+                             })
+      .def_property_readonly("end",
+                             [](const core::ToolPath& p) {
+                               Eigen::Matrix<double, -1, 6, Eigen::RowMajor> a(
+                                   static_cast<Eigen::Index>(p.moves.size()), 6);
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a.row(static_cast<Eigen::Index>(k)) = p.moves[k].end.transpose();
+                               return a;
+                             })
+      .def_property_readonly("centre_mm",
+                             [](const core::ToolPath& p) {
+                               Eigen::Matrix<double, -1, 2, Eigen::RowMajor> a(
+                                   static_cast<Eigen::Index>(p.moves.size()), 2);
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a.row(static_cast<Eigen::Index>(k)) = p.moves[k].centre_mm.transpose();
+                               return a;
+                             })
+      .def_property_readonly("kind",
+                             [](const core::ToolPath& p) {
+                               py::list l;
+                               for (const core::Move& mv : p.moves)
+                                 l.append(mv.kind == core::MotionKind::Arc ? "arc" : "line");
+                               return py::module_::import("numpy").attr("array")(l);
+                             })
+      .def_property_readonly(
+          "plane",
+          [](const core::ToolPath& p) {
+            py::list l;
+            for (const core::Move& mv : p.moves)
+              l.append(mv.plane == core::ArcPlane::XY ? "XY" : mv.plane == core::ArcPlane::ZX ? "ZX" : "YZ");
+            return py::module_::import("numpy").attr("array")(l);
+          })
+      .def_property_readonly("rapid",
+                             [](const core::ToolPath& p) {
+                               Eigen::Array<bool, -1, 1> a(static_cast<Eigen::Index>(p.moves.size()));
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a[static_cast<Eigen::Index>(k)] = p.moves[k].rapid;
+                               return a;
+                             })
+      .def_property_readonly("feed_mm_per_min",
+                             [](const core::ToolPath& p) {
+                               Eigen::ArrayXd a(static_cast<Eigen::Index>(p.moves.size()));
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a[static_cast<Eigen::Index>(k)] = p.moves[k].feed_mm_per_min;
+                               return a;
+                             })
+      .def_property_readonly("inverse_time_per_min",
+                             [](const core::ToolPath& p) {
+                               Eigen::ArrayXd a(static_cast<Eigen::Index>(p.moves.size()));
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a[static_cast<Eigen::Index>(k)] = p.moves[k].feed_mode == core::FeedMode::InverseTime
+                                                                       ? p.moves[k].inverse_time_per_min
+                                                                       : 0.0;
+                               return a;
+                             })
+      .def_property_readonly("tool_length_offset_mm",
+                             [](const core::ToolPath& p) {
+                               Eigen::ArrayXd a(static_cast<Eigen::Index>(p.moves.size()));
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a[static_cast<Eigen::Index>(k)] = p.moves[k].tool_length_offset_mm;
+                               return a;
+                             })
+      .def_property_readonly("rotation",
+                             [](const core::ToolPath& p) {
+                               Eigen::ArrayXi a(static_cast<Eigen::Index>(p.moves.size()));
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a[static_cast<Eigen::Index>(k)] = p.moves[k].rotation;
+                               return a;
+                             })
+      .def_property_readonly("tool_number",
+                             [](const core::ToolPath& p) {
+                               Eigen::ArrayXi a(static_cast<Eigen::Index>(p.moves.size()));
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a[static_cast<Eigen::Index>(k)] = p.moves[k].tool_number;
+                               return a;
+                             })
+      .def_property_readonly("source_line",
+                             [](const core::ToolPath& p) {
+                               Eigen::ArrayXi a(static_cast<Eigen::Index>(p.moves.size()));
+                               for (std::size_t k = 0; k < p.moves.size(); ++k)
+                                 a[static_cast<Eigen::Index>(k)] = p.moves[k].source_line;
+                               return a;
+                             })
       .def("__repr__", [](const core::ToolPath& p) {
         return "<vmsim.Program " + p.source_path + ": " + std::to_string(p.moves.size()) + " moves>";
       });

@@ -5,8 +5,9 @@
 #include "sim/report.hpp"
 
 PYBIND11_MODULE(_vmsim, m) {
-  m.doc() = "vmsim: virtual machining (program -> interpolator -> drives -> material removal -> surfaces -> metrology) "
-            "as a library. Units are in the names (mm, s, rad; feed_mm_per_min).";
+  m.doc() =
+      "vmsim: virtual machining (program -> interpolator -> drives -> material removal -> surfaces -> metrology) "
+      "as a library. Units are in the names (mm, s, rad; feed_mm_per_min).";
   m.attr("__version__") = vmsim::sim::version();
   vmsim::python::bind_common(m);
   vmsim::python::bind_values(m);

@@ -13,7 +13,7 @@ namespace {
 
 using namespace detail;
 
-constexpr int kBlock = 8;      // rows per work item: a block's rows are one thread's, and one row of tiles
+constexpr int kBlock = 8;  // rows per work item: a block's rows are one thread's, and one row of tiles
 
 // A block's tiles (kBlock rows x kTileCols columns of rays): per tile, bounds of its material, tested against a
 // sweep's bound over the whole tile before any of its rays. Cutting only removes material, so a top (bottom) once
@@ -55,7 +55,7 @@ struct Tiles {
     stale_top[k] = 0;
     float t;
     if (!both && (use_avx2() ? tile_top_avx2 : tile_top_generic)(g.head_row(jb0) + c0, static_cast<std::size_t>(g.nu()),
-                                                                   jb1 - jb0 + 1, n, skip_several, t)) {
+                                                                 jb1 - jb0 + 1, n, skip_several, t)) {
       top[k] = t;
       return;
     }
@@ -164,9 +164,9 @@ struct Chunk {
   std::size_t q0 = 0, q1 = 0;
   bool fat_ok = false;  // the fat sweep is usable (a chord across the rays, a deviation below R)
   AxialBall fat;
-  double margin = 0;    // the members' largest margin (cut_block_axial_ball)
+  double margin = 0;                     // the members' largest margin (cut_block_axial_ball)
   int i0 = 0, i1 = -1, j0 = 0, j1 = -1;  // the members' footprint in the block
-  double key = 0;       // the bound over that footprint: chunks run lowest first
+  double key = 0;                        // the bound over that footprint: chunks run lowest first
 };
 constexpr std::size_t kChunk = 16;
 
@@ -242,7 +242,7 @@ bool order_free(const DexelGrid& g, const std::vector<Footprint>& fp, const std:
   float top;
   several.clear();
   if (!(use_avx2() ? tile_top_avx2 : tile_top_generic)(g.head_row(jb0), static_cast<std::size_t>(g.nu()), jb1 - jb0 + 1,
-                                                        g.nu(), false, top)) {
+                                                       g.nu(), false, top)) {
     top = -std::numeric_limits<float>::infinity();  // rays with several intervals: their tops too
     for (int j = jb0; j <= jb1; ++j)
       for (int i = 0; i < g.nu(); ++i) {
@@ -333,7 +333,7 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
       RowCutCounts rc;
       Interval* head = g.head_row(j);
       const int nfb = (avx2 ? row_cut_pure_avx2 : row_cut_pure_generic)(p, g.v_of(j) - b.cv, s0, s1, head, g.length(),
-                                                                         margin, cut_tiles, shift, fb.data(), rc);
+                                                                        margin, cut_tiles, shift, fb.data(), rc);
       c.bound += static_cast<std::size_t>(rc.bound_skipped);
       c.nothing += static_cast<std::size_t>(rc.exact_nothing);
       c.cuts += static_cast<std::size_t>(rc.cut);
@@ -378,10 +378,10 @@ struct CoreBound {
   }
   double operator()(double qu, double qv) const {
     const double eu = cu - qu, ev = cv - qv, ee = eu * eu + ev * ev, Ae = au * eu + av * ev, De = du * eu + dv * ev;
-    double m = std::min({least(cw + k * ee, dw + 2 * k * De, k * DD),                                  // s = 0
-                         least(cw + aw + k * (ee + 2 * Ae + AA), dw + 2 * k * (De + AD), k * DD),     // s = 1
-                         least(cw + k * ee, aw + 2 * k * Ae, k * AA),                                 // l = 0
-                         least(cw + dw + k * (ee + 2 * De + DD), aw + 2 * k * (Ae + AD), k * AA)});   // l = 1
+    double m = std::min({least(cw + k * ee, dw + 2 * k * De, k * DD),                                // s = 0
+                         least(cw + aw + k * (ee + 2 * Ae + AA), dw + 2 * k * (De + AD), k * DD),    // s = 1
+                         least(cw + k * ee, aw + 2 * k * Ae, k * AA),                                // l = 0
+                         least(cw + dw + k * (ee + 2 * De + DD), aw + 2 * k * (Ae + AD), k * AA)});  // l = 1
     if (det > 1e-12 * AA * DD) {  // the stationary point, when the quadratic is strictly convex
       const double gs = -(aw + 2 * k * Ae) / (2 * k), gl = -(dw + 2 * k * De) / (2 * k);
       const double s = (DD * gs - AD * gl) / det, l = (AA * gl - AD * gs) / det;
@@ -499,7 +499,8 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
     wext[k] = widened_extent(f.w0, f.w1);
     fp[k] = f;
     if (f.empty()) continue;
-    for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b) bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
+    for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b)
+      bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
   }
   // Tiles about a fraction of the smallest tool radius wide (powers of two, 4 to 32 columns): wider ones hold more of a
   // sloped surface than a sweep's bound clears, narrower ones cost more tests than they settle.
@@ -595,7 +596,8 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
           }
           c.replayed += flagged.size();
           ++c.blocks;
-          tiles.reset(grid, jb0, jb1, tile_shift);  // the replay may have raised tops the pass had lowered; and rays left out
+          tiles.reset(grid, jb0, jb1,
+                      tile_shift);  // the replay may have raised tops the pass had lowered; and rays left out
         } else {
           for (std::size_t q = q0; q < q1; ++q) {
             const Footprint& f = fp[static_cast<std::size_t>(bin[q])];

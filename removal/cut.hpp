@@ -11,12 +11,12 @@ namespace vmsim::removal {
 // every ray of the sweep's shadow (the rays within R of the centre's path); for other sweeps, every ray whose material
 // meets the sweep's extent along it.
 struct CutStats {
-  std::size_t ray_tests = 0;      // evaluations
-  std::size_t cuts = 0;           // evaluations that removed material or touched an interval
+  std::size_t ray_tests = 0;  // evaluations
+  std::size_t cuts = 0;       // evaluations that removed material or touched an interval
   // Evaluations that changed nothing, by what settled them (ball-end sweeps along the rays):
-  std::size_t tile_skipped = 0;   // a tile's bound (the sweep's lowest point over a tile of rays above its top)
-  std::size_t bound_skipped = 0;  // the ray's square-root-free bound
-  std::size_t exact_nothing = 0;  // the exact cut
+  std::size_t tile_skipped = 0;       // a tile's bound (the sweep's lowest point over a tile of rays above its top)
+  std::size_t bound_skipped = 0;      // the ray's square-root-free bound
+  std::size_t exact_nothing = 0;      // the exact cut
   std::size_t order_free_blocks = 0;  // runs of sweeps through a block of rows cut lowest sweep first (cut.cpp)
   std::size_t replayed = 0;           // rays of those that had to be redone in program order
   // (sweep, block of rows) pairs a chunk's bound settled before any of their evaluations (not in ray_tests)

@@ -14,7 +14,7 @@ namespace vmsim::removal::detail {
 // depend on the ray hoisted: the same closed form as swept_tool.cpp's axial case, about 30 flops and 3 square
 // roots per ray, and the exact range of columns the sweep's shadow covers on each row.
 struct AxialBall {
-  double R, L, cu, cv, cw;   // ball centre at the start, grid frame (relative to the grid origin)
+  double R, L, cu, cv, cw;  // ball centre at the start, grid frame (relative to the grid origin)
   double eu, ev, ee, el, inv_ee, delta, kk;
 };
 

@@ -69,7 +69,8 @@ CutStats cut_reference(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
     wext[k] = widened_extent(f.w0, f.w1);
     fp[k] = f;
     if (f.empty()) continue;
-    for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b) bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
+    for (int b = f.j0 / kBlock; b <= f.j1 / kBlock; ++b)
+      bins[static_cast<std::size_t>(b)].push_back(static_cast<int>(k));
   }
   std::size_t tests = 0, cuts = 0;
   const Eigen::Vector3d W = grid.W();
@@ -81,7 +82,8 @@ CutStats cut_reference(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
       const SweptTool& sw = sweeps[static_cast<std::size_t>(k)];
       AxialBall ab;
       if (axial_ball(grid, sw, ab)) {
-        for (int j = std::max(jb0, f.j0); j <= std::min(jb1, f.j1); ++j) tests += cut_row_axial_ball(grid, ab, j, f.i0, f.i1);
+        for (int j = std::max(jb0, f.j0); j <= std::min(jb1, f.j1); ++j)
+          tests += cut_row_axial_ball(grid, ab, j, f.i0, f.i1);
         continue;
       }
       const GeneralRows rows = general_rows(grid, sw);
@@ -123,7 +125,8 @@ CutStats cut_reference(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
   std::size_t tests = 0, cuts = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : tests, cuts)
   for (std::ptrdiff_t bi = 0; bi < static_cast<std::ptrdiff_t>(nblocks); ++bi) {
-    const std::size_t k0 = static_cast<std::size_t>(bi) * NeedleSet::kBlock, k1 = std::min(n.size(), k0 + NeedleSet::kBlock);
+    const std::size_t k0 = static_cast<std::size_t>(bi) * NeedleSet::kBlock,
+                      k1 = std::min(n.size(), k0 + NeedleSet::kBlock);
     Box bb{Eigen::Vector3d::Constant(1e300), Eigen::Vector3d::Constant(-1e300)};
     for (std::size_t k = k0; k < k1; ++k) {
       const Eigen::Vector3d a = n.origin(k), e = a + n.length(k) * n.direction(k);
@@ -168,7 +171,9 @@ double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a
 }
 
 // Angle between unit vectors, accurate for tiny angles too (acos of the dot product is not).
-double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 
 // The axis a fraction u of the way from a to b on their great circle (theta = their angle, < pi / 2 here).
 Eigen::Vector3d slerp(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double theta, double u) {
@@ -210,8 +215,10 @@ TrackSweeps sweeps_from_track_reference(const Tool& tool, const PoseTrack& track
     turning = true;
     turn[k] = angle_between(axis[k], axis[k + 1]);
     if (turn[k] >= 0.5 * kPi)
-      throw core::Error(fmt::format("removal: the tool axis turns by {:.1f} degrees between track samples {} and {} "
-                                    "(at most 90 between samples)", turn[k] * 180 / kPi, k, k + 1));
+      throw core::Error(
+          fmt::format("removal: the tool axis turns by {:.1f} degrees between track samples {} and {} "
+                      "(at most 90 between samples)",
+                      turn[k] * 180 / kPi, k, k + 1));
   }
 
   // Budget (track.hpp): a constant axis keeps the 3-axis split; a turning one gives half to the orientation.
@@ -249,10 +256,11 @@ TrackSweeps sweeps_from_track_reference(const Tool& tool, const PoseTrack& track
     if (turn[ks] > 0) {
       const double need = std::ceil(turn[ks] / phi_max);
       if (need > 1e6)
-        throw core::Error(fmt::format("removal: the tool axis turns by {:.3g} degrees between track samples {} and {}: "
-                                      "holding it within {:.3g} mm of a {:.3g} mm tool takes {:.3g} sub-steps (over 1e6); "
-                                      "raise the tolerance or sample the track more finely",
-                                      turn[ks] * 180 / kPi, k, k + 1, e_orient, reach, need));
+        throw core::Error(
+            fmt::format("removal: the tool axis turns by {:.3g} degrees between track samples {} and {}: "
+                        "holding it within {:.3g} mm of a {:.3g} mm tool takes {:.3g} sub-steps (over 1e6); "
+                        "raise the tolerance or sample the track more finely",
+                        turn[ks] * 180 / kPi, k, k + 1, e_orient, reach, need));
       m = std::max(m, static_cast<int>(need));
     }
     e_hermite = std::max(e_hermite, bow / (double(m) * m));
@@ -313,7 +321,10 @@ TrackSweeps sweeps_from_track_reference(const Tool& tool, const PoseTrack& track
     std::size_t lo = good, hi = std::min(last, good + step);  // lo ok, hi unknown or bad
     while (hi > lo + 1) {
       const std::size_t mid = (lo + hi) / 2;
-      if (run_ok(a, mid)) lo = mid; else hi = mid;
+      if (run_ok(a, mid))
+        lo = mid;
+      else
+        hi = mid;
     }
     if (hi <= last && hi > lo && run_ok(a, hi)) lo = hi;
     emit(a, lo);

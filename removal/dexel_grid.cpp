@@ -14,7 +14,8 @@ constexpr Interval kEmpty{1.0f, -1.0f};
 }  // namespace
 
 IntervalStore::IntervalStore(std::size_t rays, std::size_t rays_per_row)
-    : per_row_(std::max<std::size_t>(1, rays_per_row)), head_(rays, kEmpty),
+    : per_row_(std::max<std::size_t>(1, rays_per_row)),
+      head_(rays, kEmpty),
       overflow_((rays + per_row_ - 1) / per_row_ + 1) {}
 
 void IntervalStore::fill(double lo, double hi) {
@@ -102,8 +103,16 @@ std::size_t IntervalStore::interval_count() const {
 
 DexelGrid::DexelGrid(const Eigen::Vector3d& origin, const Eigen::Vector3d& U, const Eigen::Vector3d& V, double du,
                      double dv, int nu, int nv, double length, int v_first)
-    : origin_(origin), U_(U.normalized()), V_(V.normalized()), W_(U.normalized().cross(V.normalized())), du_(du),
-      dv_(dv), length_(length), nu_(nu), nv_(nv), v_first_(v_first) {
+    : origin_(origin),
+      U_(U.normalized()),
+      V_(V.normalized()),
+      W_(U.normalized().cross(V.normalized())),
+      du_(du),
+      dv_(dv),
+      length_(length),
+      nu_(nu),
+      nv_(nv),
+      v_first_(v_first) {
   if (nu <= 0 || nv <= 0 || !(du > 0) || !(dv > 0) || !(length > 0) || v_first < 0)
     throw core::Error("dexel grid: expected positive sizes and spacings");
   store_ = IntervalStore(static_cast<std::size_t>(nu) * static_cast<std::size_t>(nv), static_cast<std::size_t>(nu));

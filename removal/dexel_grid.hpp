@@ -99,7 +99,7 @@ class DexelGrid {
   double du() const { return du_; }
   double dv() const { return dv_; }
   double length() const { return length_; }
-  int v_first() const { return v_first_; }                  // lattice row of row 0
+  int v_first() const { return v_first_; }                   // lattice row of row 0
   double v_of(int j) const { return (v_first_ + j) * dv_; }  // row j's offset along V from the origin
   const Eigen::Vector3d& origin() const { return origin_; }
   const Eigen::Vector3d& U() const { return U_; }
@@ -115,7 +115,9 @@ class DexelGrid {
   double top(int i, int j) const { return store_.top(ray(i, j)); }
   double bottom(int i, int j) const { return store_.bottom(ray(i, j)); }
   // Row j's in-place intervals (IntervalStore::head: a hot loop may rewrite a one-interval ray in place).
-  const Interval* head_row(int j) const { return store_.head() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_); }
+  const Interval* head_row(int j) const {
+    return store_.head() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_);
+  }
   Interval* head_row(int j) { return store_.head() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nu_); }
   // Removes [t0, t1] from a ray. Rows may be updated concurrently; one row must not.
   void subtract(int i, int j, double t0, double t1) { store_.subtract(ray(i, j), t0, t1); }
@@ -131,8 +133,9 @@ class DexelGrid {
   IntervalStore store_;
 };
 
-// Needles: rays at chosen points along chosen directions (the feed-drive simulation paper's N-buffer: normals of the nominal surface,
-// or the rays of a measurement grid). Needle k runs from origin[k] along direction[k] over [0, length[k]].
+// Needles: rays at chosen points along chosen directions (the feed-drive simulation paper's N-buffer: normals of the
+// nominal surface, or the rays of a measurement grid). Needle k runs from origin[k] along direction[k] over [0,
+// length[k]].
 class NeedleSet {
  public:
   NeedleSet() = default;

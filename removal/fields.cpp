@@ -59,9 +59,12 @@ TriDexel make_tridexel(const Box& r, double h, const Tile& tile) {
   if (!(h > 0)) throw core::Error("tri-dexel: the spacing must be > 0");
   const Eigen::Vector3d e = r.hi - r.lo;
   TriDexel t;
-  t.x = tile_grid(r.lo, Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(), h, count(e.y(), h), count(e.z(), h), e.x(), tile);
-  t.y = tile_grid(r.lo, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), h, count(e.z(), h), count(e.x(), h), e.y(), tile);
-  t.z = tile_grid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, count(e.x(), h), count(e.y(), h), e.z(), tile);
+  t.x = tile_grid(r.lo, Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(), h, count(e.y(), h), count(e.z(), h), e.x(),
+                  tile);
+  t.y = tile_grid(r.lo, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), h, count(e.z(), h), count(e.x(), h), e.y(),
+                  tile);
+  t.z = tile_grid(r.lo, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), h, count(e.x(), h), count(e.y(), h), e.z(),
+                  tile);
   return t;
 }
 
@@ -78,7 +81,8 @@ void fill_box(DexelGrid& g, const Box& stock) {
     for (int i = 0; i < g.nu(); ++i) {
       double t0, t1;
       if (ray_box(g.ray_origin(i, j), g.W(), stock, t0, t1) && t1 > 0 && t0 < g.length()) {
-        g.set_intervals(i, j, {Interval{static_cast<float>(std::max(0.0, t0)), static_cast<float>(std::min(g.length(), t1))}});
+        g.set_intervals(
+            i, j, {Interval{static_cast<float>(std::max(0.0, t0)), static_cast<float>(std::min(g.length(), t1))}});
       } else {
         g.set_intervals(i, j, {});
       }
@@ -88,14 +92,17 @@ void fill_box(DexelGrid& g, const Box& stock) {
 
 void fill_box(NeedleSet& n, const Box& stock) {
   const auto count_n = static_cast<std::ptrdiff_t>(n.size());
-  const auto blocks = (count_n + static_cast<std::ptrdiff_t>(NeedleSet::kBlock) - 1) / static_cast<std::ptrdiff_t>(NeedleSet::kBlock);
+  const auto blocks =
+      (count_n + static_cast<std::ptrdiff_t>(NeedleSet::kBlock) - 1) / static_cast<std::ptrdiff_t>(NeedleSet::kBlock);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-    for (std::ptrdiff_t k = b * NeedleSet::kBlock; k < std::min(count_n, (b + 1) * static_cast<std::ptrdiff_t>(NeedleSet::kBlock)); ++k) {
+    for (std::ptrdiff_t k = b * NeedleSet::kBlock;
+         k < std::min(count_n, (b + 1) * static_cast<std::ptrdiff_t>(NeedleSet::kBlock)); ++k) {
       const auto kk = static_cast<std::size_t>(k);
       double t0, t1;
       if (ray_box(n.origin(kk), n.direction(kk), stock, t0, t1) && t1 > 0 && t0 < n.length(kk)) {
-        n.store().set(kk, {Interval{static_cast<float>(std::max(0.0, t0)), static_cast<float>(std::min(n.length(kk), t1))}});
+        n.store().set(
+            kk, {Interval{static_cast<float>(std::max(0.0, t0)), static_cast<float>(std::min(n.length(kk), t1))}});
       } else {
         n.store().set(kk, {});
       }
@@ -124,7 +131,8 @@ CutStats cut(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
   std::size_t tests = 0, cuts = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : tests, cuts)
   for (std::ptrdiff_t bi = 0; bi < static_cast<std::ptrdiff_t>(nblocks); ++bi) {
-    const std::size_t k0 = static_cast<std::size_t>(bi) * NeedleSet::kBlock, k1 = std::min(n.size(), k0 + NeedleSet::kBlock);
+    const std::size_t k0 = static_cast<std::size_t>(bi) * NeedleSet::kBlock,
+                      k1 = std::min(n.size(), k0 + NeedleSet::kBlock);
     Box bb{Eigen::Vector3d::Constant(1e300), Eigen::Vector3d::Constant(-1e300)};
     for (std::size_t k = k0; k < k1; ++k) {
       const Eigen::Vector3d a = n.origin(k), e = a + n.length(k) * n.direction(k);
@@ -172,7 +180,8 @@ CutStats cut(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
 }
 
 core::HeightGrid height_grid(const DexelGrid& g) {
-  if ((g.W() - Eigen::Vector3d::UnitZ()).norm() > 1e-12) throw core::Error("height grid: the dexel grid is not along +Z");
+  if ((g.W() - Eigen::Vector3d::UnitZ()).norm() > 1e-12)
+    throw core::Error("height grid: the dexel grid is not along +Z");
   core::HeightGrid h;
   h.x0_mm = g.origin().x();
   h.y0_mm = g.v_first() == 0 ? g.origin().y() : g.origin().y() + g.v_of(0);  // a window: its first row

@@ -65,9 +65,9 @@ namespace vmsim::removal {
 
 namespace {
 
-constexpr double kTauRel = 1e-6;     // tau / mesh size: ~10x Embree's float error on a mesh centred at 0
-constexpr double kMarginPerTau = 65; // the cast span's margin beyond the mesh's box, well beyond Embree's error
-constexpr double kMaxCoordMm = 1e9;  // as core/stl.cpp: keeps float conversions far from overflow
+constexpr double kTauRel = 1e-6;      // tau / mesh size: ~10x Embree's float error on a mesh centred at 0
+constexpr double kMarginPerTau = 65;  // the cast span's margin beyond the mesh's box, well beyond Embree's error
+constexpr double kMaxCoordMm = 1e9;   // as core/stl.cpp: keeps float conversions far from overflow
 
 struct Crossing {
   double t;  // on the ray that was cast
@@ -100,7 +100,8 @@ void record_and_reject(const RTCFilterFunctionNArguments* args) {
 
 void embree_error(void* user, RTCError code, const char* str) {
   auto* msg = static_cast<std::string*>(user);
-  if (msg->empty()) *msg = "Embree error " + std::to_string(static_cast<int>(code)) + (str ? std::string(": ") + str : "");
+  if (msg->empty())
+    *msg = "Embree error " + std::to_string(static_cast<int>(code)) + (str ? std::string(": ") + str : "");
 }
 
 // ---- exact 2-D orientation (the sign of a x b), for the symbolic resolution of degenerate rays ----
@@ -144,9 +145,10 @@ inline int sign(double x) { return (x > 0) - (x < 0); }
 
 // Orthonormal e1, e2 with e1 x e2 = d (d unit), from the axis least aligned with d: deterministic.
 void basis(const Eigen::Vector3d& d, Eigen::Vector3d& e1, Eigen::Vector3d& e2) {
-  const Eigen::Vector3d a = std::abs(d.x()) <= std::abs(d.y()) && std::abs(d.x()) <= std::abs(d.z())
-                                ? Eigen::Vector3d::UnitX()
-                                : (std::abs(d.y()) <= std::abs(d.z()) ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ());
+  const Eigen::Vector3d a =
+      std::abs(d.x()) <= std::abs(d.y()) && std::abs(d.x()) <= std::abs(d.z())
+          ? Eigen::Vector3d::UnitX()
+          : (std::abs(d.y()) <= std::abs(d.z()) ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ());
   e1 = a.cross(d).normalized();
   e2 = d.cross(e1);
 }
@@ -155,12 +157,12 @@ void basis(const Eigen::Vector3d& d, Eigen::Vector3d& e1, Eigen::Vector3d& e2) {
 
 struct MeshDexelizer::Impl {
   std::string source;
-  std::vector<Eigen::Vector3d> v;         // vertices, double, as given
-  std::vector<std::array<int, 3>> tri;    // Embree primID -> vertex indices (triangles with 3 distinct vertices)
-  Eigen::Vector3d center, lo, hi;         // bounding box; Embree works relative to its centre
+  std::vector<Eigen::Vector3d> v;            // vertices, double, as given
+  std::vector<std::array<int, 3>> tri;       // Embree primID -> vertex indices (triangles with 3 distinct vertices)
+  Eigen::Vector3d center, lo, hi;            // bounding box; Embree works relative to its centre
   std::array<std::vector<float>, 3> coords;  // the distinct float vertex coordinates Embree sees, per axis
-  std::vector<int> ring_start, ring;      // triangles around each vertex: ring[ring_start[v] .. ring_start[v + 1])
-  double tau = 0, margin = 0;             // mm
+  std::vector<int> ring_start, ring;         // triangles around each vertex: ring[ring_start[v] .. ring_start[v + 1])
+  double tau = 0, margin = 0;                // mm
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::string embree_message;
@@ -170,9 +172,9 @@ struct MeshDexelizer::Impl {
   struct Candidate {
     int tri;
     double p[3][2];
-    signed char side[3];      // exact sign of p[k] x p[k + 1]: which side of edge k's line the ray is on (0: on it)
-    signed char dx[3], dy[3]; // signs of the edge's components: which side a symbolically shifted ray is on
-    double t;                 // where the ray crosses it (only for triangles some shifted ray crosses)
+    signed char side[3];       // exact sign of p[k] x p[k + 1]: which side of edge k's line the ray is on (0: on it)
+    signed char dx[3], dy[3];  // signs of the edge's components: which side a symbolically shifted ray is on
+    double t;                  // where the ray crosses it (only for triangles some shifted ray crosses)
   };
 
   struct Scratch {
@@ -498,7 +500,8 @@ struct MeshDexelizer::Impl {
   }
 };
 
-MeshDexelizer::MeshDexelizer(const core::TriangleMesh& mesh, const std::string& source) : impl_(std::make_unique<Impl>()) {
+MeshDexelizer::MeshDexelizer(const core::TriangleMesh& mesh, const std::string& source)
+    : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.source = source;
   core::check_closed(mesh, source);  // parity is only meaningful on a closed, consistently oriented surface
@@ -534,13 +537,15 @@ MeshDexelizer::MeshDexelizer(const core::TriangleMesh& mesh, const std::string& 
   {
     std::vector<int> fill(m.ring_start.begin(), m.ring_start.end() - 1);
     for (std::size_t t = 0; t < m.tri.size(); ++t)
-      for (int c : m.tri[t]) m.ring[static_cast<std::size_t>(fill[static_cast<std::size_t>(c)]++)] = static_cast<int>(t);
+      for (int c : m.tri[t])
+        m.ring[static_cast<std::size_t>(fill[static_cast<std::size_t>(c)]++)] = static_cast<int>(t);
   }
 
   m.device = rtcNewDevice("verbose=0");
   if (!m.device)
-    throw core::Error(core::located(source, 0, "cannot create an Embree device (error " +
-                                                   std::to_string(static_cast<int>(rtcGetDeviceError(nullptr))) + ")"));
+    throw core::Error(core::located(
+        source, 0,
+        "cannot create an Embree device (error " + std::to_string(static_cast<int>(rtcGetDeviceError(nullptr))) + ")"));
   rtcSetDeviceErrorFunction(m.device, embree_error, &m.embree_message);
   m.scene = rtcNewScene(m.device);
   // Robust: no optimisations that reduce arithmetic accuracy (the watertight edge tests above rely on it).
@@ -568,7 +573,8 @@ MeshDexelizer::MeshDexelizer(const core::TriangleMesh& mesh, const std::string& 
     c.erase(std::unique(c.begin(), c.end()), c.end());
   }
   for (std::size_t t = 0; t < m.tri.size(); ++t)
-    for (int c = 0; c < 3; ++c) ib[3 * t + static_cast<std::size_t>(c)] = static_cast<unsigned>(m.tri[t][static_cast<std::size_t>(c)]);
+    for (int c = 0; c < 3; ++c)
+      ib[3 * t + static_cast<std::size_t>(c)] = static_cast<unsigned>(m.tri[t][static_cast<std::size_t>(c)]);
   rtcSetGeometryIntersectFilterFunction(g, record_and_reject);
   rtcCommitGeometry(g);
   rtcAttachGeometry(m.scene, g);
@@ -582,7 +588,8 @@ MeshDexelizer::~MeshDexelizer() = default;
 
 double MeshDexelizer::tolerance_mm() const { return impl_->tau; }
 
-std::vector<Interval> MeshDexelizer::intervals(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double length) const {
+std::vector<Interval> MeshDexelizer::intervals(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                                               double length) const {
   Eigen::Vector3d e1, e2;
   const Eigen::Vector3d u = d.normalized();
   basis(u, e1, e2);

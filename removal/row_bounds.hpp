@@ -6,10 +6,10 @@
 namespace vmsim::removal {
 
 struct RowCutParams {
-  double R, L;                    // ball radius, tool length
+  double R, L;                                       // ball radius, tool length
   double cu, eu, ev, ee, inv_ee, inv_el, delta, kk;  // see AxialBall in cut_internal.hpp
-  double base_w;                  // the tip's ray coordinate at the sweep's start
-  double du;                      // column spacing
+  double base_w;                                     // the tip's ray coordinate at the sweep's start
+  double du;                                         // column spacing
 };
 
 // The reference kernel's two steps (cut_reference.cpp): the square-root-free lower bound of the cut's start on rays
@@ -42,9 +42,8 @@ int row_cut_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* hea
 // when its bound less `margin` is at or above its top (so t0 is too), cuts wherever t0 < top, and lists in fb the rays
 // where the reference's own skip could have differed (bound > t0), any ray with several intervals and any ray the
 // cut would not take through its top (t1 < top), for the caller to check or replay.
-int row_cut_pure_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length,
-                         double margin, unsigned char* cut_tiles, int tile_shift, RowFallback* fb,
-                         RowCutCounts& count);
+int row_cut_pure_generic(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, double margin,
+                         unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
 int row_cut_pure_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, double margin,
                       unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
 
@@ -57,7 +56,7 @@ bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, bo
 // (inv = 1 / d.d, or 0 when d = 0): the track's merge (removal/track.cpp), vectorised.
 double chord_dist2_generic(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1,
                            double ax, double ay, double az, double dx, double dy, double dz, double inv);
-double chord_dist2_avx2(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1,
-                        double ax, double ay, double az, double dx, double dy, double dz, double inv);
+double chord_dist2_avx2(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1, double ax,
+                        double ay, double az, double dx, double dy, double dz, double inv);
 
 }  // namespace vmsim::removal

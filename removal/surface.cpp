@@ -53,7 +53,8 @@ core::TriangleMesh heightfield_mesh(const core::HeightGrid& g, double bottom, co
       t.emplace_back(centre, b, a);  // facing -Z
       // Wall between top ring node k, k+1 and their bottom copies, facing outwards.
       const int ta = at(ring[static_cast<std::size_t>(k)].first, ring[static_cast<std::size_t>(k)].second);
-      const int tb = at(ring[static_cast<std::size_t>((k + 1) % nr)].first, ring[static_cast<std::size_t>((k + 1) % nr)].second);
+      const int tb =
+          at(ring[static_cast<std::size_t>((k + 1) % nr)].first, ring[static_cast<std::size_t>((k + 1) % nr)].second);
       t.emplace_back(ta, a, b);
       t.emplace_back(ta, b, tb);
     }
@@ -62,7 +63,9 @@ core::TriangleMesh heightfield_mesh(const core::HeightGrid& g, double bottom, co
   for (std::size_t k = 0; k < v.size(); ++k) m.vertices_mm.row(static_cast<Eigen::Index>(k)) = v[k].transpose();
   m.triangles.resize(static_cast<Eigen::Index>(t.size()), 3);
   for (std::size_t k = 0; k < t.size(); ++k) m.triangles.row(static_cast<Eigen::Index>(k)) = t[k].transpose();
-  if (dev) m.point_data.emplace_back("deviation_mm", Eigen::Map<Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size())));
+  if (dev)
+    m.point_data.emplace_back("deviation_mm",
+                              Eigen::Map<Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size())));
   return m;
 }
 

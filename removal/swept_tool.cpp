@@ -33,8 +33,10 @@ int quadratic_roots(double a, double b, double c, double& r0, double& r1) {
   }
   double disc = b * b - 4 * a * c;
   if (disc < 0) {
-    if (disc > -1e-12 * b * b) disc = 0;  // tangent ray: keep the touching point
-    else return 0;
+    if (disc > -1e-12 * b * b)
+      disc = 0;  // tangent ray: keep the touching point
+    else
+      return 0;
   }
   // Numerically stable form.
   const double q = -0.5 * (b + std::copysign(std::sqrt(disc), b));
@@ -128,7 +130,9 @@ void ray_swept_disk(const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Ei
     const double z = A + B * t - delta * l;
     return z >= -tol && z <= hgt + tol;
   };
-  auto radial_ok = [&](double t, double l) { return (m + t * n - l * e).squaredNorm() <= rho * rho * (1 + 1e-9) + tol * tol; };
+  auto radial_ok = [&](double t, double l) {
+    return (m + t * n - l * e).squaredNorm() <= rho * rho * (1 + 1e-9) + tol * tol;
+  };
   auto lambda_ok = [&](double l) { return l >= -kSlack && l <= 1 + kSlack; };
   double r0, r1;
   // (a) t-extremes of the quadric alone: the closest l for each t, then |P_e(m + t n)| = rho.
@@ -298,8 +302,10 @@ bool ray_interval_axial(const SweptTool& s, const Eigen::Vector3d& o, double sig
       const double gr = 0.5 * (std::sqrt(5.0) - 1);
       double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo), g1 = g(x1), g2 = g(x2);
       for (int it = 0; it < 80 && hi - lo > 1e-14; ++it) {
-        if (g1 < g2) hi = x2, x2 = x1, g2 = g1, x1 = hi - gr * (hi - lo), g1 = g(x1);
-        else lo = x1, x1 = x2, g1 = g2, x2 = lo + gr * (hi - lo), g2 = g(x2);
+        if (g1 < g2)
+          hi = x2, x2 = x1, g2 = g1, x1 = hi - gr * (hi - lo), g1 = g(x1);
+        else
+          lo = x1, x1 = x2, g1 = g2, x2 = lo + gr * (hi - lo), g2 = g(x2);
       }
       return std::min({g1, g2, g(la), g(lb)});
     };
@@ -322,9 +328,9 @@ bool ray_interval_axial(const SweptTool& s, const Eigen::Vector3d& o, double sig
 Tool make_tool(const core::ToolSpec& spec) {
   Tool t;
   t.radius_mm = spec.diameter_mm / 2;
-  t.corner_radius_mm = spec.shape == core::ToolShape::Ball ? t.radius_mm
+  t.corner_radius_mm = spec.shape == core::ToolShape::Ball   ? t.radius_mm
                        : spec.shape == core::ToolShape::Flat ? 0.0
-                                                               : spec.corner_radius_mm;
+                                                             : spec.corner_radius_mm;
   t.length_mm = std::max(spec.length_mm, 2 * t.corner_radius_mm);
   return t;
 }
@@ -391,8 +397,10 @@ bool ray_interval(const SweptTool& s, const Eigen::Vector3d& o, const Eigen::Vec
     const double gr = 0.5 * (std::sqrt(5.0) - 1);
     double x1 = hi_t - gr * (hi_t - lo_t), x2 = lo_t + gr * (hi_t - lo_t), f1 = f(x1), f2 = f(x2);
     for (int it = 0; it < 100 && hi_t - lo_t > 1e-9; ++it) {
-      if (f1 < f2) hi_t = x2, x2 = x1, f2 = f1, x1 = hi_t - gr * (hi_t - lo_t), f1 = f(x1);
-      else lo_t = x1, x1 = x2, f1 = f2, x2 = lo_t + gr * (hi_t - lo_t), f2 = f(x2);
+      if (f1 < f2)
+        hi_t = x2, x2 = x1, f2 = f1, x1 = hi_t - gr * (hi_t - lo_t), f1 = f(x1);
+      else
+        lo_t = x1, x1 = x2, f1 = f2, x2 = lo_t + gr * (hi_t - lo_t), f2 = f(x2);
     }
     const double tm = f1 < f2 ? x1 : x2;
     if (std::min(f1, f2) > 0) return false;

@@ -34,7 +34,7 @@ struct SweptTool {
   Tool tool;
   Eigen::Vector3d tip0 = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit
-  Eigen::Vector3d d = Eigen::Vector3d::Zero();       // translation of the move
+  Eigen::Vector3d d = Eigen::Vector3d::Zero();      // translation of the move
 
   // Axis-aligned bounding box of the swept volume.
   void bounds(Eigen::Vector3d& lo, Eigen::Vector3d& hi) const;

@@ -23,7 +23,9 @@ double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a
 }
 
 // Angle between unit vectors, accurate for tiny angles too (acos of the dot product is not).
-double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 
 // The axis a fraction u of the way from a to b on their great circle (theta = their angle, < pi / 2 here).
 Eigen::Vector3d slerp(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double theta, double u) {
@@ -65,8 +67,10 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
     turning = true;
     turn[k] = angle_between(axis[k], axis[k + 1]);
     if (turn[k] >= 0.5 * kPi)
-      throw core::Error(fmt::format("removal: the tool axis turns by {:.1f} degrees between track samples {} and {} "
-                                    "(at most 90 between samples)", turn[k] * 180 / kPi, k, k + 1));
+      throw core::Error(
+          fmt::format("removal: the tool axis turns by {:.1f} degrees between track samples {} and {} "
+                      "(at most 90 between samples)",
+                      turn[k] * 180 / kPi, k, k + 1));
   }
 
   // Budget (track.hpp): a constant axis keeps the 3-axis split; a turning one gives half to the orientation.
@@ -89,7 +93,8 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   const bool samples_only = !hermite && !turning;
   double e_hermite = 0;
   if (!samples_only) {
-    bx.reserve(static_cast<std::size_t>(n)), by.reserve(static_cast<std::size_t>(n)), bz.reserve(static_cast<std::size_t>(n));
+    bx.reserve(static_cast<std::size_t>(n)), by.reserve(static_cast<std::size_t>(n)),
+        bz.reserve(static_cast<std::size_t>(n));
     auto push = [&](const Eigen::Vector3d& p) { bx.push_back(p.x()), by.push_back(p.y()), bz.push_back(p.z()); };
     push(track.tip_mm.row(0).transpose());
     if (turning) axs.reserve(static_cast<std::size_t>(n)), axs.push_back(axis[0]);
@@ -111,10 +116,11 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
       if (turn_k > 0) {
         const double need = std::ceil(turn_k / phi_max);
         if (need > 1e6)
-          throw core::Error(fmt::format("removal: the tool axis turns by {:.3g} degrees between track samples {} and {}: "
-                                        "holding it within {:.3g} mm of a {:.3g} mm tool takes {:.3g} sub-steps (over "
-                                        "1e6); raise the tolerance or sample the track more finely",
-                                        turn_k * 180 / kPi, k, k + 1, e_orient, reach, need));
+          throw core::Error(
+              fmt::format("removal: the tool axis turns by {:.3g} degrees between track samples {} and {}: "
+                          "holding it within {:.3g} mm of a {:.3g} mm tool takes {:.3g} sub-steps (over "
+                          "1e6); raise the tolerance or sample the track more finely",
+                          turn_k * 180 / kPi, k, k + 1, e_orient, reach, need));
         m = std::max(m, static_cast<int>(need));
       }
       e_hermite = std::max(e_hermite, bow / (double(m) * m));
@@ -157,8 +163,8 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
     Chord c{px[a], py[a], pz[a], px[b] - px[a], py[b] - py[a], pz[b] - pz[a], 0, 0};
     const double dd = c.dx * c.dx + c.dy * c.dy + c.dz * c.dz;
     c.inv = dd > 0 ? 1 / dd : 0.0;
-    const double scale = std::max({std::abs(c.ax), std::abs(c.ay), std::abs(c.az), std::abs(c.dx), std::abs(c.dy),
-                                   std::abs(c.dz)});
+    const double scale =
+        std::max({std::abs(c.ax), std::abs(c.ay), std::abs(c.az), std::abs(c.dx), std::abs(c.dy), std::abs(c.dz)});
     c.band = 1e-14 * (1 + scale);
     return c;
   };
@@ -201,7 +207,8 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
         const std::size_t k1 = std::min(b, k0 + 32);
         const double m = dist2(px, py, pz, k0, k1, c.ax, c.ay, c.az, c.dx, c.dy, c.dz, c.inv);
         if (std::sqrt(m) + c.band < e_merge) continue;
-        for (std::size_t k = k0; k < k1; ++k) e_merge = std::max(e_merge, point_segment_distance(pts(k), pts(a), pts(b)));
+        for (std::size_t k = k0; k < k1; ++k)
+          e_merge = std::max(e_merge, point_segment_distance(pts(k), pts(a), pts(b)));
       }
     }
     if (turning)
@@ -220,7 +227,10 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
     std::size_t lo = good, hi = std::min(last, good + step);  // lo ok, hi unknown or bad
     while (hi > lo + 1) {
       const std::size_t mid = (lo + hi) / 2;
-      if (run_ok(a, mid)) lo = mid; else hi = mid;
+      if (run_ok(a, mid))
+        lo = mid;
+      else
+        hi = mid;
     }
     if (hi <= last && hi > lo && run_ok(a, hi)) lo = hi;
     emit(a, lo);

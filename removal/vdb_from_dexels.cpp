@@ -56,7 +56,9 @@ struct Ends {
         offset[g.ray(i, j) + 1] = t.size();
       }
   }
-  std::pair<const float*, const float*> ray(std::size_t r) const { return {t.data() + offset[r], t.data() + offset[r + 1]}; }
+  std::pair<const float*, const float*> ray(std::size_t r) const {
+    return {t.data() + offset[r], t.data() + offset[r + 1]};
+  }
 };
 
 bool is_inside(const float* b, const float* e, double t) {
@@ -158,8 +160,10 @@ VdbPart VdbPart::from_tridexel(const TriDexel& f, double hw) {
         auto [b, e] = ends.ray(g.ray(u, v));
         const double t = along * h;
         const double d = nearest_end(b, e, t);
-        if (d == 0) on_surface = true;
-        else if (d <= cap) inv2 += 1 / (d * d);
+        if (d == 0)
+          on_surface = true;
+        else if (d <= cap)
+          inv2 += 1 / (d * d);
         votes += is_inside(b, e, t) ? 1 : 0;
       };
       ray(ex, f.x, j, k, NY, NZ, i);

@@ -43,8 +43,10 @@ namespace {
 using Grid = openvdb::FloatGrid;
 
 void check_options(const VdbOptions& o) {
-  if (!(o.voxel_mm > 0) || !std::isfinite(o.voxel_mm)) throw core::Error(fmt::format("vdb: the voxel size must be > 0 mm, found {}", o.voxel_mm));
-  if (!(o.half_width_voxels >= 2)) throw core::Error(fmt::format("vdb: the band half width must be >= 2 voxels, found {}", o.half_width_voxels));
+  if (!(o.voxel_mm > 0) || !std::isfinite(o.voxel_mm))
+    throw core::Error(fmt::format("vdb: the voxel size must be > 0 mm, found {}", o.voxel_mm));
+  if (!(o.half_width_voxels >= 2))
+    throw core::Error(fmt::format("vdb: the band half width must be >= 2 voxels, found {}", o.half_width_voxels));
 }
 
 // Stocks: voxel centres at (i + 1/2) voxel_mm, so that faces at round coordinates fall between voxel centres, and
@@ -80,7 +82,9 @@ bool VdbPart::empty() const { return !impl_ || !impl_->grid; }
 double VdbPart::voxel_mm() const { return grid_of(*this).voxelSize()[0]; }
 double VdbPart::half_width_mm() const { return grid_of(*this).background(); }
 std::size_t VdbPart::memory_bytes() const { return empty() ? 0 : static_cast<std::size_t>(impl_->grid->memUsage()); }
-std::size_t VdbPart::active_voxels() const { return empty() ? 0 : static_cast<std::size_t>(impl_->grid->activeVoxelCount()); }
+std::size_t VdbPart::active_voxels() const {
+  return empty() ? 0 : static_cast<std::size_t>(impl_->grid->activeVoxelCount());
+}
 
 VdbPart VdbPart::box(const Box& b, const VdbOptions& o) {
   check_options(o);
@@ -88,8 +92,8 @@ VdbPart VdbPart::box(const Box& b, const VdbOptions& o) {
   if (!((b.hi - b.lo).array() > 0).all()) throw core::Error("vdb: the stock box is empty");
   const openvdb::math::BBox<openvdb::Vec3d> bb(openvdb::Vec3d(b.lo.x(), b.lo.y(), b.lo.z()),
                                                openvdb::Vec3d(b.hi.x(), b.hi.y(), b.hi.z()));
-  return vdb_wrap(openvdb::tools::createLevelSetBox<Grid>(bb, *vdb_transform(o.voxel_mm, stock_origin(o.voxel_mm, b.lo)),
-                                                          o.half_width_voxels));
+  return vdb_wrap(openvdb::tools::createLevelSetBox<Grid>(
+      bb, *vdb_transform(o.voxel_mm, stock_origin(o.voxel_mm, b.lo)), o.half_width_voxels));
 }
 
 VdbPart VdbPart::mesh(const core::TriangleMesh& m, const VdbOptions& o, const std::string& source) {
@@ -100,8 +104,8 @@ VdbPart VdbPart::mesh(const core::TriangleMesh& m, const VdbOptions& o, const st
   std::vector<openvdb::Vec3s> pts(static_cast<std::size_t>(m.vertices_mm.rows()));
   for (Eigen::Index k = 0; k < m.vertices_mm.rows(); ++k) {
     // meshToLevelSet takes world points in float: 1e-7 relative, 0.01 um at 100 mm.
-    pts[static_cast<std::size_t>(k)] = openvdb::Vec3s(xf->worldToIndex(
-        openvdb::Vec3d(m.vertices_mm(k, 0), m.vertices_mm(k, 1), m.vertices_mm(k, 2))));
+    pts[static_cast<std::size_t>(k)] =
+        openvdb::Vec3s(xf->worldToIndex(openvdb::Vec3d(m.vertices_mm(k, 0), m.vertices_mm(k, 1), m.vertices_mm(k, 2))));
   }
   std::vector<openvdb::Vec3I> tris;
   tris.reserve(static_cast<std::size_t>(m.triangles.rows()));
@@ -234,7 +238,8 @@ Eigen::VectorXd VdbPart::signed_distance(const Eigen::Matrix<double, Eigen::Dyna
 
 core::TriangleMesh VdbPart::mesh(double adaptivity) const {
   const Grid& g = grid_of(*this);
-  if (!(adaptivity >= 0 && adaptivity <= 1)) throw core::Error(fmt::format("vdb: mesh adaptivity must be in [0, 1], found {}", adaptivity));
+  if (!(adaptivity >= 0 && adaptivity <= 1))
+    throw core::Error(fmt::format("vdb: mesh adaptivity must be in [0, 1], found {}", adaptivity));
   std::vector<openvdb::Vec3s> pts;
   std::vector<openvdb::Vec3I> tris;
   std::vector<openvdb::Vec4I> quads;
@@ -246,7 +251,8 @@ core::TriangleMesh VdbPart::mesh(double adaptivity) const {
   m.triangles.resize(static_cast<Eigen::Index>(tris.size() + 2 * quads.size()), 3);
   // volumeToMesh orders polygons clockwise seen from outside (negative inside); core meshes are counter-clockwise.
   Eigen::Index r = 0;
-  for (const auto& t : tris) m.triangles.row(r++) << static_cast<int>(t[0]), static_cast<int>(t[2]), static_cast<int>(t[1]);
+  for (const auto& t : tris)
+    m.triangles.row(r++) << static_cast<int>(t[0]), static_cast<int>(t[2]), static_cast<int>(t[1]);
   for (const auto& q : quads) {
     m.triangles.row(r++) << static_cast<int>(q[0]), static_cast<int>(q[2]), static_cast<int>(q[1]);
     m.triangles.row(r++) << static_cast<int>(q[0]), static_cast<int>(q[3]), static_cast<int>(q[2]);
@@ -260,7 +266,8 @@ void VdbPart::write_vdb(const std::filesystem::path& path) const {
   const Grid& g = grid_of(*this);
   vdb_initialize();
   std::random_device rd;
-  const std::filesystem::path tmp = path.parent_path() / ("." + path.filename().string() + ".tmp" + std::to_string(rd()));
+  const std::filesystem::path tmp =
+      path.parent_path() / ("." + path.filename().string() + ".tmp" + std::to_string(rd()));
   try {
     // A new grid object sharing the tree: the metadata goes on the copy only.
     openvdb::GridPtrVec grids{std::const_pointer_cast<openvdb::GridBase>(g.copyGrid())};
@@ -315,7 +322,8 @@ double estimate_level_set_bytes(const SurfaceArea& s, double h, double hw) {
 SurfaceArea surface_area(const core::TriangleMesh& m) {
   SurfaceArea s;
   for (Eigen::Index k = 0; k < m.triangles.rows(); ++k) {
-    const Eigen::Vector3d p0 = m.vertices_mm.row(m.triangles(k, 0)).transpose(), p1 = m.vertices_mm.row(m.triangles(k, 1)).transpose(),
+    const Eigen::Vector3d p0 = m.vertices_mm.row(m.triangles(k, 0)).transpose(),
+                          p1 = m.vertices_mm.row(m.triangles(k, 1)).transpose(),
                           p2 = m.vertices_mm.row(m.triangles(k, 2)).transpose();
     const Eigen::Vector3d n2 = (p1 - p0).cross(p2 - p0);  // twice the area along the normal
     s.area_mm2 += 0.5 * n2.norm();
@@ -340,7 +348,8 @@ double estimate_mesh_bytes(double area, double h) {
 double mesh_area_mm2(const core::TriangleMesh& m) {
   double a = 0;
   for (Eigen::Index k = 0; k < m.triangles.rows(); ++k) {
-    const Eigen::Vector3d p0 = m.vertices_mm.row(m.triangles(k, 0)).transpose(), p1 = m.vertices_mm.row(m.triangles(k, 1)).transpose(),
+    const Eigen::Vector3d p0 = m.vertices_mm.row(m.triangles(k, 0)).transpose(),
+                          p1 = m.vertices_mm.row(m.triangles(k, 1)).transpose(),
                           p2 = m.vertices_mm.row(m.triangles(k, 2)).transpose();
     a += 0.5 * (p1 - p0).cross(p2 - p0).norm();
   }

@@ -99,15 +99,18 @@ double SweepDistance::operator()(const Eigen::Vector3d& p) const {
   const double A = a_.dot(w);
   const Eigen::Vector3d m = w - A * a_;
   switch (kind_) {
-    case Kind::Ball: return parallelogram_distance(w, hgt_ * a_, d_) - rc_;
-    case Kind::Still: return cylinder_sd(m.norm() - rho_, std::max(-A, A - hgt_)) - rc_;
+    case Kind::Ball:
+      return parallelogram_distance(w, hgt_ * a_, d_) - rc_;
+    case Kind::Still:
+      return cylinder_sd(m.norm() - rho_, std::max(-A, A - hgt_)) - rc_;
     case Kind::Level:
       return cylinder_sd(segment_distance(m, Eigen::Vector3d::Zero(), e_) - rho_, std::max(-A, A - hgt_)) - rc_;
     case Kind::Plunge: {
       const double lo = std::min(0.0, delta_), hi = hgt_ + std::max(0.0, delta_);
       return cylinder_sd(m.norm() - rho_, std::max(lo - A, A - hi)) - rc_;
     }
-    case Kind::Oblique: break;
+    case Kind::Oblique:
+      break;
   }
   // Inside K iff some l in [0, 1] has the axial (0 <= A - l delta <= hgt) and radial (|m - l e| <= rho) conditions.
   double lo = 0, hi = 1;

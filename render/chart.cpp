@@ -37,7 +37,7 @@
 namespace vmsim::render {
 
 Rgb series_colour(int k) {
-  static constexpr unsigned char kTableau[10][3] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},  {148, 103, 189},
+  static constexpr unsigned char kTableau[10][3] = {{31, 119, 180}, {255, 127, 14},  {44, 160, 44},   {148, 103, 189},
                                                     {140, 86, 75},  {227, 119, 194}, {127, 127, 127}, {188, 189, 34},
                                                     {23, 190, 207}, {214, 39, 40}};
   const auto& c = kTableau[((k % 10) + 10) % 10];
@@ -107,10 +107,11 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
     bool any = false;
     for (const Series& s : c.series) {
       if (s.x.size() != s.y.size())
-        throw core::Error(fmt::format("render_charts: series \"{}\" of \"{}\" has {} x and {} y values", s.name, c.title,
-                                      s.x.size(), s.y.size()));
+        throw core::Error(fmt::format("render_charts: series \"{}\" of \"{}\" has {} x and {} y values", s.name,
+                                      c.title, s.x.size(), s.y.size()));
       for (Eigen::Index k = 0; k < s.x.size(); ++k)
-        if (std::isfinite(s.x[k]) && std::isfinite(s.y[k])) lo = std::min(lo, s.x[k]), hi = std::max(hi, s.x[k]), any = true;
+        if (std::isfinite(s.x[k]) && std::isfinite(s.y[k]))
+          lo = std::min(lo, s.x[k]), hi = std::max(hi, s.x[k]), any = true;
     }
     if (!any) throw core::Error("render_charts: chart \"" + c.title + "\" has no finite data point");
     if (c.x_range) lo = c.x_range->first, hi = c.x_range->second;
@@ -168,14 +169,15 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
     for (const Level& l : c.levels) longest = std::max(longest, glyphs(l.name));
   }
   const double m_left = 5.5 * font;
-  const double m_right = longest > 0 ? std::min(0.45 * W, 4.0 * font + 0.52 * font * static_cast<double>(longest))
-                                     : 1.5 * font;
+  const double m_right =
+      longest > 0 ? std::min(0.45 * W, 4.0 * font + 0.52 * font * static_cast<double>(longest)) : 1.5 * font;
   const double m_top = 2.0 * font, m_bottom = 3.3 * font;
   if (W - m_left - m_right < 32 || band - m_top - m_bottom < 16)
-    throw core::Error(fmt::format("render_charts: {}x{} pixels are too small for {} stacked chart(s) with their "
-                                  "labels (at least {}x{})", W, H, n,
-                                  static_cast<int>(std::ceil(std::max<double>(W, m_left + m_right + 32))),
-                                  static_cast<int>(std::ceil(top_band + n * (m_top + m_bottom + 16)))));
+    throw core::Error(
+        fmt::format("render_charts: {}x{} pixels are too small for {} stacked chart(s) with their "
+                    "labels (at least {}x{})",
+                    W, H, n, static_cast<int>(std::ceil(std::max<double>(W, m_left + m_right + 32))),
+                    static_cast<int>(std::ceil(top_band + n * (m_top + m_bottom + 16)))));
   std::vector<vtkSmartPointer<vtkChartXY>> charts;
   std::vector<vtkSmartPointer<vtkTable>> tables;  // kept alive until the picture is drawn
   std::vector<vtkSmartPointer<vtkActor2D>> legend;
@@ -184,8 +186,8 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
     auto chart = vtkSmartPointer<vtkChartXY>::New();
     chart->SetLayoutStrategy(vtkChart::AXES_TO_RECT);
     const double bottom = H - top_band - (ci + 1) * band + m_bottom;
-    chart->SetSize(vtkRectf(static_cast<float>(m_left), static_cast<float>(bottom), static_cast<float>(W - m_left - m_right),
-                            static_cast<float>(band - m_top - m_bottom)));
+    chart->SetSize(vtkRectf(static_cast<float>(m_left), static_cast<float>(bottom),
+                            static_cast<float>(W - m_left - m_right), static_cast<float>(band - m_top - m_bottom)));
     if (!c.title.empty()) {
       chart->SetTitle(c.title);
       detail::set_font(chart->GetTitleProperties(), static_cast<int>(font * 1.05), 0.08, 0.08, 0.10, true);

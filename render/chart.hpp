@@ -16,10 +16,10 @@
 namespace vmsim::render {
 
 struct Series {
-  std::string name;       // legend entry
-  Eigen::ArrayXd x, y;    // same length; a NaN in x or y breaks the line there
+  std::string name;     // legend entry
+  Eigen::ArrayXd x, y;  // same length; a NaN in x or y breaks the line there
   Rgb colour{0.12, 0.35, 0.70};
-  double width = 2.0;     // pixels at 1600 x 900; scaled with the picture
+  double width = 2.0;  // pixels at 1600 x 900; scaled with the picture
   bool dashed = false;
 };
 

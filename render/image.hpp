@@ -15,7 +15,8 @@ struct Image {
   std::vector<std::uint8_t> rgb;  // width * height * 3
 
   Rgb8 at(int x, int y) const {
-    const std::size_t o = (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3;
+    const std::size_t o =
+        (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3;
     return {rgb[o], rgb[o + 1], rgb[o + 2]};
   }
 };

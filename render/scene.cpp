@@ -51,7 +51,7 @@ constexpr double kDeg = kPi / 180.0;
 struct Geometry {
   vtkSmartPointer<vtkPolyData> surface, walls;
   double bounds[6] = {0, 0, 0, 0, 0, 0};  // drawn (exaggerated) coordinates
-  std::vector<double> deviation_um;        // the coloured values, for the limits
+  std::vector<double> deviation_um;       // the coloured values, for the limits
   double z_base_mm = 0, exaggeration = 1;
 };
 
@@ -85,7 +85,8 @@ void update_bounds(Geometry& g) {
   for (vtkPolyData* pd : {g.surface.Get(), g.walls.Get()}) {
     if (!pd || pd->GetNumberOfPoints() == 0) continue;
     const double* pb = pd->GetBounds();
-    for (int i = 0; i < 3; ++i) b[2 * i] = std::min(b[2 * i], pb[2 * i]), b[2 * i + 1] = std::max(b[2 * i + 1], pb[2 * i + 1]);
+    for (int i = 0; i < 3; ++i)
+      b[2 * i] = std::min(b[2 * i], pb[2 * i]), b[2 * i + 1] = std::max(b[2 * i + 1], pb[2 * i + 1]);
   }
   std::copy(b, b + 6, g.bounds);
 }
@@ -103,8 +104,10 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
     if (dev->nx() != s.nx() || dev->ny() != s.ny() || std::abs(dev->x0_mm - s.x0_mm) > 1e-9 ||
         std::abs(dev->y0_mm - s.y0_mm) > 1e-9 || std::abs(dev->dx_mm - s.dx_mm) > 1e-12 ||
         std::abs(dev->dy_mm - s.dy_mm) > 1e-12)
-      throw core::Error(fmt::format("render_part: the deviation grid ({}x{}) is not the surface's grid ({}x{}, same "
-                                    "origin and spacing)", dev->nx(), dev->ny(), s.nx(), s.ny()));
+      throw core::Error(
+          fmt::format("render_part: the deviation grid ({}x{}) is not the surface's grid ({}x{}, same "
+                      "origin and spacing)",
+                      dev->nx(), dev->ny(), s.nx(), s.ny()));
   }
   // Index window of the region (one node of margin so the cut edge lies on or outside the region).
   Eigen::Index i0 = 0, i1 = s.nx() - 1, j0 = 0, j1 = s.ny() - 1;
@@ -115,9 +118,10 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
     j0 = std::max<Eigen::Index>(0, static_cast<Eigen::Index>(std::floor((r.y_min_mm - s.y0_mm) / s.dy_mm)));
     j1 = std::min<Eigen::Index>(s.ny() - 1, static_cast<Eigen::Index>(std::ceil((r.y_max_mm - s.y0_mm) / s.dy_mm)));
     if (i1 - i0 < 1 || j1 - j0 < 1)
-      throw core::Error(fmt::format("render_part: the region x {}..{} y {}..{} mm does not overlap the grid (x {}..{}, "
-                                    "y {}..{} mm)", r.x_min_mm, r.x_max_mm, r.y_min_mm, r.y_max_mm, s.x0_mm,
-                                    s.x(s.nx() - 1), s.y0_mm, s.y(s.ny() - 1)));
+      throw core::Error(fmt::format(
+          "render_part: the region x {}..{} y {}..{} mm does not overlap the grid (x {}..{}, "
+          "y {}..{} mm)",
+          r.x_min_mm, r.x_max_mm, r.y_min_mm, r.y_max_mm, s.x0_mm, s.x(s.nx() - 1), s.y0_mm, s.y(s.ny() - 1)));
   }
   const Eigen::Index nx = i1 - i0 + 1, ny = j1 - j0 + 1;
   // The surface as drawn before the vertical exaggeration: with its deviation magnified where there is one.
@@ -156,8 +160,10 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
   for (Eigen::Index j = j0; j <= j1; ++j)
     for (Eigen::Index i = i0; i <= i1; ++i) {
       if (!s.valid(j, i)) continue;
-      const Eigen::Index il = (i > 0 && s.valid(j, i - 1)) ? i - 1 : i, ir = (i + 1 < s.nx() && s.valid(j, i + 1)) ? i + 1 : i;
-      const Eigen::Index jl = (j > 0 && s.valid(j - 1, i)) ? j - 1 : j, jr = (j + 1 < s.ny() && s.valid(j + 1, i)) ? j + 1 : j;
+      const Eigen::Index il = (i > 0 && s.valid(j, i - 1)) ? i - 1 : i,
+                         ir = (i + 1 < s.nx() && s.valid(j, i + 1)) ? i + 1 : i;
+      const Eigen::Index jl = (j > 0 && s.valid(j - 1, i)) ? j - 1 : j,
+                         jr = (j + 1 < s.ny() && s.valid(j + 1, i)) ? j + 1 : j;
       const double gx = ir > il ? (zd(j, ir) - zd(j, il)) / ((ir - il) * s.dx_mm) : 0.0;
       const double gy = jr > jl ? (zd(jr, i) - zd(jl, i)) / ((jr - jl) * s.dy_mm) : 0.0;
       const double len = std::sqrt(gx * gx + gy * gy + 1);
@@ -187,16 +193,21 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
   for (Eigen::Index j = 0; j + 1 < ny; ++j)
     for (Eigen::Index i = 0; i + 1 < nx; ++i) {
       const std::int32_t a = id[static_cast<std::size_t>(j * nx + i)], b = id[static_cast<std::size_t>(j * nx + i + 1)];
-      const std::int32_t c = id[static_cast<std::size_t>((j + 1) * nx + i + 1)], d = id[static_cast<std::size_t>((j + 1) * nx + i)];
+      const std::int32_t c = id[static_cast<std::size_t>((j + 1) * nx + i + 1)],
+                         d = id[static_cast<std::size_t>((j + 1) * nx + i)];
       const int valid = (a >= 0) + (b >= 0) + (c >= 0) + (d >= 0);
       if (valid == 4) {
         tri(a, b, c);
         tri(a, c, d);
       } else if (valid == 3) {
-        if (a < 0) tri(b, c, d);
-        else if (b < 0) tri(a, c, d);
-        else if (c < 0) tri(a, b, d);
-        else tri(a, b, c);
+        if (a < 0)
+          tri(b, c, d);
+        else if (b < 0)
+          tri(a, c, d);
+        else if (c < 0)
+          tri(a, b, d);
+        else
+          tri(a, b, c);
       }
     }
   g.surface = vtkSmartPointer<vtkPolyData>::New();
@@ -207,7 +218,8 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
 
   // Side walls along the four edges of the drawn window, down to a base below the lowest point: the part reads as
   // a solid block, and a cut-out region shows its profile on its faces.
-  const double dz = std::max({0.06 * std::max((i1 - i0) * s.dx_mm, (j1 - j0) * s.dy_mm), 0.05 * e * (zmax - zmin), 1e-3});
+  const double dz =
+      std::max({0.06 * std::max((i1 - i0) * s.dx_mm, (j1 - j0) * s.dy_mm), 0.05 * e * (zmax - zmin), 1e-3});
   const double base = zmin - dz;
   vtkNew<vtkPoints> wp;
   wp->SetDataTypeToFloat();
@@ -255,7 +267,8 @@ Geometry mesh_geometry(const core::TriangleMesh& m, const View& view, bool colou
   if (coloured) {
     for (const auto& [name, values] : m.point_data)
       if (name == array) dev = &values;
-    if (!dev) throw core::Error("render_part: deviation colours asked for, but the mesh has no \"" + array + "\" array");
+    if (!dev)
+      throw core::Error("render_part: deviation colours asked for, but the mesh has no \"" + array + "\" array");
     if (dev->size() != nv)
       throw core::Error(fmt::format("render_part: \"{}\" has {} values for {} vertices", array, dev->size(), nv));
   }
@@ -265,12 +278,16 @@ Geometry mesh_geometry(const core::TriangleMesh& m, const View& view, bool colou
   for (Eigen::Index t = 0; t < nt; ++t) {
     for (int c = 0; c < 3; ++c)
       if (m.triangles(t, c) < 0 || m.triangles(t, c) >= nv)
-        throw core::Error(fmt::format("render_part: triangle {} refers to vertex {}, the mesh has {}", t, m.triangles(t, c), nv));
+        throw core::Error(
+            fmt::format("render_part: triangle {} refers to vertex {}, the mesh has {}", t, m.triangles(t, c), nv));
     if (view.region) {
       const Region& r = *view.region;
       const Eigen::Vector3d c = (m.vertices_mm.row(m.triangles(t, 0)) + m.vertices_mm.row(m.triangles(t, 1)) +
-                                 m.vertices_mm.row(m.triangles(t, 2))).transpose() / 3;
-      keep[static_cast<std::size_t>(t)] = c.x() >= r.x_min_mm && c.x() <= r.x_max_mm && c.y() >= r.y_min_mm && c.y() <= r.y_max_mm;
+                                 m.vertices_mm.row(m.triangles(t, 2)))
+                                    .transpose() /
+                                3;
+      keep[static_cast<std::size_t>(t)] =
+          c.x() >= r.x_min_mm && c.x() <= r.x_max_mm && c.y() >= r.y_min_mm && c.y() <= r.y_max_mm;
     }
     if (keep[static_cast<std::size_t>(t)])
       for (int c = 0; c < 3; ++c) used[static_cast<std::size_t>(m.triangles(t, c))] = 1;
@@ -278,7 +295,8 @@ Geometry mesh_geometry(const core::TriangleMesh& m, const View& view, bool colou
   double zmin = std::numeric_limits<double>::max();
   for (Eigen::Index v = 0; v < nv; ++v)
     if (used[static_cast<std::size_t>(v)]) zmin = std::min(zmin, m.vertices_mm(v, 2));
-  if (zmin == std::numeric_limits<double>::max()) throw core::Error("render_part: no triangle of the mesh lies in the region");
+  if (zmin == std::numeric_limits<double>::max())
+    throw core::Error("render_part: no triangle of the mesh lies in the region");
   Geometry g;
   g.z_base_mm = zmin;
   g.exaggeration = view.vertical_exaggeration;
@@ -291,7 +309,8 @@ Geometry mesh_geometry(const core::TriangleMesh& m, const View& view, bool colou
   for (Eigen::Index v = 0; v < nv; ++v) {
     if (!used[static_cast<std::size_t>(v)]) continue;
     id[static_cast<std::size_t>(v)] = n++;
-    pts->InsertNextPoint(m.vertices_mm(v, 0), m.vertices_mm(v, 1), zmin + g.exaggeration * (m.vertices_mm(v, 2) - zmin));
+    pts->InsertNextPoint(m.vertices_mm(v, 0), m.vertices_mm(v, 1),
+                         zmin + g.exaggeration * (m.vertices_mm(v, 2) - zmin));
     if (coloured) {
       const double d = (*dev)[v];
       scalars->InsertNextValue(static_cast<float>(d * 1e3));
@@ -354,7 +373,8 @@ CameraFrame camera_frame(const View& v) {
 
 // Frames the box [bounds] in a viewport of the given aspect (width / height): the focal point and distance at
 // which every corner is inside the view (perspective, vertical view angle `fov_deg`) or the parallel scale.
-void frame_camera(vtkCamera* cam, const CameraFrame& f, const double b[6], double aspect, bool parallel, double fov_deg) {
+void frame_camera(vtkCamera* cam, const CameraFrame& f, const double b[6], double aspect, bool parallel,
+                  double fov_deg) {
   const Eigen::Vector3d centre((b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2);
   const Eigen::Vector3d dir = f.to_camera;
   const Eigen::Vector3d right = (-dir).cross(f.up).normalized();
@@ -406,7 +426,8 @@ void add_lights(vtkRenderer* ren, const CameraFrame& f, const Lighting& l, const
   h.normalize();
   const Eigen::Vector3d right = h.cross(Eigen::Vector3d::UnitZ());
   const double a = l.azimuth_deg * kDeg, e = l.elevation_deg * kDeg;
-  const Eigen::Vector3d from = (std::cos(a) * -h + std::sin(a) * right) * std::cos(e) + Eigen::Vector3d::UnitZ() * std::sin(e);
+  const Eigen::Vector3d from =
+      (std::cos(a) * -h + std::sin(a) * right) * std::cos(e) + Eigen::Vector3d::UnitZ() * std::sin(e);
   const Eigen::Vector3d centre((b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2);
   const Eigen::Vector3d pos = centre + from * 1000;
   vtkNew<vtkLight> key;
@@ -504,9 +525,10 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   const double top_band = n_caption > 0 ? 14 + big + (n_caption - 1) * (small * 1.35) + 12 : 0;
   const double right_band = coloured ? std::clamp(W * 0.14, 120.0, 320.0) : 0;
   const bool top = pic.view.direction == ViewDirection::Top;
-  const double bottom_band = top ? small * 1.6 + 22 : 0;  // the scale bar of a map, under it
+  const double bottom_band = top ? small * 1.6 + 22 : 0;                           // the scale bar of a map, under it
   const double vp[4] = {0, top_band, W - right_band, H - top_band - bottom_band};  // left, top, width, height (px)
-  if (vp[2] < 16 || vp[3] < 16) throw core::Error(fmt::format("render_part: {}x{} pixels leave no room for the part", W, H));
+  if (vp[2] < 16 || vp[3] < 16)
+    throw core::Error(fmt::format("render_part: {}x{} pixels leave no room for the part", W, H));
 
   vtkNew<vtkRenderer> overlay;  // layer 0: background and annotations
   overlay->SetLayer(0);
@@ -688,8 +710,10 @@ PartImage render_part(Window& window, const core::TriangleMesh& mesh, const Part
 Region region_around(double x_mm, double y_mm, double half_extent_mm, const Region& bounds, int width, int height) {
   const double aspect = static_cast<double>(width) / height;
   double hx = half_extent_mm, hy = half_extent_mm;
-  if (aspect >= 1) hx = half_extent_mm * aspect;
-  else hy = half_extent_mm / aspect;
+  if (aspect >= 1)
+    hx = half_extent_mm * aspect;
+  else
+    hy = half_extent_mm / aspect;
   Region r{x_mm - hx, x_mm + hx, y_mm - hy, y_mm + hy};
   // Slide it inside the bounds where it fits, clip where it does not.
   auto fit = [](double& lo, double& hi, double blo, double bhi) {

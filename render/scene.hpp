@@ -50,10 +50,10 @@ struct Lighting {
 };
 
 struct DeviationColours {
-  double limit_mm = 0.0;    // the map spans [-limit, +limit]; 0: symmetric_limit(|deviation|, 1 um)
-  int isolines = 0;         // iso-deviation lines on each side of zero at multiples of limit / (isolines + 1)
-  bool lit = true;          // shaded by the lights (a 3-D look) or flat, every pixel exactly its map colour
-  std::string reference;    // what the deviation is from, for the scale's caption (e.g. "the same pass at 0.1 m/min")
+  double limit_mm = 0.0;  // the map spans [-limit, +limit]; 0: symmetric_limit(|deviation|, 1 um)
+  int isolines = 0;       // iso-deviation lines on each side of zero at multiples of limit / (isolines + 1)
+  bool lit = true;        // shaded by the lights (a 3-D look) or flat, every pixel exactly its map colour
+  std::string reference;  // what the deviation is from, for the scale's caption (e.g. "the same pass at 0.1 m/min")
 };
 
 struct PartPicture {

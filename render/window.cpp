@@ -101,22 +101,38 @@ std::string vtk_message(const std::string& text) {
 
 const char* egl_error_name(EGLint e) {
   switch (e) {
-    case EGL_SUCCESS: return "EGL_SUCCESS";
-    case EGL_NOT_INITIALIZED: return "EGL_NOT_INITIALIZED";
-    case EGL_BAD_ACCESS: return "EGL_BAD_ACCESS";
-    case EGL_BAD_ALLOC: return "EGL_BAD_ALLOC";
-    case EGL_BAD_ATTRIBUTE: return "EGL_BAD_ATTRIBUTE";
-    case EGL_BAD_CONTEXT: return "EGL_BAD_CONTEXT";
-    case EGL_BAD_CONFIG: return "EGL_BAD_CONFIG";
-    case EGL_BAD_CURRENT_SURFACE: return "EGL_BAD_CURRENT_SURFACE";
-    case EGL_BAD_DISPLAY: return "EGL_BAD_DISPLAY";
-    case EGL_BAD_SURFACE: return "EGL_BAD_SURFACE";
-    case EGL_BAD_MATCH: return "EGL_BAD_MATCH";
-    case EGL_BAD_PARAMETER: return "EGL_BAD_PARAMETER";
-    case EGL_BAD_NATIVE_PIXMAP: return "EGL_BAD_NATIVE_PIXMAP";
-    case EGL_BAD_NATIVE_WINDOW: return "EGL_BAD_NATIVE_WINDOW";
-    case EGL_CONTEXT_LOST: return "EGL_CONTEXT_LOST";
-    default: return "unknown EGL error";
+    case EGL_SUCCESS:
+      return "EGL_SUCCESS";
+    case EGL_NOT_INITIALIZED:
+      return "EGL_NOT_INITIALIZED";
+    case EGL_BAD_ACCESS:
+      return "EGL_BAD_ACCESS";
+    case EGL_BAD_ALLOC:
+      return "EGL_BAD_ALLOC";
+    case EGL_BAD_ATTRIBUTE:
+      return "EGL_BAD_ATTRIBUTE";
+    case EGL_BAD_CONTEXT:
+      return "EGL_BAD_CONTEXT";
+    case EGL_BAD_CONFIG:
+      return "EGL_BAD_CONFIG";
+    case EGL_BAD_CURRENT_SURFACE:
+      return "EGL_BAD_CURRENT_SURFACE";
+    case EGL_BAD_DISPLAY:
+      return "EGL_BAD_DISPLAY";
+    case EGL_BAD_SURFACE:
+      return "EGL_BAD_SURFACE";
+    case EGL_BAD_MATCH:
+      return "EGL_BAD_MATCH";
+    case EGL_BAD_PARAMETER:
+      return "EGL_BAD_PARAMETER";
+    case EGL_BAD_NATIVE_PIXMAP:
+      return "EGL_BAD_NATIVE_PIXMAP";
+    case EGL_BAD_NATIVE_WINDOW:
+      return "EGL_BAD_NATIVE_WINDOW";
+    case EGL_CONTEXT_LOST:
+      return "EGL_CONTEXT_LOST";
+    default:
+      return "unknown EGL error";
   }
 }
 
@@ -247,15 +263,28 @@ Window::Window() : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.dpy = surfaceless_display();
   if (!eglBindAPI(EGL_OPENGL_API)) egl_fail("eglBindAPI(EGL_OPENGL_API)");
-  const EGLint config_attribs[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8,
-                                   EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8, EGL_DEPTH_SIZE, 24,
-                                   EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+  const EGLint config_attribs[] = {EGL_SURFACE_TYPE,
+                                   EGL_PBUFFER_BIT,
+                                   EGL_RED_SIZE,
+                                   8,
+                                   EGL_GREEN_SIZE,
+                                   8,
+                                   EGL_BLUE_SIZE,
+                                   8,
+                                   EGL_ALPHA_SIZE,
+                                   8,
+                                   EGL_DEPTH_SIZE,
+                                   24,
+                                   EGL_RENDERABLE_TYPE,
+                                   EGL_OPENGL_BIT,
+                                   EGL_NONE};
   EGLConfig config = nullptr;
   EGLint n = 0;
   if (!eglChooseConfig(m.dpy, config_attribs, &config, 1, &n)) egl_fail("eglChooseConfig");
   if (n < 1)
     throw core::Error(std::string("cannot create the headless OpenGL context: eglChooseConfig found no RGBA8 + depth "
-                                  "24 OpenGL configuration") + kEglHelp);
+                                  "24 OpenGL configuration") +
+                      kEglHelp);
   // VTK 9.1 draws into its own framebuffer objects; the context needs a surface only where
   // EGL_KHR_surfaceless_context is missing, and then a token one.
   if (!has_extension(eglQueryString(m.dpy, EGL_EXTENSIONS), "EGL_KHR_surfaceless_context")) {
@@ -263,8 +292,9 @@ Window::Window() : impl_(std::make_unique<Impl>()) {
     m.surf = eglCreatePbufferSurface(m.dpy, config, pbuffer_attribs);
     if (m.surf == EGL_NO_SURFACE) egl_fail("eglCreatePbufferSurface");
   }
-  const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 2,
-                                    EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+  const EGLint context_attribs[] = {
+      EGL_CONTEXT_MAJOR_VERSION,           3,       EGL_CONTEXT_MINOR_VERSION, 2, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+      EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
   m.ctx = eglCreateContext(m.dpy, config, EGL_NO_CONTEXT, context_attribs);
   if (m.ctx == EGL_NO_CONTEXT) egl_fail("eglCreateContext(OpenGL 3.2 core)");
   if (!eglMakeCurrent(m.dpy, m.surf, m.surf, m.ctx)) egl_fail("eglMakeCurrent");
@@ -300,10 +330,10 @@ void check_size(int width, int height, const char* what) {
   const double need = 17.0 * width * height;
   const core::AvailableMemory avail = core::available_memory();
   if (need > avail.bytes)
-    throw core::Error(fmt::format("{}: a {}x{} picture needs about {} while {} is available ({}); choose a smaller "
-                                  "--image-size",
-                                  what, width, height, core::format_bytes(need), core::format_bytes(avail.bytes),
-                                  avail.source));
+    throw core::Error(
+        fmt::format("{}: a {}x{} picture needs about {} while {} is available ({}); choose a smaller "
+                    "--image-size",
+                    what, width, height, core::format_bytes(need), core::format_bytes(avail.bytes), avail.source));
 }
 
 vtkRenderWindow* begin_picture(Window& window, int width, int height) {
@@ -346,8 +376,10 @@ void set_font(vtkTextProperty* t, int size_px, double r, double g, double b, boo
   static const bool have_dejavu = [] {
     const bool ok = std::filesystem::exists(kFontFile) && std::filesystem::exists(kBoldFontFile);
     if (!ok)
-      std::fprintf(stderr, "vmsim: warning: %s is missing (Debian package fonts-dejavu-core); text is drawn in VTK's "
-                           "own font, which shows '[' and ']' as parentheses\n", kFontFile);
+      std::fprintf(stderr,
+                   "vmsim: warning: %s is missing (Debian package fonts-dejavu-core); text is drawn in VTK's "
+                   "own font, which shows '[' and ']' as parentheses\n",
+                   kFontFile);
     return ok;
   }();
   if (have_dejavu) {

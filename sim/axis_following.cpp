@@ -25,7 +25,8 @@ nlohmann::json axis_following_json(const core::Machine& machine, const core::Set
     const double mx = e.abs().maxCoeff(&at);
     const double rms = std::sqrt(e.square().mean());
     const char* u = rotary ? "deg" : "mm";
-    out[machine.axes[i].name] = {{std::string("max_abs_") + u, mx}, {std::string("rms_") + u, rms},
+    out[machine.axes[i].name] = {{std::string("max_abs_") + u, mx},
+                                 {std::string("rms_") + u, rms},
                                  {"max_at_s", static_cast<double>(at) * setpoints.period_s}};
   }
   if (kin) {

@@ -1,7 +1,7 @@
 #pragma once
-// Follow-up (tracking) error of each axis: the setpoint the drive was sent minus where the axis is (the feed-drive simulation paper §4: "the
-// deviations measured on the axes", about 0.001 degrees on the Mikron's rotary tables), and the tool axis' angle
-// between the commanded and the actual pose.
+// Follow-up (tracking) error of each axis: the setpoint the drive was sent minus where the axis is (the feed-drive
+// simulation paper §4: "the deviations measured on the axes", about 0.001 degrees on the Mikron's rotary tables), and
+// the tool axis' angle between the commanded and the actual pose.
 #include "motion/kinematics.hpp"
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"

@@ -1,6 +1,7 @@
 #pragma once
 // The axis models a job runs on: the machine file's cascades, or for the axes an identified-model file names (the
-// job's [job] axis_models, or a command's --axis-models) their identified transfer functions (the predictive-compensation paper).
+// job's [job] axis_models, or a command's --axis-models) their identified transfer functions (the
+// predictive-compensation paper).
 #include "core/job.hpp"
 #include "drives/axis_model.hpp"
 

@@ -26,27 +26,31 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
   interp_.check_estimate = [&job](const motion::SetpointEstimate& e) {
     const std::string f = job.file.string();
     const std::string why = fmt::format(
-        "the interpolation would make at least {:.3g} setpoints (a cycle time of at least {:.4g} s at period_ms = {:g}, "
+        "the interpolation would make at least {:.3g} setpoints (a cycle time of at least {:.4g} s at period_ms = "
+        "{:g}, "
         "from the program's lengths, feeds and the axes' velocity limits; the slowest move{} takes {:.4g} s)",
         e.setpoints, e.cycle_time_s, job.interp.period_s * 1e3,
         e.slowest_move >= 0 ? fmt::format(" (program move {})", e.slowest_move + 1) : std::string(), e.slowest_move_s);
     if (e.setpoints > job.interp.max_setpoints)
-      throw core::Error(core::located(f, 0, fmt::format("{}, more than [interpolation] max_setpoints = {:.3g}: check "
-                                                        "the program's F words and period_ms, or raise max_setpoints",
-                                                        why, job.interp.max_setpoints)));
+      throw core::Error(core::located(f, 0,
+                                      fmt::format("{}, more than [interpolation] max_setpoints = {:.3g}: check "
+                                                  "the program's F words and period_ms, or raise max_setpoints",
+                                                  why, job.interp.max_setpoints)));
     const bool turning = job.machine.kinematics != "xyz";
     const double bytes = e.setpoints * motion_bytes_per_setpoint(static_cast<int>(job.machine.axes.size()), turning);
     const core::AvailableMemory avail = core::available_memory();
     if (bytes > avail.bytes)
       throw core::Error(core::located(
-          f, 0, fmt::format("{}, whose motion needs at least {} while {} is available ({}): check the program's F "
-                            "words and period_ms, or run on a machine with more memory",
-                            why, core::format_bytes(bytes), core::format_bytes(avail.bytes), avail.source)));
+          f, 0,
+          fmt::format("{}, whose motion needs at least {} while {} is available ({}): check the program's F "
+                      "words and period_ms, or run on a machine with more memory",
+                      why, core::format_bytes(bytes), core::format_bytes(avail.bytes), avail.source)));
   };
   // A gain schedule holds gains for the setpoints of the job's own feeds.
   if (job.gain_schedule_file && !options.ignore_gain_schedule) {
     if (options.feed_scale != 1.0)
-      throw core::Error(job.file.string() + ": --feed-scale changes the setpoints its gain_schedule was computed for "
+      throw core::Error(job.file.string() +
+                        ": --feed-scale changes the setpoints its gain_schedule was computed for "
                         "(run vmsim oga on a job at those feeds instead)");
     gain_schedule_file_ = job.gain_schedule_file;
   }
@@ -60,12 +64,14 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
   if (job.feedplan && job.feedplan->servo != core::FeedPlanSpec::Servo::Machine) {
     const std::string f = job.file.string();
     if (axis_models_.any())
-      throw core::Error(core::located(f, 0, "[feedplan] servo = \"pid\" or \"transfer_function\" models the axes "
-                                            "already; identified axis models ([job] axis_models, --axis-models) "
-                                            "cannot replace them too"));
+      throw core::Error(core::located(f, 0,
+                                      "[feedplan] servo = \"pid\" or \"transfer_function\" models the axes "
+                                      "already; identified axis models ([job] axis_models, --axis-models) "
+                                      "cannot replace them too"));
     if (gain_schedule_file_)
-      throw core::Error(core::located(f, 0, "[job] gain_schedule: the [feedplan] transfer-function servo has no "
-                                            "position-loop gain to schedule"));
+      throw core::Error(core::located(f, 0,
+                                      "[job] gain_schedule: the [feedplan] transfer-function servo has no "
+                                      "position-loop gain to schedule"));
     for (const methods::TransferFunction& tf :
          methods::feed_plan_transfer_functions(*job.feedplan, job.machine, f, &servo_given_)) {
       servo_owned_.push_back(std::make_unique<methods::TransferFunctionAxis>(tf, job.interp.period_s));
@@ -81,11 +87,11 @@ Chain::Chain(const core::Job& job, const ChainOptions& options)
     try {
       (void)drives::LinearAxisModel(*ax.drive, job.interp.period_s);
     } catch (const core::Error& e) {
-      throw core::Error(core::located(job.file.string(), 0,
-                                      fmt::format("[interpolation] period_ms = {:g} does not fit the drive of axis {} "
-                                                  "({}): {}",
-                                                  job.interp.period_s * 1e3, ax.name, job.machine.source_file,
-                                                  e.what())));
+      throw core::Error(
+          core::located(job.file.string(), 0,
+                        fmt::format("[interpolation] period_ms = {:g} does not fit the drive of axis {} "
+                                    "({}): {}",
+                                    job.interp.period_s * 1e3, ax.name, job.machine.source_file, e.what())));
     }
   }
 }
@@ -118,13 +124,16 @@ motion::InterpResult Chain::interpolate(const core::ToolPath& program, const mot
 std::vector<bool> Chain::cascade_axes() const {
   std::vector<bool> out(job_->machine.axes.size(), true);
   for (std::size_t a = 0; a < out.size(); ++a) {
-    if (!servo_per_axis_.empty()) out[a] = false;
-    else if (axis_models_.any() && a < axis_models_.per_axis.size() && axis_models_.per_axis[a]) out[a] = false;
+    if (!servo_per_axis_.empty())
+      out[a] = false;
+    else if (axis_models_.any() && a < axis_models_.per_axis.size() && axis_models_.per_axis[a])
+      out[a] = false;
   }
   return out;
 }
 
-drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace, DriveChecks* checks) const {
+drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace,
+                                     DriveChecks* checks) const {
   const std::vector<bool> cascade = cascade_axes();
   DriveChecks before = check_drives_before(job_->machine, setpoints, cascade);  // throws for an unstable loop
   drives::SimulateOptions sopt;

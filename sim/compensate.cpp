@@ -29,7 +29,8 @@ using Eigen::Index;
 void check_options(const CompensateJobOptions& o) {
   const methods::CompensateOptions& m = o.method;
   if (m.buffer_samples < 0 || (m.buffer_samples > 0 && m.buffer_samples % 2 == 0))
-    throw core::Error(fmt::format("--buffer {}: expected an odd number of samples (or 0: automatic)", m.buffer_samples));
+    throw core::Error(
+        fmt::format("--buffer {}: expected an odd number of samples (or 0: automatic)", m.buffer_samples));
   if (m.max_iterations < 0 || m.max_iterations > 50)
     throw core::Error(fmt::format("--iterations {}: expected 0 to 50", m.max_iterations));
   if (!(m.smoothing_samples >= 0.0 && m.smoothing_samples <= 1000.0))
@@ -42,7 +43,9 @@ core::ToolPath read_program_text(core::Job job, const std::string& text, const s
                                  const std::string& name) {
   std::string path = (std::filesystem::temp_directory_path() / ("vmsim-program-XXXXXX." + extension)).string();
   const int fd = mkstemps(path.data(), static_cast<int>(extension.size()) + 1);
-  if (fd < 0) throw core::Error(fmt::format("{}: cannot create a temporary file to read it back: {}", name, std::strerror(errno)));
+  if (fd < 0)
+    throw core::Error(
+        fmt::format("{}: cannot create a temporary file to read it back: {}", name, std::strerror(errno)));
   struct Remove {
     std::string p;
     ~Remove() { std::remove(p.c_str()); }
@@ -83,9 +86,10 @@ nlohmann::json figures_json(const ContourFigures& before, const ContourFigures& 
   auto pct = [](double b, double a) { return b > 0 ? 100.0 * (a - b) / b : 0.0; };
   nlohmann::json j = {{"before", {{"max_mm", before.max_mm}, {"mean_mm", before.mean_mm}, {"rms_mm", before.rms_mm}}},
                       {"after", {{"max_mm", after.max_mm}, {"mean_mm", after.mean_mm}, {"rms_mm", after.rms_mm}}},
-                      {"change_percent", {{"max", pct(before.max_mm, after.max_mm)},
-                                          {"mean", pct(before.mean_mm, after.mean_mm)},
-                                          {"rms", pct(before.rms_mm, after.rms_mm)}}},
+                      {"change_percent",
+                       {{"max", pct(before.max_mm, after.max_mm)},
+                        {"mean", pct(before.mean_mm, after.mean_mm)},
+                        {"rms", pct(before.rms_mm, after.rms_mm)}}},
                       {"samples", before.samples}};
   if (before.orientation && after.orientation) {
     const double d = core::units::kRadToDeg;
@@ -125,13 +129,19 @@ void method_json(const CompensateJobResult& r, const JobAxisModels& models, nloh
                                          fmt::format("{}", fmt::join(models.identified_axes, " ")) +
                                          ", the machine file's cascades for the other axes"
                                    : "the machine file's cascades ([axes.drive])";
-  rep["method"] = {{"foot_points", "the predictive-compensation paper section 4: nearest command point in a buffer of m samples, then the adjacent segment"},
-                   {"buffer_samples", r.compensation.buffer_samples},
-                   {"correction", "eq. 23: each setpoint moved by the predicted contour error at its place on the path, repeated while the mean falls"},
-                   {"smoothing_samples", r.options.smoothing_samples},
-                   {"limits", "the correction is faded out (smoothly, over +-" + std::to_string(r.options.limit_window_samples) +
-                                  " samples and more) where the corrected setpoints would break an axis velocity, acceleration or jerk limit"},
-                   {"measured_by", "core/contour (exact foot point on the planned path), cutting moves only"}};
+  rep["method"] = {
+      {"foot_points",
+       "the predictive-compensation paper section 4: nearest command point in a buffer of m samples, then the adjacent "
+       "segment"},
+      {"buffer_samples", r.compensation.buffer_samples},
+      {"correction",
+       "eq. 23: each setpoint moved by the predicted contour error at its place on the path, repeated while the mean "
+       "falls"},
+      {"smoothing_samples", r.options.smoothing_samples},
+      {"limits",
+       "the correction is faded out (smoothly, over +-" + std::to_string(r.options.limit_window_samples) +
+           " samples and more) where the corrected setpoints would break an axis velocity, acceleration or jerk limit"},
+      {"measured_by", "core/contour (exact foot point on the planned path), cutting moves only"}};
   const bool five = r.compensation.orientation;
   if (five)
     rep["method"]["five_axis"] =
@@ -140,8 +150,8 @@ void method_json(const CompensateJobResult& r, const JobAxisModels& models, nloh
         "inverse (exact for corrections of any size, continuous rotary angles), not its Jacobian";
   nlohmann::json its = nlohmann::json::array();
   for (const auto& it : r.compensation.iterations) {
-    nlohmann::json j = {{"max_mm", it.max_mm}, {"mean_mm", it.mean_mm}, {"accepted", it.accepted},
-                        {"faded_samples", it.faded_samples}};
+    nlohmann::json j = {
+        {"max_mm", it.max_mm}, {"mean_mm", it.mean_mm}, {"accepted", it.accepted}, {"faded_samples", it.faded_samples}};
     if (five) {
       j["orientation_max_deg"] = it.orientation_max_rad * core::units::kRadToDeg;
       j["orientation_mean_deg"] = it.orientation_mean_rad * core::units::kRadToDeg;
@@ -173,8 +183,9 @@ void results_json(const core::Job& job, CompensateJobResult& r) {
                                       {"cycle_time_original_s", t->first},
                                       {"cycle_time_compensated_s", t->second}}
                      : nlohmann::json(nullptr)},
-      {"what", "the program read back, re-timed by vmsim's interpolator and run on the machine file's cascades; "
-               "contour error against the original plan"}};
+      {"what",
+       "the program read back, re-timed by vmsim's interpolator and run on the machine file's cascades; "
+       "contour error against the original plan"}};
   rep["limits"] = {{"compensated_within_limits", r.within_limits},
                    {"original", limits_json(r.limits_before, job.machine)},
                    {"compensated", limits_json(r.limits_after, job.machine)}};
@@ -216,11 +227,12 @@ void check_program(const core::Job& job, const Chain& machine, const motion::Kin
   const core::Setpoints& sp = r.interp.setpoints;
   const motion::FeedCeiling ceiling = machine.feed_ceiling(r.program);
   const std::string cname = "compensated." + r.compensated_program.extension;
-  const core::ToolPath cprogram = read_program_text(job, r.compensated_program.text, r.compensated_program.extension, cname);
+  const core::ToolPath cprogram =
+      read_program_text(job, r.compensated_program.text, r.compensated_program.extension, cname);
   const motion::InterpResult cir = machine.interpolate(cprogram, ceiling);
   const Eigen::MatrixXd cactual = machine.simulate(cir.setpoints).position;
-  r.program_on_machine = figures_of(r.compensation, kin, cactual, tool_length_offsets(cprogram, cir.setpoints),
-                                    cir.setpoints, cprogram);
+  r.program_on_machine =
+      figures_of(r.compensation, kin, cactual, tool_length_offsets(cprogram, cir.setpoints), cir.setpoints, cprogram);
   r.original_on_machine = r.machine_before ? *r.machine_before
                                            : figures_of(r.compensation, kin, machine.simulate(sp).position,
                                                         r.tool_length_offset_mm, sp, r.program);
@@ -258,7 +270,8 @@ ContourFigures contour_figures(const Eigen::MatrixXd& command_tip, const Eigen::
     Eigen::VectorXd param(rows);
     for (Index k = 0; k < rows; ++k) {
       const Index i = std::clamp<Index>(f.ce.foot_segment[k], 0, std::max<Index>(ns - 2, 0));
-      const Eigen::Vector3d a = command_tip.row(i).transpose(), b = command_tip.row(std::min(i + 1, ns - 1)).transpose();
+      const Eigen::Vector3d a = command_tip.row(i).transpose(),
+                            b = command_tip.row(std::min(i + 1, ns - 1)).transpose();
       const double l2 = (b - a).squaredNorm();
       const double t = l2 > 0 ? std::clamp((actual_tip.row(k).transpose() - a).dot(b - a) / l2, 0.0, 1.0) : 0.0;
       param[k] = static_cast<double>(i) + t;
@@ -304,8 +317,9 @@ CompensateJobResult compensate_job(const core::Job& job, const CompensateJobOpti
   mopt.ignore_gain_schedule = true;
   const Chain machine(machine_job, mopt);
   if (chain.curve())
-    throw core::Error(core::located(job.file.string(), 0, "the job's path is a [feedplan.nurbs] curve: vmsim "
-                                                          "compensate corrects a program ([job] program)"));
+    throw core::Error(core::located(job.file.string(), 0,
+                                    "the job's path is a [feedplan.nurbs] curve: vmsim "
+                                    "compensate corrects a program ([job] program)"));
   CompensateJobResult r;
   r.identified = chain.axis_models().any();
   progress.stage(job.name + ": interpolation");

@@ -5,7 +5,8 @@
 
 namespace vmsim::sim {
 
-ContourStats cutting_contour_stats(const motion::ContourError& ce, const core::Setpoints& sp, const core::ToolPath& program) {
+ContourStats cutting_contour_stats(const motion::ContourError& ce, const core::Setpoints& sp,
+                                   const core::ToolPath& program) {
   ContourStats s;
   double sum2 = 0;
   for (Eigen::Index k = 0; k < ce.signed_mm.size(); ++k) {
@@ -24,7 +25,8 @@ ContourStats cutting_contour_stats(const motion::ContourError& ce, const core::S
 }
 
 nlohmann::json contour_json(const motion::ContourError& ce, const ContourStats& c) {
-  return {{"cutting_moves", {{"max_abs_mm", c.max_abs_mm}, {"rms_mm", c.rms_mm}, {"mse_um2", c.mse_um2}, {"samples", c.samples}}},
+  return {{"cutting_moves",
+           {{"max_abs_mm", c.max_abs_mm}, {"rms_mm", c.rms_mm}, {"mse_um2", c.mse_um2}, {"samples", c.samples}}},
           {"all_moves", {{"max_abs_mm", ce.max_abs_mm}, {"rms_mm", ce.rms_mm}, {"mse_um2", ce.mse_um2}}}};
 }
 

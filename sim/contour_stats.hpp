@@ -15,7 +15,8 @@ struct ContourStats {
 };
 
 // Samples k of `ce` on a feed move of `program` (the setpoints' move index; settling rows take the last move).
-ContourStats cutting_contour_stats(const motion::ContourError& ce, const core::Setpoints& sp, const core::ToolPath& program);
+ContourStats cutting_contour_stats(const motion::ContourError& ce, const core::Setpoints& sp,
+                                   const core::ToolPath& program);
 
 nlohmann::json contour_json(const motion::ContourError& ce, const ContourStats& cutting);
 

@@ -36,11 +36,12 @@ DriveChecks check_drives_before(const core::Machine& machine, const core::Setpoi
     const core::MachineAxis& ax = machine.axes[i];
     if (!ax.drive || i >= cascade.size() || !cascade[i] || !moves(sp, static_cast<Eigen::Index>(i))) continue;
     const drives::DriveStability d = drives::drive_stability(*ax.drive, sp.period_s);
-    out.axes[ax.name] = {{"kv_te", d.kv_te},
-                         {"pole_radius", d.pole_radius},
-                         {"inner_pole_radius", d.inner_pole_radius},
-                         {"gain_margin", std::isfinite(d.gain_margin) ? nlohmann::json(d.gain_margin) : nlohmann::json("inf")},
-                         {"min_damping", d.min_damping}};
+    out.axes[ax.name] = {
+        {"kv_te", d.kv_te},
+        {"pole_radius", d.pole_radius},
+        {"inner_pole_radius", d.inner_pole_radius},
+        {"gain_margin", std::isfinite(d.gain_margin) ? nlohmann::json(d.gain_margin) : nlohmann::json("inf")},
+        {"min_damping", d.min_damping}};
     for (core::Warning& w : drives::check_drive(*ax.drive, sp.period_s, ax.name, machine.source_file)) {
       if (w.severity == core::Warning::Severity::Invalid) throw core::Error(w.message);
       out.warnings.push_back(std::move(w));
@@ -69,7 +70,8 @@ void check_drives_after(const core::Machine& machine, const core::Setpoints& sp,
     for (Eigen::Index k = 1; k < ns; ++k) {
       v_max = std::max(v_max, std::abs(sp.position(k, a) - sp.position(k - 1, a)) / te);
       if (k >= 2)
-        a_max = std::max(a_max, std::abs(sp.position(k, a) - 2 * sp.position(k - 1, a) + sp.position(k - 2, a)) / (te * te));
+        a_max = std::max(a_max,
+                         std::abs(sp.position(k, a) - 2 * sp.position(k - 1, a) + sp.position(k - 2, a)) / (te * te));
     }
     // The floor covers what the linear model leaves out and a careful drive still shows: Coulomb friction at
     // reversals, gravity, the current loop's voltage limit (a few um on the parts' machines).
@@ -100,20 +102,18 @@ void check_drives_after(const core::Machine& machine, const core::Setpoints& sp,
                        "show what this drive does, not what the program asks (check current_limit_A and the axis' "
                        "max_acceleration)",
                        where, limit, longest, saturated)});
-    const std::string fe =
-        fmt::format("{}: the following error reaches {:.4g} {} at t = {:.3f} s, while the drive's linear model "
-                    "(Kv = {:g} 1/s, KF = {:g}) bounds it by {:.4g} {} at the setpoints' {:.4g} {}/s and {:.4g} {}/s^2",
-                    where, e_max, unit(ax), e_row * te, p.kv_per_s, p.kf, bound, unit(ax), v_max, unit(ax), a_max,
-                    unit(ax));
+    const std::string fe = fmt::format(
+        "{}: the following error reaches {:.4g} {} at t = {:.3f} s, while the drive's linear model "
+        "(Kv = {:g} 1/s, KF = {:g}) bounds it by {:.4g} {} at the setpoints' {:.4g} {}/s and {:.4g} {}/s^2",
+        where, e_max, unit(ax), e_row * te, p.kv_per_s, p.kf, bound, unit(ax), v_max, unit(ax), a_max, unit(ax));
     if (!(e_max <= 10 * bound))
       checks.warnings.push_back({"following_error_implausible", ax.name,
                                  fe + ": the axis did not follow its setpoints; the result cannot mean what it claims "
                                       "(check current_limit_A, voltage_limit_V, the friction and gravity torques)",
                                  core::Warning::Severity::Invalid});
     else if (e_max > bound)
-      checks.warnings.push_back(
-          {"following_error_beyond_model", ax.name,
-           fe + ": a limit of the drive (current, voltage) or its friction shapes the result"});
+      checks.warnings.push_back({"following_error_beyond_model", ax.name,
+                                 fe + ": a limit of the drive (current, voltage) or its friction shapes the result"});
   }
 }
 

@@ -36,11 +36,13 @@ class ChainTransform final : public program::MachineTransform {
  private:
   Eigen::VectorXd to_axes(const core::Vec6& v) const {
     Eigen::VectorXd q(static_cast<Eigen::Index>(machine_.axes.size()));
-    for (std::size_t i = 0; i < machine_.axes.size(); ++i) q[static_cast<Eigen::Index>(i)] = v[machine_.axes[i].program_axis];
+    for (std::size_t i = 0; i < machine_.axes.size(); ++i)
+      q[static_cast<Eigen::Index>(i)] = v[machine_.axes[i].program_axis];
     return q;
   }
   core::Vec6 to_vec6(const Eigen::VectorXd& q, core::Vec6 base) const {
-    for (std::size_t i = 0; i < machine_.axes.size(); ++i) base[machine_.axes[i].program_axis] = q[static_cast<Eigen::Index>(i)];
+    for (std::size_t i = 0; i < machine_.axes.size(); ++i)
+      base[machine_.axes[i].program_axis] = q[static_cast<Eigen::Index>(i)];
     return base;
   }
   const core::Machine& machine_;
@@ -53,8 +55,8 @@ std::optional<JobCurve> read_job_curve(const core::Job& job) {
   if (!job.program_file.empty() || !job.feedplan || !job.feedplan->nurbs) return std::nullopt;
   const core::FeedPlanSpec& spec = *job.feedplan;
   if (!spec.max_feed_mm_per_s)
-    throw core::Error(core::located(job.file.string(), 0,
-                                    "[feedplan] max_feed_mm_per_s is required with a [feedplan.nurbs] path"));
+    throw core::Error(
+        core::located(job.file.string(), 0, "[feedplan] max_feed_mm_per_s is required with a [feedplan.nurbs] path"));
   JobCurve c;
   c.curve = motion::read_nurbs_csv(spec.nurbs->control_points, spec.nurbs->knots, spec.nurbs->degree);
   motion::NurbsPathOptions no;
@@ -74,8 +76,8 @@ core::ToolPath read_job_program(const core::Job& job) {
     popt.program_units = job.program_units == "inch" ? program::LengthUnit::Inch : program::LengthUnit::Mm;
   if (job.start_mm) popt.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
   std::unique_ptr<ChainTransform> transform;
-  if (job.machine.kinematics == "chain" && program::program_dialect(job.program_file, popt.dialect) ==
-                                               program::Dialect::Sinumerik) {
+  if (job.machine.kinematics == "chain" &&
+      program::program_dialect(job.program_file, popt.dialect) == program::Dialect::Sinumerik) {
     transform = std::make_unique<ChainTransform>(job.machine);
     popt.machine = transform.get();
   }
@@ -109,8 +111,7 @@ std::optional<std::string> use_program_tool(core::Job& job) {
     if (std::abs(job.tool.diameter_mm - d) <= 1e-6 && std::abs(job.tool.corner_radius_mm - r) <= 1e-6)
       return std::nullopt;
     return fmt::format("{}:{}: the program's tool is D{:.4g} R{:.4g} mm; the job's [tool] D{:.4g} R{:.4g} mm cuts",
-                       job.program_file.string(), tp.tool_line, d, r, job.tool.diameter_mm,
-                       job.tool.corner_radius_mm);
+                       job.program_file.string(), tp.tool_line, d, r, job.tool.diameter_mm, job.tool.corner_radius_mm);
   }
   core::ToolSpec t;
   t.diameter_mm = d;

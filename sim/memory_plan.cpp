@@ -27,7 +27,7 @@ double motion_bytes_per_setpoint(int axes, bool turning) {
 
 namespace {
 
-constexpr double kBaseBytes = 70e6;           // the process: code and libraries (bench/README.md, measured)
+constexpr double kBaseBytes = 70e6;  // the process: code and libraries (bench/README.md, measured)
 constexpr double kSweepBytes = sizeof(removal::SweptTool);
 constexpr double kZmapOutputBytesPerNode = 136;  // 3 height grids (24) + part mesh with deviation (56) + writer (56)
 constexpr double kTileOutputBytesPerNode = 24;   // a tile's surface, reference and deviation grids
@@ -113,20 +113,24 @@ double surface_nodes(const FieldShape& s, int rows) {
   return double(s.grids.back().nu) * rows;
 }
 
-double motion_bytes(double samples, int axes, bool turning) { return samples * motion_bytes_per_setpoint(axes, turning); }
+double motion_bytes(double samples, int axes, bool turning) {
+  return samples * motion_bytes_per_setpoint(axes, turning);
+}
 
 struct MotionCounts {
   double samples = 0, sweeps = 0;
   bool turning = false;
 };
-MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind, core::Progress& progress) {
+MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind,
+                           core::Progress& progress) {
   ChainOptions copt;
   copt.feed_scale = feed_scale;
   copt.ignore_gain_schedule = feed_scale != 1.0;  // a reference at other feeds (the run itself refuses it)
   const Motion m = simulate_motion(Chain(job, copt), kind, progress);
   const removal::PoseTrack track = track_of(m, job, kind);
   MotionCounts c;
-  c.samples = kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());
+  c.samples =
+      kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());
   c.sweeps = double(sweeps_of(job, track).sweeps.size());
   c.turning = track.axis_per_sample.rows() > 0;
   return c;
@@ -153,14 +157,17 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
       refm = motion_counts(job, feed_scale, core::RemovalSpec::Motion::Program, progress);
       ref_shape = shape;
       break;
-    case core::ReferenceSpec::Kind::Stock: ref_shape = shape; break;
+    case core::ReferenceSpec::Kind::Stock:
+      ref_shape = shape;
+      break;
     case core::ReferenceSpec::Kind::Job: {
       const core::Job rj = core::load_job(job.reference.job_file);
       refm = motion_counts(rj, 1.0, rj.removal.motion, progress);
       ref_shape = shape_of(rj);
       break;
     }
-    case core::ReferenceSpec::Kind::None: break;
+    case core::ReferenceSpec::Kind::None:
+      break;
   }
   const int axes = static_cast<int>(job.machine.axes.size());
   const double b_motion = motion_bytes(own.samples, axes, own.turning) + motion_bytes(refm.samples, axes, refm.turning);
@@ -172,7 +179,8 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
     const double h = shape.vdb ? shape.voxel_mm : shape.spacing_mm;
     // Twice the stock's area at the worst orientation (projections sqrt(3) times the area): the plan's upper bound.
     const removal::SurfaceArea sa{2 * shape.stock_area_mm2, 2 * std::sqrt(3.0) * shape.stock_area_mm2};
-    b_outputs_whole = 2 * (removal::estimate_level_set_bytes(sa, h) + removal::estimate_mesh_bytes(2 * shape.stock_area_mm2, h));
+    b_outputs_whole =
+        2 * (removal::estimate_level_set_bytes(sa, h) + removal::estimate_mesh_bytes(2 * shape.stock_area_mm2, h));
   }
   if (shape.kind != core::RemovalSpec::Field::NBuffer && !shape.vdb)
     b_outputs_whole += kZmapOutputBytesPerNode * surface_nodes(shape, shape.grids.back().nv);
@@ -188,20 +196,27 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
   for (const auto& g : shape.grids) grids.push_back({{"nu", g.nu}, {"nv", g.nv}, {"rays", double(g.nu) * g.nv}});
   plan["field"] = {{"kind", shape.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
                             : shape.kind == core::RemovalSpec::Field::TriDexel ? "tridexel"
-                                                                                : "nbuffer"},
+                                                                               : "nbuffer"},
                    {"method", shape.vdb ? "vdb" : "dexel"},
                    {"spacing_mm", shape.spacing_mm},
                    {"grids", grids},
                    {"rays", whole.rays},
                    {"bytes", whole.bytes}};
   if (ref_shape) plan["reference_field"] = {{"rays", ref_whole.rays}, {"bytes", ref_whole.bytes}};
-  plan["motion"] = {{"samples", own.samples}, {"sweeps", own.sweeps}, {"axes", axes},
-                    {"reference_samples", refm.samples}, {"reference_sweeps", refm.sweeps},
-                    {"bytes", b_motion}, {"sweep_bytes", b_sweeps}};
+  plan["motion"] = {{"samples", own.samples},
+                    {"sweeps", own.sweeps},
+                    {"axes", axes},
+                    {"reference_samples", refm.samples},
+                    {"reference_sweeps", refm.sweeps},
+                    {"bytes", b_motion},
+                    {"sweep_bytes", b_sweeps}};
 
   const double one = kBaseBytes + per_process(whole, ref_whole) + b_motion + b_sweeps + b_outputs_whole;
-  plan["one_process"] = {{"field_bytes", per_process(whole, ref_whole)}, {"motion_bytes", b_motion},
-                         {"sweep_bytes", b_sweeps}, {"output_bytes", b_outputs_whole}, {"base_bytes", kBaseBytes},
+  plan["one_process"] = {{"field_bytes", per_process(whole, ref_whole)},
+                         {"motion_bytes", b_motion},
+                         {"sweep_bytes", b_sweeps},
+                         {"output_bytes", b_outputs_whole},
+                         {"base_bytes", kBaseBytes},
                          {"total_bytes", one}};
   // The machine this plan runs on: what it has left (core/memory.hpp), and whether one process fits in it.
   const core::AvailableMemory avail = core::available_memory();
@@ -228,9 +243,16 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
       const double total = kBaseBytes + per_process(ts, rts) + b_motion + b_sweeps + gather + outputs;
       worst = std::max(worst, total);
       if (out)
-        out->push_back({{"rank", r}, {"rows", ts.rows}, {"rays", ts.rays}, {"field_bytes", per_process(ts, rts)},
-                        {"motion_bytes", b_motion}, {"sweep_bytes", b_sweeps}, {"gather_bytes", gather},
-                        {"output_bytes", outputs}, {"base_bytes", kBaseBytes}, {"total_bytes", total}});
+        out->push_back({{"rank", r},
+                        {"rows", ts.rows},
+                        {"rays", ts.rays},
+                        {"field_bytes", per_process(ts, rts)},
+                        {"motion_bytes", b_motion},
+                        {"sweep_bytes", b_sweeps},
+                        {"gather_bytes", gather},
+                        {"output_bytes", outputs},
+                        {"base_bytes", kBaseBytes},
+                        {"total_bytes", total}});
     }
     return worst;
   };
@@ -241,8 +263,8 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
     max_ranks = static_cast<int>((shape.needles + removal::NeedleSet::kBlock - 1) / removal::NeedleSet::kBlock);
   if (ranks > 1 && shape.vdb) throw core::Error(job.file.string() + ": [removal] method = \"vdb\" does not run tiled");
   if (ranks > max_ranks)
-    throw core::Error(fmt::format("--ranks {}: the field has {} rows to share; use at most {} ranks", ranks, max_ranks,
-                                  max_ranks));
+    throw core::Error(
+        fmt::format("--ranks {}: the field has {} rows to share; use at most {} ranks", ranks, max_ranks, max_ranks));
   plan["ranks"] = ranks;
   for (const bool tiles_out : {false, true}) {
     if (ranks == 1 && tiles_out) continue;

@@ -62,15 +62,18 @@ nlohmann::json axis_figures(const core::Machine& machine, const core::Setpoints&
         {"current_limit_A", i_lim},
         {"current_saturated", saturated},
         {"setpoints_within_limits", sp_ok},
-        {"setpoint_peaks", {{"velocity_" + u + "_per_s", sp_peaks.velocity[a] * f},
-                            {"acceleration_" + u + "_per_s2", sp_peaks.acceleration[a] * f},
-                            {"jerk_" + u + "_per_s3", sp_peaks.jerk[a] * f}}},
-        {"actual_peaks", {{"velocity_" + u + "_per_s", peak_v * f},
-                          {"acceleration_" + u + "_per_s2", peak_acc * f},
-                          {"jerk_" + u + "_per_s3", peak_j * f}}},
-        {"limits", {{"velocity_" + u + "_per_s", ax.max_velocity * f},
-                    {"acceleration_" + u + "_per_s2", ax.max_acceleration * f},
-                    {"jerk_" + u + "_per_s3", ax.max_jerk * f}}},
+        {"setpoint_peaks",
+         {{"velocity_" + u + "_per_s", sp_peaks.velocity[a] * f},
+          {"acceleration_" + u + "_per_s2", sp_peaks.acceleration[a] * f},
+          {"jerk_" + u + "_per_s3", sp_peaks.jerk[a] * f}}},
+        {"actual_peaks",
+         {{"velocity_" + u + "_per_s", peak_v * f},
+          {"acceleration_" + u + "_per_s2", peak_acc * f},
+          {"jerk_" + u + "_per_s3", peak_j * f}}},
+        {"limits",
+         {{"velocity_" + u + "_per_s", ax.max_velocity * f},
+          {"acceleration_" + u + "_per_s2", ax.max_acceleration * f},
+          {"jerk_" + u + "_per_s3", ax.max_jerk * f}}},
     };
   }
   return axes;
@@ -78,7 +81,9 @@ nlohmann::json axis_figures(const core::Machine& machine, const core::Setpoints&
 
 }  // namespace
 
-double file_unit(const core::MachineAxis& ax) { return ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0; }
+double file_unit(const core::MachineAxis& ax) {
+  return ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0;
+}
 const char* unit_name(const core::MachineAxis& ax) { return ax.kind == core::AxisKind::Rotary ? "deg" : "mm"; }
 
 MotionRun run_motion(const core::Job& job, const MotionRunOptions& options, core::Progress& progress) {
@@ -112,14 +117,10 @@ MotionRun run_motion(const core::Job& job, const MotionRunOptions& options, core
 
   nlohmann::json& report = r.report;
   report = report_header("motion", job);
-  report["interpolation"] = {{"period_s", sp.period_s},
-                             {"tolerance_mm", chain.interp_options().tolerance_mm},
-                             {"feed_scale", chain.feed_scale()},
-                             {"cycle_time_s", r.interp.stats.cycle_time_s},
-                             {"setpoints", sp.samples()},
-                             {"moves", r.interp.stats.moves},
-                             {"blends", r.interp.stats.blends},
-                             {"exact_stops", r.interp.stats.exact_stops}};
+  report["interpolation"] = {{"period_s", sp.period_s},          {"tolerance_mm", chain.interp_options().tolerance_mm},
+                             {"feed_scale", chain.feed_scale()}, {"cycle_time_s", r.interp.stats.cycle_time_s},
+                             {"setpoints", sp.samples()},        {"moves", r.interp.stats.moves},
+                             {"blends", r.interp.stats.blends},  {"exact_stops", r.interp.stats.exact_stops}};
   report["axes"] = axis_figures(job.machine, sp, r.response, r);
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   const JobAxisModels& models = chain.axis_models();

@@ -22,12 +22,12 @@ struct MotionRunOptions {
 };
 
 struct MotionRun {
-  core::ToolPath program;          // as read (workpiece frame)
-  motion::InterpResult interp;     // the setpoints
-  drives::AxisResponse response;   // the drives' actual motion (setpoint rows, then the settling rows)
-  motion::ContourError contour;    // the actual tool tip against the commanded one, per response row
+  core::ToolPath program;         // as read (workpiece frame)
+  motion::InterpResult interp;    // the setpoints
+  drives::AxisResponse response;  // the drives' actual motion (setpoint rows, then the settling rows)
+  motion::ContourError contour;   // the actual tool tip against the commanded one, per response row
   bool setpoint_limits_held = true, currents_within_limit = true;  // currents: never saturated at the limit
-  DriveChecks drive_checks;        // the drives' findings (sim/drive_checks.hpp), also report.json's warnings
+  DriveChecks drive_checks;  // the drives' findings (sim/drive_checks.hpp), also report.json's warnings
   // report.json's figures: interpolation, axes (tracking error, currents, setpoint and actual peaks, limits, in
   // each axis's file units), gain_schedule, axis_models, contour_error, limits_held, timings_s.
   nlohmann::json report;

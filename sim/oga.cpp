@@ -17,13 +17,18 @@ namespace {
 using Eigen::Index;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Linear axes: mm/s -> m/min, mm/s^2 -> m/s^2, mm/s^3 -> m/s^3 (the units of Duong et al. Table I and the machine file).
+// Linear axes: mm/s -> m/min, mm/s^2 -> m/s^2, mm/s^3 -> m/s^3 (the units of Duong et al. Table I and the machine
+// file).
 nlohmann::json peaks_json(const methods::MotionPeaks& p, double te) {
   const auto at = [&](const methods::Peak& q) { return q.row >= 0 ? q.row * te : kNaN; };
-  return {{"velocity_m_per_min", p.velocity.value * 60e-3},      {"velocity_t_s", at(p.velocity)},
-          {"acceleration_m_per_s2", p.acceleration.value * 1e-3}, {"acceleration_t_s", at(p.acceleration)},
-          {"jerk_m_per_s3", p.jerk.value * 1e-3},                 {"jerk_t_s", at(p.jerk)},
-          {"current_peak_A", p.current.value},                    {"current_t_s", at(p.current)}};
+  return {{"velocity_m_per_min", p.velocity.value * 60e-3},
+          {"velocity_t_s", at(p.velocity)},
+          {"acceleration_m_per_s2", p.acceleration.value * 1e-3},
+          {"acceleration_t_s", at(p.acceleration)},
+          {"jerk_m_per_s3", p.jerk.value * 1e-3},
+          {"jerk_t_s", at(p.jerk)},
+          {"current_peak_A", p.current.value},
+          {"current_t_s", at(p.current)}};
 }
 
 const char* reference_name(methods::OgaOptions::Reference r) {
@@ -79,8 +84,10 @@ void search_json(const methods::OgaOptions& o, const methods::OgaResult& r, OgaJ
   rep["c2"] = c2;
   nlohmann::json wins = nlohmann::json::array();
   for (const auto& w : r.windows) {
-    nlohmann::json j = {{"first_row", w.window.begin}, {"end_row", w.window.end},
-                        {"kind", methods::window_kind_name(w.window.kind)}, {"mse_um2", w.mse_um2},
+    nlohmann::json j = {{"first_row", w.window.begin},
+                        {"end_row", w.window.end},
+                        {"kind", methods::window_kind_name(w.window.kind)},
+                        {"mse_um2", w.mse_um2},
                         {"hold_mse_um2", w.hold_mse_um2}};
     for (std::size_t q = 0; q < nq; ++q) j[r.axis_names[q] + "_final_kv_1000_per_min"] = w.final_kp[q];
     if (!w.note.empty()) j["note"] = w.note, ++out.windows_with_note;

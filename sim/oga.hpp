@@ -27,9 +27,9 @@ struct OgaJobOptions {
 };
 
 struct OgaJobResult {
-  core::ToolPath program;             // workpiece frame
-  motion::InterpResult interp;        // the setpoints the gains are for
-  methods::OgaOptions options;        // as run: the row weights and the ranges of every adjusted axis
+  core::ToolPath program;       // workpiece frame
+  motion::InterpResult interp;  // the setpoints the gains are for
+  methods::OgaOptions options;  // as run: the row weights and the ranges of every adjusted axis
   methods::OgaResult result;
   std::optional<methods::OgaVerification> verification;
   double verification_s = 0;

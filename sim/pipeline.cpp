@@ -33,9 +33,12 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 
 const char* motion_name(core::RemovalSpec::Motion m) {
   switch (m) {
-    case core::RemovalSpec::Motion::Actual: return "actual";
-    case core::RemovalSpec::Motion::Setpoints: return "setpoints";
-    case core::RemovalSpec::Motion::Program: return "program";
+    case core::RemovalSpec::Motion::Actual:
+      return "actual";
+    case core::RemovalSpec::Motion::Setpoints:
+      return "setpoints";
+    case core::RemovalSpec::Motion::Program:
+      return "program";
   }
   return "?";
 }
@@ -70,7 +73,8 @@ void add_contour_error(Motion& motion, const core::Job& job) {
   const core::Setpoints& sp = motion.interp.setpoints;
   Eigen::MatrixXd cmd(motion.response->samples(), 3), act(motion.response->samples(), 3);
   for (Eigen::Index k = 0; k < cmd.rows(); ++k) {
-    cmd.row(k) = kin->forward(sp.position.row(std::min(k, sp.samples() - 1)).transpose(), tlo_at(motion, k)).tip_mm.transpose();
+    cmd.row(k) =
+        kin->forward(sp.position.row(std::min(k, sp.samples() - 1)).transpose(), tlo_at(motion, k)).tip_mm.transpose();
     act.row(k) = kin->forward(motion.response->position.row(k).transpose(), tlo_at(motion, k)).tip_mm.transpose();
   }
   motion.contour = motion::contour_error(cmd, act);
@@ -96,7 +100,8 @@ bool track_turns(const removal::PoseTrack& tr) {
 
 removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind) {
   removal::PoseTrack tr;
-  if (kind == core::RemovalSpec::Motion::Program && job.machine.kinematics == "chain" && program_turns_tool(m.program)) {
+  if (kind == core::RemovalSpec::Motion::Program && job.machine.kinematics == "chain" &&
+      program_turns_tool(m.program)) {
     // A five-axis program: tool tip and axis along the programmed moves (app/tool_poses.hpp), sampled within a tenth
     // of the track tolerance as the arcs below are.
     const auto kin = motion::make_kinematics(job.machine);
@@ -135,20 +140,25 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
 std::size_t Field::rays() const {
   if (vdb) return 0;
   switch (kind) {
-    case core::RemovalSpec::Field::ZMap: return static_cast<std::size_t>(zmap.nu()) * zmap.nv();
+    case core::RemovalSpec::Field::ZMap:
+      return static_cast<std::size_t>(zmap.nu()) * zmap.nv();
     case core::RemovalSpec::Field::TriDexel:
       return static_cast<std::size_t>(tri.x.nu()) * tri.x.nv() + static_cast<std::size_t>(tri.y.nu()) * tri.y.nv() +
              static_cast<std::size_t>(tri.z.nu()) * tri.z.nv();
-    case core::RemovalSpec::Field::NBuffer: return needles.size();
+    case core::RemovalSpec::Field::NBuffer:
+      return needles.size();
   }
   return 0;
 }
 std::size_t Field::memory_bytes() const {
   if (vdb) return part.memory_bytes();
   switch (kind) {
-    case core::RemovalSpec::Field::ZMap: return zmap.memory_bytes();
-    case core::RemovalSpec::Field::TriDexel: return tri.x.memory_bytes() + tri.y.memory_bytes() + tri.z.memory_bytes();
-    case core::RemovalSpec::Field::NBuffer: return needles.store().memory_bytes();
+    case core::RemovalSpec::Field::ZMap:
+      return zmap.memory_bytes();
+    case core::RemovalSpec::Field::TriDexel:
+      return tri.x.memory_bytes() + tri.y.memory_bytes() + tri.z.memory_bytes();
+    case core::RemovalSpec::Field::NBuffer:
+      return needles.store().memory_bytes();
   }
   return 0;
 }
@@ -212,21 +222,29 @@ void fill_stock(Field& f, const core::Job& job, const std::optional<core::Triang
     // One dexelizer: the closedness check and Embree's tree once for every grid.
     const removal::MeshDexelizer dex(*mesh, job.stock.mesh_file.string());
     switch (f.kind) {
-      case core::RemovalSpec::Field::ZMap: dex.fill(f.zmap); break;
+      case core::RemovalSpec::Field::ZMap:
+        dex.fill(f.zmap);
+        break;
       case core::RemovalSpec::Field::TriDexel:
         for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) dex.fill(*g);
         break;
-      case core::RemovalSpec::Field::NBuffer: dex.fill(f.needles); break;
+      case core::RemovalSpec::Field::NBuffer:
+        dex.fill(f.needles);
+        break;
     }
     return;
   }
   const removal::Box b{job.stock.min_mm, job.stock.max_mm};
   switch (f.kind) {
-    case core::RemovalSpec::Field::ZMap: removal::fill_box(f.zmap, b); break;
+    case core::RemovalSpec::Field::ZMap:
+      removal::fill_box(f.zmap, b);
+      break;
     case core::RemovalSpec::Field::TriDexel:
       for (removal::DexelGrid* g : {&f.tri.x, &f.tri.y, &f.tri.z}) removal::fill_box(*g, b);
       break;
-    case core::RemovalSpec::Field::NBuffer: removal::fill_box(f.needles, b); break;
+    case core::RemovalSpec::Field::NBuffer:
+      removal::fill_box(f.needles, b);
+      break;
   }
 }
 
@@ -315,7 +333,8 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
   f.spacing_mm = job.removal.spacing_mm;
   if (job.removal.method == core::RemovalSpec::Method::Vdb) {
     if (!tile.whole())
-      throw core::Error(job.file.string() + ": [removal] method = \"vdb\" does not run tiled under MPI (a narrow-band "
+      throw core::Error(job.file.string() +
+                        ": [removal] method = \"vdb\" does not run tiled under MPI (a narrow-band "
                         "level set has no rows to split without changing its result); run it as one process, or use "
                         "method = \"dexel\"");
     f.vdb = true;
@@ -327,7 +346,8 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
     const double h = job.removal.voxel_mm;
     f.vdb_estimate_bytes = removal::estimate_level_set_bytes(sa, h);
     f.vdb_mesh_estimate_bytes = removal::estimate_mesh_bytes(sa.area_mm2, h);
-    std::fprintf(stderr, "%s: level set at %g mm voxels, estimated memory %.1f MB: %.1f MB for the band of the stock's "
+    std::fprintf(stderr,
+                 "%s: level set at %g mm voxels, estimated memory %.1f MB: %.1f MB for the band of the stock's "
                  "%.0f mm^2 (%.1f MB per 1000 mm^2 of surface the cuts add) and %.1f MB for the part mesh\n",
                  job.name.c_str(), h, (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes) / 1e6,
                  f.vdb_estimate_bytes / 1e6, sa.area_mm2, f.vdb_estimate_bytes / sa.area_mm2 * 1e3 / 1e6,
@@ -336,16 +356,16 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
     const core::AvailableMemory avail = core::available_memory();
     const double limit = std::isfinite(avail.bytes) ? avail.bytes : 32e9;
     if (f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes > limit)
-      throw core::Error(job.file.string() + fmt::format(": [removal] voxel_mm = {} needs about {} for the level "
-                                                        "set and its mesh, while {} is available ({}); choose a "
-                                                        "larger voxel_mm",
-                                                        h, core::format_bytes(f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes),
-                                                        core::format_bytes(limit), avail.source.empty() ? "a fixed limit" : avail.source));
+      throw core::Error(job.file.string() +
+                        fmt::format(": [removal] voxel_mm = {} needs about {} for the level "
+                                    "set and its mesh, while {} is available ({}); choose a "
+                                    "larger voxel_mm",
+                                    h, core::format_bytes(f.vdb_estimate_bytes + f.vdb_mesh_estimate_bytes),
+                                    core::format_bytes(limit), avail.source.empty() ? "a fixed limit" : avail.source));
     progress.stage(job.name + ": stock (level set)");
     removal::VdbOptions vo;
     vo.voxel_mm = h;
-    f.part = mesh ? removal::VdbPart::mesh(*mesh, vo, job.stock.mesh_file.string())
-                  : removal::VdbPart::box(region, vo);
+    f.part = mesh ? removal::VdbPart::mesh(*mesh, vo, job.stock.mesh_file.string()) : removal::VdbPart::box(region, vo);
     progress.done();
     return f;
   }
@@ -377,9 +397,15 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
                                                       " or more processes (vmsim run --plan JOB says how many)"));
   try {
     switch (f.kind) {
-      case core::RemovalSpec::Field::ZMap: f.zmap = removal::make_zmap(region, f.spacing_mm, tile); break;
-      case core::RemovalSpec::Field::TriDexel: f.tri = removal::make_tridexel(region, f.spacing_mm, tile); break;
-      case core::RemovalSpec::Field::NBuffer: read_needles(job, f); break;
+      case core::RemovalSpec::Field::ZMap:
+        f.zmap = removal::make_zmap(region, f.spacing_mm, tile);
+        break;
+      case core::RemovalSpec::Field::TriDexel:
+        f.tri = removal::make_tridexel(region, f.spacing_mm, tile);
+        break;
+      case core::RemovalSpec::Field::NBuffer:
+        read_needles(job, f);
+        break;
     }
   } catch (const core::Error& e) {
     if (tile.whole()) throw;
@@ -405,7 +431,8 @@ Eigen::VectorXd needle_offsets(const Field& f) {
     for (std::size_t k = 0; k < top.size(); ++k) o[static_cast<Eigen::Index>(k)] = top[k] - f.needle_half;
     return o;
   }
-  for (std::size_t k = 0; k < f.needles.size(); ++k) o[static_cast<Eigen::Index>(k)] = f.needles.store().top(k) - f.needle_half;
+  for (std::size_t k = 0; k < f.needles.size(); ++k)
+    o[static_cast<Eigen::Index>(k)] = f.needles.store().top(k) - f.needle_half;
   return o;
 }
 
@@ -426,7 +453,8 @@ Reference reference_field(const core::Job& job, const Field& start, double feed_
     progress.stage(job.name + ": reference (feeds x " + fmt::format("{:g}", job.reference.feed_scale) + ")");
     cut_field(*ref, sweeps_of(job, track_of(rm, job, job.removal.motion)).sweeps);
     progress.done();
-    ref_name = fmt::format("feed: the same program through the same chain at {:g} x its feeds", job.reference.feed_scale);
+    ref_name =
+        fmt::format("feed: the same program through the same chain at {:g} x its feeds", job.reference.feed_scale);
   } else if (job.reference.kind == core::ReferenceSpec::Kind::Stock) {
     ref = start;
     ref_name = "stock: the part " + job.stock.job_file.filename().string() + " leaves";

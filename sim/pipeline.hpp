@@ -32,7 +32,7 @@ struct Motion {
   std::optional<drives::AxisResponse> response;
   std::optional<motion::ContourError> contour;
   Eigen::VectorXd tool_length_offset_mm;  // per setpoint (sim::tool_length_offsets)
-  DriveChecks drive_checks;                // the drives' findings, when they ran (sim/drive_checks.hpp)
+  DriveChecks drive_checks;               // the drives' findings, when they ran (sim/drive_checks.hpp)
   nlohmann::json timings = nlohmann::json::object();
 };
 
@@ -87,7 +87,8 @@ struct Field {
 
 // A job's starting field: a box or mesh stock, or the part another job leaves (run here, recursively; `chain`
 // catches cycles). With a tile, only the tile's rays are made and filled.
-Field initial_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain, const Tile& tile = {});
+Field initial_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain,
+                    const Tile& tile = {});
 // The part a job leaves: its stock, cut by its own motion.
 Field final_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain, const Tile& tile = {});
 // Removes the sweeps from the field (in program order; the dexel kernels' results do not depend on thread count).

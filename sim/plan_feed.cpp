@@ -65,8 +65,9 @@ nlohmann::json sample_job_path(const core::Job& job, const Chain& chain, methods
         programmed = std::max(programmed, m.feed_mm_per_min / 60.0);
     if (!spec.max_feed_mm_per_s) r.max_feed_mm_per_s = programmed;
     if (!(r.max_feed_mm_per_s > 0))
-      throw core::Error(core::located(job.file.string(), 0, "[feedplan] max_feed_mm_per_s: the program has no feed "
-                                                             "move to take it from; give it"));
+      throw core::Error(core::located(job.file.string(), 0,
+                                      "[feedplan] max_feed_mm_per_s: the program has no feed "
+                                      "move to take it from; give it"));
     r.path = chain.smooth_path(r.workpiece);
     r.samples = methods::sample_path(r.path, spec.sample_spacing_mm);
     path_json = {{"kind", "program"}, {"moves", r.program.moves.size()}};

@@ -19,24 +19,24 @@
 namespace vmsim::sim {
 
 struct PlanFeedResult {
-  core::ToolPath workpiece;         // the job's program as read (workpiece frame; a curve's bookkeeping moves)
-  core::ToolPath program;           // the same in axis space: the moves the interpolator follows
-  motion::SmoothPath path;          // the smoothed path it follows: the arc length of `ceiling`
-  methods::PathSamples samples;     // the plan's samples (a curve: its own arc length)
-  Eigen::Vector3d moving;           // 1 for each of X Y Z the path moves
-  double max_feed_mm_per_s = 0;     // f_max: [feedplan]'s, or the program's highest feed
+  core::ToolPath workpiece;      // the job's program as read (workpiece frame; a curve's bookkeeping moves)
+  core::ToolPath program;        // the same in axis space: the moves the interpolator follows
+  motion::SmoothPath path;       // the smoothed path it follows: the arc length of `ceiling`
+  methods::PathSamples samples;  // the plan's samples (a curve: its own arc length)
+  Eigen::Vector3d moving;        // 1 for each of X Y Z the path moves
+  double max_feed_mm_per_s = 0;  // f_max: [feedplan]'s, or the program's highest feed
   std::string servo_description;
   bool transfer_function_servo = false;  // simulated as [feedplan]'s transfer functions (else the chain's drives)
   double natural_frequency_rad_s = 0;    // w_n of the contour-error model (eq. 11)
   methods::FeedPlanLimits limits;
-  methods::PlayedPlan no_plan;           // the programmed feed, no ceiling
-  methods::FeedPlan free_plan;           // the plan without the contour-error constraint (eq. 13 left out) ...
-  methods::PlayedPlan free_played;       // ... and its play
-  methods::VerifiedPlan verified;        // the plan with it, verified by simulation (its last play: .played)
+  methods::PlayedPlan no_plan;               // the programmed feed, no ceiling
+  methods::FeedPlan free_plan;               // the plan without the contour-error constraint (eq. 13 left out) ...
+  methods::PlayedPlan free_played;           // ... and its play
+  methods::VerifiedPlan verified;            // the plan with it, verified by simulation (its last play: .played)
   methods::FeedPlanCheck check, check_free;  // every constraint at every sample, recomputed from the feeds
   double model_peak_mm = 0, model_peak_free_mm = 0;  // eq. 7's estimate of the plans' contour error
-  motion::FeedCeiling ceiling;           // the verified plan as the interpolator's feed ceiling (feed_plan.csv)
-  Eigen::ArrayXd played_sample_s;        // per setpoint of the verified play: its plan arc length
+  motion::FeedCeiling ceiling;     // the verified plan as the interpolator's feed ceiling (feed_plan.csv)
+  Eigen::ArrayXd played_sample_s;  // per setpoint of the verified play: its plan arc length
   // report.json's figures: path, servo, limits, lp, runs, cycle_time_cost_of_contour_constraint; and the time spent
   // (path, plans_and_simulations).
   nlohmann::json report, timings;

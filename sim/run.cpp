@@ -23,8 +23,9 @@ using core::process_cpu_s;
 using core::seconds_since;
 
 const char* field_name(const Field& f) {
-  return f.kind == core::RemovalSpec::Field::ZMap ? "zmap" : f.kind == core::RemovalSpec::Field::TriDexel ? "tridexel"
-                                                                                                          : "nbuffer";
+  return f.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
+         : f.kind == core::RemovalSpec::Field::TriDexel ? "tridexel"
+                                                        : "nbuffer";
 }
 
 // The level set's part as a watertight, manifold mesh (volumeToMesh), each vertex with its signed distance to the
@@ -38,8 +39,10 @@ LevelSetPart level_set_part(removal::VdbPart part, const removal::VdbPart* ref_p
     for (Eigen::Index k = 0; k < dev.size(); ++k) beyond += std::isnan(dev[k]) ? 1 : 0;
     out.mesh.point_data.emplace_back("deviation_mm", std::move(dev));
   }
-  out.figures = {{"voxel_mm", part.voxel_mm()}, {"mesh_triangles", out.mesh.triangles.rows()},
-                 {"mesh_vertices", out.mesh.vertices_mm.rows()}, {"mesh_adaptivity", adaptivity},
+  out.figures = {{"voxel_mm", part.voxel_mm()},
+                 {"mesh_triangles", out.mesh.triangles.rows()},
+                 {"mesh_vertices", out.mesh.vertices_mm.rows()},
+                 {"mesh_adaptivity", adaptivity},
                  {"volume_mm3", part.volume_mm3()}};
   if (ref_part) out.figures["vertices_beyond_reference_band"] = beyond;
   out.part = std::move(part);
@@ -57,17 +60,23 @@ void read_back_grids(const core::Job& job, RunResult& r, nlohmann::json& surface
     r.deviation = metrology::deviation(pred, *r.reference_surface);
     r.marks = metrology::find_marks(*r.deviation, 1e-3);  // marks deeper than 1 um
   }
-  surface_json = {{"grid", {{"x0_mm", pred.x0_mm}, {"y0_mm", pred.y0_mm}, {"dx_mm", pred.dx_mm}, {"dy_mm", pred.dy_mm},
-                            {"nx", pred.nx()}, {"ny", pred.ny()}}}};
+  surface_json = {{"grid",
+                   {{"x0_mm", pred.x0_mm},
+                    {"y0_mm", pred.y0_mm},
+                    {"dx_mm", pred.dx_mm},
+                    {"dy_mm", pred.dy_mm},
+                    {"nx", pred.nx()},
+                    {"ny", pred.ny()}}}};
   if (field.vdb) {
     r.level_set = level_set_part(field.part, ref && ref->vdb ? &ref->part : nullptr, job.removal.mesh_adaptivity);
     surface_json["mesh_triangles"] = r.level_set->figures["mesh_triangles"];
   } else if (field.kind == core::RemovalSpec::Field::TriDexel) {
     // The tri-dexel part in 3-D (walls and undercuts the height grid cannot show), through its level set.
     std::optional<removal::VdbPart> rl;
-    if (ref && !ref->vdb && ref->kind == core::RemovalSpec::Field::TriDexel) rl = removal::VdbPart::from_tridexel(ref->tri);
-    r.level_set = level_set_part(removal::VdbPart::from_tridexel(field.tri), rl ? &*rl : nullptr,
-                                 job.removal.mesh_adaptivity);
+    if (ref && !ref->vdb && ref->kind == core::RemovalSpec::Field::TriDexel)
+      rl = removal::VdbPart::from_tridexel(ref->tri);
+    r.level_set =
+        level_set_part(removal::VdbPart::from_tridexel(field.tri), rl ? &*rl : nullptr, job.removal.mesh_adaptivity);
     surface_json["mesh_triangles"] = r.level_set->figures["mesh_triangles"];
     surface_json["tridexel_mesh"] = r.level_set->figures;
   } else {
@@ -98,7 +107,8 @@ void read_back_needles(const core::Job& job, RunResult& r, nlohmann::json& surfa
     if (std::isfinite(d)) lo = std::min(lo, d), hi = std::max(hi, d);
     if (!std::isfinite(r.needle_offset_mm[k])) ++empty;
   }
-  if (field.vdb) r.level_set = level_set_part(field.part, ref && ref->vdb ? &ref->part : nullptr, job.removal.mesh_adaptivity);
+  if (field.vdb)
+    r.level_set = level_set_part(field.part, ref && ref->vdb ? &ref->part : nullptr, job.removal.mesh_adaptivity);
   // The needles' summary, as the grid fields give theirs: how many, how many the tool emptied (the surface lies
   // beyond their inner end), and the extremes of the deviation (overcuts negative).
   surface_json = {{"needles", field.needles.size()}, {"empty_needles", empty}};
@@ -180,11 +190,13 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
   const auto t0 = Clock::now();
   progress.stage(job.name + ": surfaces");
   nlohmann::json surface_json;
-  if (c.field.kind != core::RemovalSpec::Field::NBuffer) read_back_grids(job, r, surface_json);
-  else read_back_needles(job, r, surface_json);
+  if (c.field.kind != core::RemovalSpec::Field::NBuffer)
+    read_back_grids(job, r, surface_json);
+  else
+    read_back_needles(job, r, surface_json);
   if (c.motion.response && c.motion.contour)
-    r.signals = motion_signals(job, c.motion.program, c.motion.interp.setpoints, *c.motion.response,
-                               *c.motion.contour, options.feed_scale);
+    r.signals = motion_signals(job, c.motion.program, c.motion.interp.setpoints, *c.motion.response, *c.motion.contour,
+                               options.feed_scale);
   progress.done();
 
   nlohmann::json& report = r.report;
@@ -196,8 +208,12 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
   if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
   nlohmann::json marks_json = nlohmann::json::array();
   for (const metrology::Mark& m : r.marks)
-    marks_json.push_back({{"depth_mm", m.depth_mm}, {"kind", m.overcut ? "overcut" : "undercut"}, {"x_mm", m.x_mm},
-                          {"y_mm", m.y_mm}, {"x_extent_mm", m.x_extent_mm}, {"y_extent_mm", m.y_extent_mm},
+    marks_json.push_back({{"depth_mm", m.depth_mm},
+                          {"kind", m.overcut ? "overcut" : "undercut"},
+                          {"x_mm", m.x_mm},
+                          {"y_mm", m.y_mm},
+                          {"x_extent_mm", m.x_extent_mm},
+                          {"y_extent_mm", m.y_extent_mm},
                           {"area_mm2", m.area_mm2}});
   report["marks"] = marks_json;
   report["surface"] = surface_json;

@@ -33,8 +33,10 @@ class Binner {
       const double v = value(k);
       if (!std::isfinite(v)) continue;
       const Eigen::Index b = k / bs_;
-      if (std::isnan(lo[b])) lo[b] = hi[b] = v;
-      else lo[b] = std::min(lo[b], v), hi[b] = std::max(hi[b], v);
+      if (std::isnan(lo[b]))
+        lo[b] = hi[b] = v;
+      else
+        lo[b] = std::min(lo[b], v), hi[b] = std::max(hi[b], v);
     }
     names_.push_back(name);
     lo_.push_back(std::move(lo));
@@ -120,7 +122,8 @@ BinnedSignals motion_signals(const core::Job& job, const core::ToolPath& program
     bin.add(A + "_velocity_actual_" + u + "_per_s", [&, f, ai](Eigen::Index k) { return resp.velocity(k, ai) * f; });
     bin.add(A + "_acceleration_setpoint_" + u + "_per_s2",
             [&, f](Eigen::Index k) { return (x(k) - 2 * x(k - 1) + x(k - 2)) / (te * te) * f; });
-    bin.add(A + "_acceleration_actual_" + u + "_per_s2", [&, f, ai](Eigen::Index k) { return resp.acceleration(k, ai) * f; });
+    bin.add(A + "_acceleration_actual_" + u + "_per_s2",
+            [&, f, ai](Eigen::Index k) { return resp.acceleration(k, ai) * f; });
     bin.add(A + "_jerk_setpoint_" + u + "_per_s3",
             [&, f](Eigen::Index k) { return (x(k) - 3 * x(k - 1) + 3 * x(k - 2) - x(k - 3)) / (te * te * te) * f; });
     bin.add(A + "_jerk_actual_" + u + "_per_s3", [&, f, ai](Eigen::Index k) { return resp.jerk(k, ai) * f; });
@@ -167,8 +170,9 @@ BinnedSignals motion_signals(const core::Job& job, const core::ToolPath& program
 
 void write_signals(const std::filesystem::path& file, const BinnedSignals& s) {
   core::CsvWriter out(file);
-  out.comment("vmsim signals 1: per-bin minimum and maximum of each signal (columns NAME.min, NAME.max) over bins of "
-              "bin_samples consecutive samples, so that peaks survive the decimation; nan: undefined over the whole bin");
+  out.comment(
+      "vmsim signals 1: per-bin minimum and maximum of each signal (columns NAME.min, NAME.max) over bins of "
+      "bin_samples consecutive samples, so that peaks survive the decimation; nan: undefined over the whole bin");
   out.comment("job=" + s.job);
   out.comment(fmt::format("period_s={:.9g}", s.period_s));
   out.comment(fmt::format("samples={}", s.samples));
@@ -212,13 +216,19 @@ BinnedSignals read_signals(const std::filesystem::path& file) {
     const std::string key(kv->first), value(kv->second);
     auto number_of = [&](const char* what) {
       const auto v = core::parse_number(value);
-      if (!v) throw core::Error(core::located(fname, c.line, std::string("expected a number for ") + what + ", found \"" + value + "\""));
+      if (!v)
+        throw core::Error(
+            core::located(fname, c.line, std::string("expected a number for ") + what + ", found \"" + value + "\""));
       return *v;
     };
-    if (key == "job") s.job = value;
-    else if (key == "period_s") s.period_s = number_of("period_s");
-    else if (key == "samples") s.samples = static_cast<Eigen::Index>(number_of("samples"));
-    else if (key == "bin_samples") s.bin_samples = static_cast<Eigen::Index>(number_of("bin_samples"));
+    if (key == "job")
+      s.job = value;
+    else if (key == "period_s")
+      s.period_s = number_of("period_s");
+    else if (key == "samples")
+      s.samples = static_cast<Eigen::Index>(number_of("samples"));
+    else if (key == "bin_samples")
+      s.bin_samples = static_cast<Eigen::Index>(number_of("bin_samples"));
     else if (key == "axes") {
       std::stringstream ss(value);
       std::string item;

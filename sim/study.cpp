@@ -25,17 +25,18 @@ const std::set<std::string> kMachineTables = {"machine", "kinematics", "axes"};
 
 // The job keys that hold file paths (parts/README.md): resolved against the job file's directory when it is read, so
 // a variation's job, written elsewhere, carries them absolute.
-const std::vector<std::string> kJobPathKeys = {"job.machine",     "job.program",         "job.tool_table",
-                                               "job.gain_schedule", "job.axis_models",    "stock.file",
-                                               "stock.job",       "reference.job",       "removal.needles_file",
-                                               "feedplan.nurbs.control_points", "feedplan.nurbs.knots"};
+const std::vector<std::string> kJobPathKeys = {
+    "job.machine",         "job.program", "job.tool_table", "job.gain_schedule",    "job.axis_models",
+    "stock.file",          "stock.job",   "reference.job",  "removal.needles_file", "feedplan.nurbs.control_points",
+    "feedplan.nurbs.knots"};
 
 std::string where(const std::string& file, const toml::node& n) {
   const auto& s = n.source();
   return s.begin.line > 0 ? fmt::format("{}:{}:{}", file, s.begin.line, s.begin.column) : file;
 }
 
-[[noreturn]] void fail_at(const std::string& file, const toml::node& n, const std::string& key, const std::string& msg) {
+[[noreturn]] void fail_at(const std::string& file, const toml::node& n, const std::string& key,
+                          const std::string& msg) {
   throw core::Error(fmt::format("{}: key '{}': {}", where(file, n), key, msg));
 }
 
@@ -75,8 +76,10 @@ struct Leaf {
 void leaves(const toml::table& t, const std::string& prefix, std::vector<Leaf>& out) {
   for (const auto& [k, n] : t) {
     const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
-    if (const toml::table* sub = n.as_table()) leaves(*sub, key, out);
-    else out.push_back({key, &n});
+    if (const toml::table* sub = n.as_table())
+      leaves(*sub, key, out);
+    else
+      out.push_back({key, &n});
   }
 }
 std::vector<Leaf> ordered_leaves(const toml::table& t) {
@@ -98,7 +101,8 @@ void check_key(const std::string& file, const std::string& key, const toml::node
   if (key == "feed_scale") {
     auto v = n.value<double>();
     if (!(n.is_floating_point() || n.is_integer()) || !v || !(*v > 0) || !std::isfinite(*v))
-      fail_at(file, n, key, "expected a positive number (it multiplies every programmed feed, as vmsim run --feed-scale)");
+      fail_at(file, n, key,
+              "expected a positive number (it multiplies every programmed feed, as vmsim run --feed-scale)");
     return;
   }
   if (allow_name && key == "name") {
@@ -107,8 +111,9 @@ void check_key(const std::string& file, const std::string& key, const toml::node
   }
   if (top == "machine") {
     if (segs.size() < 3 || !kMachineTables.count(segs[1]))
-      fail_at(file, n, key, "expected machine.<key of the machine file>, e.g. machine.axes.X.drive.kv_1000_per_min "
-                            "(the machine file's tables: machine, kinematics, axes)");
+      fail_at(file, n, key,
+              "expected machine.<key of the machine file>, e.g. machine.axes.X.drive.kv_1000_per_min "
+              "(the machine file's tables: machine, kinematics, axes)");
     return;
   }
   if (kJobTables.count(top)) {
@@ -117,7 +122,8 @@ void check_key(const std::string& file, const std::string& key, const toml::node
   }
   fail_at(file, n, key,
           "expected feed_scale, a job key (job., tool., stock., interpolation., removal., reference., feedplan.) or a "
-          "machine key (machine.)" + std::string(allow_name ? " or name" : ""));
+          "machine key (machine.)" +
+              std::string(allow_name ? " or name" : ""));
 }
 
 StudyOverride make_override(const std::string& file, const std::string& key, const toml::node& n) {
@@ -155,8 +161,9 @@ void apply(toml::node& node, const std::vector<std::string>& segs, std::size_t i
       }
     }
     if (!found)
-      throw core::Error(fmt::format("'{}' has no element named '{}' (it has: {}; \"*\" sets every element)", done, seg,
-                                    names.empty() ? std::string("no named elements") : fmt::format("{}", fmt::join(names, ", "))));
+      throw core::Error(
+          fmt::format("'{}' has no element named '{}' (it has: {}; \"*\" sets every element)", done, seg,
+                      names.empty() ? std::string("no named elements") : fmt::format("{}", fmt::join(names, ", "))));
     return;
   }
   throw core::Error(fmt::format("'{}' is {}, not a table", done, node.is_array() ? "an array of values" : "a value"));
@@ -198,9 +205,12 @@ std::string num(const std::optional<double>& v, double scale) {
 
 const char* status_name(StudyResult::Status s) {
   switch (s) {
-    case StudyResult::Status::Ok: return "ok";
-    case StudyResult::Status::Failed: return "failed";
-    case StudyResult::Status::Pending: return "pending";
+    case StudyResult::Status::Ok:
+      return "ok";
+    case StudyResult::Status::Failed:
+      return "failed";
+    case StudyResult::Status::Pending:
+      return "pending";
   }
   return "?";
 }
@@ -232,8 +242,7 @@ Study load_study(const fs::path& path) {
   }
   const toml::node* grid = root.get("grid");
   const toml::node* list = root.get("variation");
-  if (grid && list)
-    fail_at(file, *grid, "grid", "a study has either a [grid] or [[variation]] tables, not both");
+  if (grid && list) fail_at(file, *grid, "grid", "a study has either a [grid] or [[variation]] tables, not both");
   auto add_varied = [&](const std::string& key) {
     if (std::find(study.varied_keys.begin(), study.varied_keys.end(), key) == study.varied_keys.end())
       study.varied_keys.push_back(key);
@@ -258,8 +267,8 @@ Study load_study(const fs::path& path) {
       add_varied(axes[a].key);
     }
     if (count > 1e6) fail_at(file, *grid, "grid", fmt::format("{:.3g} variations; expected at most 1000000", count));
-    // Names: each key by its shortest tail that no other grid key ends with (kv_1000_per_min, or X.drive.kv_1000_per_min
-    // and Z.drive.kv_1000_per_min when both vary).
+    // Names: each key by its shortest tail that no other grid key ends with (kv_1000_per_min, or
+    // X.drive.kv_1000_per_min and Z.drive.kv_1000_per_min when both vary).
     std::vector<std::string> short_key(axes.size());
     for (std::size_t a = 0; a < axes.size(); ++a) {
       const std::vector<std::string> segs = split_key(axes[a].key);
@@ -272,7 +281,8 @@ Study load_study(const fs::path& path) {
         bool unique = true;
         for (std::size_t b = 0; b < axes.size(); ++b) {
           const std::string& other = axes[b].key;  // ends with the tail at a key boundary
-          const bool ends = other.size() >= tail.size() && other.compare(other.size() - tail.size(), tail.size(), tail) == 0 &&
+          const bool ends = other.size() >= tail.size() &&
+                            other.compare(other.size() - tail.size(), tail.size(), tail) == 0 &&
                             (other.size() == tail.size() || other[other.size() - tail.size() - 1] == '.');
           if (b != a && ends) unique = false;
         }
@@ -441,7 +451,9 @@ nlohmann::json result_to_json(const StudyResult& r) {
 StudyResult result_from_json(const nlohmann::json& j) {
   StudyResult r;
   const std::string s = j.at("status").get<std::string>();
-  r.status = s == "ok" ? StudyResult::Status::Ok : s == "failed" ? StudyResult::Status::Failed : StudyResult::Status::Pending;
+  r.status = s == "ok"       ? StudyResult::Status::Ok
+             : s == "failed" ? StudyResult::Status::Failed
+                             : StudyResult::Status::Pending;
   r.cpu_s = j.value("cpu_s", 0.0);
   r.wall_s = j.value("wall_s", 0.0);
   r.rank = j.value("rank", -1);
@@ -470,8 +482,9 @@ std::string results_csv(const Study& study, const std::vector<StudyResult>& resu
     out += c;
   };
   for (const std::string& k : study.varied_keys) cell(csv_cell(k));
-  out += ",marks,mark_depth_um,mark_kind,deviation_min_um,deviation_max_um,contour_error_max_um,contour_error_rms_um,"
-         "cycle_time_s,cpu_time_s,error\n";
+  out +=
+      ",marks,mark_depth_um,mark_kind,deviation_min_um,deviation_max_um,contour_error_max_um,contour_error_rms_um,"
+      "cycle_time_s,cpu_time_s,error\n";
   for (std::size_t i = 0; i < study.variations.size(); ++i) {
     const StudyVariation& v = study.variations[i];
     const StudyResult& r = results[i];
@@ -509,7 +522,8 @@ nlohmann::json study_json(const Study& study, const std::vector<StudyResult>& re
   for (std::size_t i = 0; i < study.variations.size(); ++i) {
     const StudyVariation& v = study.variations[i];
     nlohmann::json ov = nlohmann::json::array();
-    for (const StudyOverride& o : v.overrides) ov.push_back({{"key", o.key}, {"value", o.value_toml}, {"where", o.where}});
+    for (const StudyOverride& o : v.overrides)
+      ov.push_back({{"key", o.key}, {"value", o.value_toml}, {"where", o.where}});
     nlohmann::json j = result_to_json(results[i]);
     j["variation"] = v.index;
     j["name"] = v.name;

@@ -16,19 +16,19 @@ namespace vmsim::sim {
 // and its value as TOML text (what the variation's files get), with where the study file sets it.
 struct StudyOverride {
   std::string key;
-  std::string value_toml;   // the value as a TOML expression: 0.02, "file.csv", [1.0, 2.0, 3.0]
-  std::string value_cell;   // as the results table shows it (strings without quotes)
-  std::string where;        // "study.toml:12:1"
+  std::string value_toml;  // the value as a TOML expression: 0.02, "file.csv", [1.0, 2.0, 3.0]
+  std::string value_cell;  // as the results table shows it (strings without quotes)
+  std::string where;       // "study.toml:12:1"
 };
 
 struct StudyVariation {
-  int index = 0;            // 1-based, in the study's order
-  std::string name;         // [[variation]] name, or "<index>"
+  int index = 0;                         // 1-based, in the study's order
+  std::string name;                      // [[variation]] name, or "<index>"
   std::vector<StudyOverride> overrides;  // [common] first, then the variation's own (later ones win)
 };
 
 struct Study {
-  std::filesystem::path file;      // the study file
+  std::filesystem::path file;  // the study file
   std::string name;
   std::filesystem::path base_job;  // [study] job, resolved against the study file's directory
   std::vector<StudyVariation> variations;
@@ -40,8 +40,8 @@ Study load_study(const std::filesystem::path& path);
 
 // What one variation runs: its files' text and the run's feed scale.
 struct PreparedVariation {
-  std::string job_toml;                    // the job file (every path in it absolute)
-  std::optional<std::string> machine_toml; // a changed machine file (the job then names "machine.toml" beside it)
+  std::string job_toml;                     // the job file (every path in it absolute)
+  std::optional<std::string> machine_toml;  // a changed machine file (the job then names "machine.toml" beside it)
   double feed_scale = 1.0;
 };
 
@@ -53,8 +53,8 @@ PreparedVariation prepare_variation(const Study& study, const StudyVariation& v)
 // The figures of one variation, from its run's report.json (vmsim run).
 struct StudyFigures {
   int marks = 0;
-  std::optional<double> mark_depth_mm;         // the deepest mark
-  std::optional<std::string> mark_kind;        // "overcut" | "undercut"
+  std::optional<double> mark_depth_mm;   // the deepest mark
+  std::optional<std::string> mark_kind;  // "overcut" | "undercut"
   std::optional<double> deviation_min_mm, deviation_max_mm;
   std::optional<double> contour_error_max_mm, contour_error_rms_mm;  // on cutting moves
   std::optional<double> cycle_time_s;
@@ -64,13 +64,13 @@ StudyFigures figures_from_report(const nlohmann::json& report);
 // One row of the results table.
 struct StudyResult {
   enum class Status { Pending, Ok, Failed } status = Status::Pending;
-  std::string error;        // Failed: the message
+  std::string error;  // Failed: the message
   StudyFigures figures;
   double cpu_s = 0, wall_s = 0;
-  int rank = -1;            // which rank ran it (study.json only: the table does not depend on it)
+  int rank = -1;  // which rank ran it (study.json only: the table does not depend on it)
 };
 
-nlohmann::json result_to_json(const StudyResult& r);   // for the messages between ranks
+nlohmann::json result_to_json(const StudyResult& r);  // for the messages between ranks
 StudyResult result_from_json(const nlohmann::json& j);
 
 // DIR/results.csv: one row per variation in the study's order. Every column but cpu_time_s is independent of the

@@ -21,7 +21,8 @@ constexpr double kPi = core::units::kPi;
 // Machine-file-order axis vector from program-axis (Vec6) positions.
 Eigen::VectorXd machine_axes(const core::Vec6& v, const core::Machine& machine) {
   Eigen::VectorXd q(static_cast<Eigen::Index>(machine.axes.size()));
-  for (std::size_t i = 0; i < machine.axes.size(); ++i) q[static_cast<Eigen::Index>(i)] = v[machine.axes[i].program_axis];
+  for (std::size_t i = 0; i < machine.axes.size(); ++i)
+    q[static_cast<Eigen::Index>(i)] = v[machine.axes[i].program_axis];
   return q;
 }
 
@@ -38,11 +39,14 @@ Eigen::Vector3d slerp(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double
   const double th = std::atan2(a.cross(b).norm(), a.dot(b));
   if (th < 1e-12) return ((1 - s) * a + s * b).normalized();
   if (th > kPi - 1e-9)
-    throw core::Error("the tool axis turns by 180 degrees within one CL move: the great circle between them is not unique");
+    throw core::Error(
+        "the tool axis turns by 180 degrees within one CL move: the great circle between them is not unique");
   return ((std::sin((1 - s) * th) / std::sin(th)) * a + (std::sin(s * th) / std::sin(th)) * b).normalized();
 }
 
-double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 
 }  // namespace
 
@@ -56,8 +60,8 @@ bool program_turns_tool(const core::ToolPath& program) {
 }
 
 removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const core::Machine& machine,
-                                        const Eigen::MatrixXd& axes, const Eigen::MatrixXd* velocities,
-                                        double period_s, const std::function<double(Eigen::Index)>& tool_length_offset) {
+                                        const Eigen::MatrixXd& axes, const Eigen::MatrixXd* velocities, double period_s,
+                                        const std::function<double(Eigen::Index)>& tool_length_offset) {
   removal::PoseTrack tr;
   const Eigen::Index n = axes.rows();
   tr.period_s = period_s;
@@ -85,8 +89,8 @@ removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const cor
   }
   if (velocities) {
     if (velocities->rows() != n || velocities->cols() != axes.cols())
-      throw core::Error(fmt::format("tool poses: {} x {} axis velocities for {} x {} axis positions", velocities->rows(),
-                                    velocities->cols(), n, axes.cols()));
+      throw core::Error(fmt::format("tool poses: {} x {} axis velocities for {} x {} axis positions",
+                                    velocities->rows(), velocities->cols(), n, axes.cols()));
     tr.tip_velocity_mm_per_s.resize(n, 3);
     for (Eigen::Index k = 0; k < n; ++k) {
       q = axes.row(k).transpose();
@@ -122,7 +126,8 @@ removal::PoseTrack program_pose_track(const core::ToolPath& program, const core:
       if (cl) {
         const core::Vec6 p = on_move(mv, arc, s);
         rot = p.tail<3>();
-        return motion::ToolPose{p.head<3>(), slerp(mv.tool_axis_start->normalized(), mv.tool_axis_end->normalized(), s)};
+        return motion::ToolPose{p.head<3>(),
+                                slerp(mv.tool_axis_start->normalized(), mv.tool_axis_end->normalized(), s)};
       }
       if (mv.tcp) {
         const core::Vec6 p = on_move(mv, arc, s);
@@ -161,9 +166,9 @@ removal::PoseTrack program_pose_track(const core::ToolPath& program, const core:
                          reach * (pm.axis.normalized() - (a0 + a1).normalized()).norm();
       // A piece of an arc spanning more than half a turn is split whatever its midpoint says (the midpoint of whole
       // turns is the ends' point: a full circle of two turns would be cut as nothing).
-      const bool split = pc.depth < 40 && (err > tolerance_mm || turn > kMaxTurn ||
-                                           (pc.r1 - pc.r0).cwiseAbs().maxCoeff() > kMaxRotary ||
-                                           (pc.s1 - pc.s0) * arc_sweep > kPi);
+      const bool split =
+          pc.depth < 40 && (err > tolerance_mm || turn > kMaxTurn ||
+                            (pc.r1 - pc.r0).cwiseAbs().maxCoeff() > kMaxRotary || (pc.s1 - pc.s0) * arc_sweep > kPi);
       if (split) {
         stack.push_back({sm, pc.s1, pm, pc.p1, rm, pc.r1, pc.depth + 1});
         stack.push_back({pc.s0, sm, pc.p0, pm, pc.r0, rm, pc.depth + 1});

@@ -23,8 +23,8 @@ namespace vmsim::sim {
 // sample, the track has one constant axis (3-axis motion: the sweeps are those of a 3-axis machine); otherwise it
 // holds the axis per sample.
 removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const core::Machine& machine,
-                                        const Eigen::MatrixXd& axes, const Eigen::MatrixXd* velocities,
-                                        double period_s, const std::function<double(Eigen::Index)>& tool_length_offset);
+                                        const Eigen::MatrixXd& axes, const Eigen::MatrixXd* velocities, double period_s,
+                                        const std::function<double(Eigen::Index)>& tool_length_offset);
 
 // The programmed path of a chain machine's program, as tool poses in the workpiece frame (the "program" motion):
 // - APT CL moves: the tip along the programmed line or arc, the tool axis on the great circle between its end values;

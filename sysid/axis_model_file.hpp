@@ -1,6 +1,7 @@
 #pragma once
 // The identified-model file (TOML) that `vmsim identify` writes and a job's [job] axis_models reads: one discrete
-// transfer function per axis (the predictive-compensation paper eq. 5), keys documented in parts/README.md ("Identified axis models").
+// transfer function per axis (the predictive-compensation paper eq. 5), keys documented in parts/README.md ("Identified
+// axis models").
 #include "drives/discrete_tf.hpp"
 #include "sysid/sysid.hpp"
 
@@ -12,18 +13,18 @@
 namespace vmsim::sysid {
 
 struct IdentifiedAxis {
-  std::string name;                          // machine axis: X Y Z A B C
+  std::string name;  // machine axis: X Y Z A B C
   ModelStructure structure = ModelStructure::Oe;
-  drives::DiscreteTf tf;                             // G from command to encoder position
-  Eigen::VectorXd c;                         // ARMAX noise numerator (kept for the record; not used to simulate)
-  std::optional<double> fit_percent;         // validation figures, for the record
+  drives::DiscreteTf tf;              // G from command to encoder position
+  Eigen::VectorXd c;                  // ARMAX noise numerator (kept for the record; not used to simulate)
+  std::optional<double> fit_percent;  // validation figures, for the record
   std::optional<double> tracking_fit_percent;
 };
 
 struct AxisModelFile {
   std::string source_file;
-  double period_s = 1e-3;                    // Te the models were identified at
-  std::string trace;                         // the trace they came from (informational)
+  double period_s = 1e-3;  // Te the models were identified at
+  std::string trace;       // the trace they came from (informational)
   std::vector<IdentifiedAxis> axes;
   const IdentifiedAxis* find(const std::string& axis) const;
 };

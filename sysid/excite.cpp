@@ -13,15 +13,33 @@ namespace {
 
 // Taps (exponents of the primitive feedback polynomial) per register length; XAPP052 Table 3.
 const std::vector<std::vector<int>>& taps_table() {
-  static const std::vector<std::vector<int>> t = {
-      {},           {},         {2, 1},      {3, 2},      {4, 3},        {5, 3},      {6, 5},
-      {7, 6},       {8, 6, 5, 4}, {9, 5},    {10, 7},     {11, 9},       {12, 6, 4, 1}, {13, 4, 3, 1},
-      {14, 5, 3, 1}, {15, 14},  {16, 15, 13, 4}, {17, 14}, {18, 11},   {19, 6, 2, 1}, {20, 17}};
+  static const std::vector<std::vector<int>> t = {{},
+                                                  {},
+                                                  {2, 1},
+                                                  {3, 2},
+                                                  {4, 3},
+                                                  {5, 3},
+                                                  {6, 5},
+                                                  {7, 6},
+                                                  {8, 6, 5, 4},
+                                                  {9, 5},
+                                                  {10, 7},
+                                                  {11, 9},
+                                                  {12, 6, 4, 1},
+                                                  {13, 4, 3, 1},
+                                                  {14, 5, 3, 1},
+                                                  {15, 14},
+                                                  {16, 15, 13, 4},
+                                                  {17, 14},
+                                                  {18, 11},
+                                                  {19, 6, 2, 1},
+                                                  {20, 17}};
   return t;
 }
 
 void check_bits(int bits) {
-  if (bits < 2 || bits > 20) throw core::Error(fmt::format("excitation: register bits n must be in [2, 20], found {}", bits));
+  if (bits < 2 || bits > 20)
+    throw core::Error(fmt::format("excitation: register bits n must be in [2, 20], found {}", bits));
 }
 
 }  // namespace
@@ -52,14 +70,16 @@ std::vector<int> inverse_m_sequence(int bits) {
 
 int switch_samples_for_bandwidth(double bandwidth_hz, double period_s) {
   if (!(bandwidth_hz > 0.0) || !(period_s > 0.0))
-    throw core::Error(fmt::format("excitation: bandwidth ({} Hz) and period ({} s) must be positive", bandwidth_hz, period_s));
+    throw core::Error(
+        fmt::format("excitation: bandwidth ({} Hz) and period ({} s) must be positive", bandwidth_hz, period_s));
   const int q = static_cast<int>(std::floor(0.433 / (bandwidth_hz * period_s) + 1e-9));
   return q < 1 ? 1 : q;
 }
 
 int bits_for_resolution(double resolution_hz, double switch_s, bool inverse) {
   if (!(resolution_hz > 0.0) || !(switch_s > 0.0))
-    throw core::Error(fmt::format("excitation: resolution ({} Hz) and Td ({} s) must be positive", resolution_hz, switch_s));
+    throw core::Error(
+        fmt::format("excitation: resolution ({} Hz) and Td ({} s) must be positive", resolution_hz, switch_s));
   for (int n = 2; n <= 20; ++n) {
     const double period = (inverse ? 2.0 : 1.0) * (std::ldexp(1.0, n) - 1.0) * switch_s;
     if (1.0 / period <= resolution_hz) return n;
@@ -73,9 +93,11 @@ void check_spec(const ExcitationSpec& s) {
   check_bits(s.bits);
   if (!(s.amplitude > 0.0 && std::isfinite(s.amplitude)))
     throw core::Error(fmt::format("excitation: the amplitude must be positive, found {}", s.amplitude));
-  if (s.switch_samples < 1) throw core::Error(fmt::format("excitation: Td must be at least one Te, found {} samples", s.switch_samples));
+  if (s.switch_samples < 1)
+    throw core::Error(fmt::format("excitation: Td must be at least one Te, found {} samples", s.switch_samples));
   if (!(s.period_s > 0.0)) throw core::Error("excitation: the sampling period Te must be positive");
-  if (s.periods < 1 || s.periods > 1000) throw core::Error(fmt::format("excitation: periods must be in [1, 1000], found {}", s.periods));
+  if (s.periods < 1 || s.periods > 1000)
+    throw core::Error(fmt::format("excitation: periods must be in [1, 1000], found {}", s.periods));
   if (!std::isfinite(s.velocity)) throw core::Error("excitation: the velocity is not finite");
   if (!(s.rest_s >= 0.0) || !(s.ramp_s >= 0.0)) throw core::Error("excitation: rest and ramp times must be >= 0");
 }
@@ -101,14 +123,18 @@ Eigen::VectorXd excitation_setpoints(const ExcitationSpec& s) {
   for (long k = 0; k < n; ++k) {
     double v = 0.0;
     const long kb = k - rest;
-    if (kb >= 0 && kb < ramp) v = s.velocity * 0.5 * (1.0 - std::cos(core::units::kPi * (kb + 0.5) / ramp));
-    else if (kb >= ramp && kb < ramp + body) v = s.velocity;
+    if (kb >= 0 && kb < ramp)
+      v = s.velocity * 0.5 * (1.0 - std::cos(core::units::kPi * (kb + 0.5) / ramp));
+    else if (kb >= ramp && kb < ramp + body)
+      v = s.velocity;
     else if (kb >= ramp + body && kb < 2 * ramp + body)
       v = s.velocity * 0.5 * (1.0 + std::cos(core::units::kPi * (kb - ramp - body + 0.5) / ramp));
     double level = 0.0;
     const long ks = k - rest - ramp;
     // The signal starts and ends at 0 (about the ramp) so the axis leaves and reaches rest smoothly: +-a only inside.
-    if (ks >= 0 && ks < body) level = seq[static_cast<std::size_t>((ks / s.switch_samples) % static_cast<long>(seq.size()))] ? s.amplitude : -s.amplitude;
+    if (ks >= 0 && ks < body)
+      level = seq[static_cast<std::size_t>((ks / s.switch_samples) % static_cast<long>(seq.size()))] ? s.amplitude
+                                                                                                     : -s.amplitude;
     x[k] = pos + level;
     pos += v * te;
   }
@@ -138,8 +164,10 @@ std::string excitation_gcode(const ExcitationSpec& s, const std::string& axis, b
     if (!boundary && k + 1 != x.size()) continue;
     const double dt = (k - last) * te;
     const double d = std::abs(x[k] - x[last]) * f;
-    if (d <= 1e-9) out += fmt::format("G4 P{:.4f}\n", dt);
-    else out += fmt::format("G1 {}{:.6f} F{:.3f}\n", axis, x[k] * f, d / dt * 60.0);
+    if (d <= 1e-9)
+      out += fmt::format("G4 P{:.4f}\n", dt);
+    else
+      out += fmt::format("G1 {}{:.6f} F{:.3f}\n", axis, x[k] * f, d / dt * 60.0);
     last = k;
   }
   out += "M2\n";

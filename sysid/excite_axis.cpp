@@ -18,8 +18,8 @@ AxisExcitation excitation_for_axis(const core::MachineAxis& ax, const AxisExcita
   ExcitationSpec s;
   s.signal = options.signal;
   s.period_s = options.period_s;
-  s.switch_samples = options.switch_samples ? *options.switch_samples
-                                            : switch_samples_for_bandwidth(options.bandwidth_hz, s.period_s);
+  s.switch_samples =
+      options.switch_samples ? *options.switch_samples : switch_samples_for_bandwidth(options.bandwidth_hz, s.period_s);
   s.bits = options.bits ? *options.bits
                         : bits_for_resolution(options.resolution_hz, s.switch_samples * s.period_s,
                                               s.signal == ExcitationSignal::InverseM);
@@ -34,10 +34,11 @@ AxisExcitation excitation_for_axis(const core::MachineAxis& ax, const AxisExcita
   AxisExcitation e{s, excitation_setpoints(s)};
   const Eigen::VectorXd& x = e.setpoints;
   if (limited && (x.minCoeff() < ax.travel_min - 1e-9 || x.maxCoeff() > ax.travel_max + 1e-9))
-    throw core::Error(fmt::format("the excitation spans {:.4f} .. {:.4f} {}, outside axis {}'s travel {:.4f} .. {:.4f} "
-                                  "(lower --feed, --periods or --amplitude, or move --start)",
-                                  x.minCoeff() / unit, x.maxCoeff() / unit, rotary ? "deg" : "mm", ax.name,
-                                  ax.travel_min / unit, ax.travel_max / unit));
+    throw core::Error(
+        fmt::format("the excitation spans {:.4f} .. {:.4f} {}, outside axis {}'s travel {:.4f} .. {:.4f} "
+                    "(lower --feed, --periods or --amplitude, or move --start)",
+                    x.minCoeff() / unit, x.maxCoeff() / unit, rotary ? "deg" : "mm", ax.name, ax.travel_min / unit,
+                    ax.travel_max / unit));
   return e;
 }
 

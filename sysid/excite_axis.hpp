@@ -23,13 +23,13 @@ struct AxisExcitationOptions {
   double amplitude = 0.05;            // axis units (mm or rad)
   double velocity = 0.0;              // the constant velocity the signal rides on, axis units/s
   int periods = 4;
-  std::optional<double> start;        // axis units; default: the signal's ramp centred in the travel
-  double period_s = 1e-3;             // Te
+  std::optional<double> start;  // axis units; default: the signal's ramp centred in the travel
+  double period_s = 1e-3;       // Te
 };
 
 struct AxisExcitation {
   ExcitationSpec spec;
-  Eigen::VectorXd setpoints;          // every Te, axis units
+  Eigen::VectorXd setpoints;  // every Te, axis units
 };
 
 // Throws core::Error when the setpoints leave the axis's travel (a continuous or unlimited axis has none), or for

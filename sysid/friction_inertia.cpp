@@ -1,4 +1,5 @@
-// Friction and inertia identification (the feed-drive simulation paper section 3.1): see identify.hpp for the model and the method.
+// Friction and inertia identification (the feed-drive simulation paper section 3.1): see identify.hpp for the model and
+// the method.
 #include "sysid/friction_inertia.hpp"
 
 #include "core/csv.hpp"
@@ -17,7 +18,8 @@ AxisTrace read_axis_trace_csv(const std::filesystem::path& path, std::vector<std
   core::CsvReader in(path);
   const std::string& file = in.name();
   if (!in.has_header())
-    throw core::Error(core::located(file, 0, "no header row (expected t_s, current_A and a position or velocity column)"));
+    throw core::Error(
+        core::located(file, 0, "no header row (expected t_s, current_A and a position or velocity column)"));
   const std::vector<std::string>& names = in.columns();
   const int line_no = in.header_line();
 
@@ -42,8 +44,8 @@ AxisTrace read_axis_trace_csv(const std::filesystem::path& path, std::vector<std
     }
   }
   auto missing = [&](const char* what) {
-    return core::Error(core::located(file, line_no, fmt::format("the header has no {} column (found: {})", what,
-                                                                fmt::join(names, ", "))));
+    return core::Error(core::located(
+        file, line_no, fmt::format("the header has no {} column (found: {})", what, fmt::join(names, ", "))));
   };
   if (col_t < 0) throw missing("t_s");
   if (col_i < 0) throw missing("current_A");
@@ -106,10 +108,14 @@ struct Stretch {
 
 const char* gravity_name(GravityModel g) {
   switch (g) {
-    case GravityModel::Auto: return "auto";
-    case GravityModel::None: return "none";
-    case GravityModel::Constant: return "constant";
-    case GravityModel::Tilting: return "tilting";
+    case GravityModel::Auto:
+      return "auto";
+    case GravityModel::None:
+      return "none";
+    case GravityModel::Constant:
+      return "constant";
+    case GravityModel::Tilting:
+      return "tilting";
   }
   return "?";
 }
@@ -147,7 +153,8 @@ IdentifiedDrive identify_friction_inertia(const AxisTrace& tr, const IdentifyOpt
     h = std::max<Eigen::Index>(1, std::llround(o.smoothing_s / (2.0 * dt[dt.size() / 2])));
   }
   if (n < 4 * h + 3)
-    throw fail(fmt::format("{} samples: too few for a smoothing window of {} samples ({} s)", n, 2 * h + 1, o.smoothing_s));
+    throw fail(
+        fmt::format("{} samples: too few for a smoothing window of {} samples ({} s)", n, 2 * h + 1, o.smoothing_s));
 
   // Smoothing (identify.hpp): V = the mean velocity over [t_{k-h}, t_{k+h}] (from positions exactly: their
   // difference over the window), A = (V_{k+h} - V_{k-h}) / (t_{k+h} - t_{k-h}), the acceleration averaged by the
@@ -232,9 +239,10 @@ IdentifiedDrive identify_friction_inertia(const AxisTrace& tr, const IdentifyOpt
   out.gravity = g;
   const int n_par = g == GravityModel::None ? 2 : g == GravityModel::Constant ? 3 : 4;
   if (out.stretches < n_par + 1)
-    throw fail(fmt::format("{} constant-velocity stretches found (at least {} s long, |a| <= {:.4g}/s^2, |v| >= {:.4g}/s); "
-                           "the fit needs at least {}: add constant-velocity moves at several speeds",
-                           out.stretches, o.min_stretch_s, a_steady, v_min, n_par + 1));
+    throw fail(
+        fmt::format("{} constant-velocity stretches found (at least {} s long, |a| <= {:.4g}/s^2, |v| >= {:.4g}/s); "
+                    "the fit needs at least {}: add constant-velocity moves at several speeds",
+                    out.stretches, o.min_stretch_s, a_steady, v_min, n_par + 1));
 
   // (b) Accelerating samples: smoothed acceleration above a_moving, the velocity one-signed and above v_min over
   // the whole support of the smoothing (V at k - h .. k + h covers the raw samples k - 2h .. k + 2h).
@@ -248,9 +256,10 @@ IdentifiedDrive identify_friction_inertia(const AxisTrace& tr, const IdentifyOpt
   }
   out.accel_samples = static_cast<int>(accel.size());
   if (out.accel_samples < 10)
-    throw fail(fmt::format("{} accelerating samples (|a| >= {:.4g}/s^2 away from zero speed): the inertia needs "
-                           "accelerated moves",
-                           out.accel_samples, a_moving));
+    throw fail(
+        fmt::format("{} accelerating samples (|a| >= {:.4g}/s^2 away from zero speed): the inertia needs "
+                    "accelerated moves",
+                    out.accel_samples, a_moving));
 
   // Regressor row of the friction law (+ gravity) for sign, mean velocity, mean sin/cos of the position.
   auto row = [&](double sign, double vel, double sx, double cx) {
@@ -285,8 +294,9 @@ IdentifiedDrive identify_friction_inertia(const AxisTrace& tr, const IdentifyOpt
     }
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(X);
     if (qr.rank() < n_par)
-      throw fail("the constant-velocity stretches do not determine the friction law (all at one speed?): move the "
-                 "axis at several speeds");
+      throw fail(
+          "the constant-velocity stretches do not determine the friction law (all at one speed?): move the "
+          "axis at several speeds");
     theta = qr.solve(y);
     const Eigen::VectorXd res = y - X * theta;
     const double rss = res.squaredNorm();

@@ -1,11 +1,14 @@
 #pragma once
-// Identification of an axis drive's friction law and inertia from a measured trace (the feed-drive simulation paper section 3.1).
+// Identification of an axis drive's friction law and inertia from a measured trace (the feed-drive simulation paper
+// section 3.1).
 //
-// The model is the mechanics of the cascade drive (drives/cascade_axis), the feed-drive simulation paper eq. 1 at the motor shaft:
+// The model is the mechanics of the cascade drive (drives/cascade_axis), the feed-drive simulation paper eq. 1 at the
+// motor shaft:
 //     J dw/dt = Kt i - Tc sign(w) - B w - T_gravity
 // (a) At constant velocity dw/dt = 0, so the current is the friction law: i = (Tc/Kt) sign(v) + (B/Kt) w
 //     (+ T_gravity/Kt). The trace is cut into constant-velocity stretches; each gives one point (mean velocity,
-//     mean current) of the feed-drive simulation paper Fig. 3, and a linear least-squares fit through the points gives Tc, B and gravity.
+//     mean current) of the feed-drive simulation paper Fig. 3, and a linear least-squares fit through the points gives
+//     Tc, B and gravity.
 // (b) Where the axis accelerates, eq. 2: J = Kt (i - i_friction(v)) / (dw/dt), solved by least squares over the
 //     accelerating samples with the friction law of (a).
 //
@@ -78,21 +81,21 @@ struct IdentifyOptions {
 struct FrictionPoint {
   double t_start_s = 0.0, t_end_s = 0.0;
   int samples = 0;
-  double velocity = 0.0;         // mean, axis units/s
-  double acceleration = 0.0;     // mean (v_end - v_start) / duration, axis units/s^2 (its J term is removed)
-  double mean_current_A = 0.0;   // measured mean, with the inertia term J a / (Kt r) removed
-  double fitted_current_A = 0.0; // the identified law at `velocity` (and the stretch's mean gravity term)
+  double velocity = 0.0;          // mean, axis units/s
+  double acceleration = 0.0;      // mean (v_end - v_start) / duration, axis units/s^2 (its J term is removed)
+  double mean_current_A = 0.0;    // measured mean, with the inertia term J a / (Kt r) removed
+  double fitted_current_A = 0.0;  // the identified law at `velocity` (and the stretch's mean gravity term)
 };
 
 struct IdentifiedDrive {
   // Friction law in motor terms and as currents.
   double coulomb_Nm = 0.0, coulomb_A = 0.0;
   double viscous_Nm_s_per_rad = 0.0;
-  double viscous_A_s_per_axis_unit = 0.0;  // A per (mm/s) or per (rad/s) of axis velocity
-  GravityModel gravity = GravityModel::None;   // the model fitted (Auto resolved)
-  double gravity_Nm = 0.0, gravity_A = 0.0;    // constant; tilting: amplitude G
-  double gravity_angle_offset_rad = 0.0;       // tilting only
-  double gravity_stderr_Nm = 0.0;              // standard error of gravity_Nm from the fit
+  double viscous_A_s_per_axis_unit = 0.0;     // A per (mm/s) or per (rad/s) of axis velocity
+  GravityModel gravity = GravityModel::None;  // the model fitted (Auto resolved)
+  double gravity_Nm = 0.0, gravity_A = 0.0;   // constant; tilting: amplitude G
+  double gravity_angle_offset_rad = 0.0;      // tilting only
+  double gravity_stderr_Nm = 0.0;             // standard error of gravity_Nm from the fit
   double inertia_kg_m2 = 0.0;
   // Fit quality.
   double friction_rms_residual_A = 0.0;  // stretch means against the law

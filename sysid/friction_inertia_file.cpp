@@ -11,10 +11,14 @@ namespace vmsim::sysid {
 
 const char* gravity_model_name(GravityModel g) {
   switch (g) {
-    case GravityModel::Auto: return "auto";
-    case GravityModel::None: return "none";
-    case GravityModel::Constant: return "constant";
-    case GravityModel::Tilting: return "tilting";
+    case GravityModel::Auto:
+      return "auto";
+    case GravityModel::None:
+      return "none";
+    case GravityModel::Constant:
+      return "constant";
+    case GravityModel::Tilting:
+      return "tilting";
   }
   return "?";
 }
@@ -40,9 +44,15 @@ IdentifyOptions identify_options_for_axis(const core::MachineAxis& axis, const s
   o.gravity = gravity;
   if (gravity == GravityModel::Auto) {
     switch (axis.drive->gravity) {
-      case core::DriveParams::Gravity::None: o.gravity = GravityModel::None; break;
-      case core::DriveParams::Gravity::Constant: o.gravity = GravityModel::Constant; break;
-      case core::DriveParams::Gravity::Tilting: o.gravity = GravityModel::Tilting; break;
+      case core::DriveParams::Gravity::None:
+        o.gravity = GravityModel::None;
+        break;
+      case core::DriveParams::Gravity::Constant:
+        o.gravity = GravityModel::Constant;
+        break;
+      case core::DriveParams::Gravity::Tilting:
+        o.gravity = GravityModel::Tilting;
+        break;
     }
   }
   return o;
@@ -62,8 +72,8 @@ std::string identified_drive_toml(const IdentifiedDrive& d, const IdentifyOption
       "# The identified keys of the axis' [axes.drive] table; the loop gains and the winding stay as they are.\n"
       "[axes.drive]\n"
       "torque_constant_Nm_per_A = {:.9g}\n",
-      trace_name, d.stretches, d.stretches_positive, d.stretches_negative, d.friction_rms_residual_A,
-      d.accel_samples, d.inertia_rms_residual_A, options.torque_constant_Nm_per_A);
+      trace_name, d.stretches, d.stretches_positive, d.stretches_negative, d.friction_rms_residual_A, d.accel_samples,
+      d.inertia_rms_residual_A, options.torque_constant_Nm_per_A);
   if (rotary)
     toml += fmt::format("gear_deg_per_motor_rev = {:.9g}\n", options.axis_per_motor_rad * 360.0);
   else
@@ -86,8 +96,8 @@ std::string identified_drive_toml(const IdentifiedDrive& d, const IdentifyOption
 
 std::string friction_points_csv(const IdentifiedDrive& d, bool rotary) {
   const double to_file = rotary ? core::units::kRadToDeg : 1.0;  // axis units (mm, rad) -> the trace's units
-  std::string csv = fmt::format("velocity_{}_per_s,measured_mean_current_A,fitted_current_A,samples,t_start_s,t_end_s\n",
-                                rotary ? "deg" : "mm");
+  std::string csv = fmt::format(
+      "velocity_{}_per_s,measured_mean_current_A,fitted_current_A,samples,t_start_s,t_end_s\n", rotary ? "deg" : "mm");
   for (const FrictionPoint& p : d.points)
     csv += fmt::format("{:.9g},{:.9g},{:.9g},{},{:.6f},{:.6f}\n", p.velocity * to_file, p.mean_current_A,
                        p.fitted_current_A, p.samples, p.t_start_s, p.t_end_s);

@@ -11,7 +11,7 @@
 
 namespace vmsim::sysid {
 
-const char* gravity_model_name(GravityModel g);                         // "auto", "none", "constant", "tilting"
+const char* gravity_model_name(GravityModel g);                            // "auto", "none", "constant", "tilting"
 std::optional<GravityModel> parse_gravity_model(const std::string& name);  // nullopt for anything else
 
 // The torque constant, the screw lead or gear ratio and, when `gravity` is Auto, the gravity model of `axis`

@@ -46,7 +46,9 @@ RestPoint rest_point(const PositionTrace& t, int axis, const std::map<std::strin
     r.from = "none: no still stretch in the trace, 0 assumed";
     for (Eigen::Index k = 0; k + kRestStretchSamples <= t.t_s.size(); k += kRestStretchSamples / 5)
       if (still(t, axis, k, kRestStretchSamples)) {
-        r.offset = (t.actual.col(axis).segment(k, kRestStretchSamples) - t.command.col(axis).segment(k, kRestStretchSamples)).mean();
+        r.offset =
+            (t.actual.col(axis).segment(k, kRestStretchSamples) - t.command.col(axis).segment(k, kRestStretchSamples))
+                .mean();
         r.from = fmt::format("the still stretch at t = {:.4g} s", t.t_s[k]);
         break;
       }
@@ -71,8 +73,8 @@ IdData deviations(const PositionTrace& t, int axis, const std::map<std::string, 
 
 void check_period(const PositionTrace& t, const PositionTrace& first, const std::string& first_name) {
   if (std::abs(t.period_s - first.period_s) > 1e-6 * first.period_s)
-    throw core::Error(core::located(t.source, 0, fmt::format("sampled every {} s, {} every {} s", t.period_s, first_name,
-                                                             first.period_s)));
+    throw core::Error(core::located(
+        t.source, 0, fmt::format("sampled every {} s, {} every {} s", t.period_s, first_name, first.period_s)));
 }
 
 void check_axis(const PositionTrace& t, const std::string& axis) {
@@ -128,8 +130,9 @@ IdentificationData prepare_identification(const std::vector<PositionTrace>& trac
   const PositionTrace& trace = traces.front();
   for (std::size_t i = 1; i < traces.size(); ++i) check_period(traces[i], trace, trace.source);
   if (validation && std::abs(validation->period_s - trace.period_s) > 1e-6 * trace.period_s)
-    throw core::Error(core::located(validation->source, 0, fmt::format("sampled every {} s, the trace every {} s",
-                                                                       validation->period_s, trace.period_s)));
+    throw core::Error(
+        core::located(validation->source, 0,
+                      fmt::format("sampled every {} s, the trace every {} s", validation->period_s, trace.period_s)));
   IdentificationData d;
   d.source = trace.source;
   d.period_s = trace.period_s;
@@ -151,7 +154,8 @@ IdentificationData prepare_identification(const std::vector<PositionTrace>& trac
   }
   for (const auto& [name, offset] : options.rest_offsets)
     if (std::find(axes.begin(), axes.end(), name) == axes.end())
-      throw core::Error(fmt::format("--rest-offset {}: no such axis is identified (axes: {})", name, fmt::join(axes, ", ")));
+      throw core::Error(
+          fmt::format("--rest-offset {}: no such axis is identified (axes: {})", name, fmt::join(axes, ", ")));
   for (const std::string& a : axes)
     d.axes.push_back(axis_data(traces, held, d.estimation_traces, a, options.rest_offsets));
   return d;
@@ -185,8 +189,10 @@ AxisIdentification identify_axis(const AxisData& data, const std::string& source
       o = select_orders_bic(data.estimation);
       o.nc = options.nc;
     }
-    if (options.delay) o.nk = *options.delay;
-    else if (options.orders) o.nk = select_delay(data.estimation, o.na, o.nb);
+    if (options.delay)
+      o.nk = *options.delay;
+    else if (options.orders)
+      o.nk = select_delay(data.estimation, o.na, o.nb);
   } catch (const core::Error& e) {
     throw core::Error(core::located(source, 0, fmt::format("axis {}: {}", data.name, e.what())));
   }
@@ -199,15 +205,16 @@ AxisIdentification identify_axis(const AxisData& data, const std::string& source
       const bool marginal = is_marginal(m.g);
       r.models.push_back({std::move(m), v, core::seconds_since(t0), 0, marginal});
     } catch (const core::Error& e) {
-      throw core::Error(core::located(source, 0, fmt::format("axis {} {}: {}", data.name, structure_name(s), e.what())));
+      throw core::Error(
+          core::located(source, 0, fmt::format("axis {} {}: {}", data.name, structure_name(s), e.what())));
     }
   }
   rank_models(r.models);
   for (std::size_t i = 0; i < r.models.size(); ++i)
     if (r.models[i].rank == 1) r.chosen = i;
   if (options.use)
-    r.chosen = static_cast<std::size_t>(
-        std::find(options.structures.begin(), options.structures.end(), *options.use) - options.structures.begin());
+    r.chosen = static_cast<std::size_t>(std::find(options.structures.begin(), options.structures.end(), *options.use) -
+                                        options.structures.begin());
   return r;
 }
 

@@ -29,11 +29,11 @@ struct AxesIdentificationOptions {
   std::vector<ModelStructure> structures = {ModelStructure::Arx, ModelStructure::Armax, ModelStructure::Oe};
   // na, nb (and nc for ARMAX) as given; nullopt: by BIC over ARX fits (select_orders_bic), nc from `nc`.
   std::optional<ModelOrders> orders = ModelOrders{};
-  int nc = 2;                            // ARMAX noise order when the orders come from BIC
-  std::optional<int> delay;              // nk; nullopt: BIC's, or the ARX loss's best over 1..5 for given orders
-  std::optional<ModelStructure> use;     // the structure chosen per axis; nullopt: the lowest validation MSE
-  std::vector<std::string> axes;         // empty: every axis of the first trace
-  int lags = 25;                         // residual autocorrelation lags of the whiteness test
+  int nc = 2;                         // ARMAX noise order when the orders come from BIC
+  std::optional<int> delay;           // nk; nullopt: BIC's, or the ARX loss's best over 1..5 for given orders
+  std::optional<ModelStructure> use;  // the structure chosen per axis; nullopt: the lowest validation MSE
+  std::vector<std::string> axes;      // empty: every axis of the first trace
+  int lags = 25;                      // residual autocorrelation lags of the whiteness test
   // Rest offsets (encoder - command at rest, axis units: mm or rad) given by the user, per axis name; used for the
   // traces that do not start at rest.
   std::map<std::string, double> rest_offsets;
@@ -54,10 +54,10 @@ enum class ValidationData { SecondHalf, HeldOutTrace, SeparateTrace };
 // One axis's estimation and validation data.
 struct AxisData {
   std::string name;
-  bool rotary = false;                   // the trace gave degrees (the data are in rad)
+  bool rotary = false;  // the trace gave degrees (the data are in rad)
   IdData estimation, validation;
   Eigen::Index first_validation_sample = 0;  // the validation figures count samples from here on
-  bool at_rest = true;                   // the first trace starts at rest (see above; each IdData says its own)
+  bool at_rest = true;                       // the first trace starts at rest (see above; each IdData says its own)
   // The first trace's |command - encoder| at its first sample (axis units); at rest, the encoder's offset.
   double first_sample_offset = 0.0;
   // For traces that start mid-motion: the rest offset used (encoder - command at rest, axis units) and where it came
@@ -68,9 +68,9 @@ struct AxisData {
 };
 
 struct IdentificationData {
-  std::string source;                    // the first trace's file, for messages
+  std::string source;  // the first trace's file, for messages
   double period_s = 1e-3;
-  std::size_t estimation_traces = 1;     // traces the estimation uses (several: separate experiments)
+  std::size_t estimation_traces = 1;  // traces the estimation uses (several: separate experiments)
   ValidationData validation = ValidationData::SecondHalf;
   std::vector<std::string> estimation_files;  // the estimation traces' file names (no directory)
   std::vector<AxisData> axes;
@@ -84,17 +84,17 @@ IdentificationData prepare_identification(const std::vector<PositionTrace>& trac
 struct ModelResult {
   IdentifiedModel model;
   Validation validation;
-  double seconds = 0.0;                  // wall time of estimation and validation
-  int rank = 0;                          // 1: lowest validation MSE (marginal or unstable, or non-finite MSE: last)
-  bool marginal = false;                 // is_marginal(model.g)
+  double seconds = 0.0;   // wall time of estimation and validation
+  int rank = 0;           // 1: lowest validation MSE (marginal or unstable, or non-finite MSE: last)
+  bool marginal = false;  // is_marginal(model.g)
 };
 
 struct AxisIdentification {
   std::string name;
   bool rotary = false;
-  ModelOrders orders;                    // the orders and delay used (for ARMAX, nc; the others ignore it)
-  std::vector<ModelResult> models;       // in the order of options.structures
-  std::size_t chosen = 0;                // index into models: options.use, else rank 1
+  ModelOrders orders;               // the orders and delay used (for ARMAX, nc; the others ignore it)
+  std::vector<ModelResult> models;  // in the order of options.structures
+  std::size_t chosen = 0;           // index into models: options.use, else rank 1
 };
 
 // Sets each model's rank: by validation MSE, every marginal or unstable model (or non-finite MSE) after the others.

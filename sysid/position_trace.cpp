@@ -24,9 +24,9 @@ void regularise_sampling(PositionTrace& tr, const std::vector<int>& lines) {
   const auto line_of = [&](Eigen::Index k) { return k < static_cast<Eigen::Index>(lines.size()) ? lines[k] : 0; };
   for (Eigen::Index k = 1; k < n; ++k)
     if (!(tr.t_s[k] > tr.t_s[k - 1]))
-      throw core::Error(core::located(tr.source, line_of(k),
-                                      fmt::format("t_s {} s does not increase (previous sample: {} s)", tr.t_s[k],
-                                                  tr.t_s[k - 1])));
+      throw core::Error(
+          core::located(tr.source, line_of(k),
+                        fmt::format("t_s {} s does not increase (previous sample: {} s)", tr.t_s[k], tr.t_s[k - 1])));
   tr.period_s = (tr.t_s[n - 1] - tr.t_s[0]) / static_cast<double>(n - 1);
   tr.max_jitter_s = 0.0;
   for (Eigen::Index k = 1; k < n; ++k)
@@ -60,7 +60,10 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
 
   // Columns: t_s, then <AXIS>_command_<unit> / <AXIS>_actual_<unit>.
   int t_col = -1;
-  struct Cols { int command = -1, actual = -1; bool rotary = false; };
+  struct Cols {
+    int command = -1, actual = -1;
+    bool rotary = false;
+  };
   std::map<std::string, Cols> cols;
   std::vector<std::string> order;
   for (std::size_t c = 0; c < header.size(); ++c) {
@@ -83,7 +86,8 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
       }
     }
     if (axis.empty() || (kind != "command" && kind != "actual"))
-      col_error("unknown column (expected t_s or <AXIS>_command_<unit>, <AXIS>_actual_<unit> with AXIS in X Y Z A B C)");
+      col_error(
+          "unknown column (expected t_s or <AXIS>_command_<unit>, <AXIS>_actual_<unit> with AXIS in X Y Z A B C)");
     const bool rotary = std::string("ABC").find(axis[0]) != std::string::npos;
     if (unit != (rotary ? "deg" : "mm")) col_error(fmt::format("axis {} is given in {}", axis, rotary ? "deg" : "mm"));
     if (!cols.count(axis)) order.push_back(axis);
@@ -92,12 +96,14 @@ PositionTrace read_position_trace_csv(const std::filesystem::path& path) {
     (kind == "command" ? cc.command : cc.actual) = static_cast<int>(c);
   }
   if (t_col < 0) throw core::Error(core::located(file, header_line, "no t_s column"));
-  if (order.empty()) throw core::Error(core::located(file, header_line, "no axis columns (<AXIS>_command_mm, <AXIS>_actual_mm)"));
+  if (order.empty())
+    throw core::Error(core::located(file, header_line, "no axis columns (<AXIS>_command_mm, <AXIS>_actual_mm)"));
   for (const auto& a : order) {
     const Cols& cc = cols[a];
     if (cc.command < 0 || cc.actual < 0)
-      throw core::Error(core::located(file, header_line, fmt::format("axis {} needs both {}_command_{} and {}_actual_{}",
-                                                                     a, a, cc.rotary ? "deg" : "mm", a, cc.rotary ? "deg" : "mm")));
+      throw core::Error(core::located(file, header_line,
+                                      fmt::format("axis {} needs both {}_command_{} and {}_actual_{}", a, a,
+                                                  cc.rotary ? "deg" : "mm", a, cc.rotary ? "deg" : "mm")));
   }
 
   std::vector<double> values;

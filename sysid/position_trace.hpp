@@ -20,14 +20,14 @@
 namespace vmsim::sysid {
 
 struct PositionTrace {
-  std::string source;                 // file name, for messages
+  std::string source;  // file name, for messages
   double period_s = 1e-3;
   Eigen::ArrayXd t_s;
-  std::vector<std::string> axes;      // axis names in column order
-  std::vector<bool> rotary;           // the file gave degrees (converted to rad here)
-  Eigen::MatrixXd command, actual;    // samples x axes, axis units (mm, rad)
-  double max_jitter_s = 0.0;          // largest |step - period_s| of the time stamps as read
-  bool resampled = false;             // the jitter exceeded kJitterTolerance: resampled onto period_s
+  std::vector<std::string> axes;                  // axis names in column order
+  std::vector<bool> rotary;                       // the file gave degrees (converted to rad here)
+  Eigen::MatrixXd command, actual;                // samples x axes, axis units (mm, rad)
+  double max_jitter_s = 0.0;                      // largest |step - period_s| of the time stamps as read
+  bool resampled = false;                         // the jitter exceeded kJitterTolerance: resampled onto period_s
   int axis_index(const std::string& name) const;  // -1 when absent
 };
 

@@ -7,7 +7,8 @@
 //   OE     y = B(q)/F(q) q^-nk u + e                     Steiglitz-McBride start, then Levenberg-Marquardt on the
 //                                                        simulation error (an OE started from least squares stalls
 //                                                        far above the noise floor)
-// Orders from the drive's theory (nb = 2, na = 5: the predictive-compensation paper section 2.2, eq. 7) or by BIC over ARX fits.
+// Orders from the drive's theory (nb = 2, na = 5: the predictive-compensation paper section 2.2, eq. 7) or by BIC over
+// ARX fits.
 //
 // Conditioning. Positions carry large offsets (the axis sits at -150 mm, or runs a ramp) while the dynamics live in
 // micrometre differences between u and y. The estimators take deviations from the rest point the trace starts at
@@ -25,7 +26,7 @@
 namespace vmsim::sysid {
 
 enum class ModelStructure { Arx, Armax, Oe };
-const char* structure_name(ModelStructure s);                        // "arx", "armax", "oe"
+const char* structure_name(ModelStructure s);                         // "arx", "armax", "oe"
 std::optional<ModelStructure> parse_structure(const std::string& s);  // nullopt for anything else
 
 struct ModelOrders {
@@ -64,11 +65,11 @@ struct SearchOptions {
 struct IdentifiedModel {
   ModelStructure structure = ModelStructure::Arx;
   ModelOrders orders;
-  drives::DiscreteTf g;            // G = B/A (ARX, ARMAX) or B/F (OE), with nk and the period
-  Eigen::VectorXd c;       // ARMAX: c1 .. c_nc; empty otherwise
-  double loss = 0.0;       // the estimation criterion: mean squared prediction error (OE: simulation error), axis units^2
-  int iterations = 0;      // Gauss-Newton / Levenberg-Marquardt iterations (0 for ARX)
-  bool converged = true;   // the search met its tolerance (ARX: always)
+  drives::DiscreteTf g;  // G = B/A (ARX, ARMAX) or B/F (OE), with nk and the period
+  Eigen::VectorXd c;     // ARMAX: c1 .. c_nc; empty otherwise
+  double loss = 0.0;     // the estimation criterion: mean squared prediction error (OE: simulation error), axis units^2
+  int iterations = 0;    // Gauss-Newton / Levenberg-Marquardt iterations (0 for ARX)
+  bool converged = true;  // the search met its tolerance (ARX: always)
 };
 
 // Throws core::Error (no file: the caller names it) for orders the data cannot carry (na < 0, nb < 1, nk < 1, fewer
@@ -95,13 +96,13 @@ int select_delay(const IdData& data, int na, int nb, int max_nk = 5);
 // Validation on separate data (the predictive-compensation paper section 3, eq. 16-17), the model simulated from zero
 // state (or with its initial state and output offset estimated: IdData::initial_state_estimated):
 struct Validation {
-  double fit_percent = 0.0;           // 100 (1 - |y - yhat| / |y - mean y|)
-  double r2 = 0.0;                    // 1 - sum (y - yhat)^2 / sum (y - mean y)^2 (eq. 16)
-  double mse = 0.0;                   // mean (y - yhat)^2, axis units^2 (eq. 17)
+  double fit_percent = 0.0;  // 100 (1 - |y - yhat| / |y - mean y|)
+  double r2 = 0.0;           // 1 - sum (y - yhat)^2 / sum (y - mean y)^2 (eq. 16)
+  double mse = 0.0;          // mean (y - yhat)^2, axis units^2 (eq. 17)
   // The same fit on the following error u - y, which the contour error comes from: the position fit of a servo is
   // near 100 % for any model with unit static gain, this one says how well the lag itself is predicted.
   double tracking_fit_percent = 0.0;
-  double max_abs_error = 0.0;         // max |y - yhat|, axis units
+  double max_abs_error = 0.0;  // max |y - yhat|, axis units
   // 100 |y - yhat| / |y| on absolute positions (y + IdData::y_reference): the relative error of the EMPS benchmark
   // (Janot, Gautier & Brunot, eq. 11), to compare with its published figures.
   double relative_error_percent = 0.0;
@@ -110,11 +111,11 @@ struct Validation {
   // 2nd ed., section 16.6); max |r| and the per-lag 99 % band 2.58/sqrt(N) for the record.
   int lags = 25;
   double max_abs_autocorrelation = 0.0;
-  double whiteness_bound = 0.0;       // 2.58 / sqrt(N)
+  double whiteness_bound = 0.0;  // 2.58 / sqrt(N)
   double portmanteau_q = 0.0;
-  double portmanteau_limit = 0.0;     // chi^2(lags) 99 % quantile
-  bool white = false;                 // Q <= limit
-  Eigen::VectorXd simulated;          // yhat
+  double portmanteau_limit = 0.0;  // chi^2(lags) 99 % quantile
+  bool white = false;              // Q <= limit
+  Eigen::VectorXd simulated;       // yhat
 };
 // first_sample: the model runs over the whole record (from the rest it starts at) but the figures count only samples
 // k >= first_sample (held-out data after an estimation part of the same record).

@@ -71,7 +71,8 @@ IdentifiedModel identify_armax(const IdData& data, const ModelOrders& o, const S
     if (!theta.allFinite()) break;
     // Residuals of this model, recursively: C e = A y - B q^-nk u.
     const Eigen::VectorXd cpoly = monic(theta.tail(nc));
-    e = seg.filter(monic(theta.head(na)), cpoly, y) - seg.filter(delayed_numerator(theta.segment(na, nb), nk), cpoly, u);
+    e = seg.filter(monic(theta.head(na)), cpoly, y) -
+        seg.filter(delayed_numerator(theta.segment(na, nb), nk), cpoly, u);
     if (!e.allFinite()) break;
     if (offsets) {
       seg.mask(e, nullptr);

@@ -13,9 +13,12 @@ namespace vmsim::sysid {
 
 const char* structure_name(ModelStructure s) {
   switch (s) {
-    case ModelStructure::Arx: return "arx";
-    case ModelStructure::Armax: return "armax";
-    case ModelStructure::Oe: return "oe";
+    case ModelStructure::Arx:
+      return "arx";
+    case ModelStructure::Armax:
+      return "armax";
+    case ModelStructure::Oe:
+      return "oe";
   }
   return "?";
 }
@@ -30,9 +33,12 @@ std::optional<ModelStructure> parse_structure(const std::string& s) {
 IdentifiedModel identify(ModelStructure s, const IdData& data, const ModelOrders& orders,
                          const SearchOptions& options) {
   switch (s) {
-    case ModelStructure::Arx: return identify_arx(data, orders);
-    case ModelStructure::Armax: return identify_armax(data, orders, options);
-    case ModelStructure::Oe: return identify_oe(data, orders, options);
+    case ModelStructure::Arx:
+      return identify_arx(data, orders);
+    case ModelStructure::Armax:
+      return identify_armax(data, orders, options);
+    case ModelStructure::Oe:
+      return identify_oe(data, orders, options);
   }
   throw core::Error("identify: unknown model structure");
 }
@@ -63,7 +69,8 @@ namespace detail {
 Eigen::Index check_problem(const IdData& data, const ModelOrders& o, int parameters, bool use_nc) {
   if (o.na < 0 || o.na > 30) throw core::Error(fmt::format("orders: na must be in [0, 30], found {}", o.na));
   if (o.nb < 1 || o.nb > 30) throw core::Error(fmt::format("orders: nb must be in [1, 30], found {}", o.nb));
-  if (use_nc && (o.nc < 0 || o.nc > 30)) throw core::Error(fmt::format("orders: nc must be in [0, 30], found {}", o.nc));
+  if (use_nc && (o.nc < 0 || o.nc > 30))
+    throw core::Error(fmt::format("orders: nc must be in [0, 30], found {}", o.nc));
   if (o.nk < 1 || o.nk > 100)
     throw core::Error(fmt::format("orders: the delay nk must be in [1, 100] samples, found {}", o.nk));
   if (data.u.size() != data.y.size())
@@ -77,9 +84,10 @@ Eigen::Index check_problem(const IdData& data, const ModelOrders& o, int paramet
     for (std::size_t i = 0; i < data.starts.size(); ++i) {
       const Eigen::Index b = i + 1 < data.starts.size() ? data.starts[i + 1] : data.u.size();
       if (b <= data.starts[i] + k0)
-        throw core::Error(fmt::format("identification data: experiment {} has {} samples, fewer than the {} the orders "
-                                      "need before a row can be formed",
-                                      i + 1, b - data.starts[i], k0 + 1));
+        throw core::Error(
+            fmt::format("identification data: experiment {} has {} samples, fewer than the {} the orders "
+                        "need before a row can be formed",
+                        i + 1, b - data.starts[i], k0 + 1));
       rows += b - data.starts[i] - k0;
     }
   }
@@ -151,7 +159,8 @@ Eigen::VectorXd Segments::delayed(const Eigen::VectorXd& x, Eigen::Index shift) 
   return out;
 }
 
-Eigen::VectorXd Segments::filter(const Eigen::VectorXd& num, const Eigen::VectorXd& den, const Eigen::VectorXd& x) const {
+Eigen::VectorXd Segments::filter(const Eigen::VectorXd& num, const Eigen::VectorXd& den,
+                                 const Eigen::VectorXd& x) const {
   if (bounds_.size() == 2) return drives::filter_q(num, den, x);
   Eigen::VectorXd out(x.size());
   for (std::size_t s = 0; s + 1 < bounds_.size(); ++s) {

@@ -22,10 +22,10 @@ class Segments {
   Segments(const IdData& data, Eigen::Index k0);
   Eigen::Index samples() const { return n_; }
   Eigen::Index rows() const { return static_cast<Eigen::Index>(valid_.size()); }
-  Eigen::VectorXd delayed(const Eigen::VectorXd& x, Eigen::Index shift) const;   // x(k - shift), 0 before a start
+  Eigen::VectorXd delayed(const Eigen::VectorXd& x, Eigen::Index shift) const;  // x(k - shift), 0 before a start
   Eigen::VectorXd filter(const Eigen::VectorXd& num, const Eigen::VectorXd& den, const Eigen::VectorXd& x) const;
   Eigen::VectorXd simulate(const drives::DiscreteTf& g, const Eigen::VectorXd& u) const;
-  Eigen::VectorXd gather(const Eigen::VectorXd& x) const;                         // x at the summed rows
+  Eigen::VectorXd gather(const Eigen::VectorXd& x) const;  // x at the summed rows
   // Zeroes eps (and the Jacobian's rows) outside the summed rows: those rows then add nothing to a least-squares step.
   void mask(Eigen::VectorXd& eps, Eigen::MatrixXd* jac) const;
   // An experiment that does not start at rest (IdData::initial_state_estimated): its simulated output differs from
@@ -45,7 +45,7 @@ class Segments {
 
  private:
   Eigen::Index n_ = 0;
-  std::vector<Eigen::Index> bounds_;  // starts, then n
+  std::vector<Eigen::Index> bounds_;      // starts, then n
   std::vector<Eigen::Index> row_bounds_;  // each experiment's first summed row (index into valid_), then rows()
   std::vector<Eigen::Index> valid_;
   std::vector<char> is_valid_;

@@ -91,7 +91,7 @@ IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const Sear
       const Eigen::VectorXd fpoly = monic(f);
       const Eigen::VectorXd uf = seg.filter(one, fpoly, u), yf = seg.filter(one, fpoly, yhat);
       jac->resize(n, nf + nb);
-      for (int i = 1; i <= nf; ++i) jac->col(i - 1) = seg.delayed(yf, i);         // d eps / d f_i = yhat(k-i)/F
+      for (int i = 1; i <= nf; ++i) jac->col(i - 1) = seg.delayed(yf, i);  // d eps / d f_i = yhat(k-i)/F
       for (int j = 1; j <= nb; ++j) jac->col(nf + j - 1) = -seg.delayed(uf, nk + j - 1);
     }
     seg.mask(eps, jac);

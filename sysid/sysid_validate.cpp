@@ -30,7 +30,8 @@ Eigen::VectorXd prediction_errors(const IdentifiedModel& m, const IdData& data) 
   bq.tail(m.g.nb()) = m.g.b;
   switch (m.structure) {
     case ModelStructure::Arx:
-      return drives::filter_q(monic(m.g.a), Eigen::VectorXd::Ones(1), data.y) - drives::filter_q(bq, Eigen::VectorXd::Ones(1), data.u);
+      return drives::filter_q(monic(m.g.a), Eigen::VectorXd::Ones(1), data.y) -
+             drives::filter_q(bq, Eigen::VectorXd::Ones(1), data.u);
     case ModelStructure::Armax:
       return drives::filter_q(monic(m.g.a), monic(m.c), data.y) - drives::filter_q(bq, monic(m.c), data.u);
     case ModelStructure::Oe:
@@ -42,8 +43,8 @@ Eigen::VectorXd prediction_errors(const IdentifiedModel& m, const IdData& data) 
 Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eigen::Index first) {
   const Eigen::Index total = data.y.size();
   if (data.u.size() != total || first < 0 || total - first < 2 * lags + 10)
-    throw core::Error(fmt::format("validation data: {} samples, at least {} needed", std::max<Eigen::Index>(total - first, 0),
-                                  2 * lags + 10));
+    throw core::Error(fmt::format("validation data: {} samples, at least {} needed",
+                                  std::max<Eigen::Index>(total - first, 0), 2 * lags + 10));
   Validation v;
   const Eigen::Index n_val = total - first;
   Eigen::VectorXd sim = drives::simulate_tf(m.g, data.u);
@@ -72,9 +73,9 @@ Validation validate(const IdentifiedModel& m, const IdData& data, int lags, Eige
   // Whiteness of the one-step errors, past the start-up transient.
   const Eigen::Index skip = std::max<Eigen::Index>({first, m.g.na(), m.g.nb() + m.g.nk, m.c.size()});
   // (OE's one-step errors are its simulation errors: with an estimated initial state, those of the fitted start.)
-  const Eigen::VectorXd eps_all =
-      m.structure == ModelStructure::Oe && data.initial_state_estimated ? Eigen::VectorXd(data.y - sim)
-                                                                         : prediction_errors(m, data);
+  const Eigen::VectorXd eps_all = m.structure == ModelStructure::Oe && data.initial_state_estimated
+                                      ? Eigen::VectorXd(data.y - sim)
+                                      : prediction_errors(m, data);
   const Eigen::VectorXd eps = eps_all.tail(total - skip).array() - eps_all.tail(total - skip).mean();
   const double r0 = eps.squaredNorm();
   v.lags = lags;

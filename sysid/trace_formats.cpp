@@ -49,9 +49,9 @@ void check_axis_name(const std::string& where, const std::string& axis) {
 void check_unit_fits_axis(const std::string& file, const std::string& axis, bool angular,
                           const std::optional<std::string>& unit) {
   if (angular != rotary_axis(axis))
-    throw core::Error(core::located(file, 0, fmt::format("axis {} is {}, the trace's unit is {}", axis,
-                                                         rotary_axis(axis) ? "rotary" : "linear",
-                                                         unit.value_or("mm"))));
+    throw core::Error(core::located(file, 0,
+                                    fmt::format("axis {} is {}, the trace's unit is {}", axis,
+                                                rotary_axis(axis) ? "rotary" : "linear", unit.value_or("mm"))));
 }
 
 struct MatCloser {
@@ -91,8 +91,9 @@ const std::string& role(const std::string& file, const std::map<std::string, std
                         const std::string& expected) {
   const auto it = vars.find(r);
   if (it == vars.end())
-    throw core::Error(core::located(file, 0, fmt::format("--mat names no '{}' variable (expected {}; the file has: {})",
-                                                         r, expected, fmt::join(mat_variable_names(file), ", "))));
+    throw core::Error(core::located(file, 0,
+                                    fmt::format("--mat names no '{}' variable (expected {}; the file has: {})", r,
+                                                expected, fmt::join(mat_variable_names(file), ", "))));
   return it->second;
 }
 
@@ -100,8 +101,8 @@ void check_roles(const std::string& file, const std::map<std::string, std::strin
                  const std::set<std::string>& allowed) {
   for (const auto& [k, v] : vars)
     if (!allowed.count(k))
-      throw core::Error(core::located(file, 0, fmt::format("--mat: '{}' is not a role here (expected {})", k,
-                                                           fmt::join(allowed, ", "))));
+      throw core::Error(core::located(
+          file, 0, fmt::format("--mat: '{}' is not a role here (expected {})", k, fmt::join(allowed, ", "))));
 }
 
 Eigen::ArrayXd to_array(const std::vector<double>& v) {
@@ -120,8 +121,9 @@ PositionTrace position_trace_from_mat(const std::filesystem::path& path, const T
   const std::vector<double> c = read_mat_vector(path, role(file, ch.variables, "command", expected));
   const std::vector<double> a = read_mat_vector(path, role(file, ch.variables, "actual", expected));
   if (c.size() != t.size() || a.size() != t.size())
-    throw core::Error(core::located(file, 0, fmt::format("t has {} samples, command {}, actual {}: they must be equal",
-                                                         t.size(), c.size(), a.size())));
+    throw core::Error(core::located(
+        file, 0,
+        fmt::format("t has {} samples, command {}, actual {}: they must be equal", t.size(), c.size(), a.size())));
   PositionTrace tr;
   tr.source = file;
   tr.axes = {axis};
@@ -143,12 +145,12 @@ std::string default_actual_pin(const HalscopeLog& log, int joint) {
     if (p.find("encoder") != std::string::npos && p.size() > 9 && p.compare(p.size() - 9, 9, ".position") == 0)
       enc.push_back(p);
   if (enc.size() == 1) return enc.front();
-  throw core::Error(core::located(
-      log.source, 0,
-      fmt::format("joint {}: {} and {} encoder position pins: name the actual position with --channel "
-                  "AXIS=COMMAND_PIN,ACTUAL_PIN (pins present: {})",
-                  joint, enc.empty() ? "no " + fb : fb + " absent", enc.empty() ? "no" : std::to_string(enc.size()),
-                  fmt::join(log.pins, ", "))));
+  throw core::Error(
+      core::located(log.source, 0,
+                    fmt::format("joint {}: {} and {} encoder position pins: name the actual position with --channel "
+                                "AXIS=COMMAND_PIN,ACTUAL_PIN (pins present: {})",
+                                joint, enc.empty() ? "no " + fb : fb + " absent",
+                                enc.empty() ? "no" : std::to_string(enc.size()), fmt::join(log.pins, ", "))));
 }
 
 PositionTrace position_trace_from_halscope(const std::filesystem::path& path, const TraceChannels& ch) {
@@ -160,9 +162,10 @@ PositionTrace position_trace_from_halscope(const std::filesystem::path& path, co
       char tail[32] = {};
       if (std::sscanf(p.c_str(), "joint.%d.%31s", &joint, tail) == 2 && std::string(tail) == "motor-pos-cmd") {
         if (joint < 0 || joint > 5)
-          throw core::Error(core::located(log.source, 0, fmt::format("pin {}: joint {} has no default axis name; "
-                                                                     "give --channel AXIS=COMMAND_PIN,ACTUAL_PIN",
-                                                                     p, joint)));
+          throw core::Error(core::located(log.source, 0,
+                                          fmt::format("pin {}: joint {} has no default axis name; "
+                                                      "give --channel AXIS=COMMAND_PIN,ACTUAL_PIN",
+                                                      p, joint)));
         pairs.push_back({std::string(1, "XYZABC"[joint]), p, default_actual_pin(log, joint)});
       }
     }
@@ -205,9 +208,12 @@ PositionTrace position_trace_from_halscope(const std::filesystem::path& path, co
 
 const char* trace_format_name(TraceFormat f) {
   switch (f) {
-    case TraceFormat::Csv: return "csv";
-    case TraceFormat::Halscope: return "halscope";
-    case TraceFormat::Mat: return "mat";
+    case TraceFormat::Csv:
+      return "csv";
+    case TraceFormat::Halscope:
+      return "halscope";
+    case TraceFormat::Mat:
+      return "mat";
   }
   return "?";
 }
@@ -230,9 +236,10 @@ PinPair parse_pin_pair(const std::string& spec) {
   const auto eq = spec.find('=');
   const auto comma = spec.find(',', eq == std::string::npos ? 0 : eq);
   const auto bad = [&] {
-    return core::Error(fmt::format("--channel '{}': expected AXIS=COMMAND_PIN,ACTUAL_PIN (e.g. "
-                                   "X=joint.0.motor-pos-cmd,joint.0.motor-pos-fb)",
-                                   spec));
+    return core::Error(
+        fmt::format("--channel '{}': expected AXIS=COMMAND_PIN,ACTUAL_PIN (e.g. "
+                    "X=joint.0.motor-pos-cmd,joint.0.motor-pos-fb)",
+                    spec));
   };
   if (eq == std::string::npos || comma == std::string::npos) throw bad();
   PinPair p{trim(spec.substr(0, eq)), trim(spec.substr(eq + 1, comma - eq - 1)), trim(spec.substr(comma + 1))};
@@ -250,8 +257,8 @@ std::map<std::string, std::string> parse_mat_variables(const std::string& spec) 
     const std::string k = eq == std::string::npos ? "" : trim(item.substr(0, eq));
     const std::string v = eq == std::string::npos ? "" : trim(item.substr(eq + 1));
     if (k.empty() || v.empty())
-      throw core::Error(fmt::format("--mat '{}': item '{}': expected ROLE=VARIABLE (e.g. t=t,command=qg,actual=qm)",
-                                    spec, item));
+      throw core::Error(
+          fmt::format("--mat '{}': item '{}': expected ROLE=VARIABLE (e.g. t=t,command=qg,actual=qm)", spec, item));
     if (!vars.emplace(k, v).second) throw core::Error(fmt::format("--mat '{}': '{}' is given twice", spec, k));
   }
   if (vars.empty()) throw core::Error("--mat: expected ROLE=VARIABLE,... (e.g. t=t,command=qg,actual=qm)");
@@ -268,29 +275,50 @@ std::vector<double> read_mat_vector(const std::filesystem::path& path, const std
   const MatFile m = open_mat(path);
   std::unique_ptr<matvar_t, VarFree> v(Mat_VarRead(m.get(), variable.c_str()));
   if (!v)
-    throw core::Error(core::located(file, 0, fmt::format("no variable '{}' (the file has: {})", variable,
-                                                         fmt::join(names_in(m.get()), ", "))));
+    throw core::Error(core::located(
+        file, 0, fmt::format("no variable '{}' (the file has: {})", variable, fmt::join(names_in(m.get()), ", "))));
   const auto where = [&](const std::string& msg) { return core::Error(core::located(file, 0, variable + ": " + msg)); };
   if (v->rank != 2 || (v->dims[0] != 1 && v->dims[1] != 1))
-    throw where(v->rank == 2 ? fmt::format("a {} x {} array; a vector (1 x n or n x 1) is expected", v->dims[0],
-                                           v->dims[1])
-                             : fmt::format("an array of rank {}; a vector is expected", v->rank));
+    throw where(v->rank == 2
+                    ? fmt::format("a {} x {} array; a vector (1 x n or n x 1) is expected", v->dims[0], v->dims[1])
+                    : fmt::format("an array of rank {}; a vector is expected", v->rank));
   if (v->isComplex) throw where("complex values; a real vector is expected");
   const std::size_t n = v->dims[0] * v->dims[1];
   std::vector<double> out;
   out.reserve(n);
   switch (v->class_type) {
-    case MAT_C_DOUBLE: append_as_double<double>(v->data, n, out); break;
-    case MAT_C_SINGLE: append_as_double<float>(v->data, n, out); break;
-    case MAT_C_INT8: append_as_double<std::int8_t>(v->data, n, out); break;
-    case MAT_C_UINT8: append_as_double<std::uint8_t>(v->data, n, out); break;
-    case MAT_C_INT16: append_as_double<std::int16_t>(v->data, n, out); break;
-    case MAT_C_UINT16: append_as_double<std::uint16_t>(v->data, n, out); break;
-    case MAT_C_INT32: append_as_double<std::int32_t>(v->data, n, out); break;
-    case MAT_C_UINT32: append_as_double<std::uint32_t>(v->data, n, out); break;
-    case MAT_C_INT64: append_as_double<std::int64_t>(v->data, n, out); break;
-    case MAT_C_UINT64: append_as_double<std::uint64_t>(v->data, n, out); break;
-    default: throw where("not a numeric array (a struct, cell, char or sparse array)");
+    case MAT_C_DOUBLE:
+      append_as_double<double>(v->data, n, out);
+      break;
+    case MAT_C_SINGLE:
+      append_as_double<float>(v->data, n, out);
+      break;
+    case MAT_C_INT8:
+      append_as_double<std::int8_t>(v->data, n, out);
+      break;
+    case MAT_C_UINT8:
+      append_as_double<std::uint8_t>(v->data, n, out);
+      break;
+    case MAT_C_INT16:
+      append_as_double<std::int16_t>(v->data, n, out);
+      break;
+    case MAT_C_UINT16:
+      append_as_double<std::uint16_t>(v->data, n, out);
+      break;
+    case MAT_C_INT32:
+      append_as_double<std::int32_t>(v->data, n, out);
+      break;
+    case MAT_C_UINT32:
+      append_as_double<std::uint32_t>(v->data, n, out);
+      break;
+    case MAT_C_INT64:
+      append_as_double<std::int64_t>(v->data, n, out);
+      break;
+    case MAT_C_UINT64:
+      append_as_double<std::uint64_t>(v->data, n, out);
+      break;
+    default:
+      throw where("not a numeric array (a struct, cell, char or sparse array)");
   }
   if (n > 0 && !v->data) throw where("no data");
   for (std::size_t i = 0; i < out.size(); ++i)
@@ -338,16 +366,17 @@ HalscopeLog read_halscope_log(const std::filesystem::path& path) {
         log.pins.push_back(name);
         log.values.emplace_back();
       } else if (ch >= log.pins.size() || log.pins[ch] != name) {
-        throw core::Error(core::located(
-            log.source, line_no,
-            fmt::format("channel {} is '{}' here but '{}' on line {}", ch + 1, name,
-                        ch < log.pins.size() ? log.pins[ch] : "(none)", log.first_sample_line)));
+        throw core::Error(
+            core::located(log.source, line_no,
+                          fmt::format("channel {} is '{}' here but '{}' on line {}", ch + 1, name,
+                                      ch < log.pins.size() ? log.pins[ch] : "(none)", log.first_sample_line)));
       }
       log.values[ch++].push_back(*x);
     }
     if (!first && ch != log.pins.size())
-      throw core::Error(core::located(log.source, line_no, fmt::format("{} channels here, {} on line {}", ch,
-                                                                       log.pins.size(), log.first_sample_line)));
+      throw core::Error(
+          core::located(log.source, line_no,
+                        fmt::format("{} channels here, {} on line {}", ch, log.pins.size(), log.first_sample_line)));
   }
   if (log.period_s == 0.0) throw core::Error(core::located(log.source, 0, "empty: no halscope header"));
   if (log.pins.empty()) throw core::Error(core::located(log.source, 0, "no samples"));
@@ -364,11 +393,13 @@ HalscopeLog read_halscope_log(const std::filesystem::path& path) {
 PositionTrace read_position_trace(const std::filesystem::path& path, const TraceChannels& channels) {
   const TraceFormat f = detect_trace_format(path);
   if (f != TraceFormat::Halscope && !channels.pins.empty())
-    throw core::Error(core::located(path.string(), 0, "--channel names halscope pins; this trace is not a halscope log"));
+    throw core::Error(
+        core::located(path.string(), 0, "--channel names halscope pins; this trace is not a halscope log"));
   if (f != TraceFormat::Mat && !channels.variables.empty())
     throw core::Error(core::located(path.string(), 0, "--mat names .mat variables; this trace is not a .mat file"));
   switch (f) {
-    case TraceFormat::Halscope: return position_trace_from_halscope(path, channels);
+    case TraceFormat::Halscope:
+      return position_trace_from_halscope(path, channels);
     case TraceFormat::Mat:
       if (channels.variables.empty())
         throw core::Error(core::located(path.string(), 0,
@@ -389,8 +420,9 @@ AxisTrace read_axis_trace(const std::filesystem::path& path, const TraceChannels
   const TraceFormat f = detect_trace_format(path);
   const std::string file = path.string();
   if (f == TraceFormat::Halscope)
-    throw core::Error(core::located(file, 0, "identify-friction reads a CSV or .mat trace; a halscope log carries no "
-                                             "current"));
+    throw core::Error(core::located(file, 0,
+                                    "identify-friction reads a CSV or .mat trace; a halscope log carries no "
+                                    "current"));
   if (f == TraceFormat::Csv) {
     if (!channels.variables.empty())
       throw core::Error(core::located(file, 0, "--mat names .mat variables; this trace is not a .mat file"));
@@ -400,9 +432,10 @@ AxisTrace read_axis_trace(const std::filesystem::path& path, const TraceChannels
   }
   const std::string expected = "t, control and one of position, velocity";
   if (channels.variables.empty())
-    throw core::Error(core::located(file, 0, fmt::format("a .mat trace needs --mat t=VAR,position=VAR,control=VAR (the "
-                                                         "file has: {})",
-                                                         fmt::join(mat_variable_names(path), ", "))));
+    throw core::Error(core::located(file, 0,
+                                    fmt::format("a .mat trace needs --mat t=VAR,position=VAR,control=VAR (the "
+                                                "file has: {})",
+                                                fmt::join(mat_variable_names(path), ", "))));
   check_roles(file, channels.variables, {"t", "position", "velocity", "control"});
   const bool has_pos = channels.variables.count("position") > 0, has_vel = channels.variables.count("velocity") > 0;
   if (has_pos == has_vel)
@@ -415,15 +448,15 @@ AxisTrace read_axis_trace(const std::filesystem::path& path, const TraceChannels
   const std::vector<double> m = read_mat_vector(path, channels.variables.at(has_pos ? "position" : "velocity"));
   const std::vector<double> c = read_mat_vector(path, role(file, channels.variables, "control", expected));
   if (m.size() != t.size() || c.size() != t.size())
-    throw core::Error(core::located(file, 0, fmt::format("t has {} samples, {} {}, control {}: they must be equal",
-                                                         t.size(), has_pos ? "position" : "velocity", m.size(),
-                                                         c.size())));
+    throw core::Error(core::located(file, 0,
+                                    fmt::format("t has {} samples, {} {}, control {}: they must be equal", t.size(),
+                                                has_pos ? "position" : "velocity", m.size(), c.size())));
   if (t.size() < 3)
     throw core::Error(core::located(file, 0, fmt::format("only {} samples; a trace needs many more", t.size())));
   for (std::size_t k = 1; k < t.size(); ++k)
     if (!(t[k] > t[k - 1]))
-      throw core::Error(core::located(file, 0, fmt::format("t: sample {} ({} s) does not increase (previous: {} s)",
-                                                           k + 1, t[k], t[k - 1])));
+      throw core::Error(core::located(
+          file, 0, fmt::format("t: sample {} ({} s) does not increase (previous: {} s)", k + 1, t[k], t[k - 1])));
   tr.t_s = to_array(t);
   (has_pos ? tr.position : tr.velocity) = to_array(m) * factor;
   tr.current_A = to_array(c);

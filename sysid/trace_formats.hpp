@@ -61,10 +61,10 @@ AxisTrace read_axis_trace(const std::filesystem::path& path, const TraceChannels
 struct HalscopeLog {
   std::string source;
   double period_s = 0.0;
-  std::vector<std::string> pins;              // in the order of the first sample line, "(null)" left out
-  std::vector<std::vector<double>> values;    // per pin, per sample
-  int first_sample_line = 0;                  // the file line of sample 0
-  bool dropped_zero_line = false;             // the trailing all-zero line was dropped
+  std::vector<std::string> pins;            // in the order of the first sample line, "(null)" left out
+  std::vector<std::vector<double>> values;  // per pin, per sample
+  int first_sample_line = 0;                // the file line of sample 0
+  bool dropped_zero_line = false;           // the trailing all-zero line was dropped
 };
 HalscopeLog read_halscope_log(const std::filesystem::path& path);
 

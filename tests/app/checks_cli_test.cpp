@@ -31,7 +31,8 @@ const std::string kSource = VMSIM_SOURCE_DIR;
 fs::path machine_with(const TempDir& tmp, const std::string& key, const std::string& value) {
   std::string text = slurp(kSource + "/parts/machines/mikron_ucp710.toml");
   const std::regex re("\n" + key + " = [^\n#]*");
-  const std::string changed = std::regex_replace(text, re, "\n" + key + " = " + value, std::regex_constants::format_first_only);
+  const std::string changed =
+      std::regex_replace(text, re, "\n" + key + " = " + value, std::regex_constants::format_first_only);
   EXPECT_NE(changed, text) << key;
   const fs::path m = tmp.path() / "machine.toml";
   write_file(m, changed);
@@ -40,8 +41,8 @@ fs::path machine_with(const TempDir& tmp, const std::string& key, const std::str
 
 // A 60 mm pass along X at 2 m/min over a box stock (z-map), on `machine`.
 fs::path job_on(const TempDir& tmp, const fs::path& machine, const std::string& program = "") {
-  write_file(tmp.path() / "pass.ngc", program.empty() ? "G21 G90 G94\nG0 X0 Y5 Z5\nG1 Z-0.5 F500\nG1 X60 F2000\nG0 Z5\nM2\n"
-                                                      : program);
+  write_file(tmp.path() / "pass.ngc",
+             program.empty() ? "G21 G90 G94\nG0 X0 Y5 Z5\nG1 Z-0.5 F500\nG1 X60 F2000\nG0 Z5\nM2\n" : program);
   const fs::path job = tmp.path() / "job.toml";
   write_file(job, "[job]\nname = \"pass\"\nmachine = \"" + machine.string() +
                       "\"\nprogram = \"pass.ngc\"\n[tool]\ntype = \"ball\"\ndiameter_mm = 6.0\n"
@@ -70,7 +71,8 @@ TEST(ChecksCli, AnAxisThatCannotFollowIsInvalid) {
   // The axis' following error is the whole pass, far beyond its bound.
   EXPECT_GT(rm["drive_checks"]["X"]["following_error_max_mm"].get<double>(), 50.0);
 
-  const CliRun r = run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
+  const CliRun r =
+      run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
   EXPECT_EQ(r.code, 4) << r.err;
   const nlohmann::json rr = read_json(tmp.path() / "r" / "report.json");
   EXPECT_EQ(rr["verdict"], "invalid");
@@ -102,7 +104,8 @@ TEST(ChecksCli, AnUnstableDriveIsRefused) {
 
   TempDir tmp2;
   const fs::path job2 = job_on(tmp2, machine_with(tmp2, "inertia_kg_m2", "1e-9"));
-  const CliRun r = run_vmsim("run '" + job2.string() + "' --quiet --no-render --out '" + (tmp2.path() / "r").string() + "'", tmp2);
+  const CliRun r =
+      run_vmsim("run '" + job2.string() + "' --quiet --no-render --out '" + (tmp2.path() / "r").string() + "'", tmp2);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("inertia_kg_m2"), std::string::npos) << r.err;
 }
@@ -111,8 +114,7 @@ TEST(ChecksCli, AnUnstableDriveIsRefused) {
 // interpolator allocated them and died with "internal error: std::bad_alloc", in `vmsim run --plan` too.
 TEST(ChecksCli, ATinyFeedIsRefusedBeforeInterpolating) {
   TempDir tmp;
-  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml",
-                              "G21 G90 G94\nG1 X60 F0.01\nM2\n");
+  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml", "G21 G90 G94\nG1 X60 F0.01\nM2\n");
   for (const std::string cmd : {"interp", "motion", "run --plan"}) {
     const CliRun r = run_vmsim(cmd + " '" + job.string() + "' --out '" + (tmp.path() / "o").string() + "'", tmp);
     EXPECT_EQ(r.code, 2) << cmd << ": " << r.err;
@@ -135,8 +137,8 @@ TEST(ChecksCli, AMicrosecondPeriodIsRefusedBeforeInterpolating) {
   const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
   write_file(job, slurp(job) + "[interpolation]\nperiod_ms = 0.001\n");
   for (const std::string cmd : {"interp", "motion"}) {
-    const CliRun r = run_vmsim(cmd + " '" + job.string() + "' --out '" + (tmp.path() / "o").string() + "'", tmp,
-                               "timeout 60 ");
+    const CliRun r =
+        run_vmsim(cmd + " '" + job.string() + "' --out '" + (tmp.path() / "o").string() + "'", tmp, "timeout 60 ");
     EXPECT_EQ(r.code, 2) << cmd << ": " << r.err;
     EXPECT_NE(r.err.find("period_ms = 0.001 does not fit the drive of axis"), std::string::npos) << r.err;
   }
@@ -164,7 +166,8 @@ TEST(ChecksCli, AFieldBeyondTheAvailableMemoryIsRefused) {
   text = std::regex_replace(text, std::regex("max_mm = \\[65.0, 10.0, 0.0\\]"), "max_mm = [185.0, 190.0, 0.0]");
   text = std::regex_replace(text, std::regex("spacing_mm = 0.2"), "spacing_mm = 0.01");
   write_file(job, text);
-  const CliRun r = run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
+  const CliRun r =
+      run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("spacing_mm = 0.01"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("is available"), std::string::npos) << r.err;
@@ -191,7 +194,8 @@ TEST(ChecksCli, StlStocksWithoutTrianglesAreRefused) {
   for (const auto& [stl, cause] : std::vector<std::pair<std::string, std::string>>{
            {empty_binary, "no triangles"}, {"solid x\nendsolid x\n", "no triangles"}, {degenerate, "no area"}}) {
     write_file(tmp.path() / "stock.stl", stl);
-    const CliRun r = run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
+    const CliRun r =
+        run_vmsim("run '" + job.string() + "' --quiet --no-render --out '" + (tmp.path() / "r").string() + "'", tmp);
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_NE(r.err.find("stock.stl"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find(cause), std::string::npos) << r.err;

@@ -18,9 +18,9 @@
 
 using vmsim_test::CliRun;
 using vmsim_test::run_vmsim;
-using vmsim_test::write_file;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
+using vmsim_test::write_file;
 
 namespace fs = std::filesystem;
 
@@ -88,8 +88,10 @@ TEST(Cli, InterpWritesSetpointsFromStartToProgramEnd) {
 TEST(Cli, UnknownJobKeyIsAnErrorNamingFileLineAndKey) {
   TempDir tmp;
   const fs::path job = tmp.path() / "job.toml";
-  write_file(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"" + kSource +
-                 "/parts/plane_cylinder/plane_cylinder_fast.ngc\"\n[interpolation]\nperiod_ms = 1\ntolerence_mm = 0.01\n");
+  write_file(
+      job,
+      "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"" + kSource +
+          "/parts/plane_cylinder/plane_cylinder_fast.ngc\"\n[interpolation]\nperiod_ms = 1\ntolerence_mm = 0.01\n");
   CliRun r = run_vmsim("interp '" + job.string() + "' --summary-only", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find(job.string() + ":6:"), std::string::npos) << r.err;
@@ -146,9 +148,9 @@ double json_number_after(const std::string& text, const std::string& key, std::s
 }
 }  // namespace
 
-// The whole chain on the plane-cylinder part (the feed-drive simulation paper section 4, Fig. 6), the figure the seed reports: at 10 m/min
-// the pass leaves a mark of about 0.02 mm at the fillet against the same pass at 0.1 m/min. The issue asks for the
-// order of magnitude with the one machine file: 0.01 to 0.04 mm.
+// The whole chain on the plane-cylinder part (the feed-drive simulation paper section 4, Fig. 6), the figure the seed
+// reports: at 10 m/min the pass leaves a mark of about 0.02 mm at the fillet against the same pass at 0.1 m/min. The
+// issue asks for the order of magnitude with the one machine file: 0.01 to 0.04 mm.
 TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
   TempDir tmp;
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
@@ -164,8 +166,8 @@ TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
     EXPECT_TRUE(fs::exists(tmp.path() / "out" / f)) << f;
 }
 
-// At 0.1 m/min over the whole surface the marks against the program cut exactly stay below 0.003 mm (the feed-drive simulation paper:
-// negligible).
+// At 0.1 m/min over the whole surface the marks against the program cut exactly stay below 0.003 mm (the feed-drive
+// simulation paper: negligible).
 TEST(Cli, RunPlaneCylinderLowFeedMarksAreNegligible) {
   TempDir tmp;
   const std::string job = kSource + "/parts/plane_cylinder/job_reference.toml";

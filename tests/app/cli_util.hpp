@@ -66,8 +66,7 @@ struct CliRun {
 // scratch directory's stdout.txt and stderr.txt.
 inline CliRun run_vmsim(const std::string& args, const TempDir& tmp, const std::string& prefix = "") {
   const std::filesystem::path out = tmp.path() / "stdout.txt", err = tmp.path() / "stderr.txt";
-  const std::string cmd =
-      prefix + "'" + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  const std::string cmd = prefix + "'" + VMSIM_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
   const int status = std::system(cmd.c_str());
   CliRun r;
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -86,8 +85,9 @@ inline CliRun run_vmsim(const std::string& args, const TempDir& tmp, const std::
 inline void expect_report_html(const std::filesystem::path& dir, const std::string& options = "") {
   ASSERT_TRUE(std::filesystem::exists(dir / "report.html")) << dir;
   const std::filesystem::path log = dir.parent_path() / (dir.filename().string() + "_report_html_check.txt");
-  const std::string cmd = std::string("'") + VMSIM_PYTHON + "' '" + VMSIM_SOURCE_DIR + "/tests/app/check_report_html.py' '" +
-                          dir.string() + "' " + options + " >'" + log.string() + "' 2>&1";
+  const std::string cmd = std::string("'") + VMSIM_PYTHON + "' '" + VMSIM_SOURCE_DIR +
+                          "/tests/app/check_report_html.py' '" + dir.string() + "' " + options + " >'" + log.string() +
+                          "' 2>&1";
   const int status = std::system(cmd.c_str());
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   const std::string out = slurp(log);

@@ -1,9 +1,9 @@
-// vmsim compensate end to end on the five-axis blade (parts/blade, the predictive-compensation paper section 5) and the compensated program a
-// user would send to the machine. References: the machine model itself (the compensated program read back, re-timed
-// by vmsim's interpolator and run on the Mikron's cascades must cut a smaller contour error against the ORIGINAL
-// plan than the original program does; measured by core/contour, not by the compensation's own search); the original
-// program's cycle time through `vmsim interp` (a separate process) for the re-timing; the machine file's axis limits.
-// The predictive-compensation paper's -31.43 % on its blade is printed for comparison, not asserted.
+// vmsim compensate end to end on the five-axis blade (parts/blade, the predictive-compensation paper section 5) and the
+// compensated program a user would send to the machine. References: the machine model itself (the compensated program
+// read back, re-timed by vmsim's interpolator and run on the Mikron's cascades must cut a smaller contour error against
+// the ORIGINAL plan than the original program does; measured by core/contour, not by the compensation's own search);
+// the original program's cycle time through `vmsim interp` (a separate process) for the re-timing; the machine file's
+// axis limits. The predictive-compensation paper's -31.43 % on its blade is printed for comparison, not asserted.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -115,8 +115,9 @@ TEST(CompensateCli, CircleArcsStayArcsInTheCompensatedProgramAndKeepTheTime) {
   // Where the program form cuts worse on the machine model than the original (the arcs' correction varies between
   // their corrected ends), the user is warned on stderr; where it cuts better, not.
   const auto& on_machine = rep["contour_error"]["compensated_program_on_machine"];
-  const bool worse = on_machine["after"]["max_mm"].get<double>() > 1.05 * on_machine["before"]["max_mm"].get<double>() ||
-                     on_machine["after"]["mean_mm"].get<double>() > on_machine["before"]["mean_mm"].get<double>();
+  const bool worse =
+      on_machine["after"]["max_mm"].get<double>() > 1.05 * on_machine["before"]["max_mm"].get<double>() ||
+      on_machine["after"]["mean_mm"].get<double>() > on_machine["before"]["mean_mm"].get<double>();
   EXPECT_EQ(r.err.find("compensated program cuts worse") != std::string::npos, worse) << r.err;
   r = run_vmsim("interp '" + (p / "job.toml").string() + "' --summary-only", d);
   ASSERT_EQ(r.code, 0) << r.err;

@@ -1,7 +1,8 @@
-// The corner test part (the feed-drive simulation paper section 4, Fig. 7) end to end through `vmsim run`, as a user runs it. Reference:
-// the figures the feed-drive simulation paper reports for it (a little mark of 0.005 mm at the low feed, a largest geometric error of about
-// 0.03 mm at the high feed), which the issue asks vmsim to reproduce in order of magnitude with the one machine file
-// (parts/machines/mikron_ucp710.toml, never tuned per part). parts/corner/README.md has the geometry and the figures.
+// The corner test part (the feed-drive simulation paper section 4, Fig. 7) end to end through `vmsim run`, as a user
+// runs it. Reference: the figures the feed-drive simulation paper reports for it (a little mark of 0.005 mm at the low
+// feed, a largest geometric error of about 0.03 mm at the high feed), which the issue asks vmsim to reproduce in order
+// of magnitude with the one machine file (parts/machines/mikron_ucp710.toml, never tuned per part).
+// parts/corner/README.md has the geometry and the figures.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -66,11 +67,11 @@ const std::string kPart = std::string(VMSIM_SOURCE_DIR) + "/parts/corner/";
 }  // namespace
 
 // The pass 5 mm higher at 10 m/min over the walls the 0.1 m/min pass finished, against the same pass at 0.1 m/min.
-// The feed-drive simulation paper: a largest geometric error of about 0.03 mm. Order of magnitude: within a factor 3 of it either way,
-// 0.010 to 0.090 mm (the band is centred on 0.03 in log scale, a little wider than the plane-cylinder test's factor 2
-// because the seed gives this figure as a maximum "around" 0.03). vmsim predicts 0.017 mm: an overcut of the walls
-// 1 to 4 mm before the edge (the NC rounds the arc's tangent junctions at 10 m/min). Only the upper band (z above the
-// pass's tip at -5) can change; the lower band keeps the reference pass' wall exactly.
+// The feed-drive simulation paper: a largest geometric error of about 0.03 mm. Order of magnitude: within a factor 3 of
+// it either way, 0.010 to 0.090 mm (the band is centred on 0.03 in log scale, a little wider than the plane-cylinder
+// test's factor 2 because the seed gives this figure as a maximum "around" 0.03). vmsim predicts 0.017 mm: an overcut
+// of the walls 1 to 4 mm before the edge (the NC rounds the arc's tangent junctions at 10 m/min). Only the upper band
+// (z above the pass's tip at -5) can change; the lower band keeps the reference pass' wall exactly.
 TEST(CornerPart, HighFeedPassOvercutsTheWallsInTheSeedsOrder) {
   TempDir tmp;
   std::string err;
@@ -90,8 +91,10 @@ TEST(CornerPart, HighFeedPassOvercutsTheWallsInTheSeedsOrder) {
   double upper = 0, lower = 0, far = 0;
   for (const Needle& n : needles) {
     ASSERT_TRUE(std::isfinite(n.deviation)) << n.x << " " << n.y << " " << n.z;
-    if (n.z < -5) lower = std::max(lower, std::abs(n.deviation));
-    else upper = std::max(upper, std::abs(n.deviation));
+    if (n.z < -5)
+      lower = std::max(lower, std::abs(n.deviation));
+    else
+      upper = std::max(upper, std::abs(n.deviation));
     if (n.x < -10 || n.y < -10) far = std::max(far, std::abs(n.deviation));  // 10 mm and more from the edge
   }
   EXPECT_NEAR(upper, depth, 1e-6);
@@ -99,12 +102,12 @@ TEST(CornerPart, HighFeedPassOvercutsTheWallsInTheSeedsOrder) {
   EXPECT_LT(far, 0.001);  // the mark is the corner's: along the straight walls the pass follows its reference
 }
 
-// The 0.1 m/min pass (axial depth 10 mm) on the semi-finished block, against the program cut exactly. The feed-drive simulation paper: "a
-// little mark is visible (0.005mm)". vmsim predicts less than 0.1 um: at 0.1 m/min the NC does not round the arc's
-// junctions and the drives lag 0.015 mm along the path but not across it. The test bounds the mark from above only,
-// at three times the seed's figure (0.015 mm, the same factor as the high-feed band); a lower bound would fail, and
-// honestly so: the seed puts what remains between its simulation and its measurement on the machine's geometry, the
-// real tool and cutting, none of which vmsim models.
+// The 0.1 m/min pass (axial depth 10 mm) on the semi-finished block, against the program cut exactly. The feed-drive
+// simulation paper: "a little mark is visible (0.005mm)". vmsim predicts less than 0.1 um: at 0.1 m/min the NC does not
+// round the arc's junctions and the drives lag 0.015 mm along the path but not across it. The test bounds the mark from
+// above only, at three times the seed's figure (0.015 mm, the same factor as the high-feed band); a lower bound would
+// fail, and honestly so: the seed puts what remains between its simulation and its measurement on the machine's
+// geometry, the real tool and cutting, none of which vmsim models.
 TEST(CornerPart, LowFeedMarkIsLittle) {
   TempDir tmp;
   std::string err;

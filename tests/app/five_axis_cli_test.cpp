@@ -1,16 +1,16 @@
 // The five-axis test part (parts/five_axis: a spherical dome finished by a ball-end held along the surface normal on a
-// spiral with large A and C motion, the feed-drive simulation paper section 4's third case) through `vmsim run`, on one turn of its spiral
-// so that the test stays short. References:
+// spiral with large A and C motion, the feed-drive simulation paper section 4's third case) through `vmsim run`, on one
+// turn of its spiral so that the test stays short. References:
 // - program motion: an independent union of balls. The CL program's motion (tip on the chord between GOTO points, the
 //   tool axis on the great circle between their vectors, core/toolpath.hpp) evaluated here every 1/200 of a move,
 //   the ball centre at tip + R axis, and each vertical ray's lowest removed point min(cz - sqrt(R^2 - rho^2)) over
 //   the balls; the ball touches the sphere at the tip, so along the spiral the surface is the sphere itself
 //   (z = sqrt(RS^2 - x^2 - y^2)), a second, closed-form reference;
 // - actual motion (the drives) against the setpoints' cut: the rotary axes' follow-up deviations in degrees against
-//   a type-1 position loop's steady lag on a ramp, w ((1 - KF) / Kv + d Te), from the machine file's C drive (the feed-drive simulation paper
-//   measured and simulated about 0.001 deg on its own path; parts/five_axis/README.md compares), and a surface
-//   deviation bounded by the tool tip's and tool axis' own deviations (core/contour and the forward transform), plus
-//   the removal's stated bounds.
+//   a type-1 position loop's steady lag on a ramp, w ((1 - KF) / Kv + d Te), from the machine file's C drive (the
+//   feed-drive simulation paper measured and simulated about 0.001 deg on its own path; parts/five_axis/README.md
+//   compares), and a surface deviation bounded by the tool tip's and tool axis' own deviations (core/contour and the
+//   forward transform), plus the removal's stated bounds.
 #include "core/machine.hpp"
 #include "core/toolpath.hpp"
 
@@ -88,8 +88,10 @@ void write_job(const fs::path& file, const std::string& motion, const std::strin
       << "[tool]\ntype = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 6.0\nlength_mm = 6.0\n"
       << "[stock]\ntype = \"box\"\nmin_mm = [-15.0, -15.0, 24.0]\nmax_mm = [15.0, 15.0, 30.05]\n"
       << "[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n"
-      << "[removal]\nfield = \"tridexel\"\nspacing_mm = 0.25\nmotion = \"" << motion << "\"\ntrack_tolerance_mm = 0.001\n"
-      << "[reference]\n" << reference;
+      << "[removal]\nfield = \"tridexel\"\nspacing_mm = 0.25\nmotion = \"" << motion
+      << "\"\ntrack_tolerance_mm = 0.001\n"
+      << "[reference]\n"
+      << reference;
 }
 
 // surface.csv: "#" lines, then rows of heights (row j: y = y0 + j dy).
@@ -192,9 +194,10 @@ TEST(FiveAxisPart, ProgramMotionCutsTheUnionOfBallsAndTheSphere) {
         ++on_spiral;
       }
     }
-  std::printf("[ 5-axis   ] program motion: %d rays against the union of balls, worst %.3g um (bound %.3g um); %d on "
-              "the spiral, worst %.3g um from the sphere\n", compared, worst * 1e3, bound * 1e3, on_spiral,
-              worst_sphere * 1e3);
+  std::printf(
+      "[ 5-axis   ] program motion: %d rays against the union of balls, worst %.3g um (bound %.3g um); %d on "
+      "the spiral, worst %.3g um from the sphere\n",
+      compared, worst * 1e3, bound * 1e3, on_spiral, worst_sphere * 1e3);
   EXPECT_GT(compared, 2000);
   EXPECT_GT(on_spiral, 20);
   // Float offsets in the grids (ulp 1.9e-6 mm at 30 mm) and the balls' spacing (< 1e-6 mm).
@@ -221,9 +224,10 @@ TEST(FiveAxisPart, RotaryFollowUpAndTheSurfaceDeviationItLeaves) {
   const double lo = rep.at("surface").at("deviation_min_mm").get<double>();
   const double hi = rep.at("surface").at("deviation_max_mm").get<double>();
   const double bound = rep.at("removal").at("track_error_bound_mm").get<double>();
-  std::printf("[ 5-axis   ] follow-up: A %.4g deg, C %.4g deg, tool axis %.4g deg, tip contour error %.3g um; surface "
-              "deviation %.3g .. %.3g um (removal bound %.3g um per cut)\n", a, c, tool_axis, tip * 1e3, lo * 1e3,
-              hi * 1e3, bound * 1e3);
+  std::printf(
+      "[ 5-axis   ] follow-up: A %.4g deg, C %.4g deg, tool axis %.4g deg, tip contour error %.3g um; surface "
+      "deviation %.3g .. %.3g um (removal bound %.3g um per cut)\n",
+      a, c, tool_axis, tip * 1e3, lo * 1e3, hi * 1e3, bound * 1e3);
   // Near the top of the dome the tip's speed is small and the C table runs at its speed limit for seconds: a position
   // loop with gain Kv, velocity feedforward KF and a dead time of d Te in the position path lags a ramp of slope w by
   // w ((1 - KF) / Kv + d Te) once settled (type-1 loop; the velocity loop's PI leaves no steady velocity error). The
@@ -232,9 +236,12 @@ TEST(FiveAxisPart, RotaryFollowUpAndTheSurfaceDeviationItLeaves) {
   const vmsim::core::MachineAxis& cax = m.axes[static_cast<std::size_t>(m.axis_index(vmsim::core::kC))];
   ASSERT_TRUE(cax.drive.has_value());
   const vmsim::core::DriveParams& dc = *cax.drive;
-  const double expected_c = cax.max_velocity * 180 / kPi * ((1 - dc.kf) / dc.kv_per_s + dc.position_delay_samples * 1e-3);
-  std::printf("[ 5-axis   ] C lag expected at its %.0f deg/s limit: %.4g deg (the feed-drive simulation paper measured about 0.001 deg)\n",
-              cax.max_velocity * 180 / kPi, expected_c);
+  const double expected_c =
+      cax.max_velocity * 180 / kPi * ((1 - dc.kf) / dc.kv_per_s + dc.position_delay_samples * 1e-3);
+  std::printf(
+      "[ 5-axis   ] C lag expected at its %.0f deg/s limit: %.4g deg (the feed-drive simulation paper measured about "
+      "0.001 deg)\n",
+      cax.max_velocity * 180 / kPi, expected_c);
   EXPECT_GT(c, 0.9 * expected_c);
   EXPECT_LT(c, 1.05 * expected_c);
   EXPECT_GT(a, 0.0);  // A tilts 3 deg over the turn: it lags too

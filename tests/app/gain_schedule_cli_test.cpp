@@ -1,8 +1,8 @@
 // [job] gain_schedule in vmsim motion and vmsim run, end to end as a user runs them.
 // References: the drive model itself (a schedule of the machine's own gains is no schedule at all; halving Kv
-// doubles the steady following error v (1 - KF) / Kv of a position loop with velocity feedforward, the feed-drive simulation paper Fig. 2),
-// and the gain schedule's documented format (drives/oga_schedule.hpp, parts/README.md): the schedules here are
-// written by the test from that description, not by vmsim.
+// doubles the steady following error v (1 - KF) / Kv of a position loop with velocity feedforward, the feed-drive
+// simulation paper Fig. 2), and the gain schedule's documented format (drives/oga_schedule.hpp, parts/README.md): the
+// schedules here are written by the test from that description, not by vmsim.
 #include "core/job.hpp"
 #include "core/machine.hpp"
 
@@ -23,13 +23,13 @@
 #include "tests/app/cli_util.hpp"
 
 using vmsim_test::CliRun;
-using vmsim_test::run_vmsim;
-using vmsim_test::write_file;
-using vmsim_test::read_json;
 using vmsim_test::Csv;
 using vmsim_test::read_csv;
+using vmsim_test::read_json;
+using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
+using vmsim_test::write_file;
 
 namespace fs = std::filesystem;
 
@@ -43,12 +43,12 @@ const std::string kMachine = kSource + "/parts/machines/mikron_ucp710.toml";
 void write_short_job(const fs::path& dir, const std::string& name, int feed = 3000, const std::string& extra = "",
                      const std::string& tables = "") {
   write_file(dir / (name + ".ngc"), "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F" + std::to_string(feed) +
-                                   "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
-                                   "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
-                                   "G1 X33.065263 Z1.983980\nM30\n");
-  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + name +
-                                    ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
-                                    "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n" + tables);
+                                        "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
+                                        "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
+                                        "G1 X33.065263 Z1.983980\nM30\n");
+  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" +
+                                         name + ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
+                                         "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n" + tables);
 }
 
 // A gain schedule written from the format's description (not by vmsim): every setpoint of `setpoints_csv` (vmsim
@@ -84,7 +84,8 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
   TempDir tmp;
   const fs::path d = tmp.path();
   write_short_job(d, "plain");
-  const CliRun plain = run_vmsim("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp);
+  const CliRun plain =
+      run_vmsim("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp);
   ASSERT_EQ(plain.code, 0) << plain.err;
 
   const vmsim::core::Machine m = vmsim::core::load_machine(kMachine);
@@ -95,15 +96,18 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
 
   write_schedule(d / "same.csv", d / "plain" / "setpoints.csv", kv_x, dx.kf, kv_z, dz.kf);
   write_short_job(d, "same", 3000, "gain_schedule = \"same.csv\"");
-  const CliRun same = run_vmsim("motion '" + (d / "same.toml").string() + "' --out '" + (d / "same").string() + "'", tmp);
+  const CliRun same =
+      run_vmsim("motion '" + (d / "same.toml").string() + "' --out '" + (d / "same").string() + "'", tmp);
   ASSERT_EQ(same.code, 0) << same.err;
   EXPECT_EQ(slurp(d / "same" / "actual.csv"), slurp(d / "plain" / "actual.csv"));
   EXPECT_EQ(slurp(d / "same" / "currents.csv"), slurp(d / "plain" / "currents.csv"));
-  EXPECT_NE(read_json(d / "same" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"), std::string::npos);
+  EXPECT_NE(read_json(d / "same" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"),
+            std::string::npos);
 
   write_schedule(d / "half.csv", d / "plain" / "setpoints.csv", kv_x / 2, dx.kf, kv_z, dz.kf);
   write_short_job(d, "half", 3000, "gain_schedule = \"half.csv\"");
-  const CliRun half = run_vmsim("motion '" + (d / "half.toml").string() + "' --out '" + (d / "half").string() + "'", tmp);
+  const CliRun half =
+      run_vmsim("motion '" + (d / "half.toml").string() + "' --out '" + (d / "half").string() + "'", tmp);
   ASSERT_EQ(half.code, 0) << half.err;
   const double e_plain = max_abs_col(read_csv(d / "plain" / "errors.csv"), "X_tracking_mm");
   const double e_half = max_abs_col(read_csv(d / "half" / "errors.csv"), "X_tracking_mm");
@@ -117,11 +121,14 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
   write_short_job(d, "same", 3000, "gain_schedule = \"same.csv\"",
                   "[stock]\ntype = \"box\"\nmin_mm = [-25.0, -6.0, -5.0]\nmax_mm = [40.0, 6.0, 2.0]\n"
                   "[removal]\nspacing_mm = 0.2\n");
-  const CliRun run = run_vmsim("run '" + (d / "same.toml").string() + "' --out '" + (d / "run").string() + "' --no-render -q", tmp);
+  const CliRun run =
+      run_vmsim("run '" + (d / "same.toml").string() + "' --out '" + (d / "run").string() + "' --no-render -q", tmp);
   ASSERT_EQ(run.code, 0) << run.err;
-  EXPECT_NE(read_json(d / "run" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"), std::string::npos);
+  EXPECT_NE(read_json(d / "run" / "report.json")["gain_schedule"].get<std::string>().find("same.csv"),
+            std::string::npos);
   const CliRun scaled = run_vmsim("run '" + (d / "same.toml").string() + "' --out '" + (d / "scaled").string() +
-                                  "' --feed-scale 0.5 --no-render -q", tmp);
+                                      "' --feed-scale 0.5 --no-render -q",
+                                  tmp);
   EXPECT_EQ(scaled.code, 2);
   EXPECT_NE(scaled.err.find("gain_schedule"), std::string::npos) << scaled.err;
   EXPECT_FALSE(fs::exists(d / "scaled" / "report.json"));
@@ -132,20 +139,22 @@ TEST(GainScheduleCli, GainScheduleForAnotherPathIsRefusedNamingTheFile) {
   TempDir tmp;
   const fs::path d = tmp.path();
   write_short_job(d, "plain");
-  ASSERT_EQ(run_vmsim("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp).code, 0);
+  ASSERT_EQ(run_vmsim("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp).code,
+            0);
   write_schedule(d / "for_3000.csv", d / "plain" / "setpoints.csv", 6, 0.1, 6, 0.1);
   // The same program at 2 m/min: other setpoints.
   write_short_job(d, "slower", 2000, "gain_schedule = \"for_3000.csv\"");
-  const CliRun r = run_vmsim("motion '" + (d / "slower.toml").string() + "' --out '" + (d / "slower").string() + "'", tmp);
+  const CliRun r =
+      run_vmsim("motion '" + (d / "slower.toml").string() + "' --out '" + (d / "slower").string() + "'", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("for_3000.csv"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("vmsim oga"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d / "slower" / "report.json"));
   // A missing file is an error naming the key.
   write_short_job(d, "missing", 3000, "gain_schedule = \"nowhere.csv\"");
-  const CliRun miss = run_vmsim("motion '" + (d / "missing.toml").string() + "' --out '" + (d / "missing").string() + "'", tmp);
+  const CliRun miss =
+      run_vmsim("motion '" + (d / "missing.toml").string() + "' --out '" + (d / "missing").string() + "'", tmp);
   EXPECT_EQ(miss.code, 2);
   EXPECT_NE(miss.err.find("gain_schedule"), std::string::npos) << miss.err;
   EXPECT_NE(miss.err.find("nowhere.csv"), std::string::npos) << miss.err;
 }
-

@@ -23,8 +23,8 @@
 
 using vmsim_test::CliRun;
 using vmsim_test::run_vmsim;
-using vmsim_test::TempDir;
 using vmsim_test::slurp;
+using vmsim_test::TempDir;
 
 namespace fs = std::filesystem;
 
@@ -112,7 +112,8 @@ TEST(IdentifyCli, RecoversTheSimulatedDriveAndWritesItsKeys) {
        std::vector<std::string>{"--torque-constant 1.5 --lead-mm 20", "--machine '" + kMachine + "' --axis X"}) {
     const fs::path out = d.path() / "out";
     fs::remove_all(out);
-    const CliRun r = run_vmsim("identify-friction '" + trace.string() + "' " + motor + " --out '" + out.string() + "'", d);
+    const CliRun r =
+        run_vmsim("identify-friction '" + trace.string() + "' " + motor + " --out '" + out.string() + "'", d);
     ASSERT_EQ(r.code, 0) << r.err << r.out;
     EXPECT_NE(r.out.find("Coulomb friction"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("ignored columns: velocity_setpoint"), std::string::npos) << r.out;
@@ -170,6 +171,7 @@ TEST(IdentifyCli, ErrorsNameFileLineAndColumn) {
   r = run_vmsim("identify-friction '" + trace.string() + "' --torque-constant 1.5 --gear-deg-per-rev 4", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--gear-deg-per-rev is for a rotary axis"), std::string::npos) << r.err;
-  r = run_vmsim("identify-friction '" + trace.string() + "' --torque-constant 1.5 --lead-mm 20 --gear-deg-per-rev 4", d);
+  r = run_vmsim("identify-friction '" + trace.string() + "' --torque-constant 1.5 --lead-mm 20 --gear-deg-per-rev 4",
+                d);
   EXPECT_NE(r.code, 0);  // CLI11: the two exclude each other
 }

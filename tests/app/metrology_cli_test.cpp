@@ -72,7 +72,8 @@ TEST(MetrologyCli, StatsPrintsTheGridAndClosedFormParameters) {
   EXPECT_NEAR(j["areal"]["Sa_mm"].get<double>(), 0.006 / kPi, 3e-7);
   EXPECT_NEAR(j["areal"]["Sku"].get<double>(), 1.5, 3e-4);
   // A filter and a level are applied and said.
-  const CliRun f = run_vmsim("stats --level poly:2 --filter L:0.25mm '" + (tmp.path() / "sine.x3p").string() + "'", tmp);
+  const CliRun f =
+      run_vmsim("stats --level poly:2 --filter L:0.25mm '" + (tmp.path() / "sine.x3p").string() + "'", tmp);
   ASSERT_EQ(f.code, 0) << f.err;
   const auto jf = nlohmann::json::parse(f.out);
   EXPECT_EQ(jf["processing"]["level"]["form"], "poly:2");
@@ -88,8 +89,11 @@ TEST(MetrologyCli, MeasureThenCompareRecoversTheTransformAndTheMark) {
   metrology::write_x3p(pred, predicted(true));
   metrology::write_x3p(ref, predicted(false));
   // The sensor's view of the part.
-  const CliRun m = run_vmsim("measure '" + pred.string() + "' --reference '" + ref.string() + "' --step 10um --spot 4um "
-                         "--noise 0.1um --out '" + (tmp.path() / "meas").string() + "'", tmp);
+  const CliRun m = run_vmsim("measure '" + pred.string() + "' --reference '" + ref.string() +
+                                 "' --step 10um --spot 4um "
+                                 "--noise 0.1um --out '" +
+                                 (tmp.path() / "meas").string() + "'",
+                             tmp);
   ASSERT_EQ(m.code, 0) << m.err;
   EXPECT_NE(m.out.find("resolved"), std::string::npos) << m.out;
   const auto mr = nlohmann::json::parse(slurp(tmp.path() / "meas" / "report.json"));
@@ -101,9 +105,9 @@ TEST(MetrologyCli, MeasureThenCompareRecoversTheTransformAndTheMark) {
   const core::HeightGrid moved = metrology::resample_scan(scan, truth.inverse(), scan);
   metrology::write_x3p(tmp.path() / "scan.x3p", moved);
   // Compared against the reference (no mark): the mark must show, the transform must come back.
-  const CliRun c = run_vmsim("compare -m '" + (tmp.path() / "scan.x3p").string() + "' -p '" + ref.string() + "' --out '" +
-                             (tmp.path() / "cmp").string() + "'",
-                         tmp);
+  const CliRun c = run_vmsim("compare -m '" + (tmp.path() / "scan.x3p").string() + "' -p '" + ref.string() +
+                                 "' --out '" + (tmp.path() / "cmp").string() + "'",
+                             tmp);
   ASSERT_EQ(c.code, 0) << c.err;
   const auto r = nlohmann::json::parse(slurp(tmp.path() / "cmp" / "report.json"));
   EXPECT_EQ(r["command"], "compare");
@@ -151,7 +155,8 @@ TEST(MetrologyCli, ErrorsNameTheFileAndExit2) {
   EXPECT_EQ(l.code, 2);
   EXPECT_NE(l.err.find("--level"), std::string::npos) << l.err;
   metrology::write_x3p(tmp.path() / "ok.x3p", predicted(false));
-  const CliRun u = run_vmsim("measure '" + (tmp.path() / "ok.x3p").string() + "' --step 5furlongs --out '" + tmp.path().string() + "'", tmp);
+  const CliRun u = run_vmsim(
+      "measure '" + (tmp.path() / "ok.x3p").string() + "' --step 5furlongs --out '" + tmp.path().string() + "'", tmp);
   EXPECT_EQ(u.code, 2);
   EXPECT_NE(u.err.find("--step"), std::string::npos) << u.err;
 }
@@ -164,9 +169,10 @@ TEST(MetrologyCli, CompareAgainstAMesh) {
   core::write_stl_binary(tmp.path() / "part.stl", metrology::grid_surface_mesh(pred));
   core::HeightGrid scan = predicted(true);  // the mark is in the scan only
   metrology::write_x3p(tmp.path() / "scan.x3p", scan);
-  const CliRun c = run_vmsim("compare -m '" + (tmp.path() / "scan.x3p").string() + "' -p '" + (tmp.path() / "part.stl").string() +
-                                 "' --no-render --out '" + (tmp.path() / "cmp").string() + "'",
-                             tmp);
+  const CliRun c =
+      run_vmsim("compare -m '" + (tmp.path() / "scan.x3p").string() + "' -p '" + (tmp.path() / "part.stl").string() +
+                    "' --no-render --out '" + (tmp.path() / "cmp").string() + "'",
+                tmp);
   ASSERT_EQ(c.code, 0) << c.err;
   const auto r = nlohmann::json::parse(slurp(tmp.path() / "cmp" / "report.json"));
   EXPECT_EQ(r["inputs"]["predicted"]["format"], "stl");

@@ -35,14 +35,14 @@ TEST(NxClsfCli, RunWarnsOfMissingUnitsAndSaysWhichToolCuts) {
   TempDir tmp;
   // No program_units and no [tool]: the file is read as mm (a warning), its TLDATA/ ball cuts (said on stdout).
   const fs::path job = tmp.path() / "bare.toml";
-  write_file(job, "[job]\nmachine = '" +
-                      (fs::path(VMSIM_SOURCE_DIR) / "parts" / "machines" / "haas_umc750.toml").string() +
-                      "'\nprogram = '" + (data_dir() / "APT_Variable_Axis.txt").string() +
-                      "'\n[stock]\ntype = \"box\"\nmin_mm = [-5.0, -4.0, 0.0]\nmax_mm = [4.0, 4.0, 1.25]\n"
-                      "[removal]\nfield = \"zmap\"\nspacing_mm = 0.25\nmotion = \"program\"\ntrack_tolerance_mm = 0.01\n"
-                      "[reference]\nkind = \"none\"\n");
-  const auto r = run_vmsim("run '" + job.string() + "' --no-render --quiet --out '" + (tmp.path() / "out").string() + "'",
-                           tmp);
+  write_file(job,
+             "[job]\nmachine = '" + (fs::path(VMSIM_SOURCE_DIR) / "parts" / "machines" / "haas_umc750.toml").string() +
+                 "'\nprogram = '" + (data_dir() / "APT_Variable_Axis.txt").string() +
+                 "'\n[stock]\ntype = \"box\"\nmin_mm = [-5.0, -4.0, 0.0]\nmax_mm = [4.0, 4.0, 1.25]\n"
+                 "[removal]\nfield = \"zmap\"\nspacing_mm = 0.25\nmotion = \"program\"\ntrack_tolerance_mm = 0.01\n"
+                 "[reference]\nkind = \"none\"\n");
+  const auto r =
+      run_vmsim("run '" + job.string() + "' --no-render --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   EXPECT_NE(r.err.find("vmsim: warning: "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("no UNITS/ record and no [job] program_units"), std::string::npos) << r.err;

@@ -19,13 +19,13 @@
 #include "tests/app/cli_util.hpp"
 
 using vmsim_test::CliRun;
-using vmsim_test::run_vmsim;
-using vmsim_test::write_file;
-using vmsim_test::read_json;
 using vmsim_test::Csv;
 using vmsim_test::read_csv;
+using vmsim_test::read_json;
+using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
+using vmsim_test::write_file;
 
 namespace fs = std::filesystem;
 
@@ -38,12 +38,12 @@ const std::string kMachine = kSource + "/parts/machines/mikron_ucp710.toml";
 // 6 mm straight; `feed` in mm/min.
 void write_short_job(const fs::path& dir, const std::string& name, int feed = 3000, const std::string& extra = "") {
   write_file(dir / (name + ".ngc"), "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F" + std::to_string(feed) +
-                                   "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
-                                   "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
-                                   "G1 X33.065263 Z1.983980\nM30\n");
-  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + name +
-                                    ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
-                                    "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n");
+                                        "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
+                                        "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
+                                        "G1 X33.065263 Z1.983980\nM30\n");
+  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" +
+                                         name + ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
+                                         "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n");
 }
 
 }  // namespace
@@ -54,8 +54,7 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
   TempDir tmp;
   const fs::path d = tmp.path();
   write_short_job(d, "short");
-  const std::string common = "oga '" + (d / "short.toml").string() +
-                             "' --kp-grid 4:2:8 --kf-grid 0:0.5:1 --dk 0.25";
+  const std::string common = "oga '" + (d / "short.toml").string() + "' --kp-grid 4:2:8 --kf-grid 0:0.5:1 --dk 0.25";
   const CliRun r = run_vmsim(common + " --out '" + (d / "two").string() + "' --threads 2 --image-size 800x600", tmp);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   for (const char* f : {"admissible.csv", "gain_schedule.csv", "gain_schedule_c1.csv", "windows.csv", "comparison.csv",
@@ -80,8 +79,10 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
   bool moved = false;
   for (const char* axis : {"X", "Z"}) {
     // The range vmsim placed around C1 (Duong et al.: [Kv1 - 1, Kv1 + 0.5]), within the admissible Kv.
-    const struct { const char* axis; double lo, hi; } ax = {axis, rep["c2"][axis]["range_1000_per_min"][0],
-                                                             rep["c2"][axis]["range_1000_per_min"][1]};
+    const struct {
+      const char* axis;
+      double lo, hi;
+    } ax = {axis, rep["c2"][axis]["range_1000_per_min"][0], rep["c2"][axis]["range_1000_per_min"][1]};
     const int kv = g.col(std::string(ax.axis) + "_kv_1000_per_min"), kf = g.col(std::string(ax.axis) + "_kf");
     const double c1_kv = rep["c1"][ax.axis]["kv_1000_per_min"], c1_kf = rep["c1"][ax.axis]["kf"];
     EXPECT_EQ(g.rows[0][static_cast<std::size_t>(kv)], c1_kv);
@@ -98,13 +99,15 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
     for (std::size_t i = 1; i < w.rows.size(); ++i) {
       const auto b = static_cast<std::size_t>(w.rows[i][static_cast<std::size_t>(first)]);
       ASSERT_LT(b, g.rows.size());
-      EXPECT_EQ(g.rows[b][static_cast<std::size_t>(kv)], g.rows[b - 1][static_cast<std::size_t>(kv)]) << ax.axis << " window " << i;
+      EXPECT_EQ(g.rows[b][static_cast<std::size_t>(kv)], g.rows[b - 1][static_cast<std::size_t>(kv)])
+          << ax.axis << " window " << i;
     }
   }
   EXPECT_TRUE(moved);  // the gains did change (not a test of a schedule that holds C1)
 
   // Usable by vmsim motion: the MSE(CE) on the feed moves is the report's, for C2 and for C1.
-  for (const auto& [file, expect] : {std::pair<std::string, double>{"gain_schedule.csv", c2}, {"gain_schedule_c1.csv", c1}}) {
+  for (const auto& [file, expect] :
+       {std::pair<std::string, double>{"gain_schedule.csv", c2}, {"gain_schedule_c1.csv", c1}}) {
     write_short_job(d, "use", 3000, "gain_schedule = \"" + (d / "two" / file).string() + "\"");
     const CliRun m = run_vmsim("motion '" + (d / "use.toml").string() + "' --out '" + (d / "use").string() + "'", tmp);
     ASSERT_EQ(m.code, 0) << m.err;
@@ -125,7 +128,9 @@ TEST(OgaCli, ErrorsNameTheOptionOrFileAndExit2) {
   const fs::path d = tmp.path();
   write_short_job(d, "short");
   const std::string job = "oga '" + (d / "short.toml").string() + "' --no-render --out '" + (d / "o").string() + "' ";
-  struct Case { std::string args, expect; } cases[] = {
+  struct Case {
+    std::string args, expect;
+  } cases[] = {
       {"--kp-grid 1:0:9", "--kp-grid"},
       {"--kf-grid a:b:c", "--kf-grid"},
       {"--range Q=5:6", "--range"},
@@ -144,8 +149,10 @@ TEST(OgaCli, ErrorsNameTheOptionOrFileAndExit2) {
   }
   // Three moving axes: not Duong et al.'s biaxial profile.
   write_file(d / "xyz.ngc", "G21 G90 G94\nG1 X5 Y3 Z-1 F3000\nG1 X10 Y0 Z0\nM30\n");
-  write_file(d / "xyz.toml", "[job]\nname = \"xyz\"\nmachine = \"" + kMachine + "\"\nprogram = \"xyz.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n");
-  const CliRun r = run_vmsim("oga '" + (d / "xyz.toml").string() + "' --no-render --out '" + (d / "o").string() + "'", tmp);
+  write_file(d / "xyz.toml", "[job]\nname = \"xyz\"\nmachine = \"" + kMachine +
+                                 "\"\nprogram = \"xyz.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n");
+  const CliRun r =
+      run_vmsim("oga '" + (d / "xyz.toml").string() + "' --no-render --out '" + (d / "o").string() + "'", tmp);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("biaxial"), std::string::npos) << r.err;
 }

@@ -13,9 +13,9 @@
 
 #include "tests/app/cli_util.hpp"
 
-using vmsim_test::write_file;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
+using vmsim_test::write_file;
 
 namespace fs = std::filesystem;
 
@@ -36,12 +36,15 @@ TEST(OgaMpi, PairSearchOverRanksGivesTheOneProcessFiles) {
   TempDir tmp;
   const fs::path d = tmp.path();
   // The short XZ profile of oga_cli_test (3 m/min, 1.1 s): straight, concave R30, convex R20, straight.
-  write_file(d / "short.ngc", "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F3000\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
-                         "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\nG1 X33.065263 Z1.983980\nM30\n");
-  write_file(d / "short.toml", "[job]\nname = \"short\"\nmachine = \"" + std::string(VMSIM_SOURCE_DIR) +
-                              "/parts/machines/mikron_ucp710.toml\"\nprogram = \"short.ngc\"\nstart_mm = [-20.0, 0.0, "
-                              "0.0]\n\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n");
-  const std::string args = "oga '" + (d / "short.toml").string() + "' --kp-grid 4:1:8 --kf-grid 0:0.25:1 --dk 0.25 --no-render --out ";
+  write_file(d / "short.ngc",
+             "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F3000\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
+             "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\nG1 X33.065263 Z1.983980\nM30\n");
+  write_file(d / "short.toml",
+             "[job]\nname = \"short\"\nmachine = \"" + std::string(VMSIM_SOURCE_DIR) +
+                 "/parts/machines/mikron_ucp710.toml\"\nprogram = \"short.ngc\"\nstart_mm = [-20.0, 0.0, "
+                 "0.0]\n\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n");
+  const std::string args =
+      "oga '" + (d / "short.toml").string() + "' --kp-grid 4:1:8 --kf-grid 0:0.25:1 --dk 0.25 --no-render --out ";
   std::string err;
   ASSERT_EQ(cli("", args + "'" + (d / "one").string() + "'", tmp, &err), 0) << err;
   const nlohmann::json one = nlohmann::json::parse(slurp(d / "one" / "report.json"));

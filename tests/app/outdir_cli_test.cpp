@@ -116,7 +116,8 @@ void expect_whole(const fs::path& out, const std::string& when) {
   const nlohmann::json rep = read_json(out / "report.json");
   std::set<std::string> listed;
   for (const auto& f : rep.at("files")) listed.insert(f.get<std::string>());
-  for (const std::string& f : listed) EXPECT_TRUE(fs::is_regular_file(out / f)) << when << ": " << f << " is listed, absent";
+  for (const std::string& f : listed)
+    EXPECT_TRUE(fs::is_regular_file(out / f)) << when << ": " << f << " is listed, absent";
   for (const auto& [name, size] : files_of(out))
     EXPECT_TRUE(listed.count(name) || name == "report.json" || name == "report.html" || name == ".vmsim-output")
         << when << ": " << name << " is not listed in report.json (stale or mixed)";
@@ -124,7 +125,8 @@ void expect_whole(const fs::path& out, const std::string& when) {
 
 // OUT holds exactly SNAPSHOT's files with their sizes (report.json and report.html hold timings, an X3P's zipped XML
 // a date: their names only; the grids' .npy and .csv sizes tell the two jobs apart).
-bool same_files(const std::map<std::string, std::uintmax_t>& now, const std::map<std::string, std::uintmax_t>& snapshot) {
+bool same_files(const std::map<std::string, std::uintmax_t>& now,
+                const std::map<std::string, std::uintmax_t>& snapshot) {
   if (now.size() != snapshot.size()) return false;
   for (const auto& [name, size] : snapshot) {
     const auto it = now.find(name);
@@ -170,8 +172,8 @@ TEST(OutDirCli, RenderAndCompareRefuseIncompleteOrUnlistedResults) {
   ASSERT_EQ(r.code, 0) << r.err;
   // A stale file beside the listed ones is not read by compare.
   fs::copy_file(out / "surface.x3p", out / "old_surface.x3p");
-  CliRun c = run_vmsim("compare -m " + q(out / "surface.x3p") + " -p " + q(out / "old_surface.x3p") + " --no-render --out " +
-                           q(tmp.path() / "cmp"),
+  CliRun c = run_vmsim("compare -m " + q(out / "surface.x3p") + " -p " + q(out / "old_surface.x3p") +
+                           " --no-render --out " + q(tmp.path() / "cmp"),
                        tmp);
   EXPECT_EQ(c.code, 2);
   EXPECT_NE(c.err.find("old_surface.x3p: not listed in"), std::string::npos) << c.err;
@@ -319,8 +321,8 @@ TEST(OutDirCli, APathThatIsNotUtf8IsRefusedBeforeTheRun) {
   const CliRun ok = run_vmsim("run " + q(job_ok) + " --quiet --no-render --out " + q(tmp.path() / "ok"), tmp);
   ASSERT_EQ(ok.code, 0) << ok.err;
   fs::copy_file(tmp.path() / "ok" / "surface.x3p", tmp.path() / "scan\xe9.x3p");
-  const CliRun c = run_vmsim("compare -m " + q(tmp.path() / "scan\xe9.x3p") + " -p " + q(tmp.path() / "ok" / "surface.x3p") +
-                                 " --no-render --out " + q(tmp.path() / "cmp"),
+  const CliRun c = run_vmsim("compare -m " + q(tmp.path() / "scan\xe9.x3p") + " -p " +
+                                 q(tmp.path() / "ok" / "surface.x3p") + " --no-render --out " + q(tmp.path() / "cmp"),
                              tmp);
   EXPECT_EQ(c.code, 2) << c.out;
   EXPECT_NE(c.err.find("--measured is not valid UTF-8"), std::string::npos) << c.err;

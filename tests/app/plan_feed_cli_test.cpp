@@ -1,8 +1,8 @@
 // vmsim plan-feed end to end, as a user runs it on Chen et al.'s case (parts/feedplan/job_butterfly.toml): the files,
 // `vmsim run` following the plan it wrote ([job] feed_plan: the same cycle time and contour-error peak),
-// the report's figures against Chen et al. 2016 section 4 (without the contour-error constraint the simulated contour error
-// exceeds the 20 um tolerance, Chen et al. 2016: 31.6 um; with it every sample is within 20 um), and bad input (exit 2 with
-// a message naming the file and key, no report written).
+// the report's figures against Chen et al. 2016 section 4 (without the contour-error constraint the simulated contour
+// error exceeds the 20 um tolerance, Chen et al. 2016: 31.6 um; with it every sample is within 20 um), and bad input
+// (exit 2 with a message naming the file and key, no report written).
 #include <gtest/gtest.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -51,15 +51,16 @@ void expect_run_follows_the_plan(const TempDir& tmp, const fs::path& out, const 
   const fs::path plan = out / "feed_plan.csv";
   ASSERT_TRUE(fs::exists(plan));
   EXPECT_EQ(slurp(plan).rfind("# vmsim feed plan 1", 0), 0u);
-  const std::string cut = "\n[stock]\ntype = \"box\"\nmin_mm = [0.0, 0.0, -5.0]\nmax_mm = [110.0, 110.0, 1.0]\n"
-                          "\n[removal]\nspacing_mm = 0.5\n\n[reference]\nkind = \"none\"\n";
-  const std::string with_plan = "machine = \"" + (kPart / "chen2016_machine.toml").string() + "\"\nfeed_plan = \"" +
-                                plan.string() + "\"";
+  const std::string cut =
+      "\n[stock]\ntype = \"box\"\nmin_mm = [0.0, 0.0, -5.0]\nmax_mm = [110.0, 110.0, 1.0]\n"
+      "\n[removal]\nspacing_mm = 0.5\n\n[reference]\nkind = \"none\"\n";
+  const std::string with_plan =
+      "machine = \"" + (kPart / "chen2016_machine.toml").string() + "\"\nfeed_plan = \"" + plan.string() + "\"";
   const std::string machine_line = "machine = \"" + (kPart / "chen2016_machine.toml").string() + "\"";
   const fs::path job = tmp.path() / "run_with_plan.toml";
   std::ofstream(job) << replace(butterfly_job(), machine_line, with_plan) << cut;
-  const CliRun r = run_vmsim("run '" + job.string() + "' --out '" + (tmp.path() / "run").string() + "' --no-render",
-                             tmp);
+  const CliRun r =
+      run_vmsim("run '" + job.string() + "' --out '" + (tmp.path() / "run").string() + "' --no-render", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json run = nlohmann::json::parse(slurp(tmp.path() / "run" / "report.json"));
   const auto& played = rep.at("runs").at("plan");
@@ -97,16 +98,15 @@ void expect_run_follows_the_plan(const TempDir& tmp, const fs::path& out, const 
 TEST(PlanFeedCli, ButterflyCaseOfChen2016) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
-  const CliRun r = run_vmsim("plan-feed '" + (kPart / "job_butterfly.toml").string() + "' --out '" + out.string() +
-                             "' --no-render",
-                         tmp);
+  const CliRun r = run_vmsim(
+      "plan-feed '" + (kPart / "job_butterfly.toml").string() + "' --out '" + out.string() + "' --no-render", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* f : {"report.json", "feed_plan.csv", "feed_profile.csv", "motion.csv"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   const nlohmann::json rep = nlohmann::json::parse(slurp(out / "report.json"));
   const auto& runs = rep.at("runs");
-  // Chen et al. 2016: without the constraint the error peaks at 31.6 um (58 % over 20 um); vmsim's servo simulation must
-  // also exceed the tolerance there, and the plan with the constraint must keep it.
+  // Chen et al. 2016: without the constraint the error peaks at 31.6 um (58 % over 20 um); vmsim's servo simulation
+  // must also exceed the tolerance there, and the plan with the constraint must keep it.
   EXPECT_GT(runs.at("plan_without_contour_error").at("simulated_contour_error_max_um").get<double>(), 20.0);
   EXPECT_LE(runs.at("plan").at("simulated_contour_error_max_um").get<double>(), 20.0);
   EXPECT_TRUE(runs.at("plan").at("within_tolerance").get<bool>());

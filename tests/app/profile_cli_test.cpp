@@ -37,7 +37,8 @@ fs::path real() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "scans";
 
 // A Dektak-style export of heights z(x) (um) every dx (um), lateral values printed to 0.1 um as Dektak does.
 std::string dektak_csv(double dx_um, int n, const std::function<double(double)>& z_um) {
-  std::string t = "Scan Parameters\r\r\nStylus,Radius: 2.5 \xb5m\r\n\r\r\nScan Data\r\r\nLateral um,Raw Micrometer,\r\n";
+  std::string t =
+      "Scan Parameters\r\r\nStylus,Radius: 2.5 \xb5m\r\n\r\r\nScan Data\r\r\nLateral um,Raw Micrometer,\r\n";
   char buf[96];
   for (int i = 0; i < n; ++i) {
     std::snprintf(buf, sizeof buf, "%.1f,%.6f,,\r\n", i * dx_um, z_um(i * dx_um));
@@ -58,7 +59,8 @@ std::string q(const fs::path& p) {
 TEST(ProfileCli, StatsOfASineProfileInClosedForm) {
   TempDir tmp;
   const double A = 1.0, lambda = 50.0;  // um
-  write_file(tmp.path() / "sine.csv", dektak_csv(0.25, 8000, [&](double x) { return A * std::sin(2 * kPi * x / lambda); }));
+  write_file(tmp.path() / "sine.csv",
+             dektak_csv(0.25, 8000, [&](double x) { return A * std::sin(2 * kPi * x / lambda); }));
   const CliRun r = run_vmsim("stats --level none " + q(tmp.path() / "sine.csv"), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
@@ -93,7 +95,8 @@ TEST(ProfileCli, StatsOfASineProfileInClosedForm) {
 // to them, as cursors do): Ra 0.00525 um, Rq 0.01143 um, Skew 6.96, RzDin 0.04917 um (see
 // tests/metrology/real_scans_test.cpp).
 TEST(ProfileCli, StatsOfTheRealDektakExport) {
-  if (!fs::exists(real() / "SurfaceTopography/dektak-1.csv")) GTEST_SKIP() << real() << " is absent; the real Dektak file is not checked";
+  if (!fs::exists(real() / "SurfaceTopography/dektak-1.csv"))
+    GTEST_SKIP() << real() << " is absent; the real Dektak file is not checked";
   TempDir tmp;
   const CliRun r = run_vmsim("stats --range 468um,733um " + q(real() / "SurfaceTopography/dektak-1.csv"), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -113,7 +116,8 @@ TEST(ProfileCli, CompareAProfileAlongALine) {
   g.dx_mm = g.dy_mm = 0.005;
   g.z_mm.resize(301, 801);
   const auto surf = [](double x) {
-    return 0.004 * std::cos(2 * kPi * x / 0.25) + 0.01 * std::sin(2 * kPi * x / 1.7) - 0.006 * std::exp(-std::pow((x - 2.2) / 0.1, 2));
+    return 0.004 * std::cos(2 * kPi * x / 0.25) + 0.01 * std::sin(2 * kPi * x / 1.7) -
+           0.006 * std::exp(-std::pow((x - 2.2) / 0.1, 2));
   };
   for (Eigen::Index j = 0; j < g.ny(); ++j)
     for (Eigen::Index i = 0; i < g.nx(); ++i) g.z_mm(j, i) = surf(g.x(i)) + 0.0005 * g.y(j);
@@ -134,11 +138,14 @@ TEST(ProfileCli, CompareAProfileAlongALine) {
   EXPECT_NEAR(j["registration"]["tilt"].get<double>(), 1e-4, 2e-6);
   EXPECT_LT(j["deviation"]["rms_mm"].get<double>(), 0.2e-3);  // heights printed to 1e-6 um; interpolation on 5 um nodes
   EXPECT_EQ(j["deviation"]["points"], 5000);
-  EXPECT_NEAR(j["profile_parameters"]["measured"]["Rq_mm"].get<double>(), j["profile_parameters"]["predicted"]["Rq_mm"].get<double>(), 2e-5);
+  EXPECT_NEAR(j["profile_parameters"]["measured"]["Rq_mm"].get<double>(),
+              j["profile_parameters"]["predicted"]["Rq_mm"].get<double>(), 2e-5);
   EXPECT_TRUE(fs::exists(out / "profile_compare.csv"));
   EXPECT_NE(r.out.find("registration along the line"), std::string::npos) << r.out;
   // A profile without its line is an error that says what to give.
-  const CliRun e = run_vmsim("compare -m " + q(tmp.path() / "trace.csv") + " -p " + q(tmp.path() / "pred.x3p") + " --no-render --out " + q(out), tmp);
+  const CliRun e = run_vmsim("compare -m " + q(tmp.path() / "trace.csv") + " -p " + q(tmp.path() / "pred.x3p") +
+                                 " --no-render --out " + q(out),
+                             tmp);
   EXPECT_NE(e.code, 0);
   EXPECT_NE(e.err.find("--profile-line"), std::string::npos) << e.err;
 }
@@ -147,7 +154,8 @@ TEST(ProfileCli, CompareAProfileAlongALine) {
 // line from (0, 0.01) to (1.5, 0.01) mm; the registration puts the trace at the line's start and the deviation is
 // zero to the interpolation of the rounded lateral values.
 TEST(ProfileCli, CompareTheRealDektakTraceEndToEnd) {
-  if (!fs::exists(real() / "SurfaceTopography/dektak-1.csv")) GTEST_SKIP() << real() << " is absent; the real Dektak file is not checked";
+  if (!fs::exists(real() / "SurfaceTopography/dektak-1.csv"))
+    GTEST_SKIP() << real() << " is absent; the real Dektak file is not checked";
   TempDir tmp;
   const auto d = metrology::read_dektak_csv(real() / "SurfaceTopography/dektak-1.csv");
   core::HeightGrid g;
@@ -157,8 +165,9 @@ TEST(ProfileCli, CompareTheRealDektakTraceEndToEnd) {
   metrology::write_x3p(tmp.path() / "pred.x3p", g);
   const fs::path out = tmp.path() / "cmp";
   const double x1 = g.x(g.nx() - 1);
-  const CliRun r = run_vmsim("compare -m " + q(real() / "SurfaceTopography/dektak-1.csv") + " -p " + q(tmp.path() / "pred.x3p") +
-                                 " --profile-line " + std::to_string(g.x0_mm) + ",0.01," + std::to_string(x1) + ",0.01 --out " + q(out),
+  const CliRun r = run_vmsim("compare -m " + q(real() / "SurfaceTopography/dektak-1.csv") + " -p " +
+                                 q(tmp.path() / "pred.x3p") + " --profile-line " + std::to_string(g.x0_mm) + ",0.01," +
+                                 std::to_string(x1) + ",0.01 --out " + q(out),
                              tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "report.json"));
@@ -180,9 +189,12 @@ TEST(ProfileCli, StatsAndCompareOnEveryRealSurface) {
     const char* file;
     long nx, ny;
   };
-  const Case cases[] = {{"SurfaceTopography/sur-3.sur", 512, 512},   {"SurfaceTopography/bcrf-1.bcrf", 960, 600},
-                        {"SurfaceTopography/x3p-2.x3p", 650, 650},   {"KautschukInfiniteFocus.x3p", 860, 634},
-                        {"sample-land.x3p", 918, 256},               {"SurfaceTopography/matrix-3.txt", 256, 256},
+  const Case cases[] = {{"SurfaceTopography/sur-3.sur", 512, 512},
+                        {"SurfaceTopography/bcrf-1.bcrf", 960, 600},
+                        {"SurfaceTopography/x3p-2.x3p", 650, 650},
+                        {"KautschukInfiniteFocus.x3p", 860, 634},
+                        {"sample-land.x3p", 918, 256},
+                        {"SurfaceTopography/matrix-3.txt", 256, 256},
                         {"SurfaceTopography/matrix-4.txt.gz", 75, 305}};
   int ran = 0;
   for (const Case& c : cases) {
@@ -214,13 +226,17 @@ TEST(ProfileCli, StatsAndCompareOnEveryRealSurface) {
     EXPECT_LT(r["deviation"]["rms_mm"].get<double>(), 1e-12);
     EXPECT_LT(std::max(-r["deviation"]["min_mm"].get<double>(), r["deviation"]["max_mm"].get<double>()), 1e-12);
     if (std::string(c.file) == "SurfaceTopography/matrix-4.txt.gz") {
-      const CliRun a = run_vmsim("compare -m " + q(file) + " -p " + q(tmp.path() / "self.x3p") + " --no-render --out " + q(tmp.path() / "auto"), tmp);
+      const CliRun a = run_vmsim("compare -m " + q(file) + " -p " + q(tmp.path() / "self.x3p") + " --no-render --out " +
+                                     q(tmp.path() / "auto"),
+                                 tmp);
       ASSERT_EQ(a.code, 0) << a.err;
       const auto ra = nlohmann::json::parse(slurp(tmp.path() / "auto" / "report.json"));
       const double h = metrology::read_surface(file).dx_mm;
-      for (int k = 0; k < 3; ++k) EXPECT_NEAR(ra["registration"]["transform"]["t_mm"][k].get<double>(), 0.0, h / 10) << k;
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(ra["registration"]["transform"]["t_mm"][k].get<double>(), 0.0, h / 10) << k;
       EXPECT_LT(ra["registration"]["transform"]["angle_rad"].get<double>(), 1e-4);
     }
   }
-  if (ran == 0) GTEST_SKIP() << real() << " is absent (a fresh clone has no ../shared/data/real); the real files are not run";
+  if (ran == 0)
+    GTEST_SKIP() << real() << " is absent (a fresh clone has no ../shared/data/real); the real files are not run";
 }

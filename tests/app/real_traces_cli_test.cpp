@@ -29,7 +29,7 @@ namespace {
 
 fs::path traces() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "traces"; }
 
-#define REQUIRE_REAL(path)                                                                                      \
+#define REQUIRE_REAL(path) \
   if (!fs::exists(path)) GTEST_SKIP() << (path).string() << " is absent: the real traces of ../shared are not here"
 
 std::string q(const fs::path& p) {
@@ -80,10 +80,10 @@ TEST(RealTracesCli, IdentifyReadsEmpsMatFilesStartingMidMotion) {
   const fs::path dir = traces() / "emps";
   REQUIRE_REAL(dir);
   TempDir tmp;
-  const auto r = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --validate " +
-                               q(dir / "DATA_EMPS_PULSES.mat") +
-                               " --mat t=t,command=qg,actual=qm --trace-unit m --orders 2,2 --out " + q(tmp.path() / "o"),
-                           tmp);
+  const auto r =
+      run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --validate " + q(dir / "DATA_EMPS_PULSES.mat") +
+                    " --mat t=t,command=qg,actual=qm --trace-unit m --orders 2,2 --out " + q(tmp.path() / "o"),
+                tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("time stamps jitter by up to"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("the trace does not start at rest"), std::string::npos) << r.err;
@@ -99,15 +99,19 @@ TEST(RealTracesCli, IdentifyReadsEmpsMatFilesStartingMidMotion) {
     EXPECT_EQ(m["marginal"], false) << name;
   }
   // The rest offset given (mm), and a malformed one.
-  const auto g = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --mat t=t,command=qg,actual=qm "
-                           "--trace-unit m --structure arx --rest-offset X=0.015 --out " + q(tmp.path() / "g"),
+  const auto g = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") +
+                               " --mat t=t,command=qg,actual=qm "
+                               "--trace-unit m --structure arx --rest-offset X=0.015 --out " +
+                               q(tmp.path() / "g"),
                            tmp);
   ASSERT_EQ(g.code, 0) << g.err;
   const auto rg = vmsim_test::read_json(tmp.path() / "g" / "report.json");
   EXPECT_EQ(rg["axes"]["X"]["rest_offset"]["from"], "--rest-offset");
   EXPECT_DOUBLE_EQ(rg["axes"]["X"]["rest_offset"]["value"].get<double>(), 0.015);
-  const auto b = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --mat t=t,command=qg,actual=qm "
-                           "--trace-unit m --rest-offset X:0.015 --out " + q(tmp.path() / "b"),
+  const auto b = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") +
+                               " --mat t=t,command=qg,actual=qm "
+                               "--trace-unit m --rest-offset X:0.015 --out " +
+                               q(tmp.path() / "b"),
                            tmp);
   EXPECT_NE(b.code, 0);
   EXPECT_NE(b.err.find("--rest-offset 'X:0.015': expected AXIS=VALUE"), std::string::npos) << b.err;
@@ -127,7 +131,8 @@ TEST(RealTracesCli, IdentifyFrictionTakesTheControlSignalWithAGain) {
   TempDir tmp;
   const auto r = run_vmsim("identify-friction " + q(dir / "DATA_EMPS.mat") +
                                " --mat t=t,position=qm,control=vir --trace-unit m --control-gain 35.15065188 "
-                               "--gravity constant --out " + q(tmp.path() / "f"),
+                               "--gravity constant --out " +
+                               q(tmp.path() / "f"),
                            tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto rep = vmsim_test::read_json(tmp.path() / "f" / "report.json");
@@ -137,10 +142,11 @@ TEST(RealTracesCli, IdentifyFrictionTakesTheControlSignalWithAGain) {
   EXPECT_NEAR(l["viscous_N_s_per_m"].get<double>(), 203.5034, 0.10 * 203.5034);
   EXPECT_NEAR(l["coulomb_N"].get<double>(), 20.3935, 0.10 * 20.3935);
   EXPECT_NEAR(l["offset_N"].get<double>(), -3.1648, 0.5);
-  std::printf("EMPS IDIM-LS (published) vs vmsim: M 95.11 / %.2f kg, Fv 203.5 / %.1f N s/m, Fc 20.39 / %.2f N, offset "
-              "-3.16 / %.2f N\n",
-              l["mass_kg"].get<double>(), l["viscous_N_s_per_m"].get<double>(), l["coulomb_N"].get<double>(),
-              l["offset_N"].get<double>());
+  std::printf(
+      "EMPS IDIM-LS (published) vs vmsim: M 95.11 / %.2f kg, Fv 203.5 / %.1f N s/m, Fc 20.39 / %.2f N, offset "
+      "-3.16 / %.2f N\n",
+      l["mass_kg"].get<double>(), l["viscous_N_s_per_m"].get<double>(), l["coulomb_N"].get<double>(),
+      l["offset_N"].get<double>());
   // The gain replaces the motor data; giving both is an error.
   const auto e = run_vmsim("identify-friction " + q(dir / "DATA_EMPS.mat") +
                                " --mat t=t,position=qm,control=vir --trace-unit m --control-gain 35 --lead-mm 5",

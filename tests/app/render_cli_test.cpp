@@ -61,9 +61,9 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
   CliRun r = run_headless("run '" + job + "' --quiet --image-size 800x600 --out '" + out.string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("images: "), std::string::npos) << r.out;
-  for (const char* f : {"part.png", "part_mark.png", "deviation.png", "deviation_mark.png", "deviation_3d.png",
-                        "contour_error.png", "feed.png", "currents.png", "axis_X.png", "axis_Z.png", "position_X.png",
-                        "position_Z.png"}) {
+  for (const char* f :
+       {"part.png", "part_mark.png", "deviation.png", "deviation_mark.png", "deviation_3d.png", "contour_error.png",
+        "feed.png", "currents.png", "axis_X.png", "axis_Z.png", "position_X.png", "position_Z.png"}) {
     ASSERT_TRUE(fs::exists(out / "images" / f)) << f;
     const Image img = read_png(out / "images" / f);
     EXPECT_EQ(img.width, 800) << f;
@@ -103,9 +103,10 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
   fs::create_directories(again);
   std::ofstream(again / "axis_Y.png") << "stale";
   std::ofstream(again / "notes.png") << "mine";
-  CliRun rr = run_headless("render '" + out.string() + "' --size 640x360 --region 78,94,0,10 --limit-um 30 --isolines 2 --out '" +
-                        again.string() + "'",
-                    tmp);
+  CliRun rr =
+      run_headless("render '" + out.string() +
+                       "' --size 640x360 --region 78,94,0,10 --limit-um 30 --isolines 2 --out '" + again.string() + "'",
+                   tmp);
   ASSERT_EQ(rr.code, 0) << rr.err;
   std::stringstream lines(rr.out);
   std::string line;
@@ -145,7 +146,8 @@ TEST(RenderCli, ErrorsAreMessagesNotAborts) {
   EXPECT_NE(e.err.find("no report.json"), std::string::npos) << e.err;
   // A bad size is found before the simulation runs: no output at all.
   const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
-  CliRun s = run_headless("run '" + job + "' --quiet --image-size 10x10 --out '" + (tmp.path() / "bad").string() + "'", tmp);
+  CliRun s =
+      run_headless("run '" + job + "' --quiet --image-size 10x10 --out '" + (tmp.path() / "bad").string() + "'", tmp);
   EXPECT_EQ(s.code, 2);
   EXPECT_NE(s.err.find("image size"), std::string::npos) << s.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "bad" / "report.json"));
@@ -165,9 +167,11 @@ TEST(RenderCli, ErrorsAreMessagesNotAborts) {
   EXPECT_TRUE(fs::exists(tmp.path() / "run" / "deviation.csv"));
   EXPECT_NE(slurp(tmp.path() / "run" / "report.json").find("render_error"), std::string::npos);
   // Its page shows everything else, and why there are no pictures.
-  vmsim_test::expect_report_html(tmp.path() / "run", "--pictures no --note 'The pictures could not be drawn' --note EGL");
+  vmsim_test::expect_report_html(tmp.path() / "run",
+                                 "--pictures no --note 'The pictures could not be drawn' --note EGL");
   // --no-render draws nothing.
-  CliRun nr = run_headless("run '" + job + "' --quiet --no-render --out '" + (tmp.path() / "nr").string() + "'", tmp, no_egl);
+  CliRun nr =
+      run_headless("run '" + job + "' --quiet --no-render --out '" + (tmp.path() / "nr").string() + "'", tmp, no_egl);
   EXPECT_EQ(nr.code, 0) << nr.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "nr" / "images"));
   vmsim_test::expect_report_html(tmp.path() / "nr", "--pictures no --note 'run with --no-render'");

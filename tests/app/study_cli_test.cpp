@@ -3,7 +3,8 @@
 // writes by editing the base files' text (not through the study's override code), with the feed scale on the command
 // line; the study's table must hold exactly the figures of those runs' report.json, whatever the number of ranks.
 // Also: a failing variation is a row with its message and the others are kept; bad study files are errors naming
-// the file and the key. The base job is the plane-cylinder pass of the feed-drive simulation paper on a coarse 0.25 mm z-map.
+// the file and the key. The base job is the plane-cylinder pass of the feed-drive simulation paper on a coarse 0.25 mm
+// z-map.
 #include "sim/study.hpp"
 
 #include <gtest/gtest.h>
@@ -71,17 +72,22 @@ Table read_table(const fs::path& p) {
   for (std::size_t i = 0; i < s.size(); ++i) {
     const char c = s[i];
     if (quoted) {
-      if (c == '"' && i + 1 < s.size() && s[i + 1] == '"') cell += '"', ++i;
-      else if (c == '"') quoted = false;
-      else cell += c;
+      if (c == '"' && i + 1 < s.size() && s[i + 1] == '"')
+        cell += '"', ++i;
+      else if (c == '"')
+        quoted = false;
+      else
+        cell += c;
     } else if (c == '"') {
       quoted = true;
     } else if (c == ',') {
       row.push_back(cell), cell.clear();
     } else if (c == '\n') {
       row.push_back(cell), cell.clear();
-      if (t.names.empty()) t.names = row;
-      else t.rows.push_back(row);
+      if (t.names.empty())
+        t.names = row;
+      else
+        t.rows.push_back(row);
       row.clear();
     } else {
       cell += c;
@@ -232,8 +238,9 @@ interpolation.tolerance_mm = [0.005, 0.02]
         std::string job = replace_line(kBaseJob, "[interpolation]", "tolerance_mm", tol);
         job = replace_line(job, "[job]", "machine", "\"../ref/" + tag + "/machine.toml\"");
         write(root / "part" / ("ref_" + tag + ".toml"), job);
-        const CliRun r = cli("", "run part/ref_" + tag + ".toml --out ref/" + tag + "/out --feed-scale " + fs_ +
-                                     " --no-render -q", root, tmp);
+        const CliRun r =
+            cli("", "run part/ref_" + tag + ".toml --out ref/" + tag + "/out --feed-scale " + fs_ + " --no-render -q",
+                root, tmp);
         ASSERT_EQ(r.code, 0) << r.err;
         ref.push_back(figures_of(read_json(root / "ref" / tag / "out" / "report.json")));
         values.push_back({fs_, kv, tol});
@@ -314,7 +321,8 @@ feed_scale = 0.5
     std::size_t row;
     std::string name, key;
   };
-  for (const Bad& b : {Bad{1, "negative kv", "kv_1000_per_min"}, Bad{2, "typo", "tolerance_mx"}, Bad{3, "no W axis", "'W'"}}) {
+  for (const Bad& b :
+       {Bad{1, "negative kv", "kv_1000_per_min"}, Bad{2, "typo", "tolerance_mx"}, Bad{3, "no W axis", "'W'"}}) {
     EXPECT_EQ(t.at(b.row, "status"), "failed");
     const std::string e = t.at(b.row, "error");
     EXPECT_NE(e.find("bad.toml"), std::string::npos) << e;
@@ -393,7 +401,8 @@ TEST(StudyCli, BadStudyFilesNameTheFileAndTheKey) {
       {"[study]\njob = \"../part/job.toml\"\n[grid]\nfeed_scale = []\n", "key 'grid.feed_scale'"},
       {"[study]\njob = \"../part/job.toml\"\n[grid]\ninterpolaton.tolerance_mm = [0.01]\n",
        "key 'interpolaton.tolerance_mm'"},
-      {"[study]\njob = \"../part/job.toml\"\n[grid]\nmachine.axis.X.drive.kf = [0.5]\n", "key 'machine.axis.X.drive.kf'"},
+      {"[study]\njob = \"../part/job.toml\"\n[grid]\nmachine.axis.X.drive.kf = [0.5]\n",
+       "key 'machine.axis.X.drive.kf'"},
       {"[study]\njob = \"../part/job.toml\"\n[[variation]]\nfeed_scale = -1.0\n", "key 'feed_scale'"},
       {"[study]\njob = \"../part/job.toml\"\n[[variation]]\nname = \"a\"\n[[variation]]\nname = \"a\"\n",
        "key 'variation.name'"},
@@ -438,15 +447,16 @@ feed_scale = [0.5, 1, 2]
   EXPECT_EQ(s.variations[0].name, "tolerance_mm=0.03 feed_scale=0.5");
   EXPECT_EQ(s.variations[4].name, "tolerance_mm=0.04 feed_scale=1");
   // Keys with the same last part are named by as much of their tail as tells them apart.
-  write(root / "studies" / "xz.toml", "[study]\njob = \"../part/job.toml\"\n[grid]\n"
-                                      "machine.axes.X.drive.kv_1000_per_min = [3.0]\nmachine.axes.Z.drive.kv_1000_per_min = [4.5]\n");
+  write(root / "studies" / "xz.toml",
+        "[study]\njob = \"../part/job.toml\"\n[grid]\n"
+        "machine.axes.X.drive.kv_1000_per_min = [3.0]\nmachine.axes.Z.drive.kv_1000_per_min = [4.5]\n");
   EXPECT_EQ(vmsim::sim::load_study(root / "studies" / "xz.toml").variations[0].name,
             "X.drive.kv_1000_per_min=3 Z.drive.kv_1000_per_min=4.5");
   const vmsim::sim::PreparedVariation p = vmsim::sim::prepare_variation(s, s.variations[5]);
   EXPECT_EQ(p.feed_scale, 2.0);
   const toml::table job = toml::parse(p.job_toml);
   EXPECT_EQ(job["interpolation"]["tolerance_mm"].value<double>(), 0.04);  // the variation's own, after [common]
-  EXPECT_EQ(job["removal"]["spacing_mm"].value<double>(), 0.25);           // the base's
+  EXPECT_EQ(job["removal"]["spacing_mm"].value<double>(), 0.25);          // the base's
   for (const char* k : {"program", "tool_table"}) {
     const fs::path path = *job["job"][k].value<std::string>();
     EXPECT_TRUE(path.is_absolute() && fs::exists(path)) << k << " " << path;

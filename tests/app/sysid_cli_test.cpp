@@ -1,10 +1,10 @@
-// vmsim excite / identify end to end, as a user runs them on a machine: the excitation G-code of the predictive-compensation paper (inverse
-// M-sequence on a ramp) run as a job through `vmsim motion` (the NC's interpolator and the Mikron X cascade drive of
-// parts/machines/mikron_ucp710.toml), its trace.csv identified by `vmsim identify` (ARX, ARMAX, OE, orders 2/5), and a
-// job on a DIFFERENT trajectory (a circle) run with [job] axis_models = the identified X. References: the cascade
-// itself (the identified X must reproduce its positions on the circle with fit >= 99 %, the criterion, and
-// its tracking error within 5 %); the error conventions of DESIGN.md (exit 2, the file / option named, nothing
-// half-written).
+// vmsim excite / identify end to end, as a user runs them on a machine: the excitation G-code of the
+// predictive-compensation paper (inverse M-sequence on a ramp) run as a job through `vmsim motion` (the NC's
+// interpolator and the Mikron X cascade drive of parts/machines/mikron_ucp710.toml), its trace.csv identified by `vmsim
+// identify` (ARX, ARMAX, OE, orders 2/5), and a job on a DIFFERENT trajectory (a circle) run with [job] axis_models =
+// the identified X. References: the cascade itself (the identified X must reproduce its positions on the circle with
+// fit >= 99 %, the criterion, and its tracking error within 5 %); the error conventions of DESIGN.md (exit 2,
+// the file / option named, nothing half-written).
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -23,9 +23,9 @@
 
 using vmsim_test::CliRun;
 using vmsim_test::run_vmsim;
-using vmsim_test::write_file;
-using vmsim_test::TempDir;
 using vmsim_test::slurp;
+using vmsim_test::TempDir;
+using vmsim_test::write_file;
 
 namespace fs = std::filesystem;
 
@@ -56,7 +56,8 @@ std::vector<double> csv_column(const fs::path& p, const std::string& name) {
   return v;
 }
 
-// 100 (1 - |y - yhat| / |y - mean y|): the predictive-compensation paper's fit, computed here independently of drives/sysid.
+// 100 (1 - |y - yhat| / |y - mean y|): the predictive-compensation paper's fit, computed here independently of
+// drives/sysid.
 double fit_percent(const std::vector<double>& y, const std::vector<double>& yhat) {
   double mean = 0;
   for (double x : y) mean += x;
@@ -80,8 +81,8 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
   const fs::path p = d.path();
   // 1. The excitation program for X (Td from a 40 Hz bandwidth: 10 ms; 7 bits; 4 periods on 1.2 m/min).
   CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "excite_x.ngc").string() +
-                              "' --bandwidth-hz 40 --bits 7 --amplitude 0.05 --feed 1200 --periods 4",
-                          d);
+                           "' --bandwidth-hz 40 --bits 7 --amplitude 0.05 --feed 1200 --periods 4",
+                       d);
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string ngc = slurp(p / "excite_x.ngc");
   ASSERT_NE(ngc.find("G1 X"), std::string::npos);
@@ -123,12 +124,12 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
   write_file(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
   write_file(p / "circle_cascade.toml", job_toml("circle_cascade", "circle.ngc", "[0.0, 0.0, 0.0]"));
   write_file(p / "circle_identified.toml",
-        job_toml("circle_identified", "circle.ngc", "[0.0, 0.0, 0.0]",
-                 "axis_models = \"" + (p / "id" / "axis_models.toml").string() + "\""));
+             job_toml("circle_identified", "circle.ngc", "[0.0, 0.0, 0.0]",
+                      "axis_models = \"" + (p / "id" / "axis_models.toml").string() + "\""));
   r = run_vmsim("motion '" + (p / "circle_cascade.toml").string() + "' --out '" + (p / "m_cascade").string() + "'", d);
   ASSERT_EQ(r.code, 0) << r.err;
-  r = run_vmsim("motion '" + (p / "circle_identified.toml").string() + "' --out '" + (p / "m_identified").string() + "'",
-                d);
+  r = run_vmsim(
+      "motion '" + (p / "circle_identified.toml").string() + "' --out '" + (p / "m_identified").string() + "'", d);
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json mrep = nlohmann::json::parse(slurp(p / "m_identified" / "report.json"));
   vmsim_test::expect_report_html(p / "m_identified", "--pictures no");
@@ -147,15 +148,16 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
   EXPECT_GE(fit, 99.0);
   EXPECT_GE(tracking_fit, 95.0);
   // Y has no identified model: it runs its cascade in both jobs, to the same positions.
-  EXPECT_EQ(csv_column(p / "m_cascade" / "trace.csv", "Y_actual_mm"), csv_column(p / "m_identified" / "trace.csv", "Y_actual_mm"));
+  EXPECT_EQ(csv_column(p / "m_cascade" / "trace.csv", "Y_actual_mm"),
+            csv_column(p / "m_identified" / "trace.csv", "Y_actual_mm"));
 }
 
 TEST(SysidCli, ExciteCsvAndSimulatedTraceIdentifyOnTheirOwn) {
   TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
   CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "x.csv").string() +
-                              "' --bits 6 --td-ms 5 --periods 4 --simulate '" + (p / "trace.csv").string() + "'",
-                          d);
+                           "' --bits 6 --td-ms 5 --periods 4 --simulate '" + (p / "trace.csv").string() + "'",
+                       d);
   ASSERT_EQ(r.code, 0) << r.err;
   // Inverse M-sequence of 6 bits: 2 (2^6 - 1) = 126 switching intervals of 5 samples per period, 4 periods, plus the
   // rests (0.1 s each side), the ramps (0.1 s each) and the final sample.
@@ -180,9 +182,9 @@ TEST(SysidCli, TwoTracesIdentifyAtLeastAsWellAsOneOnAThirdTrace) {
   TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
   auto excite = [&](const std::string& name, const std::string& opts) {
-    const CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / (name + ".csv")).string() +
-                                      "' " + opts + " --simulate '" + (p / (name + "_trace.csv")).string() + "'",
-                                  d);
+    const CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / (name + ".csv")).string() + "' " +
+                                   opts + " --simulate '" + (p / (name + "_trace.csv")).string() + "'",
+                               d);
     ASSERT_EQ(r.code, 0) << r.err;
   };
   excite("up", "--bits 6 --td-ms 5 --periods 2 --feed 1200");
@@ -190,25 +192,25 @@ TEST(SysidCli, TwoTracesIdentifyAtLeastAsWellAsOneOnAThirdTrace) {
   excite("val", "--bits 7 --td-ms 3 --periods 1 --feed -600");
   auto mse = [&](const std::string& traces, const std::string& out) {
     const CliRun r = run_vmsim("identify " + traces + " --validate '" + (p / "val_trace.csv").string() +
-                                      "' --structure arx --orders 2,5 --out '" + (p / out).string() + "'",
-                                  d);
+                                   "' --structure arx --orders 2,5 --out '" + (p / out).string() + "'",
+                               d);
     EXPECT_EQ(r.code, 0) << r.err;
     const nlohmann::json rep = nlohmann::json::parse(slurp(p / out / "report.json"));
     return std::make_pair(rep["axes"]["X"]["models"]["arx"]["validation"]["mse"].get<double>(), rep);
   };
   const auto [one, rep1] = mse("--trace '" + (p / "up_trace.csv").string() + "'", "id1");
-  const auto [two, rep2] = mse("--trace '" + (p / "up_trace.csv").string() + "' --trace '" +
-                                   (p / "down_trace.csv").string() + "'",
-                               "id2");
+  const auto [two, rep2] =
+      mse("--trace '" + (p / "up_trace.csv").string() + "' --trace '" + (p / "down_trace.csv").string() + "'", "id2");
   std::printf("validation MSE on the third trace: one trace %.4e mm2, two traces %.4e mm2\n", one, two);
   EXPECT_LE(two, one);
   ASSERT_EQ(rep2["inputs"]["traces"].size(), 2u);
   EXPECT_EQ(rep2["inputs"]["traces"][1]["use"], "estimation");
   EXPECT_NE(rep2["estimation"].get<std::string>().find("2 traces"), std::string::npos);
   // Without --validate the last of several traces is held out for validation.
-  const CliRun r = run_vmsim("identify --trace '" + (p / "up_trace.csv").string() + "' --trace '" +
-                                    (p / "down_trace.csv").string() + "' --structure arx --out '" + (p / "id3").string() + "'",
-                                d);
+  const CliRun r =
+      run_vmsim("identify --trace '" + (p / "up_trace.csv").string() + "' --trace '" + (p / "down_trace.csv").string() +
+                    "' --structure arx --out '" + (p / "id3").string() + "'",
+                d);
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json rep3 = nlohmann::json::parse(slurp(p / "id3" / "report.json"));
   EXPECT_EQ(rep3["inputs"]["traces"][1]["use"], "validation");
@@ -236,13 +238,16 @@ TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
   EXPECT_NE(r.err.find("no axis Q"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(p / "q.ngc"));
   // An excitation that leaves the travel says so and writes nothing.
-  r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "x.ngc").string() + "' --feed 30000 --periods 50", d);
+  r = run_vmsim(
+      "excite X --machine '" + kMachine + "' --out '" + (p / "x.ngc").string() + "' --feed 30000 --periods 50", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("outside axis X's travel"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(p / "x.ngc"));
 
   // A model file at another Te than the job's: the job names the model file.
-  write_file(p / "models.toml", "[model]\nperiod_ms = 2.0\n\n[[axes]]\nname = \"X\"\nstructure = \"arx\"\na = [-0.5]\nb = [0.5]\nnk = 1\n");
+  write_file(
+      p / "models.toml",
+      "[model]\nperiod_ms = 2.0\n\n[[axes]]\nname = \"X\"\nstructure = \"arx\"\na = [-0.5]\nb = [0.5]\nnk = 1\n");
   write_file(p / "circle.ngc", "G21 G90 G17\nG1 X20 Y0 F3000\nG3 X20 Y0 I-20 J0\nM2\n");
   write_file(p / "job.toml", job_toml("j", "circle.ngc", "[0.0, 0.0, 0.0]", "axis_models = \"models.toml\""));
   r = run_vmsim("motion '" + (p / "job.toml").string() + "' --out '" + (p / "m").string() + "'", d);
@@ -252,14 +257,14 @@ TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
 }
 
 TEST(SysidCli, CompensateTheStarfishWritesSetpointsProgramAndReport) {
-  // vmsim compensate on parts/starfish (the predictive-compensation paper section 5) with the machine file's cascades as the prediction:
-  // report.json's figures (reference: the predictive-compensation paper's mean reduction, -61.76 %), the limits, and the compensated program
-  // readable by vmsim's own G-code reader and interpolator.
+  // vmsim compensate on parts/starfish (the predictive-compensation paper section 5) with the machine file's cascades
+  // as the prediction: report.json's figures (reference: the predictive-compensation paper's mean reduction, -61.76 %),
+  // the limits, and the compensated program readable by vmsim's own G-code reader and interpolator.
   TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
-  CliRun r = run_vmsim("compensate '" + std::string(VMSIM_SOURCE_DIR) + "/parts/starfish/job.toml' --out '" +
-                              (p / "c").string() + "'",
-                          d);
+  CliRun r = run_vmsim(
+      "compensate '" + std::string(VMSIM_SOURCE_DIR) + "/parts/starfish/job.toml' --out '" + (p / "c").string() + "'",
+      d);
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json rep = nlohmann::json::parse(slurp(p / "c" / "report.json"));
   const auto& ce = rep["contour_error"]["predicted"];

@@ -39,7 +39,8 @@ int run_vmsim(int ranks, const std::string& args, const fs::path& log, std::stri
               const std::string& env = "") {
   std::string cmd = env + "timeout 300 ";
   if (ranks > 0)
-    cmd += std::string("'") + VMSIM_MPIEXEC + "' -np " + std::to_string(ranks) + " --allow-run-as-root --oversubscribe ";
+    cmd +=
+        std::string("'") + VMSIM_MPIEXEC + "' -np " + std::to_string(ranks) + " --allow-run-as-root --oversubscribe ";
   cmd += std::string("'") + VMSIM_EXE + "' " + args + " >'" + log.string() + ".out' 2>'" + log.string() + "'";
   const int status = std::system(cmd.c_str());
   if (err) *err = slurp(log);
@@ -113,7 +114,8 @@ void expect_tiled_equals_one_process(const fs::path& job, const fs::path& dir, c
   EXPECT_FALSE(r1.contains("tiles"));
   for (const int n : {2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(n));
-    ASSERT_EQ(run_vmsim(n, common + "'" + out.string() + "'", dir / ("np" + std::to_string(n) + ".log"), &err), 0) << err;
+    ASSERT_EQ(run_vmsim(n, common + "'" + out.string() + "'", dir / ("np" + std::to_string(n) + ".log"), &err), 0)
+        << err;
     expect_same_files(dir / "one", out, files);
     const nlohmann::json rn = report(out);
     EXPECT_EQ(rn["marks"], r1["marks"]);
@@ -139,14 +141,16 @@ TEST(TiledRunCli, PlaneCylinderZmapTilesGiveTheOneProcessResult) {
   TempDir tmp("vmsim_tiled_");
   expect_tiled_equals_one_process(plane_cylinder_job(tmp.path()), tmp.path(),
                                   {"surface.npy", "surface.csv", "reference.csv", "deviation.npy", "part.stl"});
-  // The mark is there to be compared (the fast pass' fillet mark, the feed-drive simulation paper), not an empty result.
+  // The mark is there to be compared (the fast pass' fillet mark, the feed-drive simulation paper), not an empty
+  // result.
   EXPECT_FALSE(report(tmp.path() / "np2")["marks"].empty());
 }
 
 TEST(TiledRunCli, FiveAxisTridexelTilesGiveTheOneProcessResult) {
   TempDir tmp("vmsim_tiled_");
-  expect_tiled_equals_one_process(five_axis_job(tmp.path()), tmp.path(),
-                                  {"surface.npy", "deviation.npy", "part.stl", "part.vtp"});  // part.vdb: OpenVDB writes a random file UUID
+  expect_tiled_equals_one_process(
+      five_axis_job(tmp.path()), tmp.path(),
+      {"surface.npy", "deviation.npy", "part.stl", "part.vtp"});  // part.vdb: OpenVDB writes a random file UUID
 }
 
 // N-buffer needles (blocks of 64 per tile) on a stock another job leaves (the tiles run that job too): the corner
@@ -161,9 +165,13 @@ TEST(TiledRunCli, TilesOutStitchToTheOneProcessGrid) {
   const fs::path job = plane_cylinder_job(tmp.path());
   std::string err;
   ASSERT_EQ(run_vmsim(0, "run '" + job.string() + "' -q --no-render --out '" + (tmp.path() / "one").string() + "'",
-                  tmp.path() / "one.log", &err), 0) << err;
+                      tmp.path() / "one.log", &err),
+            0)
+      << err;
   ASSERT_EQ(run_vmsim(3, "run '" + job.string() + "' -q --tiles-out --out '" + (tmp.path() / "t").string() + "'",
-                  tmp.path() / "t.log", &err), 0) << err;
+                      tmp.path() / "t.log", &err),
+            0)
+      << err;
   const auto whole = vmsim::metrology::read_x3p(tmp.path() / "one" / "surface.x3p").grid;
   const auto wdev = vmsim::metrology::read_x3p(tmp.path() / "one" / "deviation.x3p").grid;
   const nlohmann::json m = nlohmann::json::parse(slurp(tmp.path() / "t" / "tiles.json"));
@@ -199,7 +207,7 @@ TEST(TiledRunCli, ARankThatFailsEndsEveryRankWithItsMessage) {
   // directory, where nothing can be planted beforehand); ranks 0 and 2 succeed and wait for it.
   std::string err;
   const int code = run_vmsim(3, "run '" + job.string() + "' -q --tiles-out --out '" + (tmp.path() / "t").string() + "'",
-                         tmp.path() / "t.log", &err, "env VMSIM_TEST_FAIL_TILE=1 ");
+                             tmp.path() / "t.log", &err, "env VMSIM_TEST_FAIL_TILE=1 ");
   EXPECT_NE(code, 0);
   EXPECT_NE(code, 124) << "timed out: a rank hung";
   EXPECT_NE(err.find("surface_0001.x3p"), std::string::npos) << err;
@@ -212,8 +220,9 @@ TEST(TiledRunCli, ARankThatFailsEndsEveryRankWithItsMessage) {
     s.replace(s.find("spacing_mm = 0.2"), 16, "spacing_mm = -0.2");
     std::ofstream(tmp.path() / "bad.toml") << s;
   }
-  const int bad = run_vmsim(2, "run '" + (tmp.path() / "bad.toml").string() + "' -q --no-render --out '" +
-                               (tmp.path() / "b").string() + "'", tmp.path() / "b.log", &err);
+  const int bad = run_vmsim(
+      2, "run '" + (tmp.path() / "bad.toml").string() + "' -q --no-render --out '" + (tmp.path() / "b").string() + "'",
+      tmp.path() / "b.log", &err);
   EXPECT_NE(bad, 0);
   EXPECT_NE(bad, 124);
   EXPECT_NE(err.find("spacing_mm"), std::string::npos) << err;
@@ -225,8 +234,9 @@ TEST(TiledRunCli, ARankThatFailsEndsEveryRankWithItsMessage) {
     s.replace(s.find("[removal]\n"), 10, "[removal]\nmethod = \"vdb\"\nvoxel_mm = 0.2\n");
     std::ofstream(tmp.path() / "vdb.toml") << s;
   }
-  const int vdb = run_vmsim(2, "run '" + (tmp.path() / "vdb.toml").string() + "' -q --no-render --out '" +
-                               (tmp.path() / "v").string() + "'", tmp.path() / "v.log", &err);
+  const int vdb = run_vmsim(
+      2, "run '" + (tmp.path() / "vdb.toml").string() + "' -q --no-render --out '" + (tmp.path() / "v").string() + "'",
+      tmp.path() / "v.log", &err);
   EXPECT_EQ(vdb, 2);
   EXPECT_NE(err.find("vdb"), std::string::npos) << err;
 }
@@ -257,10 +267,16 @@ TEST(TiledRunCli, PlanStatesTheFieldTheRunMakes) {
   TempDir tmp("vmsim_tiled_");
   const fs::path job = plane_cylinder_job(tmp.path());
   std::string err;
-  ASSERT_EQ(run_vmsim(0, "run '" + job.string() + "' --plan --ranks 2 --memory-per-rank-gb 0.5 -q --out '" +
-                         (tmp.path() / "plan").string() + "'", tmp.path() / "plan.log", &err), 0) << err;
+  ASSERT_EQ(run_vmsim(0,
+                      "run '" + job.string() + "' --plan --ranks 2 --memory-per-rank-gb 0.5 -q --out '" +
+                          (tmp.path() / "plan").string() + "'",
+                      tmp.path() / "plan.log", &err),
+            0)
+      << err;
   ASSERT_EQ(run_vmsim(2, "run '" + job.string() + "' -q --no-render --out '" + (tmp.path() / "np2").string() + "'",
-                  tmp.path() / "np2.log", &err), 0) << err;
+                      tmp.path() / "np2.log", &err),
+            0)
+      << err;
   const nlohmann::json p = nlohmann::json::parse(slurp(tmp.path() / "plan" / "plan.json"));
   const nlohmann::json r = report(tmp.path() / "np2");
   // Rays: exact. Bytes: the field before cuts split rays; a ball end cutting a z-map from above splits none.

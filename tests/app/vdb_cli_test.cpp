@@ -55,8 +55,10 @@ fs::path write_job(const TempDir& tmp, const std::string& name, const std::strin
   std::ofstream f(p);
   f << "[job]\nname = \"" << name << "\"\nmachine = \"" << kSource << "/parts/machines/mikron_ucp710.toml\"\n"
     << "program = \"" << dir << program << "\"\ntool_table = \"" << dir << "tools.tbl\"\nstart_mm = " << start << "\n"
-    << "[tool]\n" << tool << "\n[stock]\ntype = \"stl\"\nfile = \"" << dir << stock_stl << "\"\n"
-    << "[removal]\nmotion = \"program\"\n" << removal << "\n[reference]\nkind = \"none\"\n";
+    << "[tool]\n"
+    << tool << "\n[stock]\ntype = \"stl\"\nfile = \"" << dir << stock_stl << "\"\n"
+    << "[removal]\nmotion = \"program\"\n"
+    << removal << "\n[reference]\nkind = \"none\"\n";
   return p;
 }
 
@@ -89,12 +91,18 @@ TEST(VdbCli, PlaneCylinderKernelsAgree) {
   const double s = 0.2, h = 0.2;
   const fs::path jd = write_job(tmp, "pc_dexel", "plane_cylinder", "plane_cylinder_reference.ngc", tool,
                                 "plane_cylinder_stock.stl", "[-8.0, 0.0, 40.0]", "field = \"zmap\"\nspacing_mm = 0.2");
-  const fs::path jv = write_job(tmp, "pc_vdb", "plane_cylinder", "plane_cylinder_reference.ngc", tool,
-                                "plane_cylinder_stock.stl", "[-8.0, 0.0, 40.0]",
-                                "method = \"vdb\"\nfield = \"zmap\"\nspacing_mm = 0.2\nvoxel_mm = 0.2");
+  const fs::path jv =
+      write_job(tmp, "pc_vdb", "plane_cylinder", "plane_cylinder_reference.ngc", tool, "plane_cylinder_stock.stl",
+                "[-8.0, 0.0, 40.0]", "method = \"vdb\"\nfield = \"zmap\"\nspacing_mm = 0.2\nvoxel_mm = 0.2");
   std::string out, err;
-  ASSERT_EQ(run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err), 0) << err;
-  ASSERT_EQ(run("run '" + jv.string() + "' --quiet --no-render --out '" + (tmp.path() / "v").string() + "'", tmp, out, err), 0) << err;
+  ASSERT_EQ(
+      run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err),
+      0)
+      << err;
+  ASSERT_EQ(
+      run("run '" + jv.string() + "' --quiet --no-render --out '" + (tmp.path() / "v").string() + "'", tmp, out, err),
+      0)
+      << err;
   // The memory estimate is stated before the run (stderr) and in report.json.
   EXPECT_NE(err.find("estimated memory"), std::string::npos) << err;
   const auto rd = nlohmann::json::parse(slurp(tmp.path() / "d" / "report.json"));
@@ -151,12 +159,18 @@ TEST(VdbCli, CornerKernelsAgree) {
   const fs::path jv = write_job(tmp, "c_vdb", "corner", "corner_reference.ngc", tool, "corner_stock.stl",
                                 "[5.0, -75.0, 20.0]", needles + "method = \"vdb\"\nvoxel_mm = 0.2");
   std::string out, err;
-  ASSERT_EQ(run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err), 0) << err;
-  ASSERT_EQ(run("run '" + jv.string() + "' --quiet --no-render --out '" + (tmp.path() / "v").string() + "'", tmp, out, err), 0) << err;
+  ASSERT_EQ(
+      run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err),
+      0)
+      << err;
+  ASSERT_EQ(
+      run("run '" + jv.string() + "' --quiet --no-render --out '" + (tmp.path() / "v").string() + "'", tmp, out, err),
+      0)
+      << err;
   const auto rd = nlohmann::json::parse(slurp(tmp.path() / "d" / "report.json"));
   const auto rv = nlohmann::json::parse(slurp(tmp.path() / "v" / "report.json"));
-  const double bound = h / 2 + rd["removal"]["track_error_bound_mm"].get<double>() +
-                       rv["removal"]["track_error_bound_mm"].get<double>();
+  const double bound =
+      h / 2 + rd["removal"]["track_error_bound_mm"].get<double>() + rv["removal"]["track_error_bound_mm"].get<double>();
   const std::vector<Needle> nd = read_needles(tmp.path() / "d" / "needles.csv");
   const std::vector<Needle> nv = read_needles(tmp.path() / "v" / "needles.csv");
   ASSERT_EQ(nd.size(), nv.size());
@@ -172,8 +186,9 @@ TEST(VdbCli, CornerKernelsAgree) {
       continue;
     }
     // Along a needle within h of an edge of the part (the vertical corner x = y = 0, the block's ends 60 mm from it,
-    // the top z = 0, the step at the tip z = -10) the level set's bevel (about h/3 across the edge) shows as a much larger along-needle difference:
-    // the offsets are compared away from the edges, the distances (phi, below) everywhere.
+    // the top z = 0, the step at the tip z = -10) the level set's bevel (about h/3 across the edge) shows as a much
+    // larger along-needle difference: the offsets are compared away from the edges, the distances (phi, below)
+    // everywhere.
     const double lateral = std::abs(nd[k].n.x() != 0 ? nd[k].p.y() : nd[k].p.x());
     const double z = nd[k].p.z();
     const double edge = std::min({lateral, std::abs(lateral - 60), std::abs(z), std::abs(z + 10)});  // block 60 mm
@@ -187,10 +202,13 @@ TEST(VdbCli, CornerKernelsAgree) {
   const Eigen::VectorXd phi = part.signed_distance(P);
   double worst = 0;
   for (std::size_t k = 0; k < nd.size(); ++k)
-    if (!std::isnan(nd[k].offset)) worst = std::max(worst, std::isnan(phi[static_cast<Eigen::Index>(k)]) ? 1e9 : std::abs(phi[static_cast<Eigen::Index>(k)]));
-  std::printf("corner: level set at the needles' surface points within %.4f mm (bound %.4f), offsets within %.4f "
-              "mm (%d needles more than h from an edge; %.4f mm within h of one)\n", worst, bound, worst_offset,
-              compared, worst_edge_offset);
+    if (!std::isnan(nd[k].offset))
+      worst = std::max(
+          worst, std::isnan(phi[static_cast<Eigen::Index>(k)]) ? 1e9 : std::abs(phi[static_cast<Eigen::Index>(k)]));
+  std::printf(
+      "corner: level set at the needles' surface points within %.4f mm (bound %.4f), offsets within %.4f "
+      "mm (%d needles more than h from an edge; %.4f mm within h of one)\n",
+      worst, bound, worst_offset, compared, worst_edge_offset);
   EXPECT_GT(compared, 10000);
   EXPECT_LT(worst, bound);
   EXPECT_LT(worst_offset, bound);
@@ -201,11 +219,11 @@ TEST(VdbCli, CornerKernelsAgree) {
 // 10 -> 16 deg, 721 GOTOs, then a retract 20 mm along the last normal), cut along the programmed poses (tool axis
 // on the great circle between GOTOs, through the chain's inverse), tri-dexel at 0.2 mm vs level set at 0.2 mm.
 // The two jobs sub-step the turning axis differently: the dexel job at the part's own 2 um track tolerance, the vdb
-// job at its default for a turning tool, voxel / 10 (core/job.hpp); each cut is within its own track_error_bound_mm of the motion's
-// swept volume (removal/track.hpp: e_orient = 2 reach sin(phi / 4) plus the tip terms), so the two surfaces agree
-// within max(spacing, voxel) / 2 plus both bounds. Compared along the Z dexel rays: the level set's signed distance
-// at the tri-dexel's surface points, and the heights themselves times the sphere's normal's z (a height difference on
-// a surface sloping by theta is the normal distance over cos theta).
+// job at its default for a turning tool, voxel / 10 (core/job.hpp); each cut is within its own track_error_bound_mm of
+// the motion's swept volume (removal/track.hpp: e_orient = 2 reach sin(phi / 4) plus the tip terms), so the two
+// surfaces agree within max(spacing, voxel) / 2 plus both bounds. Compared along the Z dexel rays: the level set's
+// signed distance at the tri-dexel's surface points, and the heights themselves times the sphere's normal's z (a height
+// difference on a surface sloping by theta is the normal distance over cos theta).
 TEST(VdbCli, FiveAxisKernelsAgree) {
   TempDir tmp;
   const std::string dir = kSource + "/parts/five_axis/";
@@ -238,20 +256,27 @@ TEST(VdbCli, FiveAxisKernelsAgree) {
       << "[tool]\ntype = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 6.0\nlength_mm = 6.0\n"
       << "[stock]\ntype = \"stl\"\nfile = \"" << dir << "dome_stock.stl\"\n"
       << "[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n"
-      << "[removal]\nmotion = \"program\"\nfield = \"tridexel\"\nspacing_mm = 0.2\n" << removal
-      << "\n[reference]\nkind = \"none\"\n";
+      << "[removal]\nmotion = \"program\"\nfield = \"tridexel\"\nspacing_mm = 0.2\n"
+      << removal << "\n[reference]\nkind = \"none\"\n";
     return p;
   };
   const fs::path jd = job("fa_dexel", "track_tolerance_mm = 0.002");
   const fs::path jv = job("fa_vdb", "method = \"vdb\"\nvoxel_mm = 0.2");
   std::string out, err;
-  ASSERT_EQ(run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err), 0) << err;
-  ASSERT_EQ(run("run '" + jv.string() + "' --quiet --no-render --out '" + (tmp.path() / "v").string() + "'", tmp, out, err), 0) << err;
+  ASSERT_EQ(
+      run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err),
+      0)
+      << err;
+  ASSERT_EQ(
+      run("run '" + jv.string() + "' --quiet --no-render --out '" + (tmp.path() / "v").string() + "'", tmp, out, err),
+      0)
+      << err;
   const auto rd = nlohmann::json::parse(slurp(tmp.path() / "d" / "report.json"));
   const auto rv = nlohmann::json::parse(slurp(tmp.path() / "v" / "report.json"));
   // The vdb job's track tolerance defaults to voxel / 10, and its orientation term is part of its bound.
   EXPECT_DOUBLE_EQ(rv["removal"]["track_tolerance_mm"].get<double>(), h / 10);
-  const double bd = rd["removal"]["track_error_bound_mm"].get<double>(), bv = rv["removal"]["track_error_bound_mm"].get<double>();
+  const double bd = rd["removal"]["track_error_bound_mm"].get<double>(),
+               bv = rv["removal"]["track_error_bound_mm"].get<double>();
   EXPECT_LE(bv, h / 10 + 1e-12);
   EXPECT_GT(rv["removal"]["orientation_error_mm"].get<double>(), 0.0);
   EXPECT_LT(rv["removal"]["sweeps"].get<double>(), rd["removal"]["sweeps"].get<double>());
@@ -287,10 +312,11 @@ TEST(VdbCli, FiveAxisKernelsAgree) {
   const Eigen::VectorXd phi = part.signed_distance(P);
   double worst = 0;
   for (Eigen::Index k = 0; k < phi.size(); ++k) worst = std::max(worst, std::isnan(phi[k]) ? 1e9 : std::abs(phi[k]));
-  std::printf("five-axis: level set at the tri-dexel's points within %.4f mm, heights x n_z within %.4f mm (%.4f on "
-              "the %d cut points); bound %.4f (tracks %.4f + %.4f, %d vs %d sweeps)\n",
-              worst, worst_dn, worst_dn_cut, cut_points, bound, bd, bv, rd["removal"]["sweeps"].get<int>(),
-              rv["removal"]["sweeps"].get<int>());
+  std::printf(
+      "five-axis: level set at the tri-dexel's points within %.4f mm, heights x n_z within %.4f mm (%.4f on "
+      "the %d cut points); bound %.4f (tracks %.4f + %.4f, %d vs %d sweeps)\n",
+      worst, worst_dn, worst_dn_cut, cut_points, bound, bd, bv, rd["removal"]["sweeps"].get<int>(),
+      rv["removal"]["sweeps"].get<int>());
   EXPECT_LT(worst, bound);
   EXPECT_LT(worst_dn, bound);
 }
@@ -300,17 +326,19 @@ TEST(VdbCli, FiveAxisKernelsAgree) {
 TEST(VdbCli, BadRemovalKeysAreErrors) {
   TempDir tmp;
   const std::string tool = "type = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 25.0\nlength_mm = 50.0";
-  const std::pair<std::string, std::string> cases[] = {
-      {"voxel_mm = 0.1", "voxel_mm"},
-      {"method = \"vdb\"\nmesh_adaptivity = 1.5", "mesh_adaptivity"},
-      {"method = \"voxels\"", "method"},
-      {"method = \"vdb\"\nvoxel_mm = 0.0001", "voxel_mm"}};
+  const std::pair<std::string, std::string> cases[] = {{"voxel_mm = 0.1", "voxel_mm"},
+                                                       {"method = \"vdb\"\nmesh_adaptivity = 1.5", "mesh_adaptivity"},
+                                                       {"method = \"voxels\"", "method"},
+                                                       {"method = \"vdb\"\nvoxel_mm = 0.0001", "voxel_mm"}};
   int n = 0;
   for (const auto& [removal, key] : cases) {
     const fs::path j = write_job(tmp, "bad" + std::to_string(n++), "plane_cylinder", "plane_cylinder_fast.ngc", tool,
                                  "plane_cylinder_stock.stl", "[-8.0, 0.0, 40.0]", removal);
     std::string out, err;
-    EXPECT_EQ(run("run '" + j.string() + "' --quiet --no-render --out '" + (tmp.path() / "o").string() + "'", tmp, out, err), 2) << removal;
+    EXPECT_EQ(
+        run("run '" + j.string() + "' --quiet --no-render --out '" + (tmp.path() / "o").string() + "'", tmp, out, err),
+        2)
+        << removal;
     EXPECT_NE(err.find(j.filename().string()), std::string::npos) << err;
     EXPECT_NE(err.find(key), std::string::npos) << err;
   }

@@ -17,12 +17,12 @@
 
 namespace {
 
+using Eigen::Vector3d;
 using vmsim::core::ArcFrame;
 using vmsim::core::ArcPlane;
-using vmsim::core::Move;
 using vmsim::core::MotionKind;
+using vmsim::core::Move;
 using vmsim::core::Vec6;
-using Eigen::Vector3d;
 
 constexpr double kPi = std::numbers::pi;
 
@@ -99,7 +99,8 @@ TEST(ArcFrame, FullCirclesAndTurnsAsLinuxCnc) {
     EXPECT_DOUBLE_EQ(f.sweep_rad, 2 * kPi);
   }
   // Farther than that it is the short arc it says (a 1 um arc at r = 50 mm).
-  const ArcFrame tiny = vmsim::core::arc_frame(arc(ArcPlane::XY, v6(50, 0, 0), v6(50 * std::cos(2e-8), 50 * std::sin(2e-8), 0), {0, 0}, 1));
+  const ArcFrame tiny = vmsim::core::arc_frame(
+      arc(ArcPlane::XY, v6(50, 0, 0), v6(50 * std::cos(2e-8), 50 * std::sin(2e-8), 0), {0, 0}, 1));
   EXPECT_NEAR(tiny.sweep_rad, 2e-8, 1e-15);
   // A spiral whose end lies on its start's ray (radii within a reader's tolerance): a whole turn, as pmCircleInit makes
   // it (the cross product of the radius vectors is nil: angle 2 pi) and find_turn (end angle <= start angle: + 2 pi).
@@ -134,7 +135,8 @@ TEST(ArcFrame, SpiralLengthAndTangentAgainstNumericalIntegration) {
   std::uniform_real_distribution<double> u(0, 1);
   for (int k = 0; k < 6; ++k) {
     const double r0 = 1 + 50 * u(rng), r1 = r0 * (0.3 + 1.4 * u(rng)), a0 = 2 * kPi * u(rng), a1 = 2 * kPi * u(rng);
-    const Vec6 s = v6(r0 * std::cos(a0), r0 * std::sin(a0), 0), e = v6(r1 * std::cos(a1), r1 * std::sin(a1), 30 * u(rng) - 15);
+    const Vec6 s = v6(r0 * std::cos(a0), r0 * std::sin(a0), 0),
+               e = v6(r1 * std::cos(a1), r1 * std::sin(a1), 30 * u(rng) - 15);
     const int rot = (k % 2 ? 1 : -1) * (1 + k % 3);
     const ArcFrame f = vmsim::core::arc_frame(arc(ArcPlane::XY, s, e, {0, 0}, rot));
     // The reference: a polyline of 2 million chords (error ~ L (d phi)^2 / 24, below 1e-11 relative here).
@@ -159,7 +161,8 @@ TEST(ArcFrame, ChordsKeepTheirSag) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0, 1);
   for (int k = 0; k < 200; ++k) {
-    const double r = 0.5 + 80 * u(rng), a0 = 2 * kPi * u(rng), a1 = 2 * kPi * u(rng), sag = std::pow(10, -4 + 3 * u(rng));
+    const double r = 0.5 + 80 * u(rng), a0 = 2 * kPi * u(rng), a1 = 2 * kPi * u(rng),
+                 sag = std::pow(10, -4 + 3 * u(rng));
     const Vec6 s = v6(r * std::cos(a0), r * std::sin(a0), 0), e = v6(r * std::cos(a1), r * std::sin(a1), 0);
     const ArcFrame f = vmsim::core::arc_frame(arc(ArcPlane::XY, s, e, {0, 0}, k % 2 ? 2 : -1));
     const int n = f.chords(sag);
@@ -197,5 +200,6 @@ TEST(ArcFrame, ErrorsNameTheProgramLine) {
   EXPECT_EQ(message(arc(ArcPlane::XY, p, v6(0, 0, 0), {0, 0}, 1)), "part.ngc:12: arc with zero radius or no direction");
   EXPECT_EQ(message(arc(ArcPlane::XY, v6(10, 0, 5), v6(10, 0, 0), {10, 0}, 1)),
             "part.ngc:12: arc with zero radius or no direction");
-  EXPECT_EQ(message(arc(ArcPlane::XY, p, v6(0, 10, 0), {0, 0}, 0)), "part.ngc:12: arc with zero radius or no direction");
+  EXPECT_EQ(message(arc(ArcPlane::XY, p, v6(0, 10, 0), {0, 0}, 0)),
+            "part.ngc:12: arc with zero radius or no direction");
 }

@@ -35,8 +35,9 @@ std::string error_of(const std::string& text, CsvReader::Header h = CsvReader::H
 }  // namespace
 
 TEST(Csv, CommentsBlankLinesAndHeaderMap) {
-  std::istringstream in("\xEF\xBB\xBF# vmsim thing 1: a title\r\n# period_s = 0.001\r\n\r\n t_s , X_mm,Y_mm\r\n"
-                        "0,1.5,-2\r\n# a comment between rows\n   \n0.001, +3 ,4e-3\n");
+  std::istringstream in(
+      "\xEF\xBB\xBF# vmsim thing 1: a title\r\n# period_s = 0.001\r\n\r\n t_s , X_mm,Y_mm\r\n"
+      "0,1.5,-2\r\n# a comment between rows\n   \n0.001, +3 ,4e-3\n");
   CsvReader r(in, "t.csv");
   ASSERT_TRUE(r.has_header());
   EXPECT_EQ(r.header_line(), 4);

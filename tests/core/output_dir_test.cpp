@@ -74,7 +74,7 @@ TEST(OutputDir, CommitCreatesTheTargetAndLeavesNoStaging) {
     EXPECT_EQ(o.target(), out);
     EXPECT_NE(o.path(), out);
     EXPECT_EQ(o.path().parent_path(), s.dir);  // beside the target: the rename stays on one file system
-    EXPECT_FALSE(fs::exists(out));            // nothing there until the commit
+    EXPECT_FALSE(fs::exists(out));             // nothing there until the commit
     vmsim::core::write_file_atomic(o.path() / "a.txt", "new");
     o.commit();
   }
@@ -201,12 +201,12 @@ TEST(Utf8, ValidAndInvalidSequences) {
   EXPECT_TRUE(is_valid_utf8("plain/ascii path"));
   EXPECT_TRUE(is_valid_utf8("\xc3\xa9tude/\xe2\x82\xac/\xf0\x9f\x98\x80"));  // é, €, an emoji
   EXPECT_FALSE(is_valid_utf8("\xff"));
-  EXPECT_FALSE(is_valid_utf8("caf\xe9"));             // Latin-1 é
-  EXPECT_FALSE(is_valid_utf8("\xc3"));                // truncated
-  EXPECT_FALSE(is_valid_utf8("\xe2\x82"));            // truncated
-  EXPECT_FALSE(is_valid_utf8("\xc0\xaf"));            // overlong '/'
-  EXPECT_FALSE(is_valid_utf8("\xed\xa0\x80"));        // a surrogate
-  EXPECT_FALSE(is_valid_utf8("\xf4\x90\x80\x80"));    // beyond U+10FFFF
+  EXPECT_FALSE(is_valid_utf8("caf\xe9"));           // Latin-1 é
+  EXPECT_FALSE(is_valid_utf8("\xc3"));              // truncated
+  EXPECT_FALSE(is_valid_utf8("\xe2\x82"));          // truncated
+  EXPECT_FALSE(is_valid_utf8("\xc0\xaf"));          // overlong '/'
+  EXPECT_FALSE(is_valid_utf8("\xed\xa0\x80"));      // a surrogate
+  EXPECT_FALSE(is_valid_utf8("\xf4\x90\x80\x80"));  // beyond U+10FFFF
 }
 
 // A symlink planted where the temporary file would go (the names the earlier, predictable scheme used: target +

@@ -234,7 +234,8 @@ TEST(Stl, BrokenAndHostileFilesGiveErrorsNamingTheFile) {
     EXPECT_NE(e.find("triangle #1"), std::string::npos) << e;
   }
 
-  const std::string facet = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n";
+  const std::string facet =
+      "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n";
   e = err("solid t\n" + facet);  // truncated: no endsolid
   EXPECT_EQ(e.rfind(name + "9:", 0), 0u) << e;
   e = err("solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nvertex 1 1 0\n");

@@ -74,7 +74,8 @@ TEST(CascadeAxis, RampFollowingErrorIsVOverKvWithIdealInnerLoops) {
 
 // Reference: the same steady error with the Mikron's real inner loops and its Coulomb friction: the velocity PI's
 // integrator supplies the friction current, so at constant speed the velocity error, and hence the position error
-// beyond v ((1 - KF)/Kv + d Te), is zero (the feed-drive simulation paper section 3.1: at constant speed the current is the friction's).
+// beyond v ((1 - KF)/Kv + d Te), is zero (the feed-drive simulation paper section 3.1: at constant speed the current is
+// the friction's).
 TEST(CascadeAxis, RampFollowingErrorWithTheMikronCascadeAndFriction) {
   const core::Machine m = mikron();
   const core::DriveParams p = axis_drive(m, "X");
@@ -127,8 +128,9 @@ TEST(CascadeAxis, CurrentNeverExceedsItsLimit) {
         EXPECT_LE(peak, p.current_limit_A) << what;
       } else {
         const double kt = p.torque_constant_Nm_per_A, w_max = top_speed / p.axis_per_motor_rad;
-        const double alpha = (kt * p.current_limit_A + p.coulomb_Nm + p.viscous_Nm_s_per_rad * w_max +
-                              std::abs(p.gravity_Nm)) / p.inertia_kg_m2;
+        const double alpha =
+            (kt * p.current_limit_A + p.coulomb_Nm + p.viscous_Nm_s_per_rad * w_max + std::abs(p.gravity_Nm)) /
+            p.inertia_kg_m2;
         const double lag = kt * alpha * p.current_tn_s / p.current_kp_V_per_A;
         EXPECT_LE(peak, p.current_limit_A + lag) << what;
         RecordProperty(std::string(name) + "_step_current_excess_A", std::to_string(peak - p.current_limit_A));
@@ -139,10 +141,10 @@ TEST(CascadeAxis, CurrentNeverExceedsItsLimit) {
   }
 }
 
-// Reference: the feed-drive simulation paper section 3.1 (eq. 1 at zero acceleration): at constant speed the motor torque equals the
-// resistant torque, Kt i = friction(w) + gravity, which is how the seed identifies the friction law from currents.
-// Checked on the Mikron X with a Stribeck term added (breakaway 3 N m, Stribeck speed 2 rad/s) and on Z (gravity):
-// the steady current at several feeds equals (Tc + (Ts - Tc) exp(-(w/ws)^2) + B w + G) / Kt within 0.1 %.
+// Reference: the feed-drive simulation paper section 3.1 (eq. 1 at zero acceleration): at constant speed the motor
+// torque equals the resistant torque, Kt i = friction(w) + gravity, which is how the seed identifies the friction law
+// from currents. Checked on the Mikron X with a Stribeck term added (breakaway 3 N m, Stribeck speed 2 rad/s) and on Z
+// (gravity): the steady current at several feeds equals (Tc + (Ts - Tc) exp(-(w/ws)^2) + B w + G) / Kt within 0.1 %.
 TEST(CascadeAxis, SteadyCurrentIsTheFrictionLaw) {
   const core::Machine m = mikron();
   for (const char* name : {"X", "Z"}) {
@@ -208,14 +210,14 @@ TEST(CascadeAxis, AxisAtRestWithGravityStaysAtRest) {
   }
 }
 
-// Reference: the mechanics of the feed-drive simulation paper eq. 1 (section 2.2) for a tilting rotary axis, J w' = Kt i - friction(w) -
-// G sin(A - A0), with the machine file's degrees converted once at load (gear 4 deg per motor turn, travel, limits).
-// The Mikron A sweeps at a constant 20 deg/s from -90 to +90 deg. At constant speed (w' = 0) the current at every
-// angle is (Tc + B w + G sin(A - A0)) / Kt: the gravity torque's shape over the angle, read from currents as the
-// seed reads friction (within the O(Tc) hold of the load torques, 1e-5 A here). The PI velocity loop rejects the
-// changing gravity torque: its ramp of G cos(A) A' (0.38 N m/s at most) leaves a motor-speed error of that rate over
-// Kt Kp / Tn (the steady error of a PI loop to a ramp disturbance), 9e-4 of 31 rad/s = 3e-5 of the speed, so the
-// following error is the gravity-free v ((1 - KF)/Kv + d Te) at every angle to within 1e-4.
+// Reference: the mechanics of the feed-drive simulation paper eq. 1 (section 2.2) for a tilting rotary axis, J w' = Kt
+// i - friction(w) - G sin(A - A0), with the machine file's degrees converted once at load (gear 4 deg per motor turn,
+// travel, limits). The Mikron A sweeps at a constant 20 deg/s from -90 to +90 deg. At constant speed (w' = 0) the
+// current at every angle is (Tc + B w + G sin(A - A0)) / Kt: the gravity torque's shape over the angle, read from
+// currents as the seed reads friction (within the O(Tc) hold of the load torques, 1e-5 A here). The PI velocity loop
+// rejects the changing gravity torque: its ramp of G cos(A) A' (0.38 N m/s at most) leaves a motor-speed error of that
+// rate over Kt Kp / Tn (the steady error of a PI loop to a ramp disturbance), 9e-4 of 31 rad/s = 3e-5 of the speed, so
+// the following error is the gravity-free v ((1 - KF)/Kv + d Te) at every angle to within 1e-4.
 TEST(CascadeAxis, TiltingAxisSweepCurrentFollowsTheGravityLaw) {
   const core::Machine m = mikron();
   const core::DriveParams p = axis_drive(m, "A");

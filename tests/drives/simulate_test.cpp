@@ -94,7 +94,8 @@ TEST(SimulateAxes, GainScheduleEqualToTheDrivesOwnChangesNothing) {
   const AxisResponse slow = simulate_axes(sp, m, o);
   const double dx = (slow.position.col(0) - plain.position.col(0)).cwiseAbs().maxCoeff();
   EXPECT_GT(dx, 1e-3) << "halving X's Kv must change X's response";
-  for (Eigen::Index a = 1; a < na; ++a) EXPECT_TRUE((slow.position.col(a).array() == plain.position.col(a).array()).all());
+  for (Eigen::Index a = 1; a < na; ++a)
+    EXPECT_TRUE((slow.position.col(a).array() == plain.position.col(a).array()).all());
   // Half the gain, about twice the following error at the pass's steady feed.
   const double e_plain = (sp.position.col(0) - plain.position.col(0).head(n)).cwiseAbs().maxCoeff();
   const double e_slow = (sp.position.col(0) - slow.position.col(0).head(n)).cwiseAbs().maxCoeff();

@@ -56,7 +56,9 @@ void set_current(const std::string& what) {
   g_started_ns = Clock::now().time_since_epoch().count();
 }
 
-void on_sanitizer_death() { std::fprintf(stderr, "\nhostile: the sanitizer stopped the process while reading %s\n", g_current); }
+void on_sanitizer_death() {
+  std::fprintf(stderr, "\nhostile: the sanitizer stopped the process while reading %s\n", g_current);
+}
 
 void start_watchdog() {
   static std::once_flag once;
@@ -67,7 +69,8 @@ void start_watchdog() {
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
         const std::int64_t started = g_started_ns.load();
         if (started == 0) continue;
-        const double s = std::chrono::duration<double>(Clock::duration(Clock::now().time_since_epoch().count() - started)).count();
+        const double s =
+            std::chrono::duration<double>(Clock::duration(Clock::now().time_since_epoch().count() - started)).count();
         if (s > kWatchdogS) {
           std::fprintf(stderr, "\nhostile: HANG: still reading %s after %.0f s\n", g_current, s);
           std::fflush(stderr);
@@ -114,11 +117,31 @@ std::string read_file(const fs::path& p) {
 
 // ---- mutation ----
 
-const char* const kNumbers[] = {"1e400", "-1e400", "NaN", "nan", "inf", "-1", "0", "-0", "1e-320", "4294967295", "4294967296",
-                                "268435457", "65535", "65536", "2147483648", "-2147483649", "99999999999999999999",
-                                "18446744073709551616", "0x10", "1e", ".", ""};
-const char* const kGarbage[] = {"\xff\xfe", "\x00\x00", "<", ">", "</", "<!--", "]]>", "&", "&amp;", "&#0;", "&#xFFFFFFFF;",
-                                ";", ";;;", ",", ",,,", "*", "**", "=", "#", "# x0_mm=", "\r", "\n\n", "\t", "NaN", "1e400"};
+const char* const kNumbers[] = {"1e400",
+                                "-1e400",
+                                "NaN",
+                                "nan",
+                                "inf",
+                                "-1",
+                                "0",
+                                "-0",
+                                "1e-320",
+                                "4294967295",
+                                "4294967296",
+                                "268435457",
+                                "65535",
+                                "65536",
+                                "2147483648",
+                                "-2147483649",
+                                "99999999999999999999",
+                                "18446744073709551616",
+                                "0x10",
+                                "1e",
+                                ".",
+                                ""};
+const char* const kGarbage[] = {"\xff\xfe", "\x00\x00",     "<",  ">",    "</", "<!--", "]]>",  "&",  "&amp;",
+                                "&#0;",     "&#xFFFFFFFF;", ";",  ";;;",  ",",  ",,,",  "*",    "**", "=",
+                                "#",        "# x0_mm=",     "\r", "\n\n", "\t", "NaN",  "1e400"};
 
 // Byte-level mutants (any format), then text-level ones (for text formats: lines and numbers).
 std::vector<Mutant> mutate(const std::string& base, std::size_t count, const std::string& seed_name, bool text) {
@@ -170,7 +193,8 @@ std::vector<Mutant> mutate(const std::string& base, std::size_t count, const std
       }
       case 4: {  // a 4-byte little-endian field overwritten with an extreme value
         if (t.size() < 4) continue;
-        static const std::uint32_t kExtreme[] = {0, 1, 0xffffffffu, 0x7fffffffu, 0x80000000u, 0x10000000u, 0xffffu, 0x10000u};
+        static const std::uint32_t kExtreme[] = {0,           1,           0xffffffffu, 0x7fffffffu,
+                                                 0x80000000u, 0x10000000u, 0xffffu,     0x10000u};
         const std::uint32_t v = kExtreme[rng.below(std::size(kExtreme))];
         const std::size_t p = rng.below(t.size() - 3);
         std::memcpy(&t[p], &v, 4);
@@ -182,7 +206,9 @@ std::vector<Mutant> mutate(const std::string& base, std::size_t count, const std
         if (p == std::string::npos) p = t.find_first_of("0123456789");
         if (p == std::string::npos) continue;
         std::size_t e = p;
-        while (e < t.size() && (std::isdigit(static_cast<unsigned char>(t[e])) || t[e] == '.' || t[e] == 'E' || t[e] == 'e' || t[e] == '-')) ++e;
+        while (e < t.size() && (std::isdigit(static_cast<unsigned char>(t[e])) || t[e] == '.' || t[e] == 'E' ||
+                                t[e] == 'e' || t[e] == '-'))
+          ++e;
         const char* n = kNumbers[rng.below(std::size(kNumbers))];
         t.replace(p, e - p, n);
         what = "number at byte " + std::to_string(p) + " replaced by \"" + n + "\"";
@@ -237,9 +263,9 @@ std::vector<Mutant> mutate(const std::string& base, std::size_t count, const std
 
 struct Entry {
   std::string name, data;
-  std::int64_t declared_size = -1;   // header's uncompressed (and compressed) size; -1: the true size
+  std::int64_t declared_size = -1;  // header's uncompressed (and compressed) size; -1: the true size
   bool bad_crc = false;
-  std::uint16_t flags = 0;           // general purpose flags (1: encrypted)
+  std::uint16_t flags = 0;  // general purpose flags (1: encrypted)
 };
 
 void put16(std::string& s, std::uint16_t v) { s += static_cast<char>(v & 0xff), s += static_cast<char>(v >> 8); }
@@ -250,11 +276,15 @@ void put32(std::string& s, std::uint32_t v) {
 std::string zip_of(const std::vector<Entry>& entries) {
   std::string out, central;
   for (const Entry& e : entries) {
-    const std::uint32_t crc = static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(e.data.data()), static_cast<uInt>(e.data.size()))) ^ (e.bad_crc ? 0x5a5a5a5au : 0u);
-    const std::uint32_t size = e.declared_size >= 0 ? static_cast<std::uint32_t>(e.declared_size) : static_cast<std::uint32_t>(e.data.size());
+    const std::uint32_t crc = static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(e.data.data()),
+                                                               static_cast<uInt>(e.data.size()))) ^
+                              (e.bad_crc ? 0x5a5a5a5au : 0u);
+    const std::uint32_t size =
+        e.declared_size >= 0 ? static_cast<std::uint32_t>(e.declared_size) : static_cast<std::uint32_t>(e.data.size());
     const std::uint32_t offset = static_cast<std::uint32_t>(out.size());
     put32(out, 0x04034b50), put16(out, 20), put16(out, e.flags), put16(out, 0), put16(out, 0), put16(out, 0x21);
-    put32(out, crc), put32(out, size), put32(out, size), put16(out, static_cast<std::uint16_t>(e.name.size())), put16(out, 0);
+    put32(out, crc), put32(out, size), put32(out, size), put16(out, static_cast<std::uint16_t>(e.name.size())),
+        put16(out, 0);
     out += e.name;
     out += e.data;
     put32(central, 0x02014b50), put16(central, 20), put16(central, 20), put16(central, e.flags), put16(central, 0);
@@ -266,7 +296,8 @@ std::string zip_of(const std::vector<Entry>& entries) {
   const std::uint32_t cd = static_cast<std::uint32_t>(out.size());
   out += central;
   put32(out, 0x06054b50), put16(out, 0), put16(out, 0), put16(out, static_cast<std::uint16_t>(entries.size()));
-  put16(out, static_cast<std::uint16_t>(entries.size())), put32(out, static_cast<std::uint32_t>(central.size())), put32(out, cd);
+  put16(out, static_cast<std::uint16_t>(entries.size())), put32(out, static_cast<std::uint32_t>(central.size())),
+      put32(out, cd);
   put16(out, 0);
   return out;
 }
@@ -276,17 +307,21 @@ std::string md5_line(const std::string& xml) { return core::md5_hex(xml) + " *ma
 
 // A main.xml of a SUR matrix with the pieces a crafted case replaces.
 struct XmlParts {
-  std::string feature = "SUR", cx = "<AxisType>I</AxisType><DataType>D</DataType><Increment>1E-05</Increment><Offset>0</Offset>";
+  std::string feature = "SUR",
+              cx = "<AxisType>I</AxisType><DataType>D</DataType><Increment>1E-05</Increment><Offset>0</Offset>";
   std::string cy = "<AxisType>I</AxisType><DataType>D</DataType><Increment>1E-05</Increment><Offset>0</Offset>";
   std::string cz = "<AxisType>A</AxisType><DataType>D</DataType><Increment>1</Increment><Offset>0</Offset>";
   std::string dims = "<MatrixDimension><SizeX>4</SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ></MatrixDimension>";
-  std::string data = "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData></DataLink>";
+  std::string data =
+      "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData></"
+      "DataLink>";
   std::string extra;  // after Record4
 };
 std::string xml_of(const XmlParts& p) {
   return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<p:ISO5436_2 xmlns:p=\"http://www.opengps.eu/2008/ISO5436_2\">"
-         "<Record1><Revision>ISO5436 - 2000</Revision><FeatureType>" + p.feature + "</FeatureType><Axes><CX>" + p.cx +
-         "</CX><CY>" + p.cy + "</CY><CZ>" + p.cz + "</CZ></Axes></Record1><Record3>" + p.dims + p.data +
+         "<Record1><Revision>ISO5436 - 2000</Revision><FeatureType>" +
+         p.feature + "</FeatureType><Axes><CX>" + p.cx + "</CX><CY>" + p.cy + "</CY><CZ>" + p.cz +
+         "</CZ></Axes></Record1><Record3>" + p.dims + p.data +
          "</Record3><Record4><ChecksumFile>md5checksum.hex</ChecksumFile></Record4>" + p.extra + "</p:ISO5436_2>\n";
 }
 
@@ -329,7 +364,8 @@ Outcome run(const std::string& sample, const std::vector<Mutant>& mutants, const
       if (m.what == "unmutated") o.base_error = msg;
       if (msg.rfind(prefix, 0) != 0) keep(m, "core::Error does not start with the file name: " + msg.substr(0, 300));
     } catch (const std::exception& e) {
-      keep(m, std::string("exception other than core::Error (") + typeid(e).name() + "): " + std::string(e.what()).substr(0, 300));
+      keep(m, std::string("exception other than core::Error (") + typeid(e).name() +
+                  "): " + std::string(e.what()).substr(0, 300));
     } catch (...) {
       keep(m, "unknown exception type");
     }
@@ -339,8 +375,8 @@ Outcome run(const std::string& sample, const std::vector<Mutant>& mutants, const
     if (s > o.slowest_s) o.slowest_s = s, o.slowest = m.what;
     if (s > kInputLimitS) keep(m, "took " + std::to_string(s) + " s");
   }
-  std::printf("[ hostile  ] %s: %zu inputs, %zu read, %zu clean errors; slowest %.3f s (%s)\n", sample.c_str(), o.inputs,
-              o.ok, o.errors, o.slowest_s, o.slowest.c_str());
+  std::printf("[ hostile  ] %s: %zu inputs, %zu read, %zu clean errors; slowest %.3f s (%s)\n", sample.c_str(),
+              o.inputs, o.ok, o.errors, o.slowest_s, o.slowest.c_str());
   return o;
 }
 
@@ -355,7 +391,8 @@ core::HeightGrid small_grid() {
   g.x0_mm = -1.5, g.y0_mm = 2.25, g.dx_mm = 0.01, g.dy_mm = 0.02;
   g.z_mm.resize(6, 9);
   for (Eigen::Index j = 0; j < 6; ++j)
-    for (Eigen::Index i = 0; i < 9; ++i) g.z_mm(j, i) = 0.001 * static_cast<double>(i * i) - 0.0007 * static_cast<double>(j) + 1.0 / 3.0;
+    for (Eigen::Index i = 0; i < 9; ++i)
+      g.z_mm(j, i) = 0.001 * static_cast<double>(i * i) - 0.0007 * static_cast<double>(j) + 1.0 / 3.0;
   g.z_mm(2, 3) = NAN;
   return g;
 }
@@ -386,8 +423,8 @@ TEST(HostileMetrology, X3pSharedSamplesByteMutants) {
   std::sort(files.begin(), files.end());
   for (const fs::path& f : files) {
     const fs::path input = work_dir("x3p-shared") / f.filename();
-    const Outcome o = run("X3P " + f.filename().string(), mutate(read_file(f), 250, f.filename().string(), false), input,
-                          [](const fs::path& p) { (void)read_x3p(p); });
+    const Outcome o = run("X3P " + f.filename().string(), mutate(read_file(f), 250, f.filename().string(), false),
+                          input, [](const fs::path& p) { (void)read_x3p(p); });
     EXPECT_EQ(o.base_error, "") << f;
   }
 }
@@ -397,16 +434,22 @@ TEST(HostileMetrology, X3pMainXmlMutantsInValidZips) {
   // parser, not the checksum, meets them) and once more with the original checksum.
   XmlParts parts;
   const std::string data = doubles(12), valid = std::string("\xff\x0e", 2);
-  parts.data = "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData>"
-               "<ValidPointsLink>bindata/valid.bin</ValidPointsLink><MD5ChecksumValidPoints></MD5ChecksumValidPoints></DataLink>";
+  parts.data =
+      "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData>"
+      "<ValidPointsLink>bindata/valid.bin</ValidPointsLink><MD5ChecksumValidPoints></MD5ChecksumValidPoints></"
+      "DataLink>";
   const std::string xml = xml_of(parts);
   std::vector<Mutant> mutants;
   for (const Mutant& m : mutate(xml, 600, "main.xml", true)) {
-    mutants.push_back({m.what + ", checksum matching", zip_of({{"main.xml", m.bytes}, {"bindata/data.bin", data},
-                                                               {"bindata/valid.bin", valid}, {"md5checksum.hex", md5_line(m.bytes)}})});
+    mutants.push_back({m.what + ", checksum matching", zip_of({{"main.xml", m.bytes},
+                                                               {"bindata/data.bin", data},
+                                                               {"bindata/valid.bin", valid},
+                                                               {"md5checksum.hex", md5_line(m.bytes)}})});
     if (mutants.size() % 3 == 0)
-      mutants.push_back({m.what + ", checksum stale", zip_of({{"main.xml", m.bytes}, {"bindata/data.bin", data},
-                                                              {"bindata/valid.bin", valid}, {"md5checksum.hex", md5_line(xml)}})});
+      mutants.push_back({m.what + ", checksum stale", zip_of({{"main.xml", m.bytes},
+                                                              {"bindata/data.bin", data},
+                                                              {"bindata/valid.bin", valid},
+                                                              {"md5checksum.hex", md5_line(xml)}})});
   }
   const fs::path input = work_dir("x3p-xml") / "scan.x3p";
   const Outcome o = run("X3P main.xml mutants", mutants, input, read_x3p_any);
@@ -423,15 +466,16 @@ TEST(HostileMetrology, X3pCraftedArchives) {
   };
   XmlParts p;
   add("well formed (control)", p, {});
-  for (const char* dims : {"<SizeX>4294967295</SizeX><SizeY>4294967295</SizeY><SizeZ>1</SizeZ>",
-                           "<SizeX>268435457</SizeX><SizeY>1</SizeY><SizeZ>1</SizeZ>",
-                           "<SizeX>16384</SizeX><SizeY>16384</SizeY><SizeZ>1</SizeZ>",
-                           "<SizeX>100000</SizeX><SizeY>100000</SizeY><SizeZ>1</SizeZ>",
-                           "<SizeX>999999999999999999</SizeX><SizeY>1</SizeY><SizeZ>1</SizeZ>",
-                           "<SizeX>18446744073709551616</SizeX><SizeY>1</SizeY><SizeZ>1</SizeZ>",
-                           "<SizeX>0</SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>", "<SizeX>-4</SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>",
-                           "<SizeX>4</SizeX><SizeY>3</SizeY><SizeZ>7</SizeZ>", "<SizeX>4</SizeX><SizeY>3</SizeY>",
-                           "<SizeX>4.5</SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>", "<SizeX> 4 </SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>"}) {
+  for (const char* dims :
+       {"<SizeX>4294967295</SizeX><SizeY>4294967295</SizeY><SizeZ>1</SizeZ>",
+        "<SizeX>268435457</SizeX><SizeY>1</SizeY><SizeZ>1</SizeZ>",
+        "<SizeX>16384</SizeX><SizeY>16384</SizeY><SizeZ>1</SizeZ>",
+        "<SizeX>100000</SizeX><SizeY>100000</SizeY><SizeZ>1</SizeZ>",
+        "<SizeX>999999999999999999</SizeX><SizeY>1</SizeY><SizeZ>1</SizeZ>",
+        "<SizeX>18446744073709551616</SizeX><SizeY>1</SizeY><SizeZ>1</SizeZ>",
+        "<SizeX>0</SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>", "<SizeX>-4</SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>",
+        "<SizeX>4</SizeX><SizeY>3</SizeY><SizeZ>7</SizeZ>", "<SizeX>4</SizeX><SizeY>3</SizeY>",
+        "<SizeX>4.5</SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>", "<SizeX> 4 </SizeX><SizeY>3</SizeY><SizeZ>1</SizeZ>"}) {
     XmlParts q = p;
     q.dims = std::string("<MatrixDimension>") + dims + "</MatrixDimension>";
     add(std::string("dimensions ") + dims, q, {});
@@ -440,13 +484,16 @@ TEST(HostileMetrology, X3pCraftedArchives) {
   {
     XmlParts q = p;
     q.dims = "<MatrixDimension><SizeX>16384</SizeX><SizeY>16384</SizeY><SizeZ>1</SizeZ></MatrixDimension>";
-    std::vector<Entry> e = {{"main.xml", xml_of(q)}, {"bindata/data.bin", doubles(12), 16384LL * 16384 * 8}, {"md5checksum.hex", md5_line(xml_of(q))}};
+    std::vector<Entry> e = {{"main.xml", xml_of(q)},
+                            {"bindata/data.bin", doubles(12), 16384LL * 16384 * 8},
+                            {"md5checksum.hex", md5_line(xml_of(q))}};
     m.push_back({"data.bin declares 2 GiB, holds 96 bytes", zip_of(e)});
     e[1].declared_size = 0xffffffffLL;
     m.push_back({"data.bin declares 4 GiB, holds 96 bytes", zip_of(e)});
   }
   {
-    std::vector<Entry> e = {{"main.xml", xml_of(p)}, {"bindata/data.bin", doubles(12)}, {"md5checksum.hex", md5_line(xml_of(p))}};
+    std::vector<Entry> e = {
+        {"main.xml", xml_of(p)}, {"bindata/data.bin", doubles(12)}, {"md5checksum.hex", md5_line(xml_of(p))}};
     e[1].bad_crc = true;
     m.push_back({"data.bin with a wrong CRC", zip_of(e)});
     e[1].bad_crc = false;
@@ -462,7 +509,8 @@ TEST(HostileMetrology, X3pCraftedArchives) {
   }
   add("data.bin too short", p, {}, false);
   {
-    std::vector<Entry> e = {{"main.xml", xml_of(p)}, {"bindata/data.bin", doubles(11)}, {"md5checksum.hex", md5_line(xml_of(p))}};
+    std::vector<Entry> e = {
+        {"main.xml", xml_of(p)}, {"bindata/data.bin", doubles(11)}, {"md5checksum.hex", md5_line(xml_of(p))}};
     m.push_back({"data.bin one point short", zip_of(e)});
     e[1].data = doubles(13);
     m.push_back({"data.bin one point long", zip_of(e)});
@@ -475,35 +523,42 @@ TEST(HostileMetrology, X3pCraftedArchives) {
     e[2].data = std::string(5000, 'z');
     m.push_back({"md5checksum.hex 5000 bytes of garbage", zip_of(e)});
   }
-  for (const char* link : {"../../etc/passwd", "/bindata/data.bin", "bindata/", "", "bindata/data.bin\x01", "md5checksum.hex", "main.xml"}) {
+  for (const char* link : {"../../etc/passwd", "/bindata/data.bin", "bindata/", "", "bindata/data.bin\x01",
+                           "md5checksum.hex", "main.xml"}) {
     XmlParts q = p;
-    q.data = std::string("<DataLink><PointDataLink>") + link + "</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData></DataLink>";
+    q.data = std::string("<DataLink><PointDataLink>") + link +
+             "</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData></DataLink>";
     add(std::string("PointDataLink \"") + link + "\"", q, {});
   }
   {
     XmlParts q = p;
-    q.data = "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData>00</MD5ChecksumPointData>"
-             "<ValidPointsLink>bindata/valid.bin</ValidPointsLink><MD5ChecksumValidPoints></MD5ChecksumValidPoints></DataLink>";
+    q.data =
+        "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData>00</MD5ChecksumPointData>"
+        "<ValidPointsLink>bindata/valid.bin</ValidPointsLink><MD5ChecksumValidPoints></MD5ChecksumValidPoints></"
+        "DataLink>";
     add("data.bin MD5 wrong", q, {{"bindata/valid.bin", std::string(2, '\xff')}});
-    q.data = "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData>"
-             "<ValidPointsLink>bindata/valid.bin</ValidPointsLink><MD5ChecksumValidPoints></MD5ChecksumValidPoints></DataLink>";
+    q.data =
+        "<DataLink><PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData></MD5ChecksumPointData>"
+        "<ValidPointsLink>bindata/valid.bin</ValidPointsLink><MD5ChecksumValidPoints></MD5ChecksumValidPoints></"
+        "DataLink>";
     add("valid.bin missing", q, {});
     add("valid.bin too long", q, {{"bindata/valid.bin", std::string(1000, '\xff')}});
     add("valid.bin empty", q, {{"bindata/valid.bin", ""}});
     add("valid.bin all invalid", q, {{"bindata/valid.bin", std::string(2, '\0')}});
   }
-  for (const char* axis : {"<AxisType>I</AxisType><DataType>D</DataType><Increment>0</Increment><Offset>0</Offset>",
-                           "<AxisType>I</AxisType><DataType>D</DataType><Increment>-1E-05</Increment><Offset>0</Offset>",
-                           "<AxisType>I</AxisType><DataType>D</DataType><Increment>1e400</Increment><Offset>0</Offset>",
-                           "<AxisType>I</AxisType><DataType>D</DataType><Increment>1e-400</Increment><Offset>0</Offset>",
-                           "<AxisType>I</AxisType><DataType>D</DataType><Increment>NaN</Increment><Offset>0</Offset>",
-                           "<AxisType>I</AxisType><DataType>D</DataType><Increment>1E-05</Increment><Offset>1e400</Offset>",
-                           "<AxisType>I</AxisType><DataType>D</DataType><Increment>1E-05</Increment><Offset>1e300</Offset>",
-                           "<AxisType>I</AxisType><DataType>D</DataType><Increment></Increment>",
-                           "<AxisType>Q</AxisType><DataType>D</DataType><Increment>1</Increment>",
-                           "<AxisType>A</AxisType><DataType>Z</DataType><Increment>1</Increment>",
-                           "<AxisType>A</AxisType><DataType>I</DataType><Increment>1e-3</Increment>",
-                           "<AxisType>A</AxisType><DataType>L</DataType><Increment>1</Increment><Offset>-5</Offset>", ""}) {
+  for (const char* axis :
+       {"<AxisType>I</AxisType><DataType>D</DataType><Increment>0</Increment><Offset>0</Offset>",
+        "<AxisType>I</AxisType><DataType>D</DataType><Increment>-1E-05</Increment><Offset>0</Offset>",
+        "<AxisType>I</AxisType><DataType>D</DataType><Increment>1e400</Increment><Offset>0</Offset>",
+        "<AxisType>I</AxisType><DataType>D</DataType><Increment>1e-400</Increment><Offset>0</Offset>",
+        "<AxisType>I</AxisType><DataType>D</DataType><Increment>NaN</Increment><Offset>0</Offset>",
+        "<AxisType>I</AxisType><DataType>D</DataType><Increment>1E-05</Increment><Offset>1e400</Offset>",
+        "<AxisType>I</AxisType><DataType>D</DataType><Increment>1E-05</Increment><Offset>1e300</Offset>",
+        "<AxisType>I</AxisType><DataType>D</DataType><Increment></Increment>",
+        "<AxisType>Q</AxisType><DataType>D</DataType><Increment>1</Increment>",
+        "<AxisType>A</AxisType><DataType>Z</DataType><Increment>1</Increment>",
+        "<AxisType>A</AxisType><DataType>I</DataType><Increment>1e-3</Increment>",
+        "<AxisType>A</AxisType><DataType>L</DataType><Increment>1</Increment><Offset>-5</Offset>", ""}) {
     XmlParts q = p;
     q.cx = axis;
     add(std::string("CX ") + axis, q, {});
@@ -522,7 +577,8 @@ TEST(HostileMetrology, X3pCraftedArchives) {
       const double z = 1e-6 * k;
       d.append(reinterpret_cast<const char*>(&z), 8);
     }
-    m.push_back({"absolute CX, irregular", zip_of({{"main.xml", xml_of(q)}, {"bindata/data.bin", d}, {"md5checksum.hex", md5_line(xml_of(q))}})});
+    m.push_back({"absolute CX, irregular",
+                 zip_of({{"main.xml", xml_of(q)}, {"bindata/data.bin", d}, {"md5checksum.hex", md5_line(xml_of(q))}})});
   }
   // Data in the XML: counts that disagree, values that are not numbers, a list of a billion billion points.
   const std::string datum12 = [] {
@@ -530,12 +586,13 @@ TEST(HostileMetrology, X3pCraftedArchives) {
     for (int k = 0; k < 12; ++k) s += "<Datum>1e-6</Datum>";
     return s;
   }();
-  for (const std::string& list : {std::string("<DataList>") + datum12 + "<Datum>1</Datum></DataList>",
-                                  std::string("<DataList><Datum>1</Datum></DataList>"), std::string("<DataList></DataList>"),
-                                  std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum>abc</Datum></DataList>",
-                                  std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum>1;2;3;4;5</Datum></DataList>",
-                                  std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum><x/></Datum></DataList>",
-                                  std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum>;</Datum></DataList>"}) {
+  for (const std::string& list :
+       {std::string("<DataList>") + datum12 + "<Datum>1</Datum></DataList>",
+        std::string("<DataList><Datum>1</Datum></DataList>"), std::string("<DataList></DataList>"),
+        std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum>abc</Datum></DataList>",
+        std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum>1;2;3;4;5</Datum></DataList>",
+        std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum><x/></Datum></DataList>",
+        std::string("<DataList>") + datum12.substr(0, datum12.size() - 19) + "<Datum>;</Datum></DataList>"}) {
     XmlParts q = p;
     q.data = list;
     add("DataList " + list.substr(0, 60), q, {}, false);
@@ -550,20 +607,22 @@ TEST(HostileMetrology, X3pCraftedArchives) {
     add(std::string("PCL ") + dims + " (points far apart)", q, {}, false);
   }
   // XML that is not a document, nested 100000 deep, or an entity bomb (pugixml does not expand DTD entities).
-  for (const std::string& xml : {std::string(), std::string("\xef\xbb\xbf"), std::string("<notx3p/>"), std::string(100000, '<'),
-                                 [] {
-                                   std::string s = "<p:ISO5436_2 xmlns:p=\"x\"><Record1>";
-                                   for (int k = 0; k < 100000; ++k) s += "<a>";
-                                   return s;
-                                 }(),
-                                 std::string("<!DOCTYPE l [<!ENTITY a \"aaaaaaaaaa\"><!ENTITY b \"&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;\">"
-                                             "<!ENTITY c \"&b;&b;&b;&b;&b;&b;&b;&b;&b;&b;\">]><p:ISO5436_2>&c;&c;&c;</p:ISO5436_2>")}) {
+  for (const std::string& xml :
+       {std::string(), std::string("\xef\xbb\xbf"), std::string("<notx3p/>"), std::string(100000, '<'),
+        [] {
+          std::string s = "<p:ISO5436_2 xmlns:p=\"x\"><Record1>";
+          for (int k = 0; k < 100000; ++k) s += "<a>";
+          return s;
+        }(),
+        std::string("<!DOCTYPE l [<!ENTITY a \"aaaaaaaaaa\"><!ENTITY b \"&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;\">"
+                    "<!ENTITY c \"&b;&b;&b;&b;&b;&b;&b;&b;&b;&b;\">]><p:ISO5436_2>&c;&c;&c;</p:ISO5436_2>")}) {
     m.push_back({"main.xml: " + std::to_string(xml.size()) + " bytes of non-X3P XML",
                  zip_of({{"main.xml", xml}, {"bindata/data.bin", doubles(12)}, {"md5checksum.hex", md5_line(xml)}})});
   }
   m.push_back({"no main.xml", zip_of({{"bindata/data.bin", doubles(12)}})});
   m.push_back({"empty zip", zip_of({})});
-  m.push_back({"two main.xml", zip_of({{"main.xml", xml_of(p)}, {"main.xml", "<x/>"}, {"bindata/data.bin", doubles(12)}})});
+  m.push_back(
+      {"two main.xml", zip_of({{"main.xml", xml_of(p)}, {"main.xml", "<x/>"}, {"bindata/data.bin", doubles(12)}})});
   const fs::path input = work_dir("x3p-crafted") / "scan.x3p";
   const Outcome o = run("X3P crafted archives", m, input, read_x3p_any);
   EXPECT_GE(o.ok, 1u) << "the control archive must read";
@@ -572,7 +631,8 @@ TEST(HostileMetrology, X3pCraftedArchives) {
 TEST(HostileMetrology, SdfAscii) {
   std::vector<std::pair<std::string, std::string>> bases = {
       {"vmsim", written(".sdf", [](const fs::path& p) { write_sdf(p, small_grid()); })}};
-  if (fs::exists(shared_surface() / "sdf-1.sdf")) bases.emplace_back("sdf-1", read_file(shared_surface() / "sdf-1.sdf"));
+  if (fs::exists(shared_surface() / "sdf-1.sdf"))
+    bases.emplace_back("sdf-1", read_file(shared_surface() / "sdf-1.sdf"));
   for (const auto& [name, base] : bases) {
     std::vector<Mutant> m = mutate(base, 600, "sdf-" + name, true);
     // Declared sizes far beyond the data.
@@ -593,7 +653,8 @@ TEST(HostileMetrology, SdfBinary) {
   const auto u16 = [](std::uint16_t v) { return std::string(reinterpret_cast<const char*>(&v), 2); };
   const auto f64 = [](double v) { return std::string(reinterpret_cast<const char*>(&v), 8); };
   const auto header = [&](std::uint16_t nx, std::uint16_t ny, double xs, double zs, char type) {
-    return h + u16(nx) + u16(ny) + f64(xs) + f64(xs) + f64(zs) + f64(1e-9) + std::string(1, '\0') + std::string(1, type) + std::string(1, '\0');
+    return h + u16(nx) + u16(ny) + f64(xs) + f64(xs) + f64(zs) + f64(1e-9) + std::string(1, '\0') +
+           std::string(1, type) + std::string(1, '\0');
   };
   const std::string base = header(4, 3, 1e-5, 1e-6, 7) + doubles(12, 1.5);
   std::vector<Mutant> m = mutate(base, 500, "sdf-binary", false);
@@ -609,8 +670,8 @@ TEST(HostileMetrology, SdfBinary) {
 TEST(HostileMetrology, VmsimCsv) {
   const std::string base = written(".csv", [](const fs::path& p) { write_height_csv(p, small_grid()); });
   std::vector<Mutant> m = mutate(base, 600, "csv", true);
-  m.push_back({"header nx=100000 ny=100000, 3 values",
-               "# x0_mm=0 y0_mm=0 dx_mm=1 dy_mm=1 nx=100000 ny=100000\n1,2,3\n"});
+  m.push_back(
+      {"header nx=100000 ny=100000, 3 values", "# x0_mm=0 y0_mm=0 dx_mm=1 dy_mm=1 nx=100000 ny=100000\n1,2,3\n"});
   m.push_back({"header nx=16384 ny=16384, no rows", "# x0_mm=0 y0_mm=0 dx_mm=1 dy_mm=1 nx=16384 ny=16384\n"});
   const Outcome o = run("vmsim CSV", m, work_dir("csv") / "grid.csv", read_any);
   EXPECT_EQ(o.base_error, "");
@@ -623,8 +684,9 @@ TEST(HostileMetrology, AsciiPointAndMatrixGrids) {
   m.push_back({"points on a 1e-300 lattice", "0 0 1\n1e-300 0 2\n0 1e-300 3\n"});
   Outcome o = run("ASCII x y z", m, work_dir("xyz") / "points.xyz", read_any);
   EXPECT_EQ(o.base_error, "");
-  const std::string mat = "# Channel: Height\n# Width: 90 um\n# Height: 60 um\n# Value units: m\n"
-                          "1e-6 2e-6 3e-6\n4e-6 NaN 6e-6\n7e-6 8e-6 9e-6\n";
+  const std::string mat =
+      "# Channel: Height\n# Width: 90 um\n# Height: 60 um\n# Value units: m\n"
+      "1e-6 2e-6 3e-6\n4e-6 NaN 6e-6\n7e-6 8e-6 9e-6\n";
   o = run("ASCII matrix", mutate(mat, 500, "matrix", true), work_dir("matrix") / "grid.txt", read_any);
   EXPECT_EQ(o.base_error, "");
 }
@@ -690,8 +752,9 @@ TEST(HostileMetrology, DigitalSurf) {
 // The formats issue 17 added: BCR-STM (binary points, a text header), Dektak CSV profiles, gzip-compressed text,
 // and the real files of ../shared/data/real/scans when present (X3P laid out by other tools, .sur, BCR).
 TEST(HostileMetrology, BcrStm) {
-  std::string h = "fileformat = bcrstm\nheadersize = 2048\nxpixels = 4\nypixels = 3\nxlength = 400\nylength = 600\n"
-                  "bit2nm = 0.5\nvoidpixels = 1\nintelmode = 1\n";
+  std::string h =
+      "fileformat = bcrstm\nheadersize = 2048\nxpixels = 4\nypixels = 3\nxlength = 400\nylength = 600\n"
+      "bit2nm = 0.5\nvoidpixels = 1\nintelmode = 1\n";
   h.resize(2048, ' ');
   for (int k = 0; k < 12; ++k) {
     const std::int16_t v = static_cast<std::int16_t>(k * 100 - 300);
@@ -709,14 +772,17 @@ TEST(HostileMetrology, BcrStm) {
 }
 
 TEST(HostileMetrology, DektakCsv) {
-  std::string t = "Scan Parameters\r\r\nStylus,Radius: 2.5 \xb5m\r\n\r\r\nScan Data\r\r\nLateral um,Raw Micrometer,\r\n";
-  for (int i = 0; i < 40; ++i) t += std::to_string(0.15625 * i).substr(0, 5) + "," + std::to_string(0.01 * i) + ",,\r\n";
+  std::string t =
+      "Scan Parameters\r\r\nStylus,Radius: 2.5 \xb5m\r\n\r\r\nScan Data\r\r\nLateral um,Raw Micrometer,\r\n";
+  for (int i = 0; i < 40; ++i)
+    t += std::to_string(0.15625 * i).substr(0, 5) + "," + std::to_string(0.01 * i) + ",,\r\n";
   const Outcome o = run("Dektak CSV", mutate(t, 500, "dektak", true), work_dir("dektak") / "trace.csv", read_any);
   EXPECT_EQ(o.base_error, "");
 }
 
 TEST(HostileMetrology, GzipText) {
-  const std::string text = "h=3 w=3\npixel size=2 um\ndata unit=rad\nheight conversion factor (-> m)=1e-8\n1 2 3\n4 5 6\n7 8 9\n";
+  const std::string text =
+      "h=3 w=3\npixel size=2 um\ndata unit=rad\nheight conversion factor (-> m)=1e-8\n1 2 3\n4 5 6\n7 8 9\n";
   std::string z(compressBound(static_cast<uLong>(text.size())) + 64, '\0');
   z_stream s{};
   deflateInit2(&s, 6, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY);  // a gzip wrapper
@@ -732,7 +798,8 @@ TEST(HostileMetrology, GzipText) {
                  std::string big(std::size_t{1} << 20, '0');
                  std::string out(compressBound(static_cast<uLong>(big.size())), '\0');
                  uLongf n = out.size();
-                 compress(reinterpret_cast<Bytef*>(out.data()), &n, reinterpret_cast<const Bytef*>(big.data()), big.size());
+                 compress(reinterpret_cast<Bytef*>(out.data()), &n, reinterpret_cast<const Bytef*>(big.data()),
+                          big.size());
                  out.resize(n);
                  return std::string("\x1f\x8b", 2) + out;  // a zlib stream behind a gzip magic: corrupt
                }()});
@@ -756,4 +823,3 @@ TEST(HostileMetrology, RealScansByteMutants) {
 }
 
 }  // namespace vmsim::metrology
-

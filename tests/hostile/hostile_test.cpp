@@ -1,9 +1,9 @@
 // Hostile inputs (the issue: "Truncated, garbled or hostile G-code, CL and TOML get a clear error, never a crash
 // or hang"). Deterministic mutants of real and built-in samples go through program::read_program, load_machine,
-// load_job and core's CSV reader, compiled with AddressSanitizer and UBSan (tests/hostile/CMakeLists.txt). The only acceptable outcomes
-// are success, or a core::Error whose message starts with the file's name; any other exception fails, a crash
-// aborts the process (the sanitizer report and the input's path are printed), and each input must finish within
-// 20 s (a hang guard, not a performance test; a watchdog ends the process after 60 s).
+// load_job and core's CSV reader, compiled with AddressSanitizer and UBSan (tests/hostile/CMakeLists.txt). The only
+// acceptable outcomes are success, or a core::Error whose message starts with the file's name; any other exception
+// fails, a crash aborts the process (the sanitizer report and the input's path are printed), and each input must finish
+// within 20 s (a hang guard, not a performance test; a watchdog ends the process after 60 s).
 #include "core/csv.hpp"
 #include "core/error.hpp"
 #include "core/job.hpp"
@@ -54,7 +54,7 @@ double thread_cpu_s() {
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
-constexpr double kWatchdogS = 60.0;   // an input still running after this is a real hang: end the process
+constexpr double kWatchdogS = 60.0;  // an input still running after this is a real hang: end the process
 
 // ---- what is running now, for the sanitizer's death callback and the watchdog ----
 
@@ -582,7 +582,8 @@ Outcome run(const std::string& sample, const std::vector<Mutant>& mutants, const
       o.slowest_s = s;
       o.slowest = m.what;
     }
-    if (s > kInputLimitS) keep(m, "took " + std::to_string(s) + " s of CPU (limit " + std::to_string(kInputLimitS) + " s)");
+    if (s > kInputLimitS)
+      keep(m, "took " + std::to_string(s) + " s of CPU (limit " + std::to_string(kInputLimitS) + " s)");
   }
   std::printf("[ hostile  ] %s: %zu inputs, %zu read, %zu clean errors; slowest %.3f s (%s)\n", sample.c_str(),
               o.inputs, o.ok, o.errors, o.slowest_s, o.slowest.c_str());
@@ -771,8 +772,8 @@ TEST(Hostile, GcodeSharedProgramsPresent) {
 TEST(Hostile, AptClSample) {
   const fs::path input = work_dir("apt") / "part.apt";
   const auto mutants = make_mutants(kApt, 600, "apt", Flavor::Apt);
-  const Outcome o =
-      run("APT CL sample", mutants, input, {input.string() + ":"}, [](const fs::path& p) { (void)program::read_program(p); });
+  const Outcome o = run("APT CL sample", mutants, input, {input.string() + ":"},
+                        [](const fs::path& p) { (void)program::read_program(p); });
   EXPECT_EQ(o.base_error, "") << "the sample itself must read, or the mutants test little";
 }
 

@@ -50,7 +50,9 @@ CircleRun run_circle(const core::Machine& m, const Circle& c, int revolutions, b
   return run;
 }
 
-double radius_at(const drives::AxisResponse& r, Eigen::Index k) { return std::hypot(r.position(k, 0), r.position(k, 1)); }
+double radius_at(const drives::AxisResponse& r, Eigen::Index k) {
+  return std::hypot(r.position(k, 0), r.position(k, 1));
+}
 
 double angle_deg(const Circle& c, Eigen::Index k) {
   const double a = std::fmod(c.omega() * static_cast<double>(k) * kTe, 2 * kPi);
@@ -98,10 +100,11 @@ TEST(Circle, SteadyRadialErrorMatchesTheLinearisedFrequencyResponse) {
     const double w = c.omega();
     const double lifted = c.radius * (1.0 - std::abs(model.closed_loop(w)));
     const double elements = c.radius * (1.0 - std::abs(model.closed_loop_elements(w)));
-    std::printf("circle R %g mm at %g m/min (w %.3f rad/s): simulated radial error %.6e mm (spread %.1e), "
-                "R(1-|G|) elements %.6e (%+.5f %%), lifted %.6e (%+.5f %%)\n",
-                c.radius, c.speed * 0.06, w, sim, hi - lo, elements, 100 * (sim / elements - 1), lifted,
-                100 * (sim / lifted - 1));
+    std::printf(
+        "circle R %g mm at %g m/min (w %.3f rad/s): simulated radial error %.6e mm (spread %.1e), "
+        "R(1-|G|) elements %.6e (%+.5f %%), lifted %.6e (%+.5f %%)\n",
+        c.radius, c.speed * 0.06, w, sim, hi - lo, elements, 100 * (sim / elements - 1), lifted,
+        100 * (sim / lifted - 1));
     EXPECT_NEAR(sim / elements, 1.0, 0.02) << "R " << c.radius << " v " << c.speed;
     EXPECT_NEAR(sim / lifted, 1.0, 0.02) << "R " << c.radius << " v " << c.speed;
     EXPECT_GT(sim, 0.0) << "a P position loop with KF < 1 cuts inside the circle";
@@ -109,9 +112,9 @@ TEST(Circle, SteadyRadialErrorMatchesTheLinearisedFrequencyResponse) {
 }
 
 // Reference: with KF = 1 the velocity feedforward supplies the whole velocity command, so the P loop's velocity
-// lag v/Kv disappears (the feed-drive simulation paper section 3.2: feedforward "cancels dragging differences"); what remains is the
-// dead time of the setpoint transfer (the machine file's one Te in both paths, which no feedforward can remove:
-// v d Te) and the inner loops' lag. Required: the tracking error |P_d(t_k) - P(t_k)| on a circle at least 10x
+// lag v/Kv disappears (the feed-drive simulation paper section 3.2: feedforward "cancels dragging differences"); what
+// remains is the dead time of the setpoint transfer (the machine file's one Te in both paths, which no feedforward can
+// remove: v d Te) and the inner loops' lag. Required: the tracking error |P_d(t_k) - P(t_k)| on a circle at least 10x
 // smaller with KF = 1 than with KF = 0. The Mikron drives as they are in the machine file (Coulomb friction
 // included), only KF changed.
 TEST(Circle, VelocityFeedforwardCutsTheTrackingErrorTenfold) {
@@ -133,9 +136,10 @@ TEST(Circle, VelocityFeedforwardCutsTheTrackingErrorTenfold) {
       return e;
     };
     const double e0 = worst(r0, 0), e1 = worst(r1, 0);
-    std::printf("circle R 10 mm at %g m/min: tracking error KF=0 %.4e mm, KF=1 %.4e mm: %.1fx less "
-                "(v d Te = %.4e mm; against the delayed setpoint %.1fx less)\n",
-                feed / 1000, e0, e1, e0 / e1, c.speed * d * kTe, worst(r0, d) / worst(r1, d));
+    std::printf(
+        "circle R 10 mm at %g m/min: tracking error KF=0 %.4e mm, KF=1 %.4e mm: %.1fx less "
+        "(v d Te = %.4e mm; against the delayed setpoint %.1fx less)\n",
+        feed / 1000, e0, e1, e0 / e1, c.speed * d * kTe, worst(r0, d) / worst(r1, d));
     EXPECT_GE(e0 / e1, 10.0) << feed;
     // The remainder is the dead time's v d Te (and a little inner-loop lag and friction).
     EXPECT_NEAR(e1 / (c.speed * d * kTe), 1.0, 0.1) << feed;
@@ -189,10 +193,11 @@ TEST(Circle, CoulombFrictionGivesQuadrantGlitchesAtTheReversals) {
       if (!near) elsewhere = std::max(elsewhere, std::abs(dr));
     }
     for (int i = 0; i < 4; ++i) {
-      std::printf("circle R 10 mm at %g m/min: %s reversal at %g deg: radial glitch %+.3e mm at %.1f deg "
-                  "(elsewhere |dr| <= %.1e mm), reversing axis %s\n",
-                  feed / 1000, reversals[i].axis == 0 ? "X" : "Y", reversals[i].deg, peaks[i], peak_deg[i], elsewhere,
-                  lag_sign[i] > 0 ? "lags" : "leads");
+      std::printf(
+          "circle R 10 mm at %g m/min: %s reversal at %g deg: radial glitch %+.3e mm at %.1f deg "
+          "(elsewhere |dr| <= %.1e mm), reversing axis %s\n",
+          feed / 1000, reversals[i].axis == 0 ? "X" : "Y", reversals[i].deg, peaks[i], peak_deg[i], elsewhere,
+          lag_sign[i] > 0 ? "lags" : "leads");
       EXPECT_GT(peaks[i], 0.0) << "the glitch must point outward at " << reversals[i].deg << " deg";
       EXPECT_GT(peaks[i], 1e-4) << "a glitch of at least 0.1 um at " << reversals[i].deg << " deg";
       EXPECT_GT(peaks[i], 5.0 * elsewhere) << reversals[i].deg;

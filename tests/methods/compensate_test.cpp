@@ -1,11 +1,12 @@
-// Predictive contour-error compensation (the predictive-compensation paper section 4, drives/compensate) on the simulated machine: a circle and
-// the starfish of parts/starfish (the predictive-compensation paper section 5), both on the Mikron UCP 710 of parts/machines (never changed
-// here). The "machine" is the cascade drive model of the machine file; the compensated setpoints are run on it and
-// their contour error measured by core/contour (the exact foot point on the planned tip path, an implementation
-// independent of the compensation's own two-step search) on the cutting moves. References: the same measure on the
-// uncompensated setpoints (the predictive-compensation paper Fig. 13 compares the same two runs; it measured max 0.0135 -> 0.0078 mm and
-// -61.76 % mean on its starfish), and the axis limits of the machine file checked by core::finite_difference_peaks
-// (the interpolator's own limit check), not by the compensation's check_axis_limits, which must agree with it.
+// Predictive contour-error compensation (the predictive-compensation paper section 4, drives/compensate) on the
+// simulated machine: a circle and the starfish of parts/starfish (the predictive-compensation paper section 5), both on
+// the Mikron UCP 710 of parts/machines (never changed here). The "machine" is the cascade drive model of the machine
+// file; the compensated setpoints are run on it and their contour error measured by core/contour (the exact foot point
+// on the planned tip path, an implementation independent of the compensation's own two-step search) on the cutting
+// moves. References: the same measure on the uncompensated setpoints (the predictive-compensation paper Fig. 13
+// compares the same two runs; it measured max 0.0135 -> 0.0078 mm and -61.76 % mean on its starfish), and the axis
+// limits of the machine file checked by core::finite_difference_peaks (the interpolator's own limit check), not by the
+// compensation's check_axis_limits, which must agree with it.
 #include "motion/contour.hpp"
 #include "motion/interp.hpp"
 #include "core/job.hpp"
@@ -40,7 +41,7 @@ struct Outcome {
   Stats before, after;
   double orientation_mean_before_rad = 0, orientation_mean_after_rad = 0;  // five-axis: tool axis at the foot point
   double orientation_max_before_rad = 0, orientation_max_after_rad = 0;
-  double largest_tip_offset_mm = 0;       // from the C axis (for the known-lag reference)
+  double largest_tip_offset_mm = 0;  // from the C axis (for the known-lag reference)
   core::AxisPeaks peaks_after;
   std::vector<methods::AxisLimitCheck> checks_after;
   core::Machine machine;
@@ -114,7 +115,8 @@ Outcome compensate_job(const fs::path& job_file, Predictor predictor = {}, bool 
   motion::InterpOptions io;
   io.period_s = job.interp.period_s;
   io.tolerance_mm = job.interp.tolerance_mm;
-  const motion::InterpResult ir = motion::interpolate(motion::toolpath_in_axis_space(program, job.machine), job.machine, io);
+  const motion::InterpResult ir =
+      motion::interpolate(motion::toolpath_in_axis_space(program, job.machine), job.machine, io);
   const core::Setpoints& sp = ir.setpoints;
   const auto kin = motion::make_kinematics(job.machine);
   Eigen::VectorXd tlo(sp.samples());
@@ -148,10 +150,10 @@ Outcome compensate_job(const fs::path& job_file, Predictor predictor = {}, bool 
   if (kin->family() != motion::KinematicFamily::Cartesian) {
     const Eigen::MatrixXd cmd_axis = methods::tool_axes(*kin, sp.position, tlo);
     const Eigen::MatrixXd a0 = run(sp.position), a1 = run(res.setpoints);
-    std::tie(o.orientation_mean_before_rad, o.orientation_max_before_rad) =
-        orientation(ce0, cmd, cmd_axis, methods::tool_tips(*kin, a0, tlo), methods::tool_axes(*kin, a0, tlo), sp, program);
-    std::tie(o.orientation_mean_after_rad, o.orientation_max_after_rad) =
-        orientation(ce1, cmd, cmd_axis, methods::tool_tips(*kin, a1, tlo), methods::tool_axes(*kin, a1, tlo), sp, program);
+    std::tie(o.orientation_mean_before_rad, o.orientation_max_before_rad) = orientation(
+        ce0, cmd, cmd_axis, methods::tool_tips(*kin, a0, tlo), methods::tool_axes(*kin, a0, tlo), sp, program);
+    std::tie(o.orientation_mean_after_rad, o.orientation_max_after_rad) = orientation(
+        ce1, cmd, cmd_axis, methods::tool_tips(*kin, a1, tlo), methods::tool_axes(*kin, a1, tlo), sp, program);
     std::printf("  tool axis at the foot point: mean %.5f -> %.5f deg, max %.5f -> %.5f deg\n",
                 o.orientation_mean_before_rad * 180 / M_PI, o.orientation_mean_after_rad * 180 / M_PI,
                 o.orientation_max_before_rad * 180 / M_PI, o.orientation_max_after_rad * 180 / M_PI);
@@ -162,12 +164,13 @@ Outcome compensate_job(const fs::path& job_file, Predictor predictor = {}, bool 
   comp.position = res.setpoints;
   o.peaks_after = core::finite_difference_peaks(comp);
   o.checks_after = methods::check_axis_limits(res.setpoints, sp.period_s, job.machine);
-  std::printf("%s: %lld setpoints, %d iterations; contour error on the machine max %.3f -> %.3f um, mean %.3f -> "
-              "%.3f um (%+.1f %%); largest at rows %lld -> %lld\n",
-              job.name.c_str(), static_cast<long long>(sp.samples()), o.iterations, o.before.max_abs_mm * 1e3,
-              o.after.max_abs_mm * 1e3, o.before.mean_abs_mm * 1e3, o.after.mean_abs_mm * 1e3,
-              100.0 * (o.after.mean_abs_mm - o.before.mean_abs_mm) / o.before.mean_abs_mm,
-              static_cast<long long>(o.before.max_at), static_cast<long long>(o.after.max_at));
+  std::printf(
+      "%s: %lld setpoints, %d iterations; contour error on the machine max %.3f -> %.3f um, mean %.3f -> "
+      "%.3f um (%+.1f %%); largest at rows %lld -> %lld\n",
+      job.name.c_str(), static_cast<long long>(sp.samples()), o.iterations, o.before.max_abs_mm * 1e3,
+      o.after.max_abs_mm * 1e3, o.before.mean_abs_mm * 1e3, o.after.mean_abs_mm * 1e3,
+      100.0 * (o.after.mean_abs_mm - o.before.mean_abs_mm) / o.before.mean_abs_mm,
+      static_cast<long long>(o.before.max_at), static_cast<long long>(o.after.max_at));
   return o;
 }
 
@@ -176,13 +179,14 @@ void expect_within_limits(const Outcome& o) {
     const core::MachineAxis& ax = o.machine.axes[a];
     const auto i = static_cast<Eigen::Index>(a);
     std::printf("  %s peaks: v %.1f / %.1f, a %.1f / %.1f, j %.0f / %.0f\n", ax.name.c_str(), o.peaks_after.velocity[i],
-                ax.max_velocity, o.peaks_after.acceleration[i], ax.max_acceleration, o.peaks_after.jerk[i], ax.max_jerk);
+                ax.max_velocity, o.peaks_after.acceleration[i], ax.max_acceleration, o.peaks_after.jerk[i],
+                ax.max_jerk);
     EXPECT_LE(o.peaks_after.velocity[i], ax.max_velocity * (1 + 1e-6)) << ax.name;
     EXPECT_LE(o.peaks_after.acceleration[i], ax.max_acceleration * (1 + 1e-6)) << ax.name;
     EXPECT_LE(o.peaks_after.jerk[i], ax.max_jerk * (1 + 1e-6)) << ax.name;
-    EXPECT_TRUE(o.checks_after[a].within()) << ax.name << ": the compensation's own check disagrees; "
-                                            << o.checks_after[a].samples_over << " samples over, first at "
-                                            << o.checks_after[a].first_over_s << " s";
+    EXPECT_TRUE(o.checks_after[a].within())
+        << ax.name << ": the compensation's own check disagrees; " << o.checks_after[a].samples_over
+        << " samples over, first at " << o.checks_after[a].first_over_s << " s";
   }
 }
 
@@ -203,16 +207,17 @@ TEST(Compensate, CircleContourErrorFallsOnTheSimulatedMachineWithinTheLimits) {
   // R 20 with Kv 100 1/s, KF 0.1, and the friction's quadrant glitches.
   EXPECT_GT(o.before.max_abs_mm, 3e-3);
   EXPECT_LT(o.after.max_abs_mm, o.before.max_abs_mm);
-  EXPECT_LT(o.after.mean_abs_mm, (1.0 - 0.6176) * o.before.mean_abs_mm);  // at least the predictive-compensation paper's mean reduction
+  EXPECT_LT(o.after.mean_abs_mm,
+            (1.0 - 0.6176) * o.before.mean_abs_mm);  // at least the predictive-compensation paper's mean reduction
   expect_within_limits(o);
 }
 
 TEST(Compensate, StarfishMeanContourErrorFallsAtLeastAsMuchAsThePredictiveCompensationPaperWithinTheLimits) {
   const Outcome o = compensate_job(fs::path(VMSIM_SOURCE_DIR) / "parts/starfish/job.toml");
   EXPECT_GT(o.before.max_abs_mm, 1e-3);
-  // The predictive-compensation paper: max 0.0135 -> 0.0078 mm (-42 %), mean -61.76 %. The prediction here is the machine itself, so the mean
-  // must fall at least as much; the largest errors sit at the axis reversals (friction), where the jerk limits keep
-  // most of the correction out (parts/starfish/README.md), so the maximum must only fall.
+  // The predictive-compensation paper: max 0.0135 -> 0.0078 mm (-42 %), mean -61.76 %. The prediction here is the
+  // machine itself, so the mean must fall at least as much; the largest errors sit at the axis reversals (friction),
+  // where the jerk limits keep most of the correction out (parts/starfish/README.md), so the maximum must only fall.
   EXPECT_LT(o.after.max_abs_mm, o.before.max_abs_mm);
   EXPECT_LT(o.after.mean_abs_mm, (1.0 - 0.6176) * o.before.mean_abs_mm);
   expect_within_limits(o);
@@ -222,9 +227,9 @@ TEST(Compensate, StarfishMeanContourErrorFallsAtLeastAsMuchAsThePredictiveCompen
 // axis follows exactly. In the workpiece frame the actual tool pose is then the commanded one turned by delta about
 // the C axis: each tip moves by rho delta (rho its distance from the C axis), a bound on its contour error, and the
 // tool axis by up to delta from its own commanded axis (at the foot point, where the commanded axis differs, the
-// angle may be larger). A constant offset is entirely compensable (the corrected C is the setpoint plus delta), so the compensation
-// must remove nearly all of the tip's contour error and of the orientation error (no limits here: a step of the
-// whole C track is not what this test is about).
+// angle may be larger). A constant offset is entirely compensable (the corrected C is the setpoint plus delta), so the
+// compensation must remove nearly all of the tip's contour error and of the orientation error (no limits here: a step
+// of the whole C track is not what this test is about).
 TEST(Compensate, FiveAxisBladeConstantCLagIsRemoved) {
   const double delta = 0.05 * M_PI / 180.0;
   auto lagging_c = [delta](const core::Setpoints&, const core::Machine& m, const Eigen::MatrixXd& setpoints) {
@@ -245,9 +250,10 @@ TEST(Compensate, FiveAxisBladeConstantCLagIsRemoved) {
   EXPECT_LT(o.orientation_mean_after_rad, 0.05 * o.orientation_mean_before_rad);
 }
 
-// Five-axis on the simulated machine: the blade of parts/blade (the predictive-compensation paper section 5; it measured -31.43 % on its own
-// blade, a comparison, not a pass mark) with the Mikron's cascades as the prediction. The tip's mean contour error and
-// the tool axis' mean orientation error must fall, the maximum must not grow, and every axis limit must hold.
+// Five-axis on the simulated machine: the blade of parts/blade (the predictive-compensation paper section 5; it
+// measured -31.43 % on its own blade, a comparison, not a pass mark) with the Mikron's cascades as the prediction. The
+// tip's mean contour error and the tool axis' mean orientation error must fall, the maximum must not grow, and every
+// axis limit must hold.
 TEST(Compensate, FiveAxisBladeContourAndOrientationErrorsFallWithinTheLimits) {
   const Outcome o = compensate_job(fs::path(VMSIM_SOURCE_DIR) / "parts/blade/job.toml");
   EXPECT_GT(o.before.max_abs_mm, 1e-3);

@@ -60,9 +60,10 @@ struct Case {
 Case make_case() {
   Case c;
   c.machine = core::load_machine(std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml");
-  c.program = read_text("G21 G90 G94 G17\nG0 X0 Y0 Z5\nG1 Z0 F2000\nG1 X30\nG3 X38.660254038 Y5 I0 J10\n"
-                        "G1 X50 Y20\nG0 Z5\nM30\n",
-                        "original.ngc");
+  c.program = read_text(
+      "G21 G90 G94 G17\nG0 X0 Y0 Z5\nG1 Z0 F2000\nG1 X30\nG3 X38.660254038 Y5 I0 J10\n"
+      "G1 X50 Y20\nG0 Z5\nM30\n",
+      "original.ngc");
   c.axis_path = motion::toolpath_in_axis_space(c.program, c.machine);
   c.sp = motion::interpolate(c.axis_path, c.machine, motion::InterpOptions{}).setpoints;
   c.kin = motion::make_kinematics(c.machine);

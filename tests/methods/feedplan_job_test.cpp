@@ -73,9 +73,9 @@ TEST(FeedPlanJob, LimitsAreTheMachineFilesInMillimetresPerSecond) {
   EXPECT_EQ(lim.contour_error_mm, 0.02);
   EXPECT_EQ(lim.max_feed_mm_per_s, 50.0);
   for (int a = 0; a < 3; ++a) {
-    EXPECT_NEAR(lim.axis_velocity[a], 50.0, 1e-9) << a;        // 3 m/min
-    EXPECT_NEAR(lim.axis_acceleration[a], 200.0, 1e-9) << a;   // 0.2 m/s^2
-    EXPECT_NEAR(lim.axis_jerk[a], 5000.0, 1e-9) << a;          // 5 m/s^3
+    EXPECT_NEAR(lim.axis_velocity[a], 50.0, 1e-9) << a;       // 3 m/min
+    EXPECT_NEAR(lim.axis_acceleration[a], 200.0, 1e-9) << a;  // 0.2 m/s^2
+    EXPECT_NEAR(lim.axis_jerk[a], 5000.0, 1e-9) << a;         // 5 m/s^3
   }
   spec.jerk = false;
   EXPECT_EQ(methods::feed_plan_limits(spec, m, 0.004, 50.0, xy).axis_jerk[0], kInf);
@@ -154,7 +154,8 @@ TEST(FeedPlanJob, ModelPeakIsEq7OnACircle) {
   for (double f : {5.0, 20.0, 50.0}) {
     const Eigen::ArrayXd feed = Eigen::ArrayXd::Constant(ps.size(), f);
     const double w = f / r;
-    const double direct = r * std::max(std::abs(1.0 - std::abs(x.at_omega(w))), std::abs(1.0 - std::abs(y.at_omega(w))));
+    const double direct =
+        r * std::max(std::abs(1.0 - std::abs(x.at_omega(w))), std::abs(1.0 - std::abs(y.at_omega(w))));
     EXPECT_NEAR(methods::model_contour_peak(ps, feed, model), direct, 1e-6 * direct) << f;
   }
 }

@@ -1,6 +1,6 @@
-// Contour-error-constrained feed planning (Chen et al. 2016). References: Chen et al.'s Table 2 coefficients; |G(jw)| of the
-// transfer function evaluated here directly (bisection written here for eq. 11); the closed forms of eq. 11-13 and
-// 15 on a circle; the constraints recomputed sample by sample from the path and the feeds (check_feed_plan, which
+// Contour-error-constrained feed planning (Chen et al. 2016). References: Chen et al.'s Table 2 coefficients; |G(jw)|
+// of the transfer function evaluated here directly (bisection written here for eq. 11); the closed forms of eq. 11-13
+// and 15 on a circle; the constraints recomputed sample by sample from the path and the feeds (check_feed_plan, which
 // does not read the LP's rows); the one-window LP for the windowed one; and the time-domain simulation of the servo
 // for the contour error of the played plan.
 #include "core/error.hpp"
@@ -108,7 +108,8 @@ TEST(FeedPlanServo, TransferFunctionAxisFollowsASineWithGainG) {
   rest.period_s = te;
   rest.position = Eigen::MatrixXd::Constant(50, 2, 3.25);
   rest.position.col(1).setLinSpaced(50, 0.0, 49.0);
-  const Eigen::MatrixXd r = methods::simulate_transfer_functions(rest, {g, methods::TransferFunction{{1.0}, {1.0}}}, 0.01);
+  const Eigen::MatrixXd r =
+      methods::simulate_transfer_functions(rest, {g, methods::TransferFunction{{1.0}, {1.0}}}, 0.01);
   EXPECT_NEAR((r.col(0).array() - 3.25).abs().maxCoeff(), 0.0, 1e-12);
   EXPECT_NEAR(r(20, 1), 19.0, 1e-12);
 }
@@ -178,7 +179,7 @@ TEST(FeedPlan, CircleFeedIsTheClosedFormOfEq11To13And15) {
 TEST(FeedPlan, EveryConstraintHoldsAtEverySample) {
   const methods::ContourErrorModel m({methods::frequency_response(pid_x()), methods::frequency_response(pid_y())});
   std::vector<methods::PathSamples> paths = {methods::sample_nurbs(curve("butterfly"), 0.05),
-                                            methods::sample_nurbs(curve("fan"), 0.05)};
+                                             methods::sample_nurbs(curve("fan"), 0.05)};
   // A G-code-like path: lines, a tangent arc, a sharp corner blended by the interpolator's smoothing.
   {
     core::ToolPath tp;
@@ -250,8 +251,8 @@ TEST(FeedPlan, WindowsAgreeWithOneLinearProgram) {
 }
 
 TEST(FeedPlan, SimulatedContourErrorExceedsWithoutTheConstraintAndHoldsWithIt) {
-  // Chen et al. 2016 section 4's case on the butterfly: T = 4 ms, chord 0.5 um, contour 20 um, 50 mm/s, 200 mm/s^2, its PID
-  // servo (Table 1, X and Y), played by the interpolator and simulated.
+  // Chen et al. 2016 section 4's case on the butterfly: T = 4 ms, chord 0.5 um, contour 20 um, 50 mm/s, 200 mm/s^2, its
+  // PID servo (Table 1, X and Y), played by the interpolator and simulated.
   const motion::NurbsCurve c = curve("butterfly");
   const core::Machine mach = core::load_machine(kParts + "chen2016_machine.toml");
   motion::NurbsPathOptions no;

@@ -72,7 +72,8 @@ Eigen::MatrixXd xyz_command(const core::Setpoints& sp, const core::Machine& m, E
   return c;
 }
 
-// ---- eq. 3-4 ----------------------------------------------------------------------------------------------------------
+// ---- eq. 3-4
+// ----------------------------------------------------------------------------------------------------------
 
 // Reference: Duong et al. eq. 3 in closed form, K(k+i) = K(k-1) + (K_final - K(k-1)) (1 - cos(pi i / (p-1))) / 2
 // (-A sin(pi/2 + x) + A = A (1 - cos x)), then eq. 4.
@@ -99,7 +100,8 @@ TEST(OgaGainFunction, HalfSinusoidThenHold) {
   EXPECT_THROW(sinusoid_samples(0.0, 1e-3), core::Error);
 }
 
-// ---- windows (section III.E) ------------------------------------------------------------------------------------------
+// ---- windows (section III.E)
+// ------------------------------------------------------------------------------------------
 
 // Reference: a sampled path of known geometry in XZ (0.05 mm steps): 5 mm straight, an arc of radius 10 turning
 // towards -Z (convex about +Y), 5 mm straight, an arc of radius 20 turning towards +Z (concave). The curvature from
@@ -138,7 +140,7 @@ TEST(OgaWindows, CutWhereTheCurvatureChangesKind) {
   for (std::size_t i = 0; i < pts.size(); ++i) xyz.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
 
   const Eigen::ArrayXd kappa = setpoint_curvature(xyz, Eigen::Vector3d::UnitY());
-  EXPECT_NEAR(kappa[(a0 + a1) / 2], 0.1, 1e-9);    // convex R10: +1/R about +Y
+  EXPECT_NEAR(kappa[(a0 + a1) / 2], 0.1, 1e-9);            // convex R10: +1/R about +Y
   EXPECT_NEAR(kappa[(a2 + xyz.rows()) / 2], -0.05, 1e-9);  // concave R20
   EXPECT_NEAR(kappa[a0 / 2], 0.0, 1e-9);
 
@@ -193,7 +195,8 @@ TEST(OgaWindows, TheOgaProfile) {
 
 // The limits as the header states them, computed here independently: backward differences of the frictionless
 // drive's positions from simulate_axes, the full model's period-peak current.
-bool admissible_by_brute_force(const drives::AxisResponse& twin, const drives::AxisResponse& model, int a, const core::MachineAxis& ax) {
+bool admissible_by_brute_force(const drives::AxisResponse& twin, const drives::AxisResponse& model, int a,
+                               const core::MachineAxis& ax) {
   const double te = twin.period_s;
   double px = twin.position(0, a), pv = 0, pa = 0, v_max = 0, a_max = 0, j_max = 0;
   for (Eigen::Index k = 0; k < twin.samples(); ++k) {
@@ -253,7 +256,8 @@ TEST(OgaSearch, AdmissibleSetsAndBestPairMatchAnExhaustiveSearch) {
   for (int q = 0; q < 2; ++q)
     for (std::size_t c = 0; c < 9; ++c)
       EXPECT_EQ(r.sweep[static_cast<std::size_t>(q)][c].admissible, ok[q][c])
-          << r.axis_names[static_cast<std::size_t>(q)] << " config " << c << ": " << r.sweep[static_cast<std::size_t>(q)][c].violation;
+          << r.axis_names[static_cast<std::size_t>(q)] << " config " << c << ": "
+          << r.sweep[static_cast<std::size_t>(q)][c].violation;
 
   motion::ContourOptions co;
   co.plane_normal = Eigen::Vector3d::UnitY();
@@ -278,7 +282,8 @@ TEST(OgaSearch, AdmissibleSetsAndBestPairMatchAnExhaustiveSearch) {
   EXPECT_EQ(r.pairs_evaluated, admissible[0] * admissible[1]);
 }
 
-// ---- the receding windows ----------------------------------------------------------------------------------------------
+// ---- the receding windows
+// ----------------------------------------------------------------------------------------------
 
 OgaOptions quick_options() {
   OgaOptions o;
@@ -336,8 +341,10 @@ TEST(OgaSearch, SameResultWithOneAndTwoThreads) {
   expect_same_schedule(one, two);
   for (int q = 0; q < 2; ++q)
     for (std::size_t c = 0; c < one.sweep[static_cast<std::size_t>(q)].size(); ++c) {
-      EXPECT_EQ(one.sweep[static_cast<std::size_t>(q)][c].admissible, two.sweep[static_cast<std::size_t>(q)][c].admissible);
-      EXPECT_EQ(one.sweep[static_cast<std::size_t>(q)][c].twin.jerk.value, two.sweep[static_cast<std::size_t>(q)][c].twin.jerk.value);
+      EXPECT_EQ(one.sweep[static_cast<std::size_t>(q)][c].admissible,
+                two.sweep[static_cast<std::size_t>(q)][c].admissible);
+      EXPECT_EQ(one.sweep[static_cast<std::size_t>(q)][c].twin.jerk.value,
+                two.sweep[static_cast<std::size_t>(q)][c].twin.jerk.value);
     }
   EXPECT_EQ(one.best_mse_um2, two.best_mse_um2);
 }
@@ -359,7 +366,8 @@ TEST(OgaSearch, VerificationReproducesTheSearch) {
   EXPECT_TRUE(v.axes[0].violation_c2.empty());
 }
 
-// ---- the schedule file -------------------------------------------------------------------------------------------------
+// ---- the schedule file
+// -------------------------------------------------------------------------------------------------
 
 TEST(OgaSchedule, FileRoundTripIsExactAndChecksItsPath) {
   const core::Machine m = drives::test::mikron();
@@ -428,7 +436,8 @@ TEST(OgaSchedule, FileRoundTripIsExactAndChecksItsPath) {
   EXPECT_NE(msg.find("not a gain"), std::string::npos) << msg;
 }
 
-// ---- the OGA case (parts/oga_profile, Duong et al. section IV) ------------------------------------------------------------
+// ---- the OGA case (parts/oga_profile, Duong et al. section IV)
+// ------------------------------------------------------------
 
 void expect_schedule_respects_range_and_continuity(const OgaResult& r) {
   for (int q = 0; q < 2; ++q) {

@@ -25,7 +25,8 @@ double part(double x, double y) {  // a machined-looking top: waves, a ball-end 
   const double r = 1.5, gx = 6.0, depth = 0.4;
   double z = 5.0 + 0.05 * std::sin(2 * kPi * x / 2.0) * std::cos(2 * kPi * y / 3.0) + 0.002 * x;
   const double dx = x - gx;
-  if (std::abs(dx) < std::sqrt(r * r - (r - depth) * (r - depth))) z = std::min(z, 5.0 - depth + r - std::sqrt(r * r - dx * dx));
+  if (std::abs(dx) < std::sqrt(r * r - (r - depth) * (r - depth)))
+    z = std::min(z, 5.0 - depth + r - std::sqrt(r * r - dx * dx));
   return z;
 }
 }  // namespace
@@ -70,10 +71,11 @@ TEST(CloudCompare, GridDeviationFromAMeshAgreesWithC2MWithin1um) {
           f << buf;
         }
   }
-  const std::string cmd = "cd '" + dir.string() +
-                          "' && QT_QPA_PLATFORM=offscreen timeout 300 CloudCompare -SILENT -NO_TIMESTAMP -C_EXPORT_FMT ASC "
-                          "-PREC 9 -SEP SPACE -ADD_HEADER -AUTO_SAVE OFF -O measured.xyz -O predicted.stl -C2M_DIST "
-                          "-SAVE_CLOUDS FILE c2m.asc > cc.log 2>&1";
+  const std::string cmd =
+      "cd '" + dir.string() +
+      "' && QT_QPA_PLATFORM=offscreen timeout 300 CloudCompare -SILENT -NO_TIMESTAMP -C_EXPORT_FMT ASC "
+      "-PREC 9 -SEP SPACE -ADD_HEADER -AUTO_SAVE OFF -O measured.xyz -O predicted.stl -C2M_DIST "
+      "-SAVE_CLOUDS FILE c2m.asc > cc.log 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << "CloudCompare failed; see " << (dir / "cc.log");
 
   // vmsim: the same points (float x, y as written) against the same mesh.

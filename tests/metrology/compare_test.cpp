@@ -74,7 +74,8 @@ void expect_transform(const metrology::RigidTransform& a, const metrology::Rigid
                       const core::HeightGrid& s) {
   double worst = 0;
   for (double x : {s.x0_mm, s.x(s.nx() - 1)})
-    for (double y : {s.y0_mm, s.y(s.ny() - 1)}) worst = std::max(worst, (a.apply({x, y, 0}) - b.apply({x, y, 0})).norm());
+    for (double y : {s.y0_mm, s.y(s.ny() - 1)})
+      worst = std::max(worst, (a.apply({x, y, 0}) - b.apply({x, y, 0})).norm());
   EXPECT_LT(worst, 1e-3) << "mm at the scan's corners";
   EXPECT_LT(Eigen::AngleAxisd(a.R * b.R.transpose()).angle(), 1e-4);
 }
@@ -192,7 +193,8 @@ TEST(CompareProfileToSurface, ShiftOffsetAndTiltAreRemovedAndBothProfilesAgree) 
   EXPECT_NEAR(r.measured.parameters.Rz_mm, r.predicted.parameters.Rz_mm, 5e-5);
 }
 
-// A cosine over whole periods: its least-squares plane is level (a sine's would lean), so the plane removed is the tilt.
+// A cosine over whole periods: its least-squares plane is level (a sine's would lean), so the plane removed is the
+// tilt.
 double tilted_sine(double x, double y) { return 0.01 * x - 0.004 * y + 0.002 * std::cos(2 * kPi * x / 0.1); }
 
 TEST(AnalyseSurface, PlaneRemovedSpikesMaskedSqOfTheSine) {

@@ -23,8 +23,8 @@ namespace {
 
 fs::path samples() { return fs::path(VMSIM_SHARED_DIR) / "data" / "surface"; }
 
-#define REQUIRE_SAMPLES()                                                                                        \
-  if (!fs::exists(samples()))                                                                                   \
+#define REQUIRE_SAMPLES()     \
+  if (!fs::exists(samples())) \
   GTEST_SKIP() << samples() << " is absent (a fresh clone has no ../shared); the format samples are not checked"
 
 fs::path tmp(const std::string& name) {
@@ -34,10 +34,11 @@ fs::path tmp(const std::string& name) {
 }
 
 // The heights of ISO5436-sample1, row by row (metres in the file), with the missing point at (row 1, column 3).
-const double kSample1[16] = {4.86219120804151E-0001, 3.46341436648013E-0003, -8.08368571682830E-0001, -5.79793099037002E-0001,
-                             8.57622027393310E-0001, 1.04759602566142E+0000, 1.01879225277798E+0000, NAN,
-                             8.23683772970184E-0001, 7.97872489327661E-0001, -5.57459388341694E-0001, -2.33247858849220E-0001,
-                             6.75397146760858E-0001, 4.20737549074718E-0001, 6.42069248110950E-0001, -2.15696638464903E-0001};
+const double kSample1[16] = {
+    4.86219120804151E-0001, 3.46341436648013E-0003, -8.08368571682830E-0001, -5.79793099037002E-0001,
+    8.57622027393310E-0001, 1.04759602566142E+0000, 1.01879225277798E+0000,  NAN,
+    8.23683772970184E-0001, 7.97872489327661E-0001, -5.57459388341694E-0001, -2.33247858849220E-0001,
+    6.75397146760858E-0001, 4.20737549074718E-0001, 6.42069248110950E-0001,  -2.15696638464903E-0001};
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 

@@ -55,12 +55,25 @@ struct GwyReader {
       const std::string name = cstr();
       const char t = b[p++];
       switch (t) {
-        case 'b': case 'c': o.numbers[name] = static_cast<unsigned char>(b[p++]); break;
-        case 'i': o.numbers[name] = get<std::int32_t>(); break;
-        case 'q': o.numbers[name] = static_cast<double>(get<std::int64_t>()); break;
-        case 'd': o.numbers[name] = get<double>(); break;
-        case 's': o.strings[name] = cstr(); break;
-        case 'o': o.objects[name] = object(); break;
+        case 'b':
+        case 'c':
+          o.numbers[name] = static_cast<unsigned char>(b[p++]);
+          break;
+        case 'i':
+          o.numbers[name] = get<std::int32_t>();
+          break;
+        case 'q':
+          o.numbers[name] = static_cast<double>(get<std::int64_t>());
+          break;
+        case 'd':
+          o.numbers[name] = get<double>();
+          break;
+        case 's':
+          o.strings[name] = cstr();
+          break;
+        case 'o':
+          o.objects[name] = object();
+          break;
         case 'D': {
           const std::uint32_t n = get<std::uint32_t>();
           auto& a = o.arrays[name];
@@ -70,12 +83,30 @@ struct GwyReader {
           p += 8 * static_cast<std::size_t>(n);
           break;
         }
-        case 'C': { const std::uint32_t n = get<std::uint32_t>(); p += n; break; }
-        case 'I': { const std::uint32_t n = get<std::uint32_t>(); p += 4 * static_cast<std::size_t>(n); break; }
-        case 'Q': { const std::uint32_t n = get<std::uint32_t>(); p += 8 * static_cast<std::size_t>(n); break; }
-        case 'S': for (std::uint32_t k = 0, n = get<std::uint32_t>(); k < n; ++k) cstr(); break;
-        case 'O': for (std::uint32_t k = 0, n = get<std::uint32_t>(); k < n; ++k) (void)object(); break;
-        default: throw std::runtime_error("gwy: unknown component type " + std::to_string(static_cast<int>(t)) + " of " + name + " at byte " + std::to_string(p));
+        case 'C': {
+          const std::uint32_t n = get<std::uint32_t>();
+          p += n;
+          break;
+        }
+        case 'I': {
+          const std::uint32_t n = get<std::uint32_t>();
+          p += 4 * static_cast<std::size_t>(n);
+          break;
+        }
+        case 'Q': {
+          const std::uint32_t n = get<std::uint32_t>();
+          p += 8 * static_cast<std::size_t>(n);
+          break;
+        }
+        case 'S':
+          for (std::uint32_t k = 0, n = get<std::uint32_t>(); k < n; ++k) cstr();
+          break;
+        case 'O':
+          for (std::uint32_t k = 0, n = get<std::uint32_t>(); k < n; ++k) (void)object();
+          break;
+        default:
+          throw std::runtime_error("gwy: unknown component type " + std::to_string(static_cast<int>(t)) + " of " +
+                                   name + " at byte " + std::to_string(p));
       }
     }
     p = end;
@@ -96,8 +127,10 @@ struct GwyField {
 inline std::optional<GwyField> gwyddion_read(const std::filesystem::path& file, const std::filesystem::path& scratch,
                                              std::string* why = nullptr) {
   std::filesystem::create_directories(scratch);
-  const std::filesystem::path out = scratch / (file.filename().string() + ".gwy"), log = scratch / (file.filename().string() + ".log");
-  const std::string cmd = "timeout 300 gwyddion --convert-to-gwy='" + out.string() + "' '" + file.string() + "' > '" + log.string() + "' 2>&1";
+  const std::filesystem::path out = scratch / (file.filename().string() + ".gwy"),
+                              log = scratch / (file.filename().string() + ".log");
+  const std::string cmd = "timeout 300 gwyddion --convert-to-gwy='" + out.string() + "' '" + file.string() + "' > '" +
+                          log.string() + "' 2>&1";
   const int rc = std::system(cmd.c_str());
   std::ifstream in(out, std::ios::binary);
   if (rc != 0 || !in) {

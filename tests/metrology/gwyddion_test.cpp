@@ -24,7 +24,6 @@ using vmsim_test::GwyObject;
 using vmsim_test::GwyReader;
 namespace fs = std::filesystem;
 
-
 TEST(Gwyddion, OpensVmsimX3pWithItsSizeHeightsAndMask) {
   if (std::system("command -v gwyddion > /dev/null 2>&1") != 0)
     GTEST_SKIP() << "Gwyddion is not installed (apt-get install gwyddion); the peer check is skipped";
@@ -38,7 +37,8 @@ TEST(Gwyddion, OpensVmsimX3pWithItsSizeHeightsAndMask) {
   g.z_mm(4, 5) = NAN;
   g.z_mm(16, 22) = NAN;
   metrology::write_x3p(dir / "scan.x3p", g);
-  const std::string cmd = "cd '" + dir.string() + "' && timeout 120 gwyddion --convert-to-gwy=scan.gwy scan.x3p > gwy.log 2>&1";
+  const std::string cmd =
+      "cd '" + dir.string() + "' && timeout 120 gwyddion --convert-to-gwy=scan.gwy scan.x3p > gwy.log 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << dir / "gwy.log";
   std::ifstream in(dir / "scan.gwy", std::ios::binary);
   ASSERT_TRUE(in) << "Gwyddion wrote no scan.gwy: it did not open the X3P file";

@@ -49,7 +49,9 @@ TEST(Areal, SinusoidAlongXEqualsClosedForms) {
   EXPECT_NEAR(p.Sdq, a / std::sqrt(2.0), 1e-5 * a);
   // Sdr = 100 (mean sqrt(1 + a^2 cos^2) - 1) = 100 ((2/pi) sqrt(1 + a^2) E(a / sqrt(1 + a^2)) - 1), E the complete
   // elliptic integral of the second kind.
-  const auto sdr_of = [](double s) { return 100 * (2 / kPi * std::sqrt(1 + s * s) * std::comp_ellint_2(s / std::sqrt(1 + s * s)) - 1); };
+  const auto sdr_of = [](double s) {
+    return 100 * (2 / kPi * std::sqrt(1 + s * s) * std::comp_ellint_2(s / std::sqrt(1 + s * s)) - 1);
+  };
   EXPECT_NEAR(p.Sdr_percent, sdr_of(ad), 1e-6 * sdr_of(a));
   EXPECT_NEAR(p.Sdr_percent, sdr_of(a), 2e-5 * sdr_of(a));
   std::printf("sinusoid A %.3g mm, L %.3g mm: Sdq %.9f (closed form %.9f), Sdr %.9f %% (closed form %.9f %%)\n", A, L,
@@ -126,7 +128,9 @@ TEST(Form, PlaneIsRecoveredAndRemoved) {
 
 TEST(Form, CubicPolynomialIsRemovedExactly) {
   core::HeightGrid g = grid(120, 90, 0.05, 0.05, 3.0, -1.0);
-  const auto poly = [](double x, double y) { return 0.1 - 0.02 * x + 0.03 * y + 0.004 * x * x - 0.001 * x * y + 0.0005 * x * x * y - 0.0002 * y * y * y; };
+  const auto poly = [](double x, double y) {
+    return 0.1 - 0.02 * x + 0.03 * y + 0.004 * x * x - 0.001 * x * y + 0.0005 * x * x * y - 0.0002 * y * y * y;
+  };
   for (int j = 0; j < 90; ++j)
     for (int i = 0; i < 120; ++i) g.z_mm(j, i) = poly(g.x(i), g.y(j));
   metrology::FormFit f;
@@ -184,7 +188,8 @@ TEST(Outliers, SpikesAreMaskedAndCounted) {
   std::normal_distribution<double> noise(0, 1e-4);
   for (int j = 0; j < 150; ++j)
     for (int i = 0; i < 200; ++i) g.z_mm(j, i) = 0.01 * std::sin(2 * kPi * g.x(i) / 0.3) + noise(rng);
-  const int spikes[5][2] = {{10, 10}, {50, 120}, {149, 100}, {75, 75}, {0, 190}};  // two on edges (corners are not judged)
+  const int spikes[5][2] = {
+      {10, 10}, {50, 120}, {149, 100}, {75, 75}, {0, 190}};  // two on edges (corners are not judged)
   for (const auto& s : spikes) g.z_mm(s[0], s[1]) += (s[0] % 2 ? 0.05 : -0.05);
   const auto r = metrology::mask_outliers(g);
   EXPECT_EQ(r.masked, 5u);

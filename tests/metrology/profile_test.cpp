@@ -123,8 +123,8 @@ TEST(ProfileCompare, RecoversShiftOffsetAndTilt) {
   g.z_mm.resize(401, 801);
   // Scallops of 0.25 mm along x, a slower wave, and a mark: a profile along x has features to register on.
   const auto surf = [](double x, double y) {
-    return 0.004 * std::cos(2 * kPi * x / 0.25) + 0.01 * std::sin(2 * kPi * x / 1.7) - 0.006 * std::exp(-std::pow((x - 2.2) / 0.1, 2)) +
-           0.001 * y;
+    return 0.004 * std::cos(2 * kPi * x / 0.25) + 0.01 * std::sin(2 * kPi * x / 1.7) -
+           0.006 * std::exp(-std::pow((x - 2.2) / 0.1, 2)) + 0.001 * y;
   };
   for (Eigen::Index j = 0; j < g.ny(); ++j)
     for (Eigen::Index i = 0; i < g.nx(); ++i) g.z_mm(j, i) = surf(g.x(i), g.y(j));

@@ -38,9 +38,10 @@ namespace {
 fs::path real() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "scans"; }
 fs::path scratch() { return fs::temp_directory_path() / ("vmsim_real_scans_" + std::to_string(::getpid())); }
 
-#define REQUIRE_REAL(file)                                                                                             \
-  if (!fs::exists(real() / (file)))                                                                                    \
-  GTEST_SKIP() << real() / (file) << " is absent (a fresh clone has no ../shared/data/real); this real file is not checked"
+#define REQUIRE_REAL(file)          \
+  if (!fs::exists(real() / (file))) \
+  GTEST_SKIP() << real() / (file)   \
+               << " is absent (a fresh clone has no ../shared/data/real); this real file is not checked"
 
 struct Moments {
   std::size_t n = 0;
@@ -67,9 +68,11 @@ Moments moments(const std::vector<double>& v) {
 // vmsim's side: the ISO 25178-2 parameters of the raw heights (no form removed), lengths in mm.
 void expect_moments(const core::HeightGrid& g, const Moments& ref_m, double rel, const std::string& what) {
   const metrology::ArealParameters p = metrology::areal_parameters(g);
-  std::printf("[ figures  ] %s: points %zu / %zu, mean %.10g / %.10g mm, Sq %.10g / %.10g mm, Ssk %.8g / %.8g, Sku %.8g / %.8g "
-              "(vmsim / reference)\n",
-              what.c_str(), p.points, ref_m.n, p.mean_mm, ref_m.mean * 1e3, p.Sq_mm, ref_m.sq * 1e3, p.Ssk, ref_m.ssk, p.Sku, ref_m.sku);
+  std::printf(
+      "[ figures  ] %s: points %zu / %zu, mean %.10g / %.10g mm, Sq %.10g / %.10g mm, Ssk %.8g / %.8g, Sku %.8g / %.8g "
+      "(vmsim / reference)\n",
+      what.c_str(), p.points, ref_m.n, p.mean_mm, ref_m.mean * 1e3, p.Sq_mm, ref_m.sq * 1e3, p.Ssk, ref_m.ssk, p.Sku,
+      ref_m.sku);
   EXPECT_EQ(p.points, ref_m.n) << what;
   EXPECT_NEAR(p.mean_mm, ref_m.mean * 1e3, rel * std::max(std::abs(ref_m.mean), ref_m.sq) * 1e3) << what << ": mean";
   EXPECT_NEAR(p.Sq_mm, ref_m.sq * 1e3, rel * ref_m.sq * 1e3) << what << ": Sq";
@@ -84,16 +87,17 @@ std::size_t invalid(const core::HeightGrid& g) {
 }
 
 // Gwyddion's reading of the file; the test is skipped when Gwyddion is not installed.
-#define GWYDDION_READ(var, file)                                                                                       \
-  if (!vmsim_test::gwyddion_available())                                                                               \
-    GTEST_SKIP() << "Gwyddion is not installed (apt-get install gwyddion); the comparison with it is skipped";          \
-  std::string gwy_log;                                                                                                 \
-  const auto var = vmsim_test::gwyddion_read(file, scratch(), &gwy_log);                                               \
+#define GWYDDION_READ(var, file)                                                                               \
+  if (!vmsim_test::gwyddion_available())                                                                       \
+    GTEST_SKIP() << "Gwyddion is not installed (apt-get install gwyddion); the comparison with it is skipped"; \
+  std::string gwy_log;                                                                                         \
+  const auto var = vmsim_test::gwyddion_read(file, scratch(), &gwy_log);                                       \
   ASSERT_TRUE(var) << "Gwyddion did not read " << (file) << ": " << gwy_log
 
 // Gwyddion's heights (metres) against vmsim's (mm), point by point, where vmsim's are valid; and Gwyddion's
 // values where vmsim's are invalid, for the caller to judge.
-void expect_same_heights(const vmsim_test::GwyField& gw, const core::HeightGrid& g, double rel, std::vector<double>* at_invalid = nullptr) {
+void expect_same_heights(const vmsim_test::GwyField& gw, const core::HeightGrid& g, double rel,
+                         std::vector<double>* at_invalid = nullptr) {
   ASSERT_EQ(gw.xres, g.nx());
   ASSERT_EQ(gw.yres, g.ny());
   ASSERT_EQ(gw.data.size(), static_cast<std::size_t>(g.z_mm.size()));
@@ -119,13 +123,14 @@ nlohmann::json independent(const std::string& mode, const fs::path& file, const 
   const fs::path script = fs::path(VMSIM_SOURCE_DIR) / "tests" / "metrology" / "independent_stats.py";
   fs::create_directories(scratch());
   const fs::path out = scratch() / (file.filename().string() + "." + mode + ".json");
-  const std::string cmd = "python3 '" + script.string() + "' " + mode + " '" + file.string() + "' " + extra + " > '" + out.string() + "'";
+  const std::string cmd =
+      "python3 '" + script.string() + "' " + mode + " '" + file.string() + "' " + extra + " > '" + out.string() + "'";
   if (std::system(cmd.c_str()) != 0) throw std::runtime_error("failed: " + cmd);
   std::ifstream in(out);
   return nlohmann::json::parse(in);
 }
 
-#define REQUIRE_PYTHON()                                                                                               \
+#define REQUIRE_PYTHON() \
   if (!have_python()) GTEST_SKIP() << "python3 is not installed; the independent Python reading is skipped"
 
 }  // namespace
@@ -149,7 +154,8 @@ TEST(RealScans, Sur3SpacingAndNonMeasuredPointsAsSurfaceTopographyReadsThem) {
   // test_sur3_metadata: rms height 0.0011131994265859693 m over the defined points (rtol 1e-6).
   const auto p = metrology::areal_parameters(f.grid);
   EXPECT_NEAR(p.Sq_mm, 1.1131994265859693, 1.1131994265859693e-6);
-  EXPECT_LT(p.Ssk, 0);  // the measured band's skewness is negative (-2.43); with the 233 009 floor points it flips to +2.6
+  EXPECT_LT(p.Ssk,
+            0);  // the measured band's skewness is negative (-2.43); with the 233 009 floor points it flips to +2.6
 }
 
 // The same file through Gwyddion 2.62: the same grid and spacing; at every point vmsim takes as measured, the same

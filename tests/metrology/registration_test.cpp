@@ -17,8 +17,9 @@ constexpr double kPi = 3.14159265358979323846;
 
 // Bumps in x and y, a diagonal wave, a groove along y and a tilt: every rigid motion changes the picture.
 double surface(double x, double y) {
-  return 0.05 * std::sin(2 * kPi * x / 3.0) * std::cos(2 * kPi * y / 4.0) + 0.02 * std::sin(2 * kPi * (x + 0.7 * y) / 2.5) -
-         0.03 * std::exp(-std::pow((x - 1.0) / 0.3, 2)) + 0.001 * x - 0.0005 * y;
+  return 0.05 * std::sin(2 * kPi * x / 3.0) * std::cos(2 * kPi * y / 4.0) +
+         0.02 * std::sin(2 * kPi * (x + 0.7 * y) / 2.5) - 0.03 * std::exp(-std::pow((x - 1.0) / 0.3, 2)) + 0.001 * x -
+         0.0005 * y;
 }
 
 core::HeightGrid sample(double x0, double y0, double h, int nx, int ny, double (*f)(double, double)) {
@@ -32,8 +33,9 @@ core::HeightGrid sample(double x0, double y0, double h, int nx, int ny, double (
 
 // The scan in its own frame: at each scan node (x, y), the height of the surface point P with T^-1(P) above it,
 // where T (scan -> part) is the true placement. Newton on the analytic surface, then noise, spikes and dropouts.
-core::HeightGrid make_scan(const metrology::RigidTransform& T, double x0, double y0, double h, int nx, int ny, double noise,
-                           unsigned seed, double (*f)(double, double), double (*extra)(double, double) = nullptr) {
+core::HeightGrid make_scan(const metrology::RigidTransform& T, double x0, double y0, double h, int nx, int ny,
+                           double noise, unsigned seed, double (*f)(double, double),
+                           double (*extra)(double, double) = nullptr) {
   const metrology::RigidTransform inv = T.inverse();
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n(0, noise);
@@ -85,9 +87,9 @@ TEST(Registration, KnownTransformIsRecoveredWithin1umAnd1e4rad) {
   EXPECT_TRUE(r.weak_directions.empty());
   expect_close(r.transform, truth, scan, 1e-3, 1e-4, "Tukey, automatic initial guess");
   EXPECT_NEAR(r.robust_sigma_mm, 0.001, 0.0003);  // the noise
-  EXPECT_LT(r.inliers, r.points);                  // the spikes got weight 0
-  std::printf("points %zu, inliers %zu, iterations %d, rms %.3f um, initial guess: %s\n", r.points, r.inliers, r.iterations,
-              r.rms_mm * 1e3, r.initial_guess.c_str());
+  EXPECT_LT(r.inliers, r.points);                 // the spikes got weight 0
+  std::printf("points %zu, inliers %zu, iterations %d, rms %.3f um, initial guess: %s\n", r.points, r.inliers,
+              r.iterations, r.rms_mm * 1e3, r.initial_guess.c_str());
 
   metrology::RegistrationOptions huber;
   huber.loss = metrology::RobustLoss::Huber;

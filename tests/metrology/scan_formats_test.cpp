@@ -63,7 +63,10 @@ std::string sur_object(const SurSpec& s) {
     t.resize(len, ' ');
     std::memcpy(&h[off], t.data(), len);
   };
-  const auto i16 = [&](std::size_t off, int v) { const std::int16_t x = static_cast<std::int16_t>(v); std::memcpy(&h[off], &x, 2); };
+  const auto i16 = [&](std::size_t off, int v) {
+    const std::int16_t x = static_cast<std::int16_t>(v);
+    std::memcpy(&h[off], &x, 2);
+  };
   const auto i32 = [&](std::size_t off, std::int32_t v) { std::memcpy(&h[off], &v, 4); };
   const auto f32 = [&](std::size_t off, float v) { std::memcpy(&h[off], &v, 4); };
   str(0, 12, s.compressed ? "DSCOMPRESSED" : "DIGITAL SURF");
@@ -97,12 +100,14 @@ std::string sur_object(const SurSpec& s) {
   for (int k = 0; k < 2; ++k) {
     uLongf len = compressBound(parts[k].size());
     zipped[k].resize(len);
-    compress(reinterpret_cast<Bytef*>(zipped[k].data()), &len, reinterpret_cast<const Bytef*>(parts[k].data()), parts[k].size());
+    compress(reinterpret_cast<Bytef*>(zipped[k].data()), &len, reinterpret_cast<const Bytef*>(parts[k].data()),
+             parts[k].size());
     zipped[k].resize(len);
   }
   const auto u32 = [&](std::uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
   u32(2);
-  for (int k = 0; k < 2; ++k) u32(static_cast<std::uint32_t>(parts[k].size())), u32(static_cast<std::uint32_t>(zipped[k].size()));
+  for (int k = 0; k < 2; ++k)
+    u32(static_cast<std::uint32_t>(parts[k].size())), u32(static_cast<std::uint32_t>(zipped[k].size()));
   for (int k = 0; k < 2; ++k) out += zipped[k];
   return out;
 }
@@ -210,7 +215,8 @@ TEST(SurFields, NonMeasuredOnlyWhereTheHeaderDeclaresThem) {
   EXPECT_TRUE(std::isnan(d.grid.z_mm(2, 3)));
   constexpr double dz = static_cast<double>(1e-3f) * 1e-3;
   EXPECT_DOUBLE_EQ(d.grid.z_mm(0, 0), 10 * dz);
-  s.special = 0;  // the same values, no flag: every point is a height (SurfaceTopography's test_sur_special_points_flag)
+  s.special =
+      0;  // the same values, no flag: every point is a height (SurfaceTopography's test_sur_special_points_flag)
   write_bytes(p, sur_object(s));
   d = metrology::read_sur_data(p);
   EXPECT_DOUBLE_EQ(d.grid.z_mm(0, 1), 8 * dz);
@@ -227,7 +233,8 @@ TEST(SurFields, InversionNegatesAndMirrors) {
     for (int j = 0; j < 3; ++j)
       for (int i = 0; i < 4; ++i) {
         const int si = inv == 2 ? 3 - i : i, sj = inv == 3 ? 2 - j : j;  // 2: left-right, 3: upside down
-        EXPECT_DOUBLE_EQ(d.grid.z_mm(j, i), -(10 * (4 * sj + si) + 5) * static_cast<double>(1e-3f) * 1e-3) << inv << " " << j << " " << i;
+        EXPECT_DOUBLE_EQ(d.grid.z_mm(j, i), -(10 * (4 * sj + si) + 5) * static_cast<double>(1e-3f) * 1e-3)
+            << inv << " " << j << " " << i;
       }
     expect_like_gwyddion(p, d.grid, true);  // Gwyddion inverts about the mean: compare the shapes
   }
@@ -282,7 +289,8 @@ TEST(SurFields, WriterAndReaderAgreeOnTheNewRules) {
   core::HeightGrid g;
   g.x0_mm = 0.5, g.y0_mm = -0.25, g.dx_mm = 0.004, g.dy_mm = 0.002;
   g.z_mm.resize(7, 9);
-  for (Eigen::Index k = 0; k < g.z_mm.size(); ++k) g.z_mm.data()[k] = 0.01 * std::sin(0.37 * static_cast<double>(k)) - 3.0;
+  for (Eigen::Index k = 0; k < g.z_mm.size(); ++k)
+    g.z_mm.data()[k] = 0.01 * std::sin(0.37 * static_cast<double>(k)) - 3.0;
   g.z_mm(3, 4) = NAN;
   const fs::path p = tmp("vmsim.sur");
   metrology::write_sur(p, g);
@@ -300,9 +308,10 @@ TEST(SurFields, WriterAndReaderAgreeOnTheNewRules) {
 
 namespace {
 
-std::string bcr_file(const std::string& kind, int nx, int ny, const std::vector<double>& values, const std::vector<std::string>& keys,
-                     bool big_endian = false) {
-  std::string h = "fileformat = " + kind + "\nheadersize = 2048\nxpixels = " + std::to_string(nx) + "\nypixels = " + std::to_string(ny) + "\n";
+std::string bcr_file(const std::string& kind, int nx, int ny, const std::vector<double>& values,
+                     const std::vector<std::string>& keys, bool big_endian = false) {
+  std::string h = "fileformat = " + kind + "\nheadersize = 2048\nxpixels = " + std::to_string(nx) +
+                  "\nypixels = " + std::to_string(ny) + "\n";
   for (const auto& k : keys) h += k + "\n";
   h += std::string("intelmode = ") + (big_endian ? "0" : "1") + "\n";
   h.resize(2048, ' ');
@@ -329,8 +338,9 @@ TEST(BcrAscii, Int16WithScaleUnitsOffsetsAndVoidPoints) {
   for (int k = 1; k <= 11; ++k) v.push_back(k);
   v.push_back(32767);  // the bcrstm void value
   const fs::path p = tmp("stm.bcr");
-  write_bytes(p, bcr_file("bcrstm", 4, 3, v, {"xlength = 400", "ylength = 600", "xunit = nm", "yunit = nm", "zunit = um",
-                                               "bit2nm = 2", "voidpixels = 1", "xoffset = 1000", "yoffset = 2000"}));
+  write_bytes(p, bcr_file("bcrstm", 4, 3, v,
+                          {"xlength = 400", "ylength = 600", "xunit = nm", "yunit = nm", "zunit = um", "bit2nm = 2",
+                           "voidpixels = 1", "xoffset = 1000", "yoffset = 2000"}));
   const auto f = metrology::read_surface_file(p);
   EXPECT_EQ(f.format, "bcr");
   EXPECT_DOUBLE_EQ(f.grid.dx_mm, 1e-4);
@@ -350,7 +360,8 @@ TEST(BcrAscii, Float32AndBigEndian) {
   for (int k = 1; k <= 11; ++k) v.push_back(0.5 * k);
   v.push_back(3.402823e38);
   const fs::path p = tmp("f.bcrf");
-  write_bytes(p, bcr_file("bcrf", 4, 3, v, {"xlength = 4", "ylength = 6", "xunit = um", "yunit = um", "zunit = nm", "voidpixels = 1"}));
+  write_bytes(p, bcr_file("bcrf", 4, 3, v,
+                          {"xlength = 4", "ylength = 6", "xunit = um", "yunit = um", "zunit = nm", "voidpixels = 1"}));
   const auto g = metrology::read_surface(p);
   EXPECT_DOUBLE_EQ(g.dx_mm, 1e-3);
   EXPECT_DOUBLE_EQ(g.z_mm(0, 1), 1e-6);
@@ -459,7 +470,8 @@ TEST(X3pOtherTools, TwoMainXmlAreAnErrorNamingBoth) {
 // ---- gzip and matrix headers ----
 
 TEST(GzipText, MatrixReadsAsTheUncompressedFile) {
-  const std::string text = "h=2 w=3\npixel size=2 um\ndata unit=rad\nheight conversion factor (-> nm)=10\n1 2 3\n4 nan 6\n";
+  const std::string text =
+      "h=2 w=3\npixel size=2 um\ndata unit=rad\nheight conversion factor (-> nm)=10\n1 2 3\n4 nan 6\n";
   const fs::path plain = tmp("m.txt"), zipped = tmp("m.txt.gz");
   write_bytes(plain, text);
   gzFile z = gzopen(zipped.string().c_str(), "wb");
@@ -506,7 +518,9 @@ namespace {
 
 std::string dektak_text(const std::vector<double>& x_um, const std::vector<double>& z_um) {
   // The layout of a Dektak export: CR CR LF after section titles, latin-1 micro sign, trailing empty columns.
-  std::string t = "Scan Parameters\r\r\nStylus,Radius: 2.5 \xb5m\r\nLength,10.0 um\r\n\r\r\nScan Data\r\r\nLateral um,Raw Micrometer,\r\n";
+  std::string t =
+      "Scan Parameters\r\r\nStylus,Radius: 2.5 \xb5m\r\nLength,10.0 um\r\n\r\r\nScan Data\r\r\nLateral um,Raw "
+      "Micrometer,\r\n";
   char buf[96];
   for (std::size_t i = 0; i < x_um.size(); ++i) {
     std::snprintf(buf, sizeof buf, "%.1f,%.5f,,\r\n", x_um[i], z_um[i]);

@@ -33,8 +33,8 @@ core::Machine haas() {
 std::string go(double x, double y, double z, double tilt_deg, double az_deg) {
   char b[200];
   std::snprintf(b, sizeof b, "GOTO/%.6f,%.6f,%.6f,%.9f,%.9f,%.9f\n", x, y, z,
-                std::sin(tilt_deg * kDeg) * std::cos(az_deg * kDeg), std::sin(tilt_deg * kDeg) * std::sin(az_deg * kDeg),
-                std::cos(tilt_deg * kDeg));
+                std::sin(tilt_deg * kDeg) * std::cos(az_deg * kDeg),
+                std::sin(tilt_deg * kDeg) * std::sin(az_deg * kDeg), std::cos(tilt_deg * kDeg));
   return b;
 }
 
@@ -73,8 +73,8 @@ void expect_follows(const core::ToolPath& prog, const core::ToolPath& axes, cons
 // other branch (B 50, C 180). Before, this stopped with "the rotary axes would have to jump".
 TEST(BranchChoice, RapidSwitchesToTheBranchWithinTravel) {
   const core::Machine m = haas();
-  const std::string text = "UNITS/MM\nFEDRAT/MMPM,500\n" + go(0, 0, 50, 20, 180) + go(10, 0, 50, 20, 180) +
-                           "RAPID\n" + go(10, 0, 80, 50, 180) +  // 5-6
+  const std::string text = "UNITS/MM\nFEDRAT/MMPM,500\n" + go(0, 0, 50, 20, 180) + go(10, 0, 50, 20, 180) + "RAPID\n" +
+                           go(10, 0, 80, 50, 180) +  // 5-6
                            go(20, 0, 80, 50, 180) + go(30, 5, 75, 60, 170);
   const core::ToolPath prog = program::read_apt_text(text, "branch.cls");
   const core::ToolPath axes = toolpath_in_axis_space(prog, m);
@@ -121,8 +121,8 @@ TEST(BranchChoice, NoBranchFitsNamesLineAndLimit) {
   {
     // The path starts on the rapid of line 5 (a switch point). On the branch nearest B = C = 0 (B -20) the feed move
     // of line 6 to 50 deg meets B = -35; on the other, line 7 needs 125 deg.
-    const std::string text = "UNITS/MM\nFEDRAT/MMPM,500\n" + go(0, 0, 50, 20, 180) + "RAPID\n" +
-                             go(0, 0, 60, 20, 180) + go(10, 0, 60, 50, 180) + go(20, 0, 60, 125, 180);
+    const std::string text = "UNITS/MM\nFEDRAT/MMPM,500\n" + go(0, 0, 50, 20, 180) + "RAPID\n" + go(0, 0, 60, 20, 180) +
+                             go(10, 0, 60, 50, 180) + go(20, 0, 60, 125, 180);
     const core::ToolPath prog = program::read_apt_text(text, "branch.cls");
     try {
       (void)toolpath_in_axis_space(prog, m);

@@ -68,7 +68,8 @@ TEST(Contour, StraightLineEqualsNormalOffsetWithinOneNanometre) {
   for (double alpha : {0.012, -0.012, 0.3, -0.0004}) {
     const double lag = 23.37;  // samples (1.17 mm along the path)
     std::vector<Eigen::Vector3d> act;
-    for (Eigen::Index k = 0; k < cmd.rows() + 300; ++k) act.push_back(line.at(line.s_of(k - lag)) + alpha * line.normal);
+    for (Eigen::Index k = 0; k < cmd.rows() + 300; ++k)
+      act.push_back(line.at(line.s_of(k - lag)) + alpha * line.normal);
     ContourOptions opt;
     opt.plane_normal = Eigen::Vector3d::UnitZ();
     const ContourError ce = contour_error(cmd, rows(act), opt);
@@ -107,7 +108,7 @@ namespace {
 struct Circle {
   Eigen::Vector3d c{5.0, -3.0, 2.0}, e1 = Eigen::Vector3d::UnitX(), e2 = Eigen::Vector3d::UnitY();
   double r = 10.0, turn = 0.9;
-  int n = 20000;  // chords within r (d theta)^2 / 8 = 0.1 nm of the circle
+  int n = 20000;       // chords within r (d theta)^2 / 8 = 0.1 nm of the circle
   double sense = 1.0;  // -1: clockwise
   double theta(double k) const { return sense * turn * 2 * kPi * std::clamp(k, 0.0, double(n)) / n; }
   Eigen::Vector3d at(double k, double radius) const {
@@ -177,7 +178,7 @@ struct Raster {
   double len = 20.0, h = 0.01, stepover = 0.25;
   int passes = 8, conn = 25;  // connector samples (0.01 mm steps)
   std::vector<Eigen::Vector3d> pts;
-  std::vector<int> pass_of;  // pass index of each row, -1 on connectors
+  std::vector<int> pass_of;      // pass index of each row, -1 on connectors
   std::vector<int> first, last;  // rows of each pass
   Raster() {
     const int n = static_cast<int>(std::lround(len / h));
@@ -240,9 +241,9 @@ TEST(Contour, RasterNeverPicksTheNeighbouringPass) {
       // The foot's command row lies on pass p or on the connectors beside it.
       const int lo = p > 0 ? r.last[p - 1] : 0, hi = r.first[std::min(p + 1, r.passes - 1)];
       const int i = ce.foot_segment[k];
-      ASSERT_TRUE(i >= lo && i < std::max(hi, r.last[p])) << "oy " << oy << " sample " << k << " on pass " << p
-                                                          << " has its foot on row " << i << " (pass "
-                                                          << r.pass_of[i] << ")";
+      ASSERT_TRUE(i >= lo && i < std::max(hi, r.last[p]))
+          << "oy " << oy << " sample " << k << " on pass " << p << " has its foot on row " << i << " (pass "
+          << r.pass_of[i] << ")";
       const double own = r.own_distance(p, act[k]);
       ASSERT_NEAR(std::abs(ce.signed_mm[k]), own, kNm) << "oy " << oy << " sample " << k;
       // Geometry check: somewhere the other pass really is closer (else the test proves nothing).

@@ -40,9 +40,15 @@ Vec6 xyz(double x, double y, double z) {
 // Plane coordinate indices as in toolpath.hpp: XY = (x, y), ZX = (z, x), YZ = (y, z).
 void plane_axes(ArcPlane p, int& i1, int& i2, int& iw) {
   switch (p) {
-    case ArcPlane::XY: i1 = 0, i2 = 1, iw = 2; break;
-    case ArcPlane::ZX: i1 = 2, i2 = 0, iw = 1; break;
-    case ArcPlane::YZ: i1 = 1, i2 = 2, iw = 0; break;
+    case ArcPlane::XY:
+      i1 = 0, i2 = 1, iw = 2;
+      break;
+    case ArcPlane::ZX:
+      i1 = 2, i2 = 0, iw = 1;
+      break;
+    case ArcPlane::YZ:
+      i1 = 1, i2 = 2, iw = 0;
+      break;
   }
 }
 
@@ -150,8 +156,11 @@ LimitReport limit_ratio(const Setpoints& sp, const Machine& machine) {
       for (int o = 0; o < 3; ++o) {
         if (ratios[o] > r.worst_ratio) {
           r.worst_ratio = ratios[o];
-          r.where = ax.name + std::string(o == 0 ? " velocity" : o == 1 ? " acceleration" : " jerk") + " at sample " +
-                    std::to_string(k);
+          r.where = ax.name +
+                    std::string(o == 0   ? " velocity"
+                                : o == 1 ? " acceleration"
+                                         : " jerk") +
+                    " at sample " + std::to_string(k);
         }
       }
     }
@@ -168,7 +177,8 @@ double max_deviation(const Setpoints& sp, const ToolPath& tp, double tolerance =
     const Eigen::Vector3d q = sp.position.row(k).head<3>().transpose();
     const int mi = std::clamp(sp.move_index[k], 0, nm - 1);
     double d = 1e300;
-    for (int i = std::max(0, mi - 1); i <= std::min(nm - 1, mi + 1); ++i) d = std::min(d, distance_to_move(tp.moves[i], q));
+    for (int i = std::max(0, mi - 1); i <= std::min(nm - 1, mi + 1); ++i)
+      d = std::min(d, distance_to_move(tp.moves[i], q));
     if (d > tolerance)
       for (const Move& m : tp.moves) d = std::min(d, distance_to_move(m, q));
     worst = std::max(worst, d);

@@ -91,8 +91,9 @@ core::ChainJoint joint(const char* axis, Vector3d dir, Vector3d point = Vector3d
   return j;
 }
 
-core::Machine chain_machine(const std::string& name, std::vector<core::MachineAxis> axes, std::vector<core::ChainJoint> workpiece,
-                      std::vector<core::ChainJoint> tool, Vector3d origin, Vector3d gauge, Vector3d tool_dir) {
+core::Machine chain_machine(const std::string& name, std::vector<core::MachineAxis> axes,
+                            std::vector<core::ChainJoint> workpiece, std::vector<core::ChainJoint> tool,
+                            Vector3d origin, Vector3d gauge, Vector3d tool_dir) {
   core::Machine m;
   m.name = name;
   m.source_file = name + ".toml";
@@ -133,20 +134,22 @@ core::Machine head_head() {
   return chain_machine("head-head",
                        {linear("X", -900, 900), linear("Y", -900, 900), linear("Z", -900, 900), rotary("A", -110, 110),
                         rotary("C", 1, -1)},
-                       {}, {joint("X", {1, 0, 0}), joint("Y", {0, 1, 0}), joint("Z", {0, 0, 1}),
-                            joint("C", {0, 0, 1}, {2, 1, 400}), joint("A", {1, 0, 0}, {0, 3, 350})},
+                       {},
+                       {joint("X", {1, 0, 0}), joint("Y", {0, 1, 0}), joint("Z", {0, 0, 1}),
+                        joint("C", {0, 0, 1}, {2, 1, 400}), joint("A", {1, 0, 0}, {0, 3, 350})},
                        {1, 1, 1}, {0, 0, 250}, {0, 0, 1});
 }
 
 // Nutating head: C about Z carrying B about an axis 45 deg from Z: the two rotary axes are not perpendicular (the
 // general case of the solution, with an unreachable region: the tool tilts at most 90 deg).
 core::Machine nutating_head() {
-  return chain_machine("nutating",
-                       {linear("X", -900, 900), linear("Y", -900, 900), linear("Z", -900, 900), rotary("B", 1, -1),
-                        rotary("C", 1, -1)},
-                       {}, {joint("X", {1, 0, 0}), joint("Y", {0, 1, 0}), joint("Z", {0, 0, 1}),
-                            joint("C", {0, 0, 1}, {0, 0, 400}), joint("B", {0, 1, 1}, {0, -20, 330})},
-                       {0, 0, 0}, {0, 0, 250}, {0, 0, 1});
+  return chain_machine(
+      "nutating",
+      {linear("X", -900, 900), linear("Y", -900, 900), linear("Z", -900, 900), rotary("B", 1, -1), rotary("C", 1, -1)},
+      {},
+      {joint("X", {1, 0, 0}), joint("Y", {0, 1, 0}), joint("Z", {0, 0, 1}), joint("C", {0, 0, 1}, {0, 0, 400}),
+       joint("B", {0, 1, 1}, {0, -20, 330})},
+      {0, 0, 0}, {0, 0, 250}, {0, 0, 1});
 }
 
 // No rotary joint: a gantry whose table moves in X and Y.
@@ -166,7 +169,8 @@ VectorXd random_axes(const core::Machine& m, std::mt19937_64& rng) {
     const core::MachineAxis& a = m.axes[i];
     double lo = a.travel_min, hi = a.travel_max;
     if (a.continuous) lo = -3 * kPi, hi = 3 * kPi;
-    if (a.kind == core::AxisKind::Linear) lo *= 0.3, hi *= 0.3;  // the tip stays where the other solution reaches it too
+    if (a.kind == core::AxisKind::Linear)
+      lo *= 0.3, hi *= 0.3;  // the tip stays where the other solution reaches it too
     q[static_cast<Eigen::Index>(i)] = std::uniform_real_distribution<double>(lo, hi)(rng);
   }
   return q;
@@ -212,19 +216,19 @@ TEST(KinematicsFiles, MikronAndXyzacTrtLoadWithTheirChains) {
 
 // A valid chain machine; tests replace one line to break it. Line numbers are commented for the assertions.
 const char* kChainMachine =
-    "[machine]\n"                                                                        // 1
-    "name = \"trt\"\n"                                                                   // 2
-    "kinematics = \"chain\"\n"                                                           // 3
-    "[kinematics]\n"                                                                     // 4
-    "workpiece = [\n"                                                                    // 5
+    "[machine]\n"                                                                              // 1
+    "name = \"trt\"\n"                                                                         // 2
+    "kinematics = \"chain\"\n"                                                                 // 3
+    "[kinematics]\n"                                                                           // 4
+    "workpiece = [\n"                                                                          // 5
     "  { axis = \"A\", type = \"rotary\", direction = [1, 0, 0], point_mm = [0, 0, -50] },\n"  // 6
     "  { axis = \"C\", type = \"rotary\", direction = [0, 0, 1], point_mm = [0, 0, 0] },\n"    // 7
-    "]\n"                                                                                // 8
-    "tool = [\n"                                                                         // 9
-    "  { axis = \"X\", type = \"linear\", direction = [1, 0, 0] },\n"                   // 10
-    "  { axis = \"Y\", type = \"linear\", direction = [0, 1, 0] },\n"                   // 11
-    "  { axis = \"Z\", type = \"linear\", direction = [0, 0, 1] },\n"                   // 12
-    "]\n"                                                                                // 13
+    "]\n"                                                                                      // 8
+    "tool = [\n"                                                                               // 9
+    "  { axis = \"X\", type = \"linear\", direction = [1, 0, 0] },\n"                          // 10
+    "  { axis = \"Y\", type = \"linear\", direction = [0, 1, 0] },\n"                          // 11
+    "  { axis = \"Z\", type = \"linear\", direction = [0, 0, 1] },\n"                          // 12
+    "]\n"                                                                                      // 13
     "[[axes]]\nname = \"X\"\ntype = \"linear\"\ntravel_mm = [-100, 100]\nmax_velocity_m_per_min = 10\n"
     "max_acceleration_m_per_s2 = 1\nmax_jerk_m_per_s3 = 10\n"
     "[[axes]]\nname = \"Y\"\ntype = \"linear\"\ntravel_mm = [-100, 100]\nmax_velocity_m_per_min = 10\n"
@@ -265,7 +269,8 @@ std::string load_error(const std::string& text) {
 
 void expect_error(const std::string& message, const fs::path& file, int line, const std::vector<std::string>& parts) {
   const std::string prefix = file.string() + ":" + std::to_string(line) + ":";
-  EXPECT_EQ(message.rfind(prefix, 0), 0u) << "expected the message to start with " << prefix << "\nmessage: " << message;
+  EXPECT_EQ(message.rfind(prefix, 0), 0u)
+      << "expected the message to start with " << prefix << "\nmessage: " << message;
   for (const auto& part : parts)
     EXPECT_NE(message.find(part), std::string::npos) << "missing \"" << part << "\" in: " << message;
 }
@@ -274,25 +279,29 @@ TEST(KinematicsFiles, BadChainsAreErrorsNamingFileLineAndKey) {
   const fs::path file = test_dir() / "machine.toml";
   ASSERT_EQ(load_error(kChainMachine), "(no error)");
   // An axis used twice.
-  expect_error(load_error(chain_with(7, "  { axis = \"A\", type = \"rotary\", direction = [0, 0, 1], point_mm = [0, 0, "
-                                        "0] },")),
+  expect_error(load_error(chain_with(7,
+                                     "  { axis = \"A\", type = \"rotary\", direction = [0, 0, 1], point_mm = [0, 0, "
+                                     "0] },")),
                file, 7, {"key 'kinematics.workpiece[1].axis'", "axis A is already the joint kinematics.workpiece[0]"});
   // A chain axis the machine lacks.
-  expect_error(load_error(chain_with(7, "  { axis = \"B\", type = \"rotary\", direction = [0, 0, 1], point_mm = [0, 0, "
-                                        "0] },")),
+  expect_error(load_error(chain_with(7,
+                                     "  { axis = \"B\", type = \"rotary\", direction = [0, 0, 1], point_mm = [0, 0, "
+                                     "0] },")),
                file, 7, {"key 'kinematics.workpiece[1].axis'", "the machine has no axis B"});
   // A zero direction.
   expect_error(load_error(chain_with(11, "  { axis = \"Y\", type = \"linear\", direction = [0, 0, 0] },")), file, 11,
                {"key 'kinematics.tool[1].direction'", "not all zero"});
   // A type that is not the axis' type.
-  expect_error(load_error(chain_with(10, "  { axis = \"X\", type = \"rotary\", direction = [1, 0, 0], point_mm = [0, 0, "
-                                         "0] },")),
+  expect_error(load_error(chain_with(10,
+                                     "  { axis = \"X\", type = \"rotary\", direction = [1, 0, 0], point_mm = [0, 0, "
+                                     "0] },")),
                file, 10, {"key 'kinematics.tool[0].type'", "axis X is a linear axis"});
   // A rotary joint without its axis point, a linear joint with one.
   expect_error(load_error(chain_with(7, "  { axis = \"C\", type = \"rotary\", direction = [0, 0, 1] },")), file, 7,
                {"key 'kinematics.workpiece[1].point_mm'", "missing"});
-  expect_error(load_error(chain_with(10, "  { axis = \"X\", type = \"linear\", direction = [1, 0, 0], point_mm = [0, 0, "
-                                         "0] },")),
+  expect_error(load_error(chain_with(10,
+                                     "  { axis = \"X\", type = \"linear\", direction = [1, 0, 0], point_mm = [0, 0, "
+                                     "0] },")),
                file, 10, {"key 'kinematics.tool[0].point_mm'", "for rotary joints"});
   // An axis in neither chain.
   expect_error(load_error(chain_with(12, "")), file, 5, {"axis Z is in neither chain"});
@@ -313,7 +322,8 @@ TEST(KinematicsFiles, BadChainsAreErrorsNamingFileLineAndKey) {
 TEST(KinematicsFiles, JobTcpOption) {
   const fs::path machine = kMachines / "xyzac_trt.toml";
   write("p.ngc", "G1 X1 F100\nM2\n");
-  const fs::path job = write("job.toml", "[job]\nmachine = \"" + machine.string() + "\"\nprogram = \"p.ngc\"\ntcp = true\n");
+  const fs::path job =
+      write("job.toml", "[job]\nmachine = \"" + machine.string() + "\"\nprogram = \"p.ngc\"\ntcp = true\n");
   EXPECT_TRUE(core::load_job(job).tcp);
   const fs::path plain = write("plain.toml", "[job]\nmachine = \"" + machine.string() + "\"\nprogram = \"p.ngc\"\n");
   EXPECT_FALSE(core::load_job(plain).tcp);
@@ -327,8 +337,12 @@ struct Family {
 };
 
 std::vector<Family> families() {
-  return {{"xyzac-trt", xyzac()},      {"mikron", mikron()},      {"bc-table", bc_table()},
-          {"head-table", head_table()}, {"head-head", head_head()}, {"nutating", nutating_head()},
+  return {{"xyzac-trt", xyzac()},
+          {"mikron", mikron()},
+          {"bc-table", bc_table()},
+          {"head-table", head_table()},
+          {"head-head", head_head()},
+          {"nutating", nutating_head()},
           {"cartesian-chain", cartesian_chain()}};
 }
 
@@ -394,8 +408,8 @@ TEST(Kinematics, CartesianChainCannotTilt) {
 TEST(Kinematics, XyzacTrtMatchesLinuxCncFormulas) {
   const core::Machine m = xyzac();
   const auto kin = make_kinematics(m);
-  const int ix = m.axis_index(core::kX), iy = m.axis_index(core::kY), iz = m.axis_index(core::kZ), ia = m.axis_index(core::kA),
-            ic = m.axis_index(core::kC);
+  const int ix = m.axis_index(core::kX), iy = m.axis_index(core::kY), iz = m.axis_index(core::kZ),
+            ia = m.axis_index(core::kA), ic = m.axis_index(core::kC);
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1, 1);
   double worst = 0, worst_axis = 0, worst_fwd = 0;
@@ -415,7 +429,8 @@ TEST(Kinematics, XyzacTrtMatchesLinuxCncFormulas) {
     worst = std::max(worst, (Vector3d(ours[ix], ours[iy], ours[iz]) - lcnc).norm());
     const ToolPose p = kin->forward(ours, t);
     worst_fwd = std::max(worst_fwd, (p.tip_mm - tip).norm());
-    const Vector3d axis = Eigen::AngleAxisd(-c, Vector3d::UnitZ()) * (Eigen::AngleAxisd(-a, Vector3d::UnitX()) * Vector3d::UnitZ());
+    const Vector3d axis =
+        Eigen::AngleAxisd(-c, Vector3d::UnitZ()) * (Eigen::AngleAxisd(-a, Vector3d::UnitX()) * Vector3d::UnitZ());
     worst_axis = std::max(worst_axis, angle(p.axis, axis));
   }
   EXPECT_LE(worst, 1e-10);
@@ -442,7 +457,8 @@ TEST(Kinematics, MikronAtZeroIsTheCartesianMachine) {
   }
   program::ProgramOptions po;
   po.tool_table = fs::path(VMSIM_SOURCE_DIR) / "parts/plane_cylinder/tools.tbl";
-  const core::ToolPath tp = program::read_program(fs::path(VMSIM_SOURCE_DIR) / "parts/plane_cylinder/plane_cylinder_fast.ngc", po);
+  const core::ToolPath tp =
+      program::read_program(fs::path(VMSIM_SOURCE_DIR) / "parts/plane_cylinder/plane_cylinder_fast.ngc", po);
   const core::ToolPath ac = toolpath_in_axis_space(tp, chain), af = toolpath_in_axis_space(tp, flat);
   ASSERT_EQ(ac.moves.size(), af.moves.size());
   EXPECT_EQ(ac.initial_position, af.initial_position);
@@ -716,8 +732,8 @@ VectorXd to_axes(const core::Machine& m, const core::Vec6& v) {
 
 // Every axis-space point of the move (start, via, end) against the programmed tip, and the straight segments between
 // them at 20 points each against the tolerance.
-void check_move(const core::Machine& m, const Kinematics& kin, const core::Move& wp, const core::Move& ax, double tol, double* worst_point,
-                double* worst_chord) {
+void check_move(const core::Machine& m, const Kinematics& kin, const core::Move& wp, const core::Move& ax, double tol,
+                double* worst_point, double* worst_chord) {
   std::vector<std::pair<double, core::Vec6>> pts{{0.0, ax.start}};
   for (std::size_t i = 0; i < ax.via.size(); ++i) pts.emplace_back(ax.via_s[i], ax.via[i]);
   pts.emplace_back(1.0, ax.end);
@@ -763,7 +779,8 @@ TEST(KinematicsToolpath, TcpProgramKeepsTheTipFixedThroughTheChain) {
     double worst_point = 0, worst_chord = 0;
     check_move(m, *kin, wp.moves[i], mv, 1e-3, &worst_point, &worst_chord);
     EXPECT_LE(worst_point, 1e-9);
-    for (const core::Vec6& v : mv.via) EXPECT_LT((kin->forward(to_axes(m, v), 0).tip_mm - Vector3d(10, 5, 2)).norm(), 1e-9);
+    for (const core::Vec6& v : mv.via)
+      EXPECT_LT((kin->forward(to_axes(m, v), 0).tip_mm - Vector3d(10, 5, 2)).norm(), 1e-9);
   }
   // F600 with the tip still: the rotary words' angle over F (RS274/NGC), as an inverse-time feed.
   const double deg = std::hypot(30.0, 90.0);
@@ -782,14 +799,14 @@ TEST(KinematicsToolpath, TcpLinesAndArcs) {
   const core::Machine m = xyzac();
   const core::ToolPath wp = read_tcp(
       "G21 G90 G94 G17\n"
-      "G0 X10 Y5 Z2 A0 C0\n"         // 2
-      "G1 X20 F300\n"                // 3 line, table at zero
-      "G2 X30 Y5 I5 J0\n"            // 4 arc, table at zero
-      "G0 C35\n"                     // 5 C turns: the tip stays
-      "G3 X20 Y5 I-5 J0 Z1\n"        // 6 helix with C = 35: XY arc in axis space, centre turned
-      "G0 A-20\n"                    // 7 tilt
-      "G1 X25 Y0 F300\n"             // 8 line on the tilted table: a line
-      "G2 X20 Y-5 I-5 J0\n"          // 9 arc on the tilted table: via points
+      "G0 X10 Y5 Z2 A0 C0\n"   // 2
+      "G1 X20 F300\n"          // 3 line, table at zero
+      "G2 X30 Y5 I5 J0\n"      // 4 arc, table at zero
+      "G0 C35\n"               // 5 C turns: the tip stays
+      "G3 X20 Y5 I-5 J0 Z1\n"  // 6 helix with C = 35: XY arc in axis space, centre turned
+      "G0 A-20\n"              // 7 tilt
+      "G1 X25 Y0 F300\n"       // 8 line on the tilted table: a line
+      "G2 X20 Y-5 I-5 J0\n"    // 9 arc on the tilted table: via points
       "M2\n");
   ASSERT_EQ(wp.moves.size(), 8u);
   const core::ToolPath ax = toolpath_in_axis_space(wp, m);
@@ -817,8 +834,8 @@ TEST(KinematicsToolpath, TcpLinesAndArcs) {
     if (ax.moves[i].kind == core::MotionKind::Arc) {
       // An axis-space arc: its end points (the interpolator draws the arc between them).
       for (const auto& [v, s] : {std::pair{ax.moves[i].start, 0.0}, std::pair{ax.moves[i].end, 1.0}})
-        worst_point = std::max(worst_point,
-                               (kin->forward(to_axes(m, v), 0).tip_mm - programmed_tip(wp.moves[i], s)).norm());
+        worst_point =
+            std::max(worst_point, (kin->forward(to_axes(m, v), 0).tip_mm - programmed_tip(wp.moves[i], s)).norm());
     } else {
       check_move(m, *kin, wp.moves[i], ax.moves[i], 1e-3, &worst_point, &worst_chord);
     }
@@ -907,8 +924,8 @@ TEST(KinematicsToolpath, BoatXyzacOnXyzacTrt) {
   EXPECT_LE(worst, 1e-9);
   EXPECT_LE(worst_chord, 1e-3 * 1.01);
   EXPECT_GT(curved, 5u);  // the table turns at the safe height between passes
-  std::printf("boat-xyzac: %zu moves, %zu with via points (%zu points), converted in %.3f s\n", ax.moves.size(),
-              curved, vias, secs);
+  std::printf("boat-xyzac: %zu moves, %zu with via points (%zu points), converted in %.3f s\n", ax.moves.size(), curved,
+              vias, secs);
 }
 
 // ---- The interpolator in joint space ------------------------------------------------------------------------------
@@ -936,7 +953,8 @@ struct PoseDeviation {
 // The largest distance of the setpoints' tool poses (through forward) from the programmed poses: for each setpoint
 // the programmed pose nearest in max(|tip - tip(s)|, 100 mm x angle(axis, axis(s))) over the setpoint's move and its
 // neighbours (a grid of s, refined by golden sections), then the tip and axis parts of that pose's distance.
-PoseDeviation pose_deviation(const core::Machine& m, const Kinematics& kin, const core::ToolPath& wp, const core::Setpoints& sp) {
+PoseDeviation pose_deviation(const core::Machine& m, const Kinematics& kin, const core::ToolPath& wp,
+                             const core::Setpoints& sp) {
   constexpr int kGrid = 100;
   std::vector<std::vector<ToolPose>> grid(wp.moves.size());
   for (std::size_t i = 0; i < wp.moves.size(); ++i)
@@ -944,7 +962,9 @@ PoseDeviation pose_deviation(const core::Machine& m, const Kinematics& kin, cons
   PoseDeviation worst;
   for (Eigen::Index r = 0; r < sp.samples(); ++r) {
     const ToolPose p = kin.forward(sp.position.row(r).transpose(), wp.moves.front().tool_length_offset_mm);
-    auto dist = [&](const ToolPose& q) { return std::max((p.tip_mm - q.tip_mm).norm(), 100.0 * angle(p.axis, q.axis)); };
+    auto dist = [&](const ToolPose& q) {
+      return std::max((p.tip_mm - q.tip_mm).norm(), 100.0 * angle(p.axis, q.axis));
+    };
     const int mi = sp.move_index[r];
     double best = 1e300;
     PoseDeviation best_parts;
@@ -957,8 +977,10 @@ PoseDeviation pose_deviation(const core::Machine& m, const Kinematics& kin, cons
       const core::Move& w = wp.moves[static_cast<std::size_t>(j)];
       for (int it = 0; it < 60; ++it) {
         const double a = lo + 0.382 * (hi - lo), b = lo + 0.618 * (hi - lo);
-        if (dist(programmed_pose(m, kin, w, a)) < dist(programmed_pose(m, kin, w, b))) hi = b;
-        else lo = a;
+        if (dist(programmed_pose(m, kin, w, a)) < dist(programmed_pose(m, kin, w, b)))
+          hi = b;
+        else
+          lo = a;
       }
       const ToolPose q = programmed_pose(m, kin, w, 0.5 * (lo + hi));
       if (dist(q) < best) {
@@ -984,7 +1006,8 @@ double limit_ratio(const core::Machine& m, const core::Setpoints& sp) {
   return worst;
 }
 
-core::Move cl_move(const Vector3d& p0, const Vector3d& p1, const Vector3d& a0, const Vector3d& a1, double feed, int line) {
+core::Move cl_move(const Vector3d& p0, const Vector3d& p1, const Vector3d& a0, const Vector3d& a1, double feed,
+                   int line) {
   core::Move mv;
   mv.start.head<3>() = p0;
   mv.end.head<3>() = p1;
@@ -996,10 +1019,10 @@ core::Move cl_move(const Vector3d& p0, const Vector3d& p1, const Vector3d& a0, c
 }
 
 // Random five-axis CL paths (tips in a 60 x 60 x 20 mm box, tool axes tilted 15..60 deg at random azimuths, 1 m/min)
-// and tool-centre-point paths (random tips, A in -60..0 deg, C turning up to half a turn per move) on xyzac-trt, through
-// toolpath_in_axis_space and the interpolator at its 20 um tolerance: no axis exceeds its velocity, acceleration or
-// jerk limit (finite differences of the setpoints, as the drives see them), and every setpoint's tool pose is within
-// the tolerance of the programmed pose (tip, and the tool axis at 100 mm from the tip).
+// and tool-centre-point paths (random tips, A in -60..0 deg, C turning up to half a turn per move) on xyzac-trt,
+// through toolpath_in_axis_space and the interpolator at its 20 um tolerance: no axis exceeds its velocity,
+// acceleration or jerk limit (finite differences of the setpoints, as the drives see them), and every setpoint's tool
+// pose is within the tolerance of the programmed pose (tip, and the tool axis at 100 mm from the tip).
 TEST(KinematicsInterp, RandomFiveAxisPathsKeepTheLimitsAndTheTolerance) {
   const core::Machine m = xyzac();
   const auto kin = make_kinematics(m);

@@ -146,7 +146,9 @@ TEST(Nurbs, ReadsTheSharedButterflyAndRejectsBadFiles) {
 
 namespace {
 
-Machine chen2016_machine() { return load_machine(std::string(VMSIM_SOURCE_DIR) + "/parts/feedplan/chen2016_machine.toml"); }
+Machine chen2016_machine() {
+  return load_machine(std::string(VMSIM_SOURCE_DIR) + "/parts/feedplan/chen2016_machine.toml");
+}
 
 double worst_limit_ratio(const Setpoints& sp, const Machine& machine) {
   const AxisPeaks p = finite_difference_peaks(sp);

@@ -30,7 +30,7 @@ constexpr double kIn = core::units::kInchToMm;
 
 fs::path data_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "nx_clsf_haas_umc750"; }
 
-#define SKIP_WITHOUT_DATA()                                                                                 \
+#define SKIP_WITHOUT_DATA() \
   if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)"
 
 std::string error_of(const std::string& text, const AptOptions& o = {}) {
@@ -99,12 +99,12 @@ TEST(NxClsf, InformationListingAndRecordsOfNx) {
   const std::string text =
       "\nInformation listing created by\tuser\nDate\t18-Dec-2021 21:07:42\nCurrent work part\tC:\\a b\\p.prt\n"
       "Node name\tlaptop\n\n"
-      "TOOL PATH/CAVITY_MILL,TOOL,MILL_0.120RAD\n"                                                      // 7
-      "TLDATA/MILL,0.7500,0.1200,4.0000,0.0000,0.0000\n"                                                // 8
-      "MSYS/0.0000,0.0000,0.0000,1.0000000,0.0000000,0.0000000,0.0000000,1.0000000,0.0000000\n"        // 9
-      "$$ centerline data\nPAINT/PATH\nPAINT/SPEED,10\nLOAD/TOOL,1,ADJUST,1\nPAINT/COLOR,186\n"         // 10-14
-      "RAPID\nGOTO/2.3600,2.2749,3.5300,0.0000000,0.0000000,1.0000000\n"                                 // 15-16
-      "FEDRAT/IPM,10.0000\nGOTO/2.3600,2.2749,3.1000 $$ 1,2,3\n"                                         // 17-18
+      "TOOL PATH/CAVITY_MILL,TOOL,MILL_0.120RAD\n"                                               // 7
+      "TLDATA/MILL,0.7500,0.1200,4.0000,0.0000,0.0000\n"                                         // 8
+      "MSYS/0.0000,0.0000,0.0000,1.0000000,0.0000000,0.0000000,0.0000000,1.0000000,0.0000000\n"  // 9
+      "$$ centerline data\nPAINT/PATH\nPAINT/SPEED,10\nLOAD/TOOL,1,ADJUST,1\nPAINT/COLOR,186\n"  // 10-14
+      "RAPID\nGOTO/2.3600,2.2749,3.5300,0.0000000,0.0000000,1.0000000\n"                         // 15-16
+      "FEDRAT/IPM,10.0000\nGOTO/2.3600,2.2749,3.1000 $$ 1,2,3\n"                                 // 17-18
       "PAINT/TOOL,NOMORE\nEND-OF-PATH\nTool Path Listing has 11294 lines.\n";
   EXPECT_TRUE(looks_like_apt(text));
   const core::ToolPath tp = read_apt_text(text, "nx.txt", inch());
@@ -177,7 +177,7 @@ TEST(NxClsf, TiltedCircleIsInterpolatedInItsOwnPlane) {
   const double t = 30 * core::units::kDegToRad;
   const Eigen::Vector3d n(0, -std::sin(t), std::cos(t)), c(5, 6, 7);
   const Eigen::Vector3d e1(1, 0, 0), e2 = n.cross(e1);  // e1 is in the plane (n.x = 0)
-  const double r = 8.0, pitch = 0.5;                     // helix: 0.5 mm along n over the arc
+  const double r = 8.0, pitch = 0.5;                    // helix: 0.5 mm along n over the arc
   const double sweep = 250 * core::units::kDegToRad;
   const Eigen::Vector3d start = c + r * e1;
   const Eigen::Vector3d end = c + r * (std::cos(sweep) * e1 + std::sin(sweep) * e2) + pitch * n;
@@ -222,7 +222,7 @@ TEST(NxClsf, TiltedCircleIsInterpolatedInItsOwnPlane) {
 
 struct Scan {
   int gotos = 0, circles = 0, rapids = 0, tldata = 0, loads = 0, zero_length = 0, contact = 0;
-  std::set<std::string> tools;     // TLDATA/ argument text
+  std::set<std::string> tools;      // TLDATA/ argument text
   int tool_changes_from_first = 0;  // TLDATA/ records whose d, r differ from the first one's
 };
 
@@ -305,7 +305,8 @@ TEST_P(NxReal, RecordCountsMatchAPlainScan) {
   int circle_lines = 0, goto_lines = 0;
   for (const auto& [line, count] : per_line) {
     const std::string& text = lines.at(static_cast<std::size_t>(line - 1));
-    if (text.rfind("CIRCLE/", 0) == 0) ++circle_lines;
+    if (text.rfind("CIRCLE/", 0) == 0)
+      ++circle_lines;
     else if (text.rfind("GOTO/", 0) == 0) {
       ++goto_lines;
       EXPECT_EQ(count, 1) << "line " << line;
@@ -382,9 +383,10 @@ TEST(NxReal, ContactPointsLieOnTheBall) {
   EXPECT_GT(checked, 2400);  // the rest are zero-length moves the reader drops
   EXPECT_GT(tilted, 1000) << "the modal tool axis of these GOTO/s is tilted";
   EXPECT_LT(worst, tol);
-  std::printf("[ NX CLSF ] contact invariant on %d GOTO/s (%d tilted): | |CC - (P + R u)| - R | <= %.2f um "
-              "(printed precision %.2f um)\n",
-              checked, tilted, worst * 1e3, tol * 1e3);
+  std::printf(
+      "[ NX CLSF ] contact invariant on %d GOTO/s (%d tilted): | |CC - (P + R u)| - R | <= %.2f um "
+      "(printed precision %.2f um)\n",
+      checked, tilted, worst * 1e3, tol * 1e3);
 }
 
 }  // namespace

@@ -178,7 +178,8 @@ TEST(Apt, CutterAndTldataSetTheTool) {
 }
 
 TEST(Apt, LoadtlSetsTheToolNumberOfLaterMoves) {
-  const core::ToolPath tp = read_apt(write_cl("GOTO/0,0,0\nLOADTL/7,1\nFEDRAT/100\nGOTO/1,0,0\nLOAD/TOOL,3\nGOTO/2,0,0\n"));
+  const core::ToolPath tp =
+      read_apt(write_cl("GOTO/0,0,0\nLOADTL/7,1\nFEDRAT/100\nGOTO/1,0,0\nLOAD/TOOL,3\nGOTO/2,0,0\n"));
   ASSERT_EQ(tp.moves.size(), 2u);
   EXPECT_EQ(tp.moves[0].tool_number, 7);
   EXPECT_EQ(tp.moves[1].tool_number, 3);
@@ -294,8 +295,8 @@ TEST(Apt, MovarcAngleCountsFullTurns) {
 }
 
 TEST(Apt, ArcErrorsNameTheLine) {
-  // A tilted axis is read (chords in the circle's plane, apt_nx_test.cpp); its end point must be on the circle: (0, 8, 6)
-  // is 9.6 mm along the axis (0, 0.6, 0.8) and 2.8 mm from it.
+  // A tilted axis is read (chords in the circle's plane, apt_nx_test.cpp); its end point must be on the circle: (0, 8,
+  // 6) is 9.6 mm along the axis (0, 0.6, 0.8) and 2.8 mm from it.
   const std::string tilted = error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0.6,0.8,10\nGOTO/0,8,6\n");
   EXPECT_NE(tilted.find("prog.apt:4: GOTO/ end point is 2.8 mm from the axis of CIRCLE/ on line 3"), std::string::npos)
       << tilted;

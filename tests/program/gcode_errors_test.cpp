@@ -15,7 +15,8 @@ void expect_error(const std::string& program, int line, const std::vector<std::s
   ASSERT_FALSE(msg.empty()) << "no error for:\n" << program;
   const std::string where = "test.ngc:" + std::to_string(line) + ": ";
   EXPECT_NE(msg.find(where), std::string::npos) << "expected \"" << where << "\" in: " << msg;
-  for (const std::string& f : fragments) EXPECT_NE(msg.find(f), std::string::npos) << "expected \"" << f << "\" in: " << msg;
+  for (const std::string& f : fragments)
+    EXPECT_NE(msg.find(f), std::string::npos) << "expected \"" << f << "\" in: " << msg;
 }
 
 TEST(GcodeErrors, UnknownAndUnsupportedCodes) {
@@ -174,8 +175,8 @@ TEST(GcodeErrors, EndlessLoopEndsQuicklyWithAnError) {
   // A loop that moves ends at the bound on canonical calls (set low here to keep the test short).
   GcodeOptions options;
   options.max_canon_calls = 10000;
-  expect_error("G21 F100\no1 do\nG1 X#1\n#1 = [1 - #1]\no1 while [1]\nM2\n", 3, {"canonical calls", "possible endless loop"},
-               options);
+  expect_error("G21 F100\no1 do\nG1 X#1\n#1 = [1 - #1]\no1 while [1]\nM2\n", 3,
+               {"canonical calls", "possible endless loop"}, options);
   // Pecks that make no progress (Q far below the resolution of the depth) end the same way.
   expect_error("G21 F100\nG83 X1 Z-5 R1 Q1e-300\nM2\n", 2, {"E word"});
   expect_error("G21 F100\nG83 X1 Z-5 R1 Q[10 ** -300]\nM2\n", 2, {"pecks each", "possible endless loop"}, options);
@@ -205,9 +206,9 @@ TEST(GcodeErrors, HostileNestingAndRecursion) {
 // the block's end as "no matching opening O-word" (LinuxCNC's rs274 reports the line it cannot read, too).
 TEST(GcodeErrors, BadExpressionOnAnOWordLineIsReportedThere) {
   for (const std::string head : {"o1 repeat [2 +]", "o1 while [#1 LT]", "o1 if [[1]"}) {
-    const std::string closer = head.find("repeat") != std::string::npos ? "o1 endrepeat"
+    const std::string closer = head.find("repeat") != std::string::npos  ? "o1 endrepeat"
                                : head.find("while") != std::string::npos ? "o1 endwhile"
-                                                                          : "o1 endif";
+                                                                         : "o1 endif";
     const std::string program = "G21\n" + head + "\nG0 X1\n" + closer + "\nM2\n";
     expect_error(program, 2, {});
     const std::string msg = error_of(program, {});

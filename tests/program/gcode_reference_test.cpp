@@ -14,9 +14,9 @@ namespace {
 
 const fs::path kData = fs::path(VMSIM_SHARED_DIR) / "data" / "gcode";
 
-#define SKIP_WITHOUT_SHARED_DATA()                                                                          \
-  if (!fs::exists(kData))                                                                                  \
-  GTEST_SKIP() << "reference data not found at " << kData.string()                                         \
+#define SKIP_WITHOUT_SHARED_DATA()                                 \
+  if (!fs::exists(kData))                                          \
+  GTEST_SKIP() << "reference data not found at " << kData.string() \
                << " (../shared/data is written outside the project; a fresh clone does not have it)"
 
 struct ReferenceLine {

@@ -132,7 +132,8 @@ G2 X10 Y0 I5 J0.01
 G2 X0 Y0 I-5 J0.03
 G3 A90 X0 Y0 I5 J0
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"cyc", R"ngc(G21 G17 G90 F100
 G0 X0 Y0 Z10
 G98 G81 X1 Y2 Z-3 R2
@@ -152,13 +153,15 @@ G19 G81 X1 Y2 Z3 R4
 G17 G80 G0 Z1
 G81 X0 Y0 Z-1 R5
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"cy2", R"ngc(F10 G0 Z10
 G99 G81 X1 Z-3 R5
 X2 R2
 G98 X3 R1
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"misc", R"ngc(G21 G90 F200
 G0 X0 Y0 Z5
 G17 G2 X10 Y0 R5 Z-1
@@ -199,7 +202,8 @@ G2 X0 Y1 R1
 G10 L2 P1 R0
 G0 X2
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"sub", R"ngc(o<square> sub
   (debug, in sub #1 #2 #<_value>)
   #<local> = [#1 * 2]
@@ -247,7 +251,8 @@ o200 endrepeat
 #<_g> = 5
 (debug, #<_g> #<_metric> #<_imperial> #<_absolute> #<_feed> #<_motion_mode> #<_plane> #<_coord_system>)
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"more1", R"ngc(%
 G21 F100 (first) (second)
 T3 M6
@@ -277,7 +282,8 @@ M8
 M49
 G18
 M30
-)ngc", true, true},
+)ngc",
+     true, true},
     {"more2", R"ngc(o<fact> sub
   o<fact> if [#1 LE 1]
     o<fact> return [1]
@@ -311,7 +317,8 @@ o11 while [#1 GT 0]
 o11 endwhile
 /G1 X77
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"g93", R"ngc(G21 G17
 G0 X0 Y0 Z0 A0 C0
 G93
@@ -325,7 +332,8 @@ G0 X0
 G94 G1 X5 F100
 G1 C90
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"inch", R"ngc(G20 F10
 G0 X1 Y1 Z0.5
 G1 X2
@@ -345,7 +353,8 @@ G0 X6
 G20 G0 X1
 G54
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"w1", R"ngc(G21 F100
 G0 X1 Y2 Z3
 G10 L2 P2 X10 Y20 Z30
@@ -372,7 +381,8 @@ G0 X5
 G91 G0 X1
 G90 G53 G0 X0 Y0
 M2
-)ngc", true, false},
+)ngc",
+     true, false},
     {"t1", R"ngc(G21 G17
 T2 M6
 G43 H2
@@ -421,7 +431,8 @@ G1 A30 F2
 G94
 G1 A40 F100
 m30
-)ngc", true, true},
+)ngc",
+     true, true},
     {"o2", R"ngc(#5 = 0
 o103 do
   #5 = [#5+1]
@@ -434,7 +445,8 @@ o107 do
   G0 Y#6
 o107 while [#6 LT 3]
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"o3", R"ngc(o102 repeat [2]
   G0 X-1
 o102 endrepeat
@@ -444,7 +456,8 @@ o103 do
   G0 Y#5
 o103 while [#5 LT 3]
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
     {"t3", R"ngc(%
 (first) G21 (second)
 G0 X1 ; semicolon comment
@@ -471,7 +484,8 @@ G1 X[EXISTS[#<foo>]] Y#<foo> Z[#<FOO>+1]
 G 1 X 1 . 5 Y # 1
 
 M2
-)ngc", false, false},
+)ngc",
+     false, false},
 };
 
 TEST(GcodeRs274Live, HandWrittenProgramsMatchLineForLine) {
@@ -521,17 +535,27 @@ class RandomProgram {
 
   void step() {
     switch (pick(11)) {
-      case 0: out_ << "G0" << xyz(uni(-50, 50), uni(-50, 50), uni(-5, 20)) << "\n"; break;
-      case 1: out_ << "G1" << xyz(uni(-50, 50), uni(-50, 50), uni(-5, 20)) << " F" << 10 + pick(2000) << "\n"; break;
-      case 2: arc_ijk(); break;
-      case 3: arc_r(); break;
+      case 0:
+        out_ << "G0" << xyz(uni(-50, 50), uni(-50, 50), uni(-5, 20)) << "\n";
+        break;
+      case 1:
+        out_ << "G1" << xyz(uni(-50, 50), uni(-50, 50), uni(-5, 20)) << " F" << 10 + pick(2000) << "\n";
+        break;
+      case 2:
+        arc_ijk();
+        break;
+      case 3:
+        arc_r();
+        break;
       case 4: {
         static const char* kPlanes[] = {"G17", "G18", "G19"};
         plane_ = pick(3);
         out_ << kPlanes[plane_] << "\n";
         break;
       }
-      case 5: cycle(); break;
+      case 5:
+        cycle();
+        break;
       case 6: {
         const double dx = uni(-5, 5), dy = uni(-5, 5);
         out_ << "G91 G1 X" << f(dx) << " Y" << f(dy) << "\nG90\n";
@@ -542,7 +566,8 @@ class RandomProgram {
       case 7: {
         const double a = uni(-3, 3), b = uni(1, 4);
         const int deg = pick(360);
-        out_ << "#1 = " << f(a) << "\nG1 X[#1 * " << f(b) << " + 10 * SIN[" << deg << "]] Y[ABS[#1] ** 2] Z[#1 MOD 2]\n";
+        out_ << "#1 = " << f(a) << "\nG1 X[#1 * " << f(b) << " + 10 * SIN[" << deg
+             << "]] Y[ABS[#1] ** 2] Z[#1 MOD 2]\n";
         // The generator loses track of X and Y here; go somewhere known.
         out_ << "G0" << xyz(uni(-20, 20), uni(-20, 20), uni(0, 10)) << "\n";
         break;
@@ -553,9 +578,13 @@ class RandomProgram {
         set_pos(x, y, z);
         break;
       }
-      case 9: out_ << "G93 G1" << xyz(uni(-50, 50), uni(-50, 50), uni(0, 10)) << " A" << f(uni(-90, 90)) << " F"
-                   << f(uni(0.5, 20)) << "\nG94 F300\n"; break;
-      case 10: out_ << "(note " << pick(1000) << ")\n"; break;
+      case 9:
+        out_ << "G93 G1" << xyz(uni(-50, 50), uni(-50, 50), uni(0, 10)) << " A" << f(uni(-90, 90)) << " F"
+             << f(uni(0.5, 20)) << "\nG94 F300\n";
+        break;
+      case 10:
+        out_ << "(note " << pick(1000) << ")\n";
+        break;
     }
   }
 

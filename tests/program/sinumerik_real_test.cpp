@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 
 fs::path data_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "spinner_u5-620_840d"; }
 
-#define SKIP_WITHOUT_DATA()                                                                                 \
+#define SKIP_WITHOUT_DATA() \
   if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)"
 
 const std::vector<int> kSpinnerM = {27, 29, 50, 51, 65};  // Spinner's own M functions in these files, without motion
@@ -110,11 +110,12 @@ TEST(SinumerikReal, CountsOfBlocksArcsAndMovesMatchTheFiles) {
     // The program's own tolerance: CYCLE832(_camtolerance, ...) with _camtolerance = .02 for every feed move.
     ASSERT_TRUE(r.contour_tolerance_mm.has_value());
     EXPECT_DOUBLE_EQ(*r.contour_tolerance_mm, 0.02);
-    std::printf("[ COUNTS   ] %s: %d lines, %d G0 / %d G1 / %d G2-G3 blocks, %d cycles, %zu ToolPath moves (%d TCP), "
-                "%zu canonical calls, tools %zu, %d tool changes\n",
-                e.file.c_str(), r.stats.lines, r.stats.rapid_blocks, r.stats.linear_blocks, r.stats.arc_blocks,
-                r.stats.cycle_calls, r.path.moves.size(), r.stats.tcp_moves, r.canon.size(), r.tools.size(),
-                r.stats.tool_changes);
+    std::printf(
+        "[ COUNTS   ] %s: %d lines, %d G0 / %d G1 / %d G2-G3 blocks, %d cycles, %zu ToolPath moves (%d TCP), "
+        "%zu canonical calls, tools %zu, %d tool changes\n",
+        e.file.c_str(), r.stats.lines, r.stats.rapid_blocks, r.stats.linear_blocks, r.stats.arc_blocks,
+        r.stats.cycle_calls, r.path.moves.size(), r.stats.tcp_moves, r.canon.size(), r.tools.size(),
+        r.stats.tool_changes);
   }
 }
 
@@ -173,7 +174,8 @@ TEST(SinumerikReal, UnknownStatementsAreNamedWithFileAndLine) {
         expected.push_back((data_dir() / e.file).string() + ":" + std::to_string(i + 1) + ": M" + (*it)[1].str());
     }
     ASSERT_EQ(r.warnings.size(), expected.size());
-    for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(r.warnings[i].rfind(expected[i] + ":", 0), 0u) << r.warnings[i];
+    for (std::size_t i = 0; i < expected.size(); ++i)
+      EXPECT_EQ(r.warnings[i].rfind(expected[i] + ":", 0), 0u) << r.warnings[i];
     // and the same moves as with the functions named
     EXPECT_EQ(r.path.moves.size(), read(e.file).path.moves.size());
   }
@@ -210,7 +212,8 @@ TEST(SinumerikReal, ThreePlusTwoFacesComeOutWhereTheFramesPutThem) {
     });
     ops[i].axis = Eigen::Vector3d::UnitZ();
     for (const auto& [line, z] : frames)
-      if (line > ops[i].first_line && first_feed != r.path.moves.end() && line < first_feed->source_line) ops[i].axis = z;
+      if (line > ops[i].first_line && first_feed != r.path.moves.end() && line < first_feed->source_line)
+        ops[i].axis = z;
   }
   ASSERT_EQ(ops.size(), 25u);
   auto deepest = [&](const std::string& name, Eigen::Vector3d& axis) {
@@ -238,10 +241,8 @@ TEST(SinumerikReal, ThreePlusTwoFacesComeOutWhereTheFramesPutThem) {
     double depth;
   };
   const Face faces[] = {
-      {"PLANEN", Eigen::Vector3d::UnitZ(), 0.0, 2.0},
-      {"X_ACHSE_PLANEN", Eigen::Vector3d::UnitX(), 0.0, 1.0},
-      {"Y_ACHSE_PLANEN", Eigen::Vector3d::UnitY(), 50.0, 1.0},
-      {"PLANEN_REST_1", -Eigen::Vector3d::UnitX(), 50.0, 1.0},
+      {"PLANEN", Eigen::Vector3d::UnitZ(), 0.0, 2.0},          {"X_ACHSE_PLANEN", Eigen::Vector3d::UnitX(), 0.0, 1.0},
+      {"Y_ACHSE_PLANEN", Eigen::Vector3d::UnitY(), 50.0, 1.0}, {"PLANEN_REST_1", -Eigen::Vector3d::UnitX(), 50.0, 1.0},
       {"PLANEN_REST_2", -Eigen::Vector3d::UnitY(), 0.0, 1.0},
   };
   std::map<std::string, double> level;
@@ -263,11 +264,16 @@ TEST(SinumerikReal, ThreePlusTwoFacesComeOutWhereTheFramesPutThem) {
     Eigen::Vector3d axis;
     const double d = deepest(op, axis);
     double face = 0;
-    if (std::fabs(axis.x() - 1) < 1e-4) face = level["X_ACHSE_PLANEN"];
-    else if (std::fabs(axis.y() - 1) < 1e-4) face = level["Y_ACHSE_PLANEN"];
-    else if (std::fabs(axis.x() + 1) < 1e-4) face = level["PLANEN_REST_1"];
-    else if (std::fabs(axis.y() + 1) < 1e-4) face = level["PLANEN_REST_2"];
-    else ADD_FAILURE() << op << ": tool axis " << axis.transpose() << " is not a side face's";
+    if (std::fabs(axis.x() - 1) < 1e-4)
+      face = level["X_ACHSE_PLANEN"];
+    else if (std::fabs(axis.y() - 1) < 1e-4)
+      face = level["Y_ACHSE_PLANEN"];
+    else if (std::fabs(axis.x() + 1) < 1e-4)
+      face = level["PLANEN_REST_1"];
+    else if (std::fabs(axis.y() + 1) < 1e-4)
+      face = level["PLANEN_REST_2"];
+    else
+      ADD_FAILURE() << op << ": tool axis " << axis.transpose() << " is not a side face's";
     std::printf("[ FACE     ] %-15s tool axis (%g, %g, %g): %.3f mm below its face\n", op, axis.x(), axis.y(), axis.z(),
                 face - d);
     EXPECT_GE(face - d, -1e-9) << op;

@@ -51,15 +51,15 @@ std::string error_of(const std::string& text, const SinumerikOptions& options = 
 }
 
 TEST(Sinumerik, CommentsVariablesRParametersAndExpressions) {
-  const SinumerikResult r = run(
-      "N10 ;Start of Program\n"
-      "N20 DEF REAL _A, _B=2\n"
-      "N30 DEF INT _N\n"
-      "N40 R1=3 _A=R1*_B+1 _N=7/2\n"          // INT assignment rounds: 3.5 -> 4
-      "N50 G90 G17 G0 X=_A Y=R1-1 Z=POT(2)\n"  // 7, 2, 4
-      "N60 G0 X=2+3*4 Y=(2+3)*4 Z=_N\n"        // 14, 20, 4
-      "N70 G0 X=SIN(30)*10 Y=ATAN2(1,1) Z=SQRT(16)+ABS(-1)\n"
-      "N80 G0 X=TRUNC(-2.7) Y=ROUND(2.5) Z=7 MOD 4\n");
+  const SinumerikResult r =
+      run("N10 ;Start of Program\n"
+          "N20 DEF REAL _A, _B=2\n"
+          "N30 DEF INT _N\n"
+          "N40 R1=3 _A=R1*_B+1 _N=7/2\n"           // INT assignment rounds: 3.5 -> 4
+          "N50 G90 G17 G0 X=_A Y=R1-1 Z=POT(2)\n"  // 7, 2, 4
+          "N60 G0 X=2+3*4 Y=(2+3)*4 Z=_N\n"        // 14, 20, 4
+          "N70 G0 X=SIN(30)*10 Y=ATAN2(1,1) Z=SQRT(16)+ABS(-1)\n"
+          "N80 G0 X=TRUNC(-2.7) Y=ROUND(2.5) Z=7 MOD 4\n");
   EXPECT_EQ(moves(r), (std::vector<std::string>{
                           "STRAIGHT_TRAVERSE(7.0000, 2.0000, 4.0000, 0.0000, 0.0000, 0.0000)",
                           "STRAIGHT_TRAVERSE(14.0000, 20.0000, 4.0000, 0.0000, 0.0000, 0.0000)",
@@ -74,10 +74,10 @@ TEST(Sinumerik, CommentsVariablesRParametersAndExpressions) {
 TEST(Sinumerik, ComparisonsBindLoosestAndCompareExactly) {
   // 840D priority: comparisons after AND/OR, so (R1==1) AND (R2==2) needs its brackets; 1 == 1.00001 is false
   // (the 840D compares REAL values exactly, not with LinuxCNC's 1e-4).
-  const SinumerikResult r = run(
-      "R1=1 R2=2\n"
-      "G0 X=(R1==1) AND (R2==2) Y=R1==1.00001 Z=1+1==2\n"
-      "G0 X=R1<>1 Y=R1<=1 Z=NOT R1\n");
+  const SinumerikResult r =
+      run("R1=1 R2=2\n"
+          "G0 X=(R1==1) AND (R2==2) Y=R1==1.00001 Z=1+1==2\n"
+          "G0 X=R1<>1 Y=R1<=1 Z=NOT R1\n");
   EXPECT_EQ(moves(r), (std::vector<std::string>{
                           "STRAIGHT_TRAVERSE(1.0000, 0.0000, 1.0000, 0.0000, 0.0000, 0.0000)",
                           "STRAIGHT_TRAVERSE(0.0000, 1.0000, 0.0000, 0.0000, 0.0000, 0.0000)",
@@ -85,28 +85,28 @@ TEST(Sinumerik, ComparisonsBindLoosestAndCompareExactly) {
 }
 
 TEST(Sinumerik, LabelsGotoAndIfElseWhile) {
-  const SinumerikResult r = run(
-      "N10 DEF INT _N=0\n"
-      "N20 G1 F100\n"
-      "LOOP: _N=_N+1\n"
-      "N40 X=_N\n"
-      "N50 IF _N<3 GOTOB LOOP\n"
-      "N60 GOTOF SKIP\n"
-      "N70 X99\n"
-      "SKIP:\n"
-      "N90 IF _N==3\n"
-      "N100 Y1\n"
-      "N110 ELSE\n"
-      "N120 Y2\n"
-      "N130 ENDIF\n"
-      "N140 WHILE _N>1\n"
-      "N150 _N=_N-1\n"
-      "N160 Z=_N\n"
-      "N170 ENDWHILE\n"
-      "N180 GOTOF N200\n"
-      "N190 X98\n"
-      "N200 M30\n"
-      "N210 X97\n");
+  const SinumerikResult r =
+      run("N10 DEF INT _N=0\n"
+          "N20 G1 F100\n"
+          "LOOP: _N=_N+1\n"
+          "N40 X=_N\n"
+          "N50 IF _N<3 GOTOB LOOP\n"
+          "N60 GOTOF SKIP\n"
+          "N70 X99\n"
+          "SKIP:\n"
+          "N90 IF _N==3\n"
+          "N100 Y1\n"
+          "N110 ELSE\n"
+          "N120 Y2\n"
+          "N130 ENDIF\n"
+          "N140 WHILE _N>1\n"
+          "N150 _N=_N-1\n"
+          "N160 Z=_N\n"
+          "N170 ENDWHILE\n"
+          "N180 GOTOF N200\n"
+          "N190 X98\n"
+          "N200 M30\n"
+          "N210 X97\n");
   EXPECT_EQ(moves(r), (std::vector<std::string>{
                           "STRAIGHT_FEED(1.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)",
                           "STRAIGHT_FEED(2.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)",
@@ -119,21 +119,21 @@ TEST(Sinumerik, LabelsGotoAndIfElseWhile) {
 }
 
 TEST(Sinumerik, ArcsWithCentreRadiusAndTurns) {
-  const SinumerikResult r = run(
-      "G17 G90 G0 X10 Y0 Z0\n"
-      "G3 X0 Y10 I-10 J0 F500\n"      // centre (0,0), counter-clockwise
-      "G0 X10 Y0\n"
-      "G3 X0 Y10 CR=10\n"             // up to 180 deg: the same arc
-      "G0 X10 Y0\n"
-      "G3 X0 Y10 CR=-10\n"            // over 180 deg: centre (10,10)
-      "G0 X10 Y0\n"
-      "G2 X0 Y10 CR=10\n"             // clockwise up to 180 deg: centre (10,10)
-      "G0 X10 Y0\n"
-      "G2 X0 Y10 I=AC(0) J=AC(0)\n"   // absolute centre, clockwise the long way
-      "G0 X10 Y0 Z0\n"
-      "G3 X10 Y0 Z-2 I-10 J0 TURN=2\n"  // helix: 3 full turns down to Z-2
-      "G18 G0 X10 Y0 Z0\n"
-      "G3 X0 Z10 I-10 K0\n");          // ZX plane: (first, second) = (z, x)
+  const SinumerikResult r =
+      run("G17 G90 G0 X10 Y0 Z0\n"
+          "G3 X0 Y10 I-10 J0 F500\n"  // centre (0,0), counter-clockwise
+          "G0 X10 Y0\n"
+          "G3 X0 Y10 CR=10\n"  // up to 180 deg: the same arc
+          "G0 X10 Y0\n"
+          "G3 X0 Y10 CR=-10\n"  // over 180 deg: centre (10,10)
+          "G0 X10 Y0\n"
+          "G2 X0 Y10 CR=10\n"  // clockwise up to 180 deg: centre (10,10)
+          "G0 X10 Y0\n"
+          "G2 X0 Y10 I=AC(0) J=AC(0)\n"  // absolute centre, clockwise the long way
+          "G0 X10 Y0 Z0\n"
+          "G3 X10 Y0 Z-2 I-10 J0 TURN=2\n"  // helix: 3 full turns down to Z-2
+          "G18 G0 X10 Y0 Z0\n"
+          "G3 X0 Z10 I-10 K0\n");  // ZX plane: (first, second) = (z, x)
   const std::vector<std::string> arcs = [&] {
     std::vector<std::string> a;
     for (const std::string& m : moves(r))
@@ -163,12 +163,12 @@ TEST(Sinumerik, ArcsWithCentreRadiusAndTurns) {
 }
 
 TEST(Sinumerik, AbsoluteAndIncrementalWords) {
-  const SinumerikResult r = run(
-      "G90 G0 X10\n"
-      "X=IC(5)\n"      // 15
-      "G91 X5\n"       // 20
-      "X=AC(1)\n"      // 1
-      "G90 B30 C=IC(10)\n");
+  const SinumerikResult r =
+      run("G90 G0 X10\n"
+          "X=IC(5)\n"  // 15
+          "G91 X5\n"   // 20
+          "X=AC(1)\n"  // 1
+          "G90 B30 C=IC(10)\n");
   EXPECT_EQ(moves(r), (std::vector<std::string>{
                           "STRAIGHT_TRAVERSE(10.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)",
                           "STRAIGHT_TRAVERSE(15.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)",
@@ -180,20 +180,20 @@ TEST(Sinumerik, AbsoluteAndIncrementalWords) {
 }
 
 TEST(Sinumerik, FramesTransRotAndTheirAdditiveForms) {
-  const SinumerikResult r = run(
-      "TRANS X10\n"
-      "G0 X0 Y0 Z0\n"       // (10, 0, 0)
-      "AROT Z90\n"
-      "G0 X1 Y0\n"          // (10, 1, 0): x of the turned frame is +Y
-      "ATRANS X5\n"         // 5 along the turned x: origin (10, 5, 0)
-      "G0 X0 Y0\n"          // (10, 5, 0)
-      "ROT Y90\n"           // replaces everything: a turn about Y alone
-      "G0 X0 Y0 Z1\n"       // Ry(90) (0,0,1) = (1, 0, 0)
-      "ROT X90 Y90\n"       // order Z, Y', X'': Ry(90) Rx(90)
-      "G0 X0 Y1 Z0\n"       // Ry(90) Rx(90) (0,1,0) = Ry(90) (0,0,1) = (1, 0, 0)
-      "TRANS\n"
-      "SUPA G0 X3\n"        // no frame: (3, 0, 0) before and after
-      "G0 X0 Y0 Z0\n");
+  const SinumerikResult r =
+      run("TRANS X10\n"
+          "G0 X0 Y0 Z0\n"  // (10, 0, 0)
+          "AROT Z90\n"
+          "G0 X1 Y0\n"     // (10, 1, 0): x of the turned frame is +Y
+          "ATRANS X5\n"    // 5 along the turned x: origin (10, 5, 0)
+          "G0 X0 Y0\n"     // (10, 5, 0)
+          "ROT Y90\n"      // replaces everything: a turn about Y alone
+          "G0 X0 Y0 Z1\n"  // Ry(90) (0,0,1) = (1, 0, 0)
+          "ROT X90 Y90\n"  // order Z, Y', X'': Ry(90) Rx(90)
+          "G0 X0 Y1 Z0\n"  // Ry(90) Rx(90) (0,1,0) = Ry(90) (0,0,1) = (1, 0, 0)
+          "TRANS\n"
+          "SUPA G0 X3\n"  // no frame: (3, 0, 0) before and after
+          "G0 X0 Y0 Z0\n");
   EXPECT_EQ(moves(r), (std::vector<std::string>{
                           "STRAIGHT_TRAVERSE(10.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)",
                           "STRAIGHT_TRAVERSE(10.0000, 1.0000, 0.0000, 0.0000, 0.0000, 0.0000)",
@@ -209,11 +209,11 @@ TEST(Sinumerik, FramesTransRotAndTheirAdditiveForms) {
 TEST(Sinumerik, ArcInATurnedFrameStaysAnArcOrBecomesChords) {
   // AROT Y90: the frame's XY plane is the workpiece's YZ plane seen from +X (frame z = +X); a G3 there is
   // counter-clockwise about +X: ARC_FEED in (y, z) with rotation +1.
-  const SinumerikResult r = run(
-      "AROT Y90\n"
-      "G0 X0 Y0 Z5\n"        // workpiece (5, 0, 0)
-      "G0 X10 Y0\n"          // Ry(90) (10,0,5) = (5, 0, -10)
-      "G3 X0 Y10 I-10 J0 F100\n");
+  const SinumerikResult r =
+      run("AROT Y90\n"
+          "G0 X0 Y0 Z5\n"  // workpiece (5, 0, 0)
+          "G0 X10 Y0\n"    // Ry(90) (10,0,5) = (5, 0, -10)
+          "G3 X0 Y10 I-10 J0 F100\n");
   const std::vector<std::string> m = moves(r);
   ASSERT_EQ(m.size(), 3u);
   EXPECT_EQ(m[1], "STRAIGHT_TRAVERSE(5.0000, 0.0000, -10.0000, 0.0000, 0.0000, 0.0000)");
@@ -223,10 +223,10 @@ TEST(Sinumerik, ArcInATurnedFrameStaysAnArcOrBecomesChords) {
 
   // A frame turned by 45 deg about two axes: the plane has no name in the workpiece frame; chords within 1 um, every
   // chord end on the programmed circle (radius 10 about the frame's centre).
-  const SinumerikResult c = run(
-      "AROT X90\nAROT Y-45\n"
-      "G0 X10 Y0 Z0\n"
-      "G3 X0 Y10 I-10 J0 F100\n");
+  const SinumerikResult c =
+      run("AROT X90\nAROT Y-45\n"
+          "G0 X10 Y0 Z0\n"
+          "G3 X0 Y10 I-10 J0 F100\n");
   EXPECT_EQ(c.stats.chorded_arcs, 1);
   EXPECT_EQ(c.stats.arc_blocks, 1);
   ASSERT_GT(c.path.moves.size(), 20u);
@@ -255,13 +255,13 @@ class FakeMachine final : public MachineTransform {
 
 TEST(Sinumerik, TraoriMovesAreToolCentrePointMovesInTheFrame) {
   const char* text =
-      "G0 X1 Y2 Z3 B90 C0\n"   // joint move
+      "G0 X1 Y2 Z3 B90 C0\n"  // joint move
       "TRAORI\n"
       "AROT Y90\n"
-      "G1 X0 Y0 Z5 F100\n"     // tip at Ry(90) (0,0,5) = (5, 0, 0), rotary axes as they are
+      "G1 X0 Y0 Z5 F100\n"  // tip at Ry(90) (0,0,5) = (5, 0, 0), rotary axes as they are
       "TRANS X0 Y0 Z0\n"
       "TRAFOOF\n"
-      "SUPA G0 Z610\n";        // machine position
+      "SUPA G0 Z610\n";  // machine position
   const SinumerikResult r = run(text);
   ASSERT_EQ(r.path.moves.size(), 3u);
   EXPECT_FALSE(r.path.moves[0].tcp);
@@ -307,26 +307,26 @@ TEST(Sinumerik, Cycle800SwivelsThroughTheMachine) {
 }
 
 TEST(Sinumerik, ToolCallsSpindleCoolantAndEnd) {
-  const SinumerikResult r = run(
-      "T=\"MILL_A\"\nM6\nS1000 M3 M8\nT=\"DRILL_B\" M6\nT=\"MILL_A\"\nM6 D1\nM5 M9\nT0 M6\nM30\nG0 X99\n");
+  const SinumerikResult r =
+      run("T=\"MILL_A\"\nM6\nS1000 M3 M8\nT=\"DRILL_B\" M6\nT=\"MILL_A\"\nM6 D1\nM5 M9\nT0 M6\nM30\nG0 X99\n");
   EXPECT_EQ(r.tools, (std::vector<std::string>{"MILL_A", "DRILL_B"}));
-  EXPECT_EQ(calls(r), (std::vector<std::string>{
-                          "SELECT_TOOL(1)", "CHANGE_TOOL(1)", "SET_SPINDLE_SPEED(0, 1000.0000)",
-                          "START_SPINDLE_CLOCKWISE(0)", "FLOOD_ON()", "SELECT_TOOL(2)", "CHANGE_TOOL(2)",
-                          "SELECT_TOOL(1)", "CHANGE_TOOL(1)", "STOP_SPINDLE_TURNING(0)", "MIST_OFF()", "FLOOD_OFF()",
-                          "SELECT_TOOL(0)", "CHANGE_TOOL(0)", "PROGRAM_END()"}));
+  EXPECT_EQ(calls(r),
+            (std::vector<std::string>{"SELECT_TOOL(1)", "CHANGE_TOOL(1)", "SET_SPINDLE_SPEED(0, 1000.0000)",
+                                      "START_SPINDLE_CLOCKWISE(0)", "FLOOD_ON()", "SELECT_TOOL(2)", "CHANGE_TOOL(2)",
+                                      "SELECT_TOOL(1)", "CHANGE_TOOL(1)", "STOP_SPINDLE_TURNING(0)", "MIST_OFF()",
+                                      "FLOOD_OFF()", "SELECT_TOOL(0)", "CHANGE_TOOL(0)", "PROGRAM_END()"}));
   EXPECT_EQ(r.stats.tool_changes, 4);
 }
 
 TEST(Sinumerik, Cycle832SetsTheContourToleranceAndMode) {
-  const SinumerikResult r = run(
-      "DEF REAL _camtolerance\n_camtolerance=.02\n"
-      "CYCLE832(_camtolerance,1,1)\n"
-      "G1 X1 F100\n"
-      "CYCLE832(0.05,3,1)\n"
-      "G1 X2\n"
-      "CYCLE832()\n"
-      "G1 X3\n");
+  const SinumerikResult r =
+      run("DEF REAL _camtolerance\n_camtolerance=.02\n"
+          "CYCLE832(_camtolerance,1,1)\n"
+          "G1 X1 F100\n"
+          "CYCLE832(0.05,3,1)\n"
+          "G1 X2\n"
+          "CYCLE832()\n"
+          "G1 X3\n");
   const std::vector<std::string> c = calls(r);
   EXPECT_EQ(c, (std::vector<std::string>{
                    "SET_MOTION_CONTROL_MODE(CANON_CONTINUOUS, 0.020000)", "SET_NAIVECAM_TOLERANCE(0.0200)",
@@ -346,13 +346,13 @@ TEST(Sinumerik, Cycle832SetsTheContourToleranceAndMode) {
 
 TEST(Sinumerik, DrillingCyclesMakeTheirDocumentedMotion) {
   // CYCLE81(RTP, RFP, SDIS, DP): G0 to RFP + SDIS, G1 to DP, G0 to RTP. As a modal call after each positioning.
-  const SinumerikResult r = run(
-      "G0 X10 Y20 Z50 F100\n"
-      "CYCLE81(10,0,2,-5)\n"
-      "MCALL CYCLE81(10,0,2,,5)\n"  // DPR = 5 below the reference plane
-      "X30\n"
-      "MCALL\n"
-      "X40\n");
+  const SinumerikResult r =
+      run("G0 X10 Y20 Z50 F100\n"
+          "CYCLE81(10,0,2,-5)\n"
+          "MCALL CYCLE81(10,0,2,,5)\n"  // DPR = 5 below the reference plane
+          "X30\n"
+          "MCALL\n"
+          "X40\n");
   EXPECT_EQ(moves(r), (std::vector<std::string>{
                           "STRAIGHT_TRAVERSE(10.0000, 20.0000, 50.0000, 0.0000, 0.0000, 0.0000)",
                           "STRAIGHT_TRAVERSE(10.0000, 20.0000, 2.0000, 0.0000, 0.0000, 0.0000)",

@@ -100,7 +100,8 @@ std::vector<SweptTool> sampled_raster() {
   for (int pass = 0; pass < 6; ++pass) {
     for (int k = 0; k < 500; ++k) {
       const double x = pass % 2 ? 22 - 0.04 * k : 2 + 0.04 * k, y = 3 + 0.25 * pass + 0.4 * k / 500.0;
-      const Eigen::Vector3d q(x, y + 0.003 * std::sin(0.7 * k), 9 + 0.8 * std::sin(0.2 * x) + 0.002 * std::cos(1.3 * k));
+      const Eigen::Vector3d q(x, y + 0.003 * std::sin(0.7 * k),
+                              9 + 0.8 * std::sin(0.2 * x) + 0.002 * std::cos(1.3 * k));
       s.push_back(sweep(t, p, q));
       p = q;
     }
@@ -118,15 +119,15 @@ std::vector<SweptTool> buried_and_special() {
   s.push_back(sweep(ball, {20, 9, 3}, {20, 20, 5}));
   s.push_back(sweep(flat, {30, 5, 6}, {10, 25, 4}));
   s.push_back(sweep(bull, {8, 22, 7}, {33, 18, 2}));
-  s.push_back(sweep(ball, {12, 3, 2}, {12, 27, 2}));                                 // along y
-  s.push_back(sweep(ball, {3, 15, 6}, {37, 15, 6}));                                 // along x
-  s.push_back(sweep(tool(3, 3), {25, 12, 9}, {25 + 2e-9, 12, 5}));                   // ee = 4e-18: the fast path
-  s.push_back(sweep(tool(3, 3), {15, 12, 9}, {15 + 5e-10, 12, 4}));                  // ee < 1e-18: a plunge
-  s.push_back(sweep(tool(3, 3), {35, 25, 12}, {35, 25, 7}));                         // plunge
+  s.push_back(sweep(ball, {12, 3, 2}, {12, 27, 2}));                 // along y
+  s.push_back(sweep(ball, {3, 15, 6}, {37, 15, 6}));                 // along x
+  s.push_back(sweep(tool(3, 3), {25, 12, 9}, {25 + 2e-9, 12, 5}));   // ee = 4e-18: the fast path
+  s.push_back(sweep(tool(3, 3), {15, 12, 9}, {15 + 5e-10, 12, 4}));  // ee < 1e-18: a plunge
+  s.push_back(sweep(tool(3, 3), {35, 25, 12}, {35, 25, 7}));         // plunge
   const Eigen::Vector3d tilted = Eigen::Vector3d(0.3, 0.2, 1).normalized(), start(28, 4, 11);
-  s.push_back(sweep(tool(3, 3), start, start + 3 * tilted, tilted));                 // along the tilted axis
-  s.push_back(sweep(tool(3, 3), {-8, -6, 9}, {50, 40, 7}));                          // across, from outside
-  s.push_back(sweep(tool(3, 3), {-8, 10, 9}, {-4, 10, 7}));                          // outside: cuts nothing
+  s.push_back(sweep(tool(3, 3), start, start + 3 * tilted, tilted));  // along the tilted axis
+  s.push_back(sweep(tool(3, 3), {-8, -6, 9}, {50, 40, 7}));           // across, from outside
+  s.push_back(sweep(tool(3, 3), {-8, 10, 9}, {-4, 10, 7}));           // outside: cuts nothing
   return s;
 }
 
@@ -144,10 +145,11 @@ std::pair<std::size_t, std::size_t> expect_same(const DexelGrid& a, const DexelG
       b.intervals(i, j, y);
       if (!same_bits(x, y)) {
         ADD_FAILURE() << what << ": ray (" << i << ", " << j << ") holds " << x.size() << " vs " << y.size()
-                      << " intervals" << (x.empty() || y.empty() ? "" : ", first [" + std::to_string(x[0].lo) + ", " +
-                                                                          std::to_string(x[0].hi) + "] vs [" +
-                                                                          std::to_string(y[0].lo) + ", " +
-                                                                          std::to_string(y[0].hi) + "]");
+                      << " intervals"
+                      << (x.empty() || y.empty()
+                              ? ""
+                              : ", first [" + std::to_string(x[0].lo) + ", " + std::to_string(x[0].hi) + "] vs [" +
+                                    std::to_string(y[0].lo) + ", " + std::to_string(y[0].hi) + "]");
         return {full, split};
       }
       full += !x.empty();
@@ -162,8 +164,8 @@ void add_split_rays(DexelGrid& g, unsigned seed) {
   std::uniform_int_distribution<int> ui(0, g.nu() - 1), uj(0, g.nv() - 1);
   const float L = static_cast<float>(g.length());
   for (int k = 0; k < g.nu() * g.nv() / 50; ++k)
-    g.set_intervals(ui(rng), uj(rng), {Interval{0.1f * L, 0.4f * L}, Interval{0.55f * L, 0.7f * L},
-                                       Interval{0.8f * L, 0.95f * L}});
+    g.set_intervals(ui(rng), uj(rng),
+                    {Interval{0.1f * L, 0.4f * L}, Interval{0.55f * L, 0.7f * L}, Interval{0.8f * L, 0.95f * L}});
 }
 
 struct Case {
@@ -185,7 +187,8 @@ std::vector<Case> cases() {
   c.push_back({"everything in one program", all});
   std::vector<SweptTool> bull = random_moves(9, 12);
   for (int k = 0; k < 3; ++k)
-    bull.push_back(sweep(tool(3, 1), {14.0 + 5 * k, 20, 8}, {17.0 + 5 * k, 21, 8.5 - k}, Eigen::Vector3d(-0.3, 0.4 * k, 1)));
+    bull.push_back(
+        sweep(tool(3, 1), {14.0 + 5 * k, 20, 8}, {17.0 + 5 * k, 21, 8.5 - k}, Eigen::Vector3d(-0.3, 0.4 * k, 1)));
   c.push_back({"tilted bull-nose", bull, false});
   return c;
 }
@@ -196,7 +199,6 @@ DexelGrid zmap_with_splits(double h, unsigned seed) {
   add_split_rays(z, seed);
   return z;
 }
-
 
 // cut()'s three ways through a block of rows: lowest sweep first where that is exact (the default), program order
 // only, and lowest first with every ray replayed in program order (the net for rays whose order matters).
@@ -222,8 +224,8 @@ TEST(CutEquivalence, ZmapEqualsTheReferenceKernelBitForBit) {
       for (const Way way : {Way::Default, Way::ProgramOrder, Way::ReplayAll}) {
         DexelGrid fast = zmap_with_splits(h, 17);
         const CutStats s = cut_way(fast, c.sweeps, way);
-        const std::string what = c.name + " on a z-map at " + std::to_string(h) + " mm, way " +
-                                 std::to_string(static_cast<int>(way));
+        const std::string what =
+            c.name + " on a z-map at " + std::to_string(h) + " mm, way " + std::to_string(static_cast<int>(way));
         const auto [full, split] = expect_same(ref, fast, what);
         EXPECT_GT(full, 0u);
         EXPECT_GT(split, 0u) << what << ": no ray with several intervals left";
@@ -354,7 +356,9 @@ PoseTrack sampled_track(unsigned seed, int n, bool velocities, bool turning, boo
     if (x > 30 || x < 0) dir = -dir, y += 0.3;
     const double z = 5 + 0.5 * std::sin(0.2 * x) + noise(rng);
     t.tip_mm.row(k) << x + noise(rng), y + 0.05 * std::sin(0.01 * k), z;
-    if (velocities) t.tip_velocity_mm_per_s.row(k) << dir * v, 0.05 * 0.01 / 1e-3 * std::cos(0.01 * k), 0.1 * dir * v * std::cos(0.2 * x);
+    if (velocities)
+      t.tip_velocity_mm_per_s.row(k) << dir * v, 0.05 * 0.01 / 1e-3 * std::cos(0.01 * k),
+          0.1 * dir * v * std::cos(0.2 * x);
     if (turning) t.axis_per_sample.row(k) << 0.3 * std::sin(0.0005 * k), 0.2 * std::cos(0.0007 * k), 1;
     if (constant_per_sample) t.axis_per_sample.row(k) << 0.1, -0.2, 1;
   }
@@ -382,7 +386,8 @@ TEST(CutEquivalence, TrackSweepsEqualTheReferenceBitForBit) {
         ASSERT_EQ(a.sweeps.size(), b.sweeps.size()) << what;
         EXPECT_GT(a.sweeps.size(), 50u) << what;
         if (axes != 1) EXPECT_LT(a.sweeps.size(), a.points * 9 / 10) << what << ": the merge merged almost nothing";
-        for (std::size_t k = 0; k < a.sweeps.size(); ++k) ASSERT_TRUE(same_sweep(a.sweeps[k], b.sweeps[k])) << what << " " << k;
+        for (std::size_t k = 0; k < a.sweeps.size(); ++k)
+          ASSERT_TRUE(same_sweep(a.sweeps[k], b.sweeps[k])) << what << " " << k;
         EXPECT_EQ(a.points, b.points) << what;
         EXPECT_EQ(a.error_bound_mm, b.error_bound_mm) << what;
         EXPECT_EQ(a.orientation_error_mm, b.orientation_error_mm) << what;

@@ -216,7 +216,8 @@ TEST(Fields, VectorisedKernelIsIdenticalOnEveryCpu) {
   for (int k = 0; k < 300; ++k) idx[k] = (k * 7) % 300;
   for (int trial = 0; trial < 50; ++trial) {
     const double s = trial * 0.37;
-    vmsim::removal::RowCutParams p{5, 40, 3 - s, 0.7 + s, -0.2 * s, 0.49 + s * s, 1 / (0.49 + s * s), 1.1, 0.3 - s, 0.4, 1 + s, 0.0625};
+    vmsim::removal::RowCutParams p{5,   40,      3 - s, 0.7 + s, -0.2 * s, 0.49 + s * s, 1 / (0.49 + s * s),
+                                   1.1, 0.3 - s, 0.4,   1 + s,   0.0625};
     vmsim::removal::row_bounds_generic(p, 0.9 - s, -7, idx, 300, a, b);
     vmsim::removal::row_bounds_avx2(p, 0.9 - s, -7, idx, 300, d, e);
     for (int k = 0; k < 300; ++k) {

@@ -118,7 +118,10 @@ TrackSweeps legacy_sweeps_from_track(const Tool& tool, const PoseTrack& track, c
     std::size_t lo = good, hi = std::min(last, good + step);  // lo ok, hi unknown or bad
     while (hi > lo + 1) {
       const std::size_t mid = (lo + hi) / 2;
-      if (run_ok(a, mid)) lo = mid; else hi = mid;
+      if (run_ok(a, mid))
+        lo = mid;
+      else
+        hi = mid;
     }
     if (hi <= last && hi > lo && run_ok(a, hi)) lo = hi;
     SweptTool s;
@@ -167,9 +170,7 @@ std::vector<Pose> instances(const Tool& tool, const PoseTrack& tr, double delta)
 
 struct Aabb {
   Eigen::Vector3d lo, hi;
-  double distance(const Eigen::Vector3d& x) const {
-    return (lo - x).cwiseMax(x - hi).cwiseMax(0.0).norm();
-  }
+  double distance(const Eigen::Vector3d& x) const { return (lo - x).cwiseMax(x - hi).cwiseMax(0.0).norm(); }
 };
 
 Aabb body_box(const Tool& t, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, const Eigen::Vector3d& d) {
@@ -208,13 +209,16 @@ std::vector<Intervals> brute_force(const DexelGrid& g, const Tool& tool, const s
     const Aabb b = body_box(tool, inst[k].tip, inst[k].axis, Eigen::Vector3d::Zero());
     double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
     for (int c = 0; c < 8; ++c) {
-      const Eigen::Vector3d p((c & 1) ? b.hi.x() : b.lo.x(), (c & 2) ? b.hi.y() : b.lo.y(), (c & 4) ? b.hi.z() : b.lo.z());
+      const Eigen::Vector3d p((c & 1) ? b.hi.x() : b.lo.x(), (c & 2) ? b.hi.y() : b.lo.y(),
+                              (c & 4) ? b.hi.z() : b.lo.z());
       const Eigen::Vector3d q = p - g.origin();
       u0 = std::min(u0, q.dot(g.U())), u1 = std::max(u1, q.dot(g.U()));
       v0 = std::min(v0, q.dot(g.V())), v1 = std::max(v1, q.dot(g.V()));
     }
-    fp[k] = {std::max(0, static_cast<int>(std::floor(u0 / g.du()))), std::min(g.nu() - 1, static_cast<int>(std::ceil(u1 / g.du()))),
-             std::max(0, static_cast<int>(std::floor(v0 / g.dv()))), std::min(g.nv() - 1, static_cast<int>(std::ceil(v1 / g.dv())))};
+    fp[k] = {std::max(0, static_cast<int>(std::floor(u0 / g.du()))),
+             std::min(g.nu() - 1, static_cast<int>(std::ceil(u1 / g.du()))),
+             std::max(0, static_cast<int>(std::floor(v0 / g.dv()))),
+             std::min(g.nv() - 1, static_cast<int>(std::ceil(v1 / g.dv())))};
   }
   std::vector<Intervals> out(static_cast<std::size_t>(g.nu()) * g.nv());
 #pragma omp parallel for schedule(dynamic, 1)
@@ -255,8 +259,8 @@ struct Segment {
   double ub;
 };
 
-void difference(const Intervals& A, const Intervals& B, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double min_len,
-                std::vector<Segment>& out) {
+void difference(const Intervals& A, const Intervals& B, const Eigen::Vector3d& o, const Eigen::Vector3d& u,
+                double min_len, std::vector<Segment>& out) {
   auto emit = [&](double a, double b, bool fa, bool fb) {
     if (b - a <= min_len) return;
     const double len = b - a;
@@ -278,8 +282,8 @@ void difference(const Intervals& A, const Intervals& B, const Eigen::Vector3d& o
 
 // Largest distance of the segments' points (sampled every `step`) to a volume given by its distance function,
 // visiting segments by decreasing upper bound and stopping when no remaining one can beat the largest found.
-double largest_distance(std::vector<Segment>& segs, const std::function<double(const Eigen::Vector3d&)>& dist, double step,
-                        std::size_t& evaluated) {
+double largest_distance(std::vector<Segment>& segs, const std::function<double(const Eigen::Vector3d&)>& dist,
+                        double step, std::size_t& evaluated) {
   std::sort(segs.begin(), segs.end(), [](const Segment& x, const Segment& y) { return x.ub > y.ub; });
   double worst = 0;
   evaluated = 0;
@@ -416,12 +420,12 @@ Comparison compare_with_brute_force(const Tool& tool, const PoseTrack& tr, doubl
   c.cut_beyond = largest_distance(beyond, dist_bf, tolerance / 20, e1);
   c.left_inside = largest_distance(inside, dist_sweeps, tolerance / 20, e2);
   c.evaluated = e1 + e2;
-  std::printf("[ 5-axis   ] %s: %zu sweeps, bound %.4g mm (orientation %.4g); %zu instances, %zu rays, %zu stretches "
-              "differ (%zu measured): cut beyond %.4g mm, left inside %.4g mm: %.3f of the bound (cut %.2f s, brute "
-              "force %.2f s, distances %.2f s)\n",
-              name, ts.sweeps.size(), ts.error_bound_mm, ts.orientation_error_mm, inst.size(), c.rays, c.segments,
-              c.evaluated, c.cut_beyond, c.left_inside, std::max(c.cut_beyond, c.left_inside) / c.bound, t_cut, t_bf,
-              secs(t2, now()));
+  std::printf(
+      "[ 5-axis   ] %s: %zu sweeps, bound %.4g mm (orientation %.4g); %zu instances, %zu rays, %zu stretches "
+      "differ (%zu measured): cut beyond %.4g mm, left inside %.4g mm: %.3f of the bound (cut %.2f s, brute "
+      "force %.2f s, distances %.2f s)\n",
+      name, ts.sweeps.size(), ts.error_bound_mm, ts.orientation_error_mm, inst.size(), c.rays, c.segments, c.evaluated,
+      c.cut_beyond, c.left_inside, std::max(c.cut_beyond, c.left_inside) / c.bound, t_cut, t_bf, secs(t2, now()));
   EXPECT_LE(ts.error_bound_mm, tolerance * (1 + 1e-9)) << name;
   EXPECT_LE(c.cut_beyond, c.bound + c.delta / 2 + kFloat) << name;
   EXPECT_LE(c.left_inside, c.bound + kFloat) << name;
@@ -439,7 +443,8 @@ PoseTrack turning_track(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, do
   for (int i = 0; i < samples; ++i) {
     const double u = double(i) / (samples - 1);
     tr.tip_mm.row(i) = ((1 - u) * p0 + u * p1 + bow * 4 * u * (1 - u) * side).transpose();
-    tr.axis_per_sample.row(i) = (Eigen::AngleAxisd(turn * u * (0.5 + 0.5 * u), k.normalized()) * a0.normalized()).transpose();
+    tr.axis_per_sample.row(i) =
+        (Eigen::AngleAxisd(turn * u * (0.5 + 0.5 * u), k.normalized()) * a0.normalized()).transpose();
   }
   return tr;
 }
@@ -461,7 +466,8 @@ TEST(FiveAxisTrack, ThreeAxisTracksGiveTheSameSweepsAsBefore) {
   {  // circle
     PoseTrack tr;
     tr.tip_mm.resize(629, 3);
-    for (int k = 0; k <= 628; ++k) tr.tip_mm.row(k) = Eigen::RowVector3d(5 * std::cos(0.01 * k), 5 * std::sin(0.01 * k), 0);
+    for (int k = 0; k <= 628; ++k)
+      tr.tip_mm.row(k) = Eigen::RowVector3d(5 * std::cos(0.01 * k), 5 * std::sin(0.01 * k), 0);
     tracks.push_back(tr);
   }
   {  // circle with velocities (Hermite), coarse samples
@@ -547,7 +553,8 @@ TEST(FiveAxisTrack, VerticalToolTriDexelEqualsZmap) {
     for (int k = 0; k < n; ++k) {
       const double w = 0.05 * k, r = 8 - 0.01 * k;
       tr.tip_mm.row(k) = Eigen::RowVector3d(12 + r * std::cos(w), 12 + r * std::sin(w), 8.5 - 0.004 * k);
-      tr.tip_velocity_mm_per_s.row(k) = Eigen::RowVector3d(-r * 5 * std::sin(w) - std::cos(w), r * 5 * std::cos(w) - std::sin(w), -0.4);
+      tr.tip_velocity_mm_per_s.row(k) =
+          Eigen::RowVector3d(-r * 5 * std::sin(w) - std::cos(w), r * 5 * std::cos(w) - std::sin(w), -0.4);
     }
     const TrackSweeps ts = sweeps_from_track(ball(3, 30), tr);
     EXPECT_EQ(ts.orientation_error_mm, 0.0);
@@ -580,7 +587,8 @@ TEST(FiveAxisTrack, VerticalToolTriDexelEqualsZmap) {
       zm.intervals(i, j, a);
       td.z.intervals(i, j, b);
       ASSERT_EQ(a.size(), b.size());
-      for (std::size_t k = 0; k < a.size(); ++k) ASSERT_EQ(std::memcmp(&a[k], &b[k], sizeof(Interval)), 0) << i << " " << j;
+      for (std::size_t k = 0; k < a.size(); ++k)
+        ASSERT_EQ(std::memcmp(&a[k], &b[k], sizeof(Interval)), 0) << i << " " << j;
     }
   // X and Y rays at height z: no material where the Z grid's surface at (x, y) is below z, material where it is
   // above (away from the surface by more than the grids' resolution; the side walls of the stock excluded).
@@ -592,7 +600,10 @@ TEST(FiveAxisTrack, VerticalToolTriDexelEqualsZmap) {
       for (int c = 0; c < (along_x ? g->nu() : g->nv()); c += 2) {
         // X grid: U = Y, V = Z; Y grid: U = Z, V = X.
         std::vector<Interval> iv;
-        if (along_x) g->intervals(c, jz, iv); else g->intervals(jz, c, iv);
+        if (along_x)
+          g->intervals(c, jz, iv);
+        else
+          g->intervals(jz, c, iv);
         for (int s = 0; s < (along_x ? td.z.nu() : td.z.nv()); s += 2) {
           const double pos = s * h, surface = along_x ? td.z.top(s, c) : td.z.top(c, s);
           bool material = false;
@@ -623,7 +634,8 @@ TEST(FiveAxisTrack, VerticalToolTriDexelEqualsZmap) {
 // A flat end (R 5, L 30) tilted 10 degrees, turning by 30 degrees while its tip moves 20 mm on a bowed path.
 TEST(FiveAxisTrack, TurningFlatEndWithinTheBoundOfTheBruteForce) {
   const Tool tool = flat(5, 30);
-  const Eigen::Vector3d a0 = Eigen::AngleAxisd(10 * kPi / 180, Eigen::Vector3d(0.2, 1, 0).normalized()) * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d a0 =
+      Eigen::AngleAxisd(10 * kPi / 180, Eigen::Vector3d(0.2, 1, 0).normalized()) * Eigen::Vector3d::UnitZ();
   const PoseTrack tr = turning_track({0, 0, 0}, {20, 4, -3}, 0.8, a0, Eigen::Vector3d(0.3, 1, 0.1), 30 * kPi / 180, 41);
   const Comparison c = compare_with_brute_force(tool, tr, 0.05, 0.5, "flat end, 30 deg over 20 mm");
   const double ratio = std::max(c.cut_beyond, c.left_inside) / c.bound;
@@ -642,8 +654,9 @@ TEST(FiveAxisTrack, FlatEndTurningAboutItsTipWithinTheBoundOfTheBruteForce) {
   tr.tip_mm = Eigen::RowVector3d(1, 2, 3).replicate(7, 1);
   tr.axis_per_sample.resize(7, 3);
   for (int k = 0; k < 7; ++k)
-    tr.axis_per_sample.row(k) = (Eigen::AngleAxisd(5.0 * k * kPi / 180, Eigen::Vector3d(1, 0.4, 0).normalized()) *
-                                 Eigen::Vector3d::UnitZ()).transpose();
+    tr.axis_per_sample.row(k) =
+        (Eigen::AngleAxisd(5.0 * k * kPi / 180, Eigen::Vector3d(1, 0.4, 0).normalized()) * Eigen::Vector3d::UnitZ())
+            .transpose();
   const Comparison c = compare_with_brute_force(tool, tr, 0.02, 0.5, "flat end, 30 deg about the tip");
   const double ratio = std::max(c.cut_beyond, c.left_inside) / c.bound;
   EXPECT_GT(ratio, 0.5);
@@ -653,8 +666,10 @@ TEST(FiveAxisTrack, FlatEndTurningAboutItsTipWithinTheBoundOfTheBruteForce) {
 // A ball end (R 4, L 30) tilted 15 degrees, turning by 30 degrees about another axis while moving 19 mm.
 TEST(FiveAxisTrack, TurningBallEndWithinTheBoundOfTheBruteForce) {
   const Tool tool = ball(4, 30);
-  const Eigen::Vector3d a0 = Eigen::AngleAxisd(15 * kPi / 180, Eigen::Vector3d(1, 0.3, 0).normalized()) * Eigen::Vector3d::UnitZ();
-  const PoseTrack tr = turning_track({0, 0, 0}, {-6, 18, 2}, 1.5, a0, Eigen::Vector3d(-1, 0.2, 0.3), 30 * kPi / 180, 25);
+  const Eigen::Vector3d a0 =
+      Eigen::AngleAxisd(15 * kPi / 180, Eigen::Vector3d(1, 0.3, 0).normalized()) * Eigen::Vector3d::UnitZ();
+  const PoseTrack tr =
+      turning_track({0, 0, 0}, {-6, 18, 2}, 1.5, a0, Eigen::Vector3d(-1, 0.2, 0.3), 30 * kPi / 180, 25);
   const Comparison c = compare_with_brute_force(tool, tr, 0.05, 0.5, "ball end, 30 deg over 19 mm");
   const double ratio = std::max(c.cut_beyond, c.left_inside) / c.bound;
   EXPECT_GT(ratio, 0.5);
@@ -740,8 +755,10 @@ TEST(FiveAxisTrack, EveryPoseIsWithinTheBoundOfASweepAndBack) {
       worst_back = std::max(worst_back, best);
     }
   }
-  std::printf("[ 5-axis   ] pose pairing: %zu sweeps, bound %.4g mm, track to sweeps %.4g mm, sweeps to track %.4g mm "
-              "(+ sampling %.2g)\n", ts.sweeps.size(), ts.error_bound_mm, worst, worst_back, gap);
+  std::printf(
+      "[ 5-axis   ] pose pairing: %zu sweeps, bound %.4g mm, track to sweeps %.4g mm, sweeps to track %.4g mm "
+      "(+ sampling %.2g)\n",
+      ts.sweeps.size(), ts.error_bound_mm, worst, worst_back, gap);
   EXPECT_LE(worst, ts.error_bound_mm * (1 + 1e-9) + 1e-12);
   EXPECT_LE(worst_back, ts.error_bound_mm + gap / 2);
   EXPECT_GT(worst, 0.5 * ts.error_bound_mm);
@@ -751,8 +768,8 @@ TEST(FiveAxisTrack, EveryPoseIsWithinTheBoundOfASweepAndBack) {
 
 TEST(FiveAxisTrack, TurningCutDoesNotDependOnTheThreadCount) {
   const Tool tool = flat(4, 25);
-  const PoseTrack tr = turning_track({2, 3, 4}, {22, 15, 2}, 1.0, Eigen::Vector3d(0.2, 0, 1), Eigen::Vector3d(0, 1, 0.2),
-                                     0.5, 30);
+  const PoseTrack tr =
+      turning_track({2, 3, 4}, {22, 15, 2}, 1.0, Eigen::Vector3d(0.2, 0, 1), Eigen::Vector3d(0, 1, 0.2), 0.5, 30);
   TrackOptions opt;
   opt.tolerance_mm = 0.02;
   const TrackSweeps ts = sweeps_from_track(tool, tr, opt);
@@ -840,8 +857,9 @@ TEST(FiveAxisTrack, SubStepsFollowTheStatedBound) {
     const TrackSweeps tf = sweeps_from_track(tool, fine, opt);
     EXPECT_LE(tf.error_bound_mm, tol * (1 + 1e-9));
     EXPECT_LE(tf.sweeps.size(), std::max<std::size_t>(2 * ts.sweeps.size(), 1));
-    std::printf("[ 5-axis   ] tolerance %g mm, %g mm flat end: %.1f sweeps per degree (one interval), %.1f (2001 samples)\n",
-                tol, tool.length_mm, ts.sweeps.size() / 10.0, tf.sweeps.size() / 10.0);
+    std::printf(
+        "[ 5-axis   ] tolerance %g mm, %g mm flat end: %.1f sweeps per degree (one interval), %.1f (2001 samples)\n",
+        tol, tool.length_mm, ts.sweeps.size() / 10.0, tf.sweeps.size() / 10.0);
   }
 }
 

@@ -77,7 +77,7 @@ TriangleMesh prism(const std::vector<Eigen::Vector2d>& pts, const std::vector<st
       t.push_back({p, n + q, n + p});
     }
   m.triangles.resize(static_cast<Eigen::Index>(t.size()), 3);
-  for (std::size_t k = 0; k < t.size(); ++k) m.triangles.row(static_cast<Eigen::Index>(k) ) << t[k][0], t[k][1], t[k][2];
+  for (std::size_t k = 0; k < t.size(); ++k) m.triangles.row(static_cast<Eigen::Index>(k)) << t[k][0], t[k][1], t[k][2];
   return m;
 }
 
@@ -361,12 +361,13 @@ TEST(MeshStock, OpenFlippedAndNonManifoldMeshesAreRefusedNamingTheFile) {
 TEST(MeshStock, ConcaveCPrismGivesTwoIntervals) {
   // The C profile in the x-z plane: [0,3]x[0,1] + [0,1]x[1,2] + [0,3]x[2,3] (mm x 4), extruded along y.
   const double s = 4;
-  const std::vector<Eigen::Vector2d> pts = {{0, 0}, {3 * s, 0}, {3 * s, s}, {s, s}, {s, 2 * s}, {3 * s, 2 * s}, {3 * s, 3 * s}, {0, 3 * s}};
+  const std::vector<Eigen::Vector2d> pts = {{0, 0},     {3 * s, 0},     {3 * s, s},     {s, s},
+                                            {s, 2 * s}, {3 * s, 2 * s}, {3 * s, 3 * s}, {0, 3 * s}};
   const std::vector<std::array<int, 3>> cap = {{0, 1, 2}, {0, 2, 3}, {0, 3, 7}, {3, 4, 7}, {4, 5, 6}, {4, 6, 7}};
   // u = x, v = z, w = u x v = -y: the prism spans y in [-10, 0].
-  const TriangleMesh c = via_stl(prism(pts, {{0, 1, 2, 3, 4, 5, 6, 7}}, cap, Eigen::Vector3d::UnitX(),
-                                       Eigen::Vector3d::UnitZ(), 0, 10),
-                                 "c_prism.stl");
+  const TriangleMesh c =
+      via_stl(prism(pts, {{0, 1, 2, 3, 4, 5, 6, 7}}, cap, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), 0, 10),
+              "c_prism.stl");
   ASSERT_NEAR(signed_volume(c), 7 * s * s * 10, 1e-9);  // outward orientation
   const MeshDexelizer dex(c, "c_prism.stl");
   const Box region{Eigen::Vector3d(-1, -11, -1), Eigen::Vector3d(3 * s + 1, 1, 3 * s + 1)};
@@ -434,9 +435,9 @@ TEST(MeshStock, FrameWithThroughHole) {
   // Hole loop clockwise: 4 -> 5 -> 6 -> 7 is (3,3) (3,6) (6,6) (6,3).
   const std::vector<std::array<int, 3>> cap = {{0, 1, 7}, {0, 7, 4}, {1, 2, 6}, {1, 6, 7},
                                                {2, 3, 5}, {2, 5, 6}, {3, 0, 4}, {3, 4, 5}};
-  const TriangleMesh f = via_stl(prism(pts, {{0, 1, 2, 3}, {4, 5, 6, 7}}, cap, Eigen::Vector3d::UnitX(),
-                                       Eigen::Vector3d::UnitY(), 0, 2),
-                                 "frame.stl");
+  const TriangleMesh f =
+      via_stl(prism(pts, {{0, 1, 2, 3}, {4, 5, 6, 7}}, cap, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), 0, 2),
+              "frame.stl");
   ASSERT_NEAR(signed_volume(f), (81 - 9) * 2, 1e-9);
   const MeshDexelizer dex(f, "frame.stl");
   // Rays along x at y = 4.5 cross the frame twice; along z through the hole, nothing; through the ring, [0, 2].
@@ -516,11 +517,13 @@ TEST(MeshStock, RaysThroughVerticesAndEdgesGetTheRightParity) {
 // midpoints exercise the symbolic resolution of degenerate rays in every direction.
 TEST(MeshStock, ConvexPolyhedronAgainstHalfSpaceClipping) {
   const double phi = (1 + std::sqrt(5.0)) / 2;
-  std::vector<Eigen::Vector3d> v = {{-1, phi, 0}, {1, phi, 0},  {-1, -phi, 0}, {1, -phi, 0}, {0, -1, phi}, {0, 1, phi},
-                                    {0, -1, -phi}, {0, 1, -phi}, {phi, 0, -1},  {phi, 0, 1},  {-phi, 0, -1}, {-phi, 0, 1}};
-  std::vector<std::array<int, 3>> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                                       {11, 10, 2}, {10, 7, 6}, {7, 1, 8},   {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                                       {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  std::vector<Eigen::Vector3d> v = {{-1, phi, 0}, {1, phi, 0}, {-1, -phi, 0}, {1, -phi, 0},
+                                    {0, -1, phi}, {0, 1, phi}, {0, -1, -phi}, {0, 1, -phi},
+                                    {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
+  std::vector<std::array<int, 3>> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                       {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                       {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                       {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
   for (int level = 0; level < 2; ++level) {  // each level splits every face in four, midpoints on the sphere
     std::map<std::pair<int, int>, int> mid;
     auto midpoint = [&](int a, int b) {
@@ -541,7 +544,8 @@ TEST(MeshStock, ConvexPolyhedronAgainstHalfSpaceClipping) {
   const Eigen::Vector3d T(1e4, -3e3, 250);
   TriangleMesh m;
   m.vertices_mm.resize(static_cast<Eigen::Index>(v.size()), 3);
-  for (std::size_t k = 0; k < v.size(); ++k) m.vertices_mm.row(static_cast<Eigen::Index>(k)) = (R * (v[k] * 5) + T).transpose();
+  for (std::size_t k = 0; k < v.size(); ++k)
+    m.vertices_mm.row(static_cast<Eigen::Index>(k)) = (R * (v[k] * 5) + T).transpose();
   m.triangles.resize(static_cast<Eigen::Index>(f.size()), 3);
   for (std::size_t k = 0; k < f.size(); ++k) m.triangles.row(static_cast<Eigen::Index>(k)) << f[k][0], f[k][1], f[k][2];
   ASSERT_GT(signed_volume(m), 0);
@@ -579,7 +583,8 @@ TEST(MeshStock, ConvexPolyhedronAgainstHalfSpaceClipping) {
     for (int e = 0; e < 3; ++e)
       add(0.5 * (m.vertices_mm.row(m.triangles(k, e)) + m.vertices_mm.row(m.triangles(k, (e + 1) % 3))).transpose(),
           Eigen::Vector3d(u(rng), u(rng), u(rng)));
-  for (int k = 0; k < 5000; ++k) add(T + 6 * Eigen::Vector3d(u(rng), u(rng), u(rng)), Eigen::Vector3d(u(rng), u(rng), u(rng)));
+  for (int k = 0; k < 5000; ++k)
+    add(T + 6 * Eigen::Vector3d(u(rng), u(rng), u(rng)), Eigen::Vector3d(u(rng), u(rng), u(rng)));
   NeedleSet needles(o, d, len);
   const MeshFillStats st = dex.fill(needles);
   std::vector<Interval> iv;
@@ -609,9 +614,10 @@ TEST(MeshStock, ConvexPolyhedronAgainstHalfSpaceClipping) {
   }
   EXPECT_LT(worst, 1e-5);  // float storage of offsets up to 40 mm: half an ulp is 1.9e-6 mm
   EXPECT_EQ(st.unresolved, 0u);
-  std::printf("[ mesh     ] icosphere (%ld triangles) far from 0: %d needles checked, %d touching, %zu degenerate, "
-              "worst |dt| %.2e mm\n",
-              static_cast<long>(m.triangles.rows()), checked, touching, st.degenerate, worst);
+  std::printf(
+      "[ mesh     ] icosphere (%ld triangles) far from 0: %d needles checked, %d touching, %zu degenerate, "
+      "worst |dt| %.2e mm\n",
+      static_cast<long>(m.triangles.rows()), checked, touching, st.degenerate, worst);
 }
 
 TEST(MeshStock, HeightfieldMeshThroughItsOwnNodes) {
@@ -626,8 +632,7 @@ TEST(MeshStock, HeightfieldMeshThroughItsOwnNodes) {
     for (Eigen::Index i = 0; i < hg.nx(); ++i) hg.z_mm(j, i) = 3 + std::sin(0.3 * i) * std::cos(0.2 * j);
   const TriangleMesh m = heightfield_mesh(hg, -2);
   const MeshDexelizer dex(m, "heightfield");
-  const Box region{Eigen::Vector3d(hg.x0_mm, hg.y0_mm, -3),
-                   Eigen::Vector3d(hg.x(hg.nx() - 1), hg.y(hg.ny() - 1), 5)};
+  const Box region{Eigen::Vector3d(hg.x0_mm, hg.y0_mm, -3), Eigen::Vector3d(hg.x(hg.nx() - 1), hg.y(hg.ny() - 1), 5)};
   DexelGrid g = make_zmap(region, 0.5);
   const MeshFillStats st = dex.fill(g);
   ASSERT_EQ(g.nu(), hg.nx());
@@ -699,13 +704,14 @@ TEST(MeshStock, RaysThroughTheCentreOfAFanOfThinTriangles) {
     std::vector<Interval> iv;
     for (std::size_t k = 0; k < vertical.size(); ++k) {
       vertical.store().get(k, iv);
-      const std::vector<Interval> want = {k % 2 == 0 ? Interval{static_cast<float>(z0 - oz), static_cast<float>(z1 - oz)}
-                                                     : Interval{static_cast<float>(10 - z1), static_cast<float>(10 - z0)}};
+      const std::vector<Interval> want = {k % 2 == 0
+                                              ? Interval{static_cast<float>(z0 - oz), static_cast<float>(z1 - oz)}
+                                              : Interval{static_cast<float>(10 - z1), static_cast<float>(10 - z0)}};
       EXPECT_TRUE(same_bits(iv, want)) << tag << "needle " << k << " at " << vertical.origin(k).transpose() << ": "
                                        << show(iv) << " want " << show(want);
     }
-    std::printf("[ mesh     ] fan of %d (scale %g): %zu vertical needles, %zu degenerate, %zu unresolved\n", n,
-                scale, st.rays, st.degenerate, st.unresolved);
+    std::printf("[ mesh     ] fan of %d (scale %g): %zu vertical needles, %zu degenerate, %zu unresolved\n", n, scale,
+                st.rays, st.degenerate, st.unresolved);
 
     // Z-maps whose node (8, 8) is the centre, at spacings from 2^-30 mm (every ray within tau of the centre) to
     // 2^-6 mm: c - 8 h and c - 8 h + 8 h are exact for these powers of two.
@@ -768,7 +774,7 @@ TEST(MeshStock, RaysThroughTheApicesOfADoublePyramid) {
     const double th = 2 * std::numbers::pi * k / n + 0.1;
     m.vertices_mm.row(k) << p.x() + 40 * std::cos(th), p.y() + 15 * std::sin(th), 0;
   }
-  m.vertices_mm.row(n) << c.x(), c.y(), 7.5;    // top apex
+  m.vertices_mm.row(n) << c.x(), c.y(), 7.5;     // top apex
   m.vertices_mm.row(n + 1) << c.x(), c.y(), -5;  // bottom apex
   m.triangles.resize(2 * n, 3);
   for (int k = 0; k < n; ++k) {
@@ -875,9 +881,10 @@ TEST(MeshStock, HeightfieldBottomFanCentre) {
         EXPECT_EQ(iv[0].lo, static_cast<float>(bottom - oz)) << "h = 2^-" << e << ", ray (" << i << ", " << j << ")";
         EXPECT_NEAR(iv[0].hi, top(p.x(), p.y()) - oz, 1e-5) << "h = 2^-" << e << ", ray (" << i << ", " << j << ")";
       }
-    std::printf("[ mesh     ] heightfield bottom fan, z-map at 2^-%d mm about its centre: %zu degenerate, %zu "
-                "unresolved\n",
-                e, st.degenerate, st.unresolved);
+    std::printf(
+        "[ mesh     ] heightfield bottom fan, z-map at 2^-%d mm about its centre: %zu degenerate, %zu "
+        "unresolved\n",
+        e, st.degenerate, st.unresolved);
   }
   // Needles through the centre and along the fan's edges near it, vertical and oblique (steep enough to leave
   // through the top surface once: the top's slope is below 1); the top end found by bisection on the surface.
@@ -958,10 +965,11 @@ TEST(MeshStock, TimingZmap1000x1000From10kTriangles) {
     const auto t2 = std::chrono::steady_clock::now();
     const MeshFillStats st = dex.fill(g);
     const auto t3 = std::chrono::steady_clock::now();
-    std::printf("[ mesh     ] z-map %d x %d at offset (%.3f, %.3f) filled in %.3f s with %d threads (%zu rays, %zu "
-                "degenerate)\n",
-                g.nu(), g.nv(), off.x(), off.y(), std::chrono::duration<double>(t3 - t2).count(), omp_get_max_threads(), st.rays,
-                st.degenerate);
+    std::printf(
+        "[ mesh     ] z-map %d x %d at offset (%.3f, %.3f) filled in %.3f s with %d threads (%zu rays, %zu "
+        "degenerate)\n",
+        g.nu(), g.nv(), off.x(), off.y(), std::chrono::duration<double>(t3 - t2).count(), omp_get_max_threads(),
+        st.rays, st.degenerate);
     EXPECT_EQ(g.nu(), 1000);
     EXPECT_EQ(g.nv(), 1000);
     EXPECT_EQ(st.unresolved, 0u);

@@ -64,15 +64,15 @@ TEST(SweptTool, RandomRaysAgreeWithTheDistanceFunction) {
     s.tip0 = Eigen::Vector3d(U(rng), U(rng), U(rng)) * 3;
     s.axis = n % 5 == 0 ? Eigen::Vector3d(U(rng), U(rng), 1 + U(rng)).normalized() : Eigen::Vector3d::UnitZ();
     s.d = Eigen::Vector3d(U(rng), U(rng), U(rng)) * 12;
-    if (n % 7 == 0) s.d = 4 * s.axis;      // along the axis
-    if (n % 11 == 0) s.d.setZero();         // no move
+    if (n % 7 == 0) s.d = 4 * s.axis;  // along the axis
+    if (n % 11 == 0) s.d.setZero();    // no move
     Eigen::Vector3d u(U(rng), U(rng), U(rng));
     if (n % 4 == 0) u = Eigen::Vector3d::UnitZ();
     if (n % 4 == 1) u = Eigen::Vector3d::UnitX();
     u.normalize();
     // Aim near the volume so that most rays hit.
-    const Eigen::Vector3d target = s.tip0 + s.d * (0.5 + 0.5 * U(rng)) + s.axis * (3 + 3 * U(rng)) +
-                                   Eigen::Vector3d(U(rng), U(rng), U(rng)) * 6;
+    const Eigen::Vector3d target =
+        s.tip0 + s.d * (0.5 + 0.5 * U(rng)) + s.axis * (3 + 3 * U(rng)) + Eigen::Vector3d(U(rng), U(rng), U(rng)) * 6;
     const Eigen::Vector3d o = target - 20 * u;
     double t0, t1;
     hits += ray_interval(s, o, u, t0, t1);

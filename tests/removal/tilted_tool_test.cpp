@@ -51,8 +51,8 @@ void compare(const std::function<double(const Eigen::Vector3d&)>& f, const Eigen
         continue;
       }
       ++st.grazing;
-      EXPECT_TRUE(flat_between(a, b)) << what << ": kernel end " << a << ", reference " << b << " (f at the kernel's end "
-                                      << f(o + a * u) << ")";
+      EXPECT_TRUE(flat_between(a, b)) << what << ": kernel end " << a << ", reference " << b
+                                      << " (f at the kernel's end " << f(o + a * u) << ")";
     }
   } else if (hk) {
     ++st.grazing;
@@ -77,7 +77,7 @@ std::vector<Eigen::Vector3d> directions(const Eigen::Vector3d& a, std::mt19937_6
   d.push_back(-a);
   const Eigen::Vector3d p = a.unitOrthogonal();
   for (double eps : {1e-13, 1e-11, 1e-9, 1e-7, 1e-5, 1e-3}) d.push_back((a + eps * p).normalized());
-  d.push_back(a.cross(p));                         // perpendicular to the axis: a flat end's disk edge-on
+  d.push_back(a.cross(p));  // perpendicular to the axis: a flat end's disk edge-on
   d.push_back(Eigen::Vector3d(U(rng), U(rng), U(rng)).normalized());
   return d;
 }
@@ -87,12 +87,23 @@ std::vector<Eigen::Vector3d> directions(const Eigen::Vector3d& a, std::mt19937_6
 Eigen::Vector3d random_axis(int n, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> U(-1, 1), A(0, 1.4);
   switch (n % 6) {
-    case 0: return Eigen::Vector3d(U(rng), U(rng), U(rng)).normalized();
-    case 1: { const double t = A(rng); return Eigen::Vector3d(std::sin(t), 0, std::cos(t)); }
-    case 2: { const double t = A(rng); return Eigen::Vector3d(0, std::cos(t), std::sin(t)); }
-    case 3: return Eigen::Vector3d::Unit(n % 3);
-    case 4: return (Eigen::Vector3d::Unit(n % 3) + std::pow(10.0, -13 + (n % 11)) * Eigen::Vector3d(U(rng), U(rng), U(rng))).normalized();
-    default: return Eigen::Vector3d(U(rng), U(rng), 2 + U(rng)).normalized();
+    case 0:
+      return Eigen::Vector3d(U(rng), U(rng), U(rng)).normalized();
+    case 1: {
+      const double t = A(rng);
+      return Eigen::Vector3d(std::sin(t), 0, std::cos(t));
+    }
+    case 2: {
+      const double t = A(rng);
+      return Eigen::Vector3d(0, std::cos(t), std::sin(t));
+    }
+    case 3:
+      return Eigen::Vector3d::Unit(n % 3);
+    case 4:
+      return (Eigen::Vector3d::Unit(n % 3) + std::pow(10.0, -13 + (n % 11)) * Eigen::Vector3d(U(rng), U(rng), U(rng)))
+          .normalized();
+    default:
+      return Eigen::Vector3d(U(rng), U(rng), 2 + U(rng)).normalized();
   }
 }
 
@@ -112,8 +123,9 @@ TEST(TiltedTool, ToolAtRestMatchesTheClosedForms) {
     for (const Eigen::Vector3d& u : directions(s.axis, rng)) {
       // Aim at a point of the body's neighbourhood; every few rays exactly at the bottom disk's plane or on the
       // axis, where the flat end is seen edge-on or the ray runs along the axis.
-      Eigen::Vector3d target = s.tip0 + s.axis * (s.tool.length_mm * 0.5 * (1 + U(rng))) + Eigen::Vector3d(U(rng), U(rng), U(rng)) * 5;
-      if (n % 4 == 1) target = s.tip0 + s.axis.cross(u).normalized() * (4 * U(rng));        // in the tip's plane
+      Eigen::Vector3d target =
+          s.tip0 + s.axis * (s.tool.length_mm * 0.5 * (1 + U(rng))) + Eigen::Vector3d(U(rng), U(rng), U(rng)) * 5;
+      if (n % 4 == 1) target = s.tip0 + s.axis.cross(u).normalized() * (4 * U(rng));  // in the tip's plane
       if (n % 4 == 3) target = s.tip0 + s.tool.length_mm * s.axis + s.axis.unitOrthogonal() * U(rng);  // top
       if (!target.allFinite()) target = s.tip0 + Eigen::Vector3d(U(rng), U(rng), 0);
       const Eigen::Vector3d o = target - 60 * u;
@@ -134,8 +146,8 @@ TEST(TiltedTool, ToolAtRestMatchesTheClosedForms) {
   RecordProperty("rays", st.rays);
   RecordProperty("grazing", st.grazing);
   RecordProperty("worst_end_mm", std::to_string(st.worst_end));
-  std::printf("[ tilted   ] at rest: %d rays, %d hits, %d grazing ends, worst end %.2e mm\n", st.rays, st.hits, st.grazing,
-              st.worst_end);
+  std::printf("[ tilted   ] at rest: %d rays, %d hits, %d grazing ends, worst end %.2e mm\n", st.rays, st.hits,
+              st.grazing, st.worst_end);
 }
 
 // A tilted tool on a straight move (random, along its axis, across it, in the disk's plane): the kernel's interval
@@ -150,9 +162,9 @@ TEST(TiltedTool, MovingToolMatchesTheConvexReference) {
     s.tip0 = Eigen::Vector3d(U(rng), U(rng), U(rng)) * 5;
     s.axis = random_axis(n / 2, rng);
     s.d = Eigen::Vector3d(U(rng), U(rng), U(rng)) * 10;
-    if (n % 5 == 1) s.d = 7 * U(rng) * s.axis;                                       // along the axis
+    if (n % 5 == 1) s.d = 7 * U(rng) * s.axis;                                                     // along the axis
     if (n % 5 == 2) s.d = 8 * s.axis.cross(Eigen::Vector3d(U(rng), U(rng), U(rng))).normalized();  // across it
-    if (n % 5 == 3) s.d = Eigen::Vector3d::Unit(n % 3) * 9;                          // a grid axis
+    if (n % 5 == 3) s.d = Eigen::Vector3d::Unit(n % 3) * 9;                                        // a grid axis
     const auto f = [&](const Eigen::Vector3d& x) { return ref::swept_sd(s.tool, s.tip0, s.axis, s.d, x); };
     std::vector<Eigen::Vector3d> dirs = directions(s.axis, rng);
     for (std::size_t q = 0; q < dirs.size(); q += 1 + (n % 2)) {
@@ -177,6 +189,6 @@ TEST(TiltedTool, MovingToolMatchesTheConvexReference) {
   RecordProperty("rays", st.rays);
   RecordProperty("grazing", st.grazing);
   RecordProperty("worst_end_mm", std::to_string(st.worst_end));
-  std::printf("[ tilted   ] moving: %d rays, %d hits, %d grazing ends, worst end %.2e mm\n", st.rays, st.hits, st.grazing,
-              st.worst_end);
+  std::printf("[ tilted   ] moving: %d rays, %d hits, %d grazing ends, worst end %.2e mm\n", st.rays, st.hits,
+              st.grazing, st.worst_end);
 }

@@ -28,7 +28,8 @@ inline double reach(const Tool& t) {
   return std::hypot(t.length_mm - rc, t.radius_mm - rc) + rc;
 }
 
-inline double body_sd(const Tool& t, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, const Eigen::Vector3d& x) {
+inline double body_sd(const Tool& t, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis,
+                      const Eigen::Vector3d& x) {
   const Eigen::Vector3d w = x - tip;
   const double z = w.dot(axis), r = (w - z * axis).norm();
   const double rc = t.corner_radius_mm, rho = t.radius_mm - rc;
@@ -95,8 +96,10 @@ double golden(F&& f, double lo, double hi, double& fmin, double tol = 1e-13) {
   const double g = 0.5 * (std::sqrt(5.0) - 1);
   double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo), f1 = f(x1), f2 = f(x2);
   while (hi - lo > tol * std::max(1.0, std::abs(lo) + std::abs(hi))) {
-    if (f1 < f2) hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = f(x1);
-    else lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = f(x2);
+    if (f1 < f2)
+      hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = f(x1);
+    else
+      lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = f(x2);
   }
   double best = f1 < f2 ? x1 : x2;
   fmin = std::min(f1, f2);
@@ -107,8 +110,8 @@ double golden(F&& f, double lo, double hi, double& fmin, double tol = 1e-13) {
   return best;
 }
 
-inline double swept_sd(const Tool& t, const Eigen::Vector3d& tip0, const Eigen::Vector3d& axis, const Eigen::Vector3d& d,
-                       const Eigen::Vector3d& x) {
+inline double swept_sd(const Tool& t, const Eigen::Vector3d& tip0, const Eigen::Vector3d& axis,
+                       const Eigen::Vector3d& d, const Eigen::Vector3d& x) {
   if (d.squaredNorm() == 0) return body_sd(t, tip0, axis, x);
   double fmin;
   golden([&](double l) { return body_sd(t, tip0 + l * d, axis, x); }, 0.0, 1.0, fmin, 1e-14);

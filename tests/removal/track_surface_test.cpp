@@ -107,7 +107,8 @@ TEST(Surface, HeightfieldMeshIsClosedAndHasThePrismsVolume) {
   }
   for (int j = 0; j + 1 < 7; ++j)
     for (int i = 0; i + 1 < 9; ++i) {
-      const double h00 = g.z_mm(j, i) + 1, h10 = g.z_mm(j, i + 1) + 1, h11 = g.z_mm(j + 1, i + 1) + 1, h01 = g.z_mm(j + 1, i) + 1;
+      const double h00 = g.z_mm(j, i) + 1, h10 = g.z_mm(j, i + 1) + 1, h11 = g.z_mm(j + 1, i + 1) + 1,
+                   h01 = g.z_mm(j + 1, i) + 1;
       expected += 0.5 * g.dx_mm * g.dy_mm * ((h00 + h10 + h11) / 3 + (h00 + h11 + h01) / 3);
     }
   EXPECT_NEAR(vol, expected, 1e-12);

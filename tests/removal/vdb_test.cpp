@@ -115,7 +115,8 @@ Topology topology(const TriangleMesh& m) {
   std::vector<int> parent(static_cast<std::size_t>(t.V));
   for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<int>(i);
   auto find = [&](int x) {
-    while (parent[static_cast<std::size_t>(x)] != x) x = parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+    while (parent[static_cast<std::size_t>(x)] != x)
+      x = parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
     return x;
   };
   for (const auto& e : undirected) parent[static_cast<std::size_t>(find(e.first))] = find(e.second);
@@ -175,9 +176,9 @@ VdbOptions voxel(double h) {
 //           a bevel of legs <= h/3 over the edge's length gives at most (h/3)^2 / 2 per mm; with trilinear crossings
 //           near the edge on top, we allow 0.3 h^2 per mm of sharp edge (mesh and levelSetVolume alike), which a
 //           uniform offset of the faces by 0.01 h would already exceed on these parts.
-constexpr double kVertexTol = 0.5;       // x h (measured: 1/3 on 90-degree edges, up to 0.44 where three faces meet)
-constexpr double kVolumePerEdge = 0.3;   // x h^2 per mm of sharp edge
-constexpr double kAdaptivePerEdge = 1.0; // the same for meshes at adaptivity 0.1 (see below)
+constexpr double kVertexTol = 0.5;        // x h (measured: 1/3 on 90-degree edges, up to 0.44 where three faces meet)
+constexpr double kVolumePerEdge = 0.3;    // x h^2 per mm of sharp edge
+constexpr double kAdaptivePerEdge = 1.0;  // the same for meshes at adaptivity 0.1 (see below)
 
 }  // namespace
 
@@ -253,19 +254,19 @@ std::vector<Case> analytic_cases() {
   const Box stock = box(0, 0, 0, 40, 20, 10);
   const double stock_edges = 4 * (40 + 20 + 10);
   {  // Flat end R 3 along X, 2 mm deep, through the whole stock: a 6 x 2 rectangular slot.
-    cases.push_back({"flat slot", stock, {line(make(3, 0), {-10, 10, 8}, {50, 10, 8})}, 6 * 2 * 40.0,
-                     stock_edges + 4 * 40.0});
+    cases.push_back(
+        {"flat slot", stock, {line(make(3, 0), {-10, 10, 8}, {50, 10, 8})}, 6 * 2 * 40.0, stock_edges + 4 * 40.0});
   }
   {  // Ball end R 3, tip 2 mm below the top: a circular segment (chord 1 mm from the centre).
     const double R = 3, dd = 1, seg = R * R * std::acos(dd / R) - dd * std::sqrt(R * R - dd * dd);
-    cases.push_back({"ball slot", stock, {line(make(3, 3), {-10, 10, 8}, {50, 10, 8})}, seg * 40,
-                     stock_edges + 2 * 40.0});
+    cases.push_back(
+        {"ball slot", stock, {line(make(3, 3), {-10, 10, 8}, {50, 10, 8})}, seg * 40, stock_edges + 2 * 40.0});
   }
   {  // Flat end R 3, 3 mm deep: a zigzag over the rectangle [12, 28] x [7, 13] (stepover 2 < 2R) and a contour of
      // it; the pocket is the rectangle grown by R: 22 x 12 with corners of radius 3.
     const Tool t = make(3, 0);
     const double z = 7;
-    std::vector<Eigen::Vector3d> pts = {{12, 7, z}, {28, 7, z}, {28, 9, z},   {12, 9, z},  {12, 11, z},
+    std::vector<Eigen::Vector3d> pts = {{12, 7, z},  {28, 7, z},  {28, 9, z},  {12, 9, z}, {12, 11, z},
                                         {28, 11, z}, {28, 13, z}, {12, 13, z}, {12, 7, z}};
     std::vector<SweptTool> s;
     for (std::size_t k = 0; k + 1 < pts.size(); ++k) s.push_back(line(t, pts[k], pts[k + 1]));
@@ -290,7 +291,8 @@ TEST(VdbKernel, SlotsAndPocketHaveTheExactVolume) {
       expect_closed_manifold(m, what.c_str());
       const Eigen::Vector3d e = c.stock.hi - c.stock.lo;
       const double exact = e.prod() - c.removed_mm3, tol = kVolumePerEdge * h * h * c.edges_mm;
-      const double vm = mesh_volume(m) - exact, vl = part.volume_mm3() - exact, ve = max_vertex_error(m, c.stock, c.sweeps);
+      const double vm = mesh_volume(m) - exact, vl = part.volume_mm3() - exact,
+                   ve = max_vertex_error(m, c.stock, c.sweeps);
       EXPECT_LT(std::abs(vm), tol) << what;
       EXPECT_LT(std::abs(vl), tol) << what;
       EXPECT_LT(ve, kVertexTol * h) << what;
@@ -304,10 +306,11 @@ TEST(VdbKernel, SlotsAndPocketHaveTheExactVolume) {
       EXPECT_LT(ma.triangles.rows(), m.triangles.rows() / 4) << what;
       EXPECT_LT(std::abs(mesh_volume(ma) - exact), kAdaptivePerEdge * h * h * c.edges_mm) << what;
       EXPECT_LT(max_vertex_error(ma, c.stock, c.sweeps), kVertexTol * h) << what;
-      std::printf("%s: volume error %.4f mm3 (mesh) %.4f (levelSetVolume) %.4f (adaptive 0.1), tolerance %.4f; "
-                  "vertex error %.4f h; triangles %ld, adaptive %ld\n",
-                  what.c_str(), vm, vl, mesh_volume(ma) - exact, tol, ve / h, static_cast<long>(m.triangles.rows()),
-                  static_cast<long>(ma.triangles.rows()));
+      std::printf(
+          "%s: volume error %.4f mm3 (mesh) %.4f (levelSetVolume) %.4f (adaptive 0.1), tolerance %.4f; "
+          "vertex error %.4f h; triangles %ld, adaptive %ld\n",
+          what.c_str(), vm, vl, mesh_volume(ma) - exact, tol, ve / h, static_cast<long>(m.triangles.rows()),
+          static_cast<long>(ma.triangles.rows()));
     }
     EXPECT_GT(err[0] / err[1], 2.5) << c.name << ": the volume error should fall as h^2";
   }
@@ -409,7 +412,8 @@ TEST(VdbKernel, MeshStockEqualsBoxStock) {
   for (int k = 0; k < 8; ++k)
     m.vertices_mm.row(k) << (k & 1 ? b.hi.x() : b.lo.x()), (k & 2 ? b.hi.y() : b.lo.y()), (k & 4 ? b.hi.z() : b.lo.z());
   m.triangles.resize(12, 3);
-  m.triangles << 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4, 2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5;
+  m.triangles << 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4, 2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1,
+      7, 5;
   const double h = 0.25;
   const VdbPart a = VdbPart::box(b, voxel(h)), s = VdbPart::mesh(m, voxel(h), "box.stl");
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> p(4000, 3);
@@ -461,9 +465,11 @@ TEST(VdbKernel, MemoryEstimateMatchesTheGrid) {
     sphere_part.cut({ball});
     const double est_s = estimate_level_set_bytes(surface_area(sphere_part.mesh(0.0)), h);
     const double got_s = static_cast<double>(sphere_part.memory_bytes());
-    std::printf("h %.2f: box estimate %.0f kB, grid %.0f kB (%.2f); cut part %.0f kB, %.0f kB (%.2f); box with a ball "
-                "%.0f kB, %.0f kB (%.2f)\n", h, est0 / 1024, got0 / 1024, est0 / got0, est / 1024, got / 1024,
-                est / got, est_s / 1024, got_s / 1024, est_s / got_s);
+    std::printf(
+        "h %.2f: box estimate %.0f kB, grid %.0f kB (%.2f); cut part %.0f kB, %.0f kB (%.2f); box with a ball "
+        "%.0f kB, %.0f kB (%.2f)\n",
+        h, est0 / 1024, got0 / 1024, est0 / got0, est / 1024, got / 1024, est / got, est_s / 1024, got_s / 1024,
+        est_s / got_s);
     for (const auto& [e, g] : {std::pair{est0, got0}, std::pair{est, got}, std::pair{est_s, got_s}}) {
       EXPECT_GT(e, g / 1.5) << h;
       EXPECT_LT(e, 1.5 * g) << h;
@@ -475,8 +481,8 @@ TEST(VdbKernel, MemoryEstimateMatchesTheGrid) {
 // PoseTrack with an axis per sample and cut through removal/track's sweeps (the same sweeps the dexel kernel
 // removes). Reference: the union of 4000 tool instances along the track's motion (tip on the chord, axis on the
 // great circle), distances from tool_reference.hpp; consecutive instances move no point by more than
-// (16 mm + 0.6 rad x reach 30.2 mm) / 4000 = 0.0085 mm, so the union is within 0.01 mm of the swept volume. Every mesh vertex lies within h/2 + the track's stated bound +
-// 0.01 mm of the reference part.
+// (16 mm + 0.6 rad x reach 30.2 mm) / 4000 = 0.0085 mm, so the union is within 0.01 mm of the swept volume. Every mesh
+// vertex lies within h/2 + the track's stated bound + 0.01 mm of the reference part.
 TEST(VdbKernel, TurningToolWithinTheTrackBoundOfTheBruteForce) {
   const double h = 0.2;
   const Box stock = box(0, 0, 0, 20, 10, 8);
@@ -525,8 +531,8 @@ TEST(VdbKernel, TurningToolWithinTheTrackBoundOfTheBruteForce) {
 
 namespace {
 
-constexpr double kDexelVertexTol = 0.7;       // x h
-constexpr double kDexelVolumePerEdge = 0.4;   // x h^2 per mm of sharp edge
+constexpr double kDexelVertexTol = 0.7;      // x h
+constexpr double kDexelVolumePerEdge = 0.4;  // x h^2 per mm of sharp edge
 
 TriDexel tridexel_part(const Box& stock, const std::vector<SweptTool>& sweeps, double spacing) {
   // The field's region one node beyond the stock, so that every face lies strictly inside the lattice.

@@ -13,7 +13,7 @@ TEST(Colormap, EndsAndCentre) {
   EXPECT_NEAR(lo[0] * 255, 0x05, 1e-9);  // #053061, dark blue: overcut
   EXPECT_NEAR(lo[2] * 255, 0x61, 1e-9);
   EXPECT_NEAR(mid[0] * 255, 0xf7, 1e-9);  // #f7f7f7, white
-  EXPECT_NEAR(hi[0] * 255, 0x67, 1e-9);  // #67001f, dark red: undercut
+  EXPECT_NEAR(hi[0] * 255, 0x67, 1e-9);   // #67001f, dark red: undercut
   EXPECT_NEAR(hi[2] * 255, 0x1f, 1e-9);
   // Clamped beyond the ends; NaN maps to the centre.
   EXPECT_EQ(diverging_colour(-7), lo);

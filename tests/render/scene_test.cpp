@@ -55,7 +55,8 @@ TEST(Scene, PlainPartIsNotUniformAndStandsOutOfTheBackground) {
   core::HeightGrid s = plate();
   // A bump, so that the raking light has something to show.
   for (Eigen::Index j = 0; j < s.ny(); ++j)
-    for (Eigen::Index i = 0; i < s.nx(); ++i) s.z_mm(j, i) = 0.3 * std::exp(-std::pow(s.x(i) - 10, 2) - std::pow(s.y(j) - 5, 2));
+    for (Eigen::Index i = 0; i < s.nx(); ++i)
+      s.z_mm(j, i) = 0.3 * std::exp(-std::pow(s.x(i) - 10, 2) - std::pow(s.y(j) - 5, 2));
   PartPicture pic;
   pic.width = 480, pic.height = 360;
   pic.caption = {"plate with a bump"};

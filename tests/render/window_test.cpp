@@ -41,7 +41,8 @@ core::HeightGrid small_grid() {
 
 std::filesystem::path temp_dir() {
   std::random_device rd;
-  auto d = std::filesystem::temp_directory_path() / ("vmsim_render_" + std::to_string(rd()) + std::to_string(::getpid()));
+  auto d =
+      std::filesystem::temp_directory_path() / ("vmsim_render_" + std::to_string(rd()) + std::to_string(::getpid()));
   std::filesystem::create_directories(d);
   return d;
 }
@@ -94,7 +95,7 @@ TEST(Window, FiftyRendersNoGrowthNoMessages) {
   const double after50 = resident_mb();
   EXPECT_EQ(err, "");
   EXPECT_LT(after50 - after5, 12.0) << "resident memory " << after5 << " MB after 5 pictures, " << after50
-                                     << " MB after 50";
+                                    << " MB after 50";
   std::printf("resident memory: %.1f MB after 5 pictures, %.1f MB after 50\n", after5, after50);
 }
 

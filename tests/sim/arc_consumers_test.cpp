@@ -222,7 +222,8 @@ TEST(ArcConsumers, AxisSpaceConversionFollowsTheFrame) {
       s_prev = s;
       if (i == am.via.size()) break;
       Eigen::VectorXd q(static_cast<Eigen::Index>(mc.axes.size()));
-      for (std::size_t j = 0; j < mc.axes.size(); ++j) q[static_cast<Eigen::Index>(j)] = am.via[i][mc.axes[j].program_axis];
+      for (std::size_t j = 0; j < mc.axes.size(); ++j)
+        q[static_cast<Eigen::Index>(j)] = am.via[i][mc.axes[j].program_axis];
       const Vector3d tip = kin->forward(q, 0).tip_mm;
       EXPECT_LT((tip - f.point_at(am.via_s[i]).head<3>()).norm(), 1e-9) << k << " via " << i;
     }
@@ -251,7 +252,8 @@ TEST(ArcConsumers, CompensatedProgramArcsAreTheFrame) {
     Eigen::MatrixXd tip(ns, 3);
     for (Eigen::Index i = 0; i < ns; ++i) {
       const Vec6 p = f.point_at(double(i) / double(ns - 1));
-      for (std::size_t a = 0; a < mc.axes.size(); ++a) sp.position(i, static_cast<Eigen::Index>(a)) = p[mc.axes[a].program_axis];
+      for (std::size_t a = 0; a < mc.axes.size(); ++a)
+        sp.position(i, static_cast<Eigen::Index>(a)) = p[mc.axes[a].program_axis];
       tip.row(i) = p.head<3>().transpose();
     }
     methods::CompensatedProgramInput in;

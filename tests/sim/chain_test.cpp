@@ -69,8 +69,7 @@ TEST(ChainFeedPlan, RunsWhatPlanFeedPlayed) {
   sim::ChainOptions no;
   no.ignore_feed_plan = true;
   const sim::Chain free(planned, no);
-  EXPECT_EQ(free.interpolate(sim::read_job_program(planned)).stats.cycle_time_s,
-            r.no_plan.interp.stats.cycle_time_s);
+  EXPECT_EQ(free.interpolate(sim::read_job_program(planned)).stats.cycle_time_s, r.no_plan.interp.stats.cycle_time_s);
 }
 
 TEST(ChainFeedPlan, TheCeilingCapsTheFeedAndAPlanForAnotherPathIsRefused) {
@@ -127,9 +126,9 @@ TEST(ChainServo, AJobsTransferFunctionServoRunsAsChenEtAlsServo) {
   const motion::InterpResult ir = chain.interpolate(sim::read_job_program(job));
   EXPECT_NEAR(ir.setpoints.path_length_mm[ir.setpoints.samples() - 1], chain.curve()->path.path.length, 1e-6);
   const drives::AxisResponse resp = chain.simulate(ir.setpoints);
-  const std::vector<methods::TransferFunction> tfs = {
-      methods::pid_servo_transfer_function(methods::chen2016_pid_x()),
-      methods::pid_servo_transfer_function(methods::chen2016_pid_y()), methods::TransferFunction{{1.0}, {1.0}}};
+  const std::vector<methods::TransferFunction> tfs = {methods::pid_servo_transfer_function(methods::chen2016_pid_x()),
+                                                      methods::pid_servo_transfer_function(methods::chen2016_pid_y()),
+                                                      methods::TransferFunction{{1.0}, {1.0}}};
   const Eigen::MatrixXd want = methods::simulate_transfer_functions(ir.setpoints, tfs, 0.2);
   ASSERT_EQ(resp.position.rows(), want.rows());
   EXPECT_TRUE(resp.position == want);

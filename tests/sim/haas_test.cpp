@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 fs::path data_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "nx_clsf_haas_umc750"; }
 fs::path job_file() { return fs::path(VMSIM_SOURCE_DIR) / "parts" / "haas_umc750" / "variable_axis.toml"; }
 
-#define SKIP_WITHOUT_DATA()                                                                                 \
+#define SKIP_WITHOUT_DATA() \
   if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)"
 
 TEST(HaasNx, VariableAxisBallCutsWhereTheProgramPutsTheBall) {
@@ -61,9 +61,10 @@ TEST(HaasNx, VariableAxisBallCutsWhereTheProgramPutsTheBall) {
   EXPECT_LT(worst_above, tol) << "the surface stands above the programmed ball";
   EXPECT_GT(min_surface, lowest - 0.02) << "the surface lies below the lowest programmed ball";
   EXPECT_LT(min_surface, top - 1.0) << "nothing was cut";
-  std::printf("[ HAAS NX  ] %d programmed points under the stock top: surface at most %.4f mm above the ball's bottom "
-              "(tolerance %.4f); lowest surface %.4f mm, lowest ball bottom %.4f mm\n",
-              checked, worst_above, tol, min_surface, lowest);
+  std::printf(
+      "[ HAAS NX  ] %d programmed points under the stock top: surface at most %.4f mm above the ball's bottom "
+      "(tolerance %.4f); lowest surface %.4f mm, lowest ball bottom %.4f mm\n",
+      checked, worst_above, tol, min_surface, lowest);
 }
 
 // The same file through a job that gives neither the units nor the tool: a warning for the units, and the tool of
@@ -73,8 +74,9 @@ TEST(HaasNx, UnitsWarnedAndToolTakenFromTheProgram) {
   const fs::path dir = fs::temp_directory_path() / "vmsim_haas_test";
   fs::create_directories(dir);
   const fs::path jf = dir / "bare.toml";
-  std::ofstream(jf) << "[job]\nmachine = \"" << (fs::path(VMSIM_SOURCE_DIR) / "parts/machines/haas_umc750.toml").string()
-                    << "\"\nprogram = \"" << (data_dir() / "APT_Variable_Axis.txt").string() << "\"\n";
+  std::ofstream(jf) << "[job]\nmachine = \""
+                    << (fs::path(VMSIM_SOURCE_DIR) / "parts/machines/haas_umc750.toml").string() << "\"\nprogram = \""
+                    << (data_dir() / "APT_Variable_Axis.txt").string() << "\"\n";
   core::Job job = core::load_job(jf);
   EXPECT_FALSE(job.tool_given);
   const core::ToolPath prog = read_job_program(job);

@@ -31,7 +31,8 @@ TEST(SetpointEstimate, BoundsTheInterpolatorsCountOnTheParts) {
     const double n = static_cast<double>(chain.interpolate(program).setpoints.samples());
     EXPECT_LE(e.setpoints, n) << name;
     EXPECT_GE(e.setpoints * 5.0, n) << name;
-    std::printf("%-36s estimate %10.0f  interpolated %10.0f  ratio %.3f\n", name.c_str(), e.setpoints, n, n / e.setpoints);
+    std::printf("%-36s estimate %10.0f  interpolated %10.0f  ratio %.3f\n", name.c_str(), e.setpoints, n,
+                n / e.setpoints);
   }
 }
 

@@ -118,7 +118,9 @@ TEST(Signals, AxesLimitsAndDerivedSignals) {
   EXPECT_TRUE(s.limit("X_current_A").has_value());
   // The interpolator keeps every limit: the setpoints' differences stay within them.
   for (const char* q : {"velocity", "acceleration", "jerk"}) {
-    const std::string suffix = std::string(q) == "velocity" ? "_per_s" : std::string(q) == "acceleration" ? "_per_s2" : "_per_s3";
+    const std::string suffix = std::string(q) == "velocity"       ? "_per_s"
+                               : std::string(q) == "acceleration" ? "_per_s2"
+                                                                  : "_per_s3";
     const int i = s.find(std::string("X_") + q + "_setpoint_mm" + suffix);
     ASSERT_GE(i, 0) << q;
     const double lim = *s.limit(std::string("X_") + q + "_mm" + suffix);
@@ -152,8 +154,10 @@ TEST(Signals, FileRoundTripAndErrors) {
   for (Eigen::Index b = 0; b < s.bins(); ++b)
     for (Eigen::Index c = 0; c < static_cast<Eigen::Index>(s.names.size()); ++c) {
       const double a = s.max(b, c), v = r.max(b, c);
-      if (std::isnan(a)) EXPECT_TRUE(std::isnan(v));
-      else EXPECT_NEAR(v, a, 1e-6 * std::max(1.0, std::abs(a)));  // 7 significant digits in the file
+      if (std::isnan(a))
+        EXPECT_TRUE(std::isnan(v));
+      else
+        EXPECT_NEAR(v, a, 1e-6 * std::max(1.0, std::abs(a)));  // 7 significant digits in the file
     }
   std::filesystem::remove(file);
 
@@ -169,9 +173,11 @@ TEST(Signals, FileRoundTripAndErrors) {
     std::filesystem::remove(f);
   };
   bad("t_s.min,t_s.max\n0,1\n", "not a vmsim signals file");
-  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,1,2\n", ":4: 3 cells, the header (line 3) names 2 columns");
+  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,1,2\n",
+      ":4: 3 cells, the header (line 3) names 2 columns");
   bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,x.max\n", ":3: expected NAME.min,NAME.max");
-  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,abc\n", ":4: column 2 't_s.max': 'abc' is not a finite number (nor nan)");
+  bad("# vmsim signals 1\n# period_s=0.001\nt_s.min,t_s.max\n0,abc\n",
+      ":4: column 2 't_s.max': 'abc' is not a finite number (nor nan)");
   bad("# vmsim signals 1\n# period_s=fast\n", ":2: expected a number for period_s");
   EXPECT_THROW(sim::read_signals(temp_file("missing.csv")), core::Error);
 }

@@ -1,7 +1,7 @@
-// sysid::excitation_for_axis and simulate_excitation, what `vmsim excite` runs, on the Mikron UCP 710 of parts/machines.
-// References: the predictive-compensation paper's eq. 11-12 and 14-15 evaluated here from their definitions (the
-// bandwidth 0.433 / Td must cover the axis's, the signal period must resolve the frequency asked for); the axis's
-// travel read from the machine file; a position loop with integral action ends at rest on its last setpoint.
+// sysid::excitation_for_axis and simulate_excitation, what `vmsim excite` runs, on the Mikron UCP 710 of
+// parts/machines. References: the predictive-compensation paper's eq. 11-12 and 14-15 evaluated here from their
+// definitions (the bandwidth 0.433 / Td must cover the axis's, the signal period must resolve the frequency asked for);
+// the axis's travel read from the machine file; a position loop with integral action ends at rest on its last setpoint.
 #include "core/error.hpp"
 #include "core/machine.hpp"
 #include "sysid/excite_axis.hpp"
@@ -68,7 +68,8 @@ TEST(ExciteAxis, ASignalOutsideTheTravelIsRefused) {
     excitation_for_axis(axis(m, "X"), o);
     ADD_FAILURE() << "an excitation beyond the travel was accepted";
   } catch (const core::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("outside axis X's travel -355.0000 .. 355.0000"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("outside axis X's travel -355.0000 .. 355.0000"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -102,7 +103,8 @@ TEST(ExciteAxis, TheSimulatedTraceHoldsTheLastSetpointAndEndsAtRestOnIt) {
     simulate_excitation(bare, e, "machine.toml");
     ADD_FAILURE() << "an axis without a drive was simulated";
   } catch (const core::Error& err) {
-    EXPECT_NE(std::string(err.what()).find("machine.toml: axis X has no [axes.drive]"), std::string::npos) << err.what();
+    EXPECT_NE(std::string(err.what()).find("machine.toml: axis X has no [axes.drive]"), std::string::npos)
+        << err.what();
   }
 }
 

@@ -89,7 +89,8 @@ TEST(FrictionInertiaFile, MotorDataAndGravityComeFromTheMachineAxis) {
   EXPECT_EQ(identify_options_for_axis(axis(m, "Z"), kMachine, trace(false), GravityModel::Auto).gravity,
             GravityModel::Constant);
   EXPECT_EQ(identify_options_for_axis(axis(m, "Z"), kMachine, trace(false), GravityModel::None).gravity,
-            GravityModel::None) << "a model asked for wins over the machine file's";
+            GravityModel::None)
+      << "a model asked for wins over the machine file's";
   o = identify_options_for_axis(axis(m, "A"), kMachine, trace(true), GravityModel::Auto);
   EXPECT_NEAR(o.axis_per_motor_rad * 2 * core::units::kPi * core::units::kRadToDeg, 4.0, 1e-12);  // 4 deg per rev
   EXPECT_EQ(o.gravity, GravityModel::Tilting);
@@ -129,7 +130,8 @@ TEST(FrictionInertiaFile, TheWrittenKeysReadBackAsTheIdentifiedDrive) {
   const core::DriveParams& dx = *axis(m, "X").drive;
   EXPECT_NEAR(dx.torque_constant_Nm_per_A, 1.45, 1e-12);
   EXPECT_NEAR(dx.axis_per_motor_rad, lin.axis_per_motor_rad, 1e-12);
-  EXPECT_NEAR(dx.inertia_kg_m2, x.inertia_kg_m2, 5e-6 * x.inertia_kg_m2);  // 6 significant digits: half a unit of the 6th
+  EXPECT_NEAR(dx.inertia_kg_m2, x.inertia_kg_m2,
+              5e-6 * x.inertia_kg_m2);  // 6 significant digits: half a unit of the 6th
   EXPECT_NEAR(dx.coulomb_Nm, x.coulomb_Nm, 5e-6 * x.coulomb_Nm);
   EXPECT_NEAR(dx.viscous_Nm_s_per_rad, x.viscous_Nm_s_per_rad, 5e-6 * x.viscous_Nm_s_per_rad);
   EXPECT_EQ(dx.gravity, core::DriveParams::Gravity::Constant);
@@ -150,8 +152,9 @@ TEST(FrictionInertiaFile, FrictionPointsInTheTracesUnits) {
   IdentifiedDrive d;
   d.points.push_back({0.5, 1.5, 8000, 1.0, 0.0, 2.25, 2.5});
   const std::string deg = friction_points_csv(d, true);
-  EXPECT_EQ(deg, "velocity_deg_per_s,measured_mean_current_A,fitted_current_A,samples,t_start_s,t_end_s\n"
-                 "57.2957795,2.25,2.5,8000,0.500000,1.500000\n");
+  EXPECT_EQ(deg,
+            "velocity_deg_per_s,measured_mean_current_A,fitted_current_A,samples,t_start_s,t_end_s\n"
+            "57.2957795,2.25,2.5,8000,0.500000,1.500000\n");
   EXPECT_EQ(friction_points_csv(d, false).substr(0, 18), "velocity_mm_per_s,");
 }
 

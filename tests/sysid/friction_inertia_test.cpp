@@ -1,8 +1,9 @@
-// Friction and inertia identification (the feed-drive simulation paper section 3.1). Reference: the parameters of the simulated axis
-// itself. The cascade drive model (drives/cascade_axis) with the Mikron UCP 710's X, Z and A drives runs the
-// excitation the feed-drive simulation paper describes (constant-velocity moves at several speeds both ways, accelerated moves between
-// them); its current gets Gaussian noise (fixed seed) and its position an encoder's 0.1 um quantisation; the
-// identification must return the model's Coulomb and viscous friction, gravity and inertia within 2 %.
+// Friction and inertia identification (the feed-drive simulation paper section 3.1). Reference: the parameters of the
+// simulated axis itself. The cascade drive model (drives/cascade_axis) with the Mikron UCP 710's X, Z and A drives runs
+// the excitation the feed-drive simulation paper describes (constant-velocity moves at several speeds both ways,
+// accelerated moves between them); its current gets Gaussian noise (fixed seed) and its position an encoder's 0.1 um
+// quantisation; the identification must return the model's Coulomb and viscous friction, gravity and inertia within 2
+// %.
 #include "core/error.hpp"
 #include "core/machine.hpp"
 #include "core/units.hpp"
@@ -114,12 +115,13 @@ IdentifyOptions options_for(const core::MachineAxis& ax) {
 double rel(double got, double want) { return std::abs(got - want) / std::abs(want); }
 
 void print(const char* what, const IdentifiedDrive& d, const core::DriveParams& p) {
-  std::printf("%s: Coulomb %.4f N m (%+.2f %%), viscous %.6f N m s/rad (%+.2f %%), inertia %.5f kg m^2 (%+.2f %%), "
-              "gravity %.4f N m, %d stretches, %d accelerating samples, residuals %.4f / %.4f A\n",
-              what, d.coulomb_Nm, 100 * (d.coulomb_Nm / p.coulomb_Nm - 1), d.viscous_Nm_s_per_rad,
-              100 * (d.viscous_Nm_s_per_rad / p.viscous_Nm_s_per_rad - 1), d.inertia_kg_m2,
-              100 * (d.inertia_kg_m2 / p.inertia_kg_m2 - 1), d.gravity_Nm, d.stretches, d.accel_samples,
-              d.friction_rms_residual_A, d.inertia_rms_residual_A);
+  std::printf(
+      "%s: Coulomb %.4f N m (%+.2f %%), viscous %.6f N m s/rad (%+.2f %%), inertia %.5f kg m^2 (%+.2f %%), "
+      "gravity %.4f N m, %d stretches, %d accelerating samples, residuals %.4f / %.4f A\n",
+      what, d.coulomb_Nm, 100 * (d.coulomb_Nm / p.coulomb_Nm - 1), d.viscous_Nm_s_per_rad,
+      100 * (d.viscous_Nm_s_per_rad / p.viscous_Nm_s_per_rad - 1), d.inertia_kg_m2,
+      100 * (d.inertia_kg_m2 / p.inertia_kg_m2 - 1), d.gravity_Nm, d.stretches, d.accel_samples,
+      d.friction_rms_residual_A, d.inertia_rms_residual_A);
 }
 
 const std::vector<double> kSpeedsMPerMin = {0.5, -0.5, 1, -1, 2, -2, 4, -4, 8, -8, 12, -12, 18, -18, 25, -25};
@@ -191,8 +193,8 @@ TEST(Identify, RecoversTiltingAxis) {
   std::vector<double> speeds;
   for (double s : {3.0, -3.0, 6.0, -6.0, 12.0, -12.0, 20.0, -20.0, 30.0, -30.0, 45.0, -45.0})
     speeds.push_back(s * core::units::kDegToRad);
-  const AxisTrace tr = simulate(ax, excitation(-60 * core::units::kDegToRad, speeds, 150 * core::units::kDegToRad, 1.2, te),
-                                te, 0.02, 1e-6, 4);
+  const AxisTrace tr = simulate(
+      ax, excitation(-60 * core::units::kDegToRad, speeds, 150 * core::units::kDegToRad, 1.2, te), te, 0.02, 1e-6, 4);
   IdentifyOptions o = options_for(ax);
   o.gravity = GravityModel::Tilting;
   const IdentifiedDrive d = identify_friction_inertia(tr, o);
@@ -256,8 +258,9 @@ std::string read_error(const std::string& name, const std::string& text) {
 
 TEST(Identify, ReadsTraceCsv) {
   std::vector<std::string> ignored;
-  const auto p = temp_file("ok.csv", "# axis X\n t_s , position_deg,current_A,setpoint\n0.001,1.0,0.5,9\n0.002,2.0,0.6,9\r\n"
-                                     "\n0.003,3.0,0.7,9\n");
+  const auto p = temp_file("ok.csv",
+                           "# axis X\n t_s , position_deg,current_A,setpoint\n0.001,1.0,0.5,9\n0.002,2.0,0.6,9\r\n"
+                           "\n0.003,3.0,0.7,9\n");
   const AxisTrace tr = read_axis_trace_csv(p, &ignored);
   std::filesystem::remove(p);
   ASSERT_EQ(tr.t_s.size(), 3);
@@ -268,12 +271,14 @@ TEST(Identify, ReadsTraceCsv) {
   ASSERT_EQ(ignored.size(), 1u);
   EXPECT_EQ(ignored[0], "setpoint");
 
-  const std::string bad_number = read_error("n.csv", "t_s,velocity_mm_per_s,current_A\n0.001,1,0.5\n0.002,x1,0.5\n0.003,1,1\n");
+  const std::string bad_number =
+      read_error("n.csv", "t_s,velocity_mm_per_s,current_A\n0.001,1,0.5\n0.002,x1,0.5\n0.003,1,1\n");
   EXPECT_NE(bad_number.find("n.csv:3: column 2 'velocity_mm_per_s': 'x1' is not a finite number"), std::string::npos)
       << bad_number;
   const std::string fields = read_error("f.csv", "t_s,velocity_mm_per_s,current_A\n0.001,1,0.5\n0.002,1\n");
   EXPECT_NE(fields.find("f.csv:3: 2 cells, the header (line 1) names 3 columns"), std::string::npos) << fields;
-  const std::string time = read_error("t.csv", "t_s,velocity_mm_per_s,current_A\n0.002,1,0.5\n0.002,1,0.5\n0.003,1,1\n");
+  const std::string time =
+      read_error("t.csv", "t_s,velocity_mm_per_s,current_A\n0.002,1,0.5\n0.002,1,0.5\n0.003,1,1\n");
   EXPECT_NE(time.find("t.csv:3: column 1 't_s': 0.002 does not increase"), std::string::npos) << time;
   const std::string both = read_error("b.csv", "t_s,position_mm,velocity_mm_per_s,current_A\n");
   EXPECT_NE(both.find("b.csv:1: columns 'position_mm' and 'velocity_mm_per_s' both give the motion"), std::string::npos)

@@ -116,7 +116,9 @@ TEST(IdentifyAxes, OneTraceTwoAxesRecoverTheirSystemsOnTheFirstHalfValidatedOnTh
     // Ranks are the order of the validation MSE, and the chosen model is rank 1.
     for (const ModelResult& m : a.models)
       for (const ModelResult& o : a.models)
-        if (m.rank < o.rank) { EXPECT_LE(m.validation.mse, o.validation.mse); }
+        if (m.rank < o.rank) {
+          EXPECT_LE(m.validation.mse, o.validation.mse);
+        }
     EXPECT_EQ(a.models[a.chosen].rank, 1);
   }
   // The model file: one axis each, the chosen structure, the trace's file name.
@@ -178,7 +180,7 @@ TEST(IdentifyAxes, UseOverridesTheRankingAndBicFindsTheOrders) {
 
 TEST(IdentifyAxes, ATraceNotAtRestIsReported) {
   PositionTrace t = make_trace("run.csv", 2000, 0.0, 6);
-  t.actual(1, 0) += 0.01;                           // X: the encoder moves 10 um within the first samples
+  t.actual(1, 0) += 0.01;                             // X: the encoder moves 10 um within the first samples
   t.actual(1, 1) += 0.5e-3 * 3.14159265358979 / 180;  // A: half a thousandth of a degree, within the tolerance
   const IdentificationData d = prepare_identification({t}, nullptr, given_orders());
   EXPECT_FALSE(d.axes[0].starts_at_rest());
@@ -200,8 +202,7 @@ PositionTrace moving_trace(int n, int cut, double offset, bool hold, unsigned se
     u[k] = 5.0 * std::sin(2 * 3.14159265358979 * k / 1500.0) + (m[static_cast<std::size_t>(k / 4) % m.size()] ? 1 : -1);
     if (hold && k >= cut + n / 2 && k < cut + n / 2 + 400) u[k] = u[cut + n / 2 - 1];
   }
-  for (int k = 2; k < total; ++k)
-    y[k] = -kX.a1 * y[k - 1] - kX.a2 * y[k - 2] + kX.b1 * u[k - 1] + kX.b2 * u[k - 2];
+  for (int k = 2; k < total; ++k) y[k] = -kX.a1 * y[k - 1] - kX.a2 * y[k - 2] + kX.b1 * u[k - 1] + kX.b2 * u[k - 2];
   PositionTrace t;
   t.source = "moving.csv";
   t.period_s = 1e-3;
@@ -316,8 +317,7 @@ TEST(IdentifyAxes, InconsistentInputIsAnErrorNamingTheTrace) {
     prepare_identification({one}, nullptr, o);
     ADD_FAILURE() << "an axis the trace lacks was accepted";
   } catch (const core::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("/data/one.csv: --axis Y: the trace has no columns for it"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("/data/one.csv: --axis Y: the trace has no columns for it"), std::string::npos)
         << e.what();
   }
   EXPECT_THROW(prepare_identification({}, nullptr, given_orders()), core::Error);

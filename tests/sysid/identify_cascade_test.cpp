@@ -1,7 +1,7 @@
 // The identified transfer function of the simulated cascade axis (Mikron X of parts/machines/mikron_ucp710.toml,
-// drives/cascade_axis) excited by the predictive-compensation paper's inverse M-sequence on a constant velocity, validated on a different
-// trajectory: the reference is a fit >= 99 % on that trajectory; the model, loaded back from its TOML and
-// run as an AxisModel, must give the same positions as the transfer function it came from.
+// drives/cascade_axis) excited by the predictive-compensation paper's inverse M-sequence on a constant velocity,
+// validated on a different trajectory: the reference is a fit >= 99 % on that trajectory; the model, loaded
+// back from its TOML and run as an AxisModel, must give the same positions as the transfer function it came from.
 #include "core/machine.hpp"
 #include "sysid/axis_model_file.hpp"
 #include "drives/cascade_axis.hpp"

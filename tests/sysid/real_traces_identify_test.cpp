@@ -8,8 +8,8 @@
 //   kv = 243.45 V s/m): s^2 + (Fv + kv gtau)/M s + kp kv gtau / M, whose poles the second-order fit must find.
 //   Both captures start mid-motion (qg = 0.108 mm and moving at the first sample).
 // - LinuxCNC halscope captures of a mill's X axis: the controller's own following error pin (joint.0.f-error, the
-//   previous cycle's motor-pos-cmd less the feedback) checks the channels the reader picks; the model fitted on one capture predicts the
-//   following error of the three others.
+//   previous cycle's motor-pos-cmd less the feedback) checks the channels the reader picks; the model fitted on one
+//   capture predicts the following error of the three others.
 #include "sysid/identify_axes.hpp"
 #include "sysid/trace_formats.hpp"
 
@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 
 fs::path traces_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "traces"; }
 
-#define REQUIRE_REAL(path)                                                                                      \
+#define REQUIRE_REAL(path) \
   if (!fs::exists(path)) GTEST_SKIP() << (path).string() << " is absent: the real traces of ../shared are not here"
 
 PositionTrace emps(const char* name) {
@@ -89,7 +89,8 @@ TEST(RealTraces, HalscopeModelFromOneCapturePredictsTheOthersFollowingError) {
     ASSERT_EQ(log.pins.at(0), "joint.0.f-error");
     const PositionTrace& t = caps.back();
     for (Eigen::Index k = 1; k < t.t_s.size(); ++k)
-      ASSERT_NEAR(t.command(k - 1, 0) - t.actual(k, 0), ferr[static_cast<std::size_t>(k)], 1e-9) << n << " sample " << k;
+      ASSERT_NEAR(t.command(k - 1, 0) - t.actual(k, 0), ferr[static_cast<std::size_t>(k)], 1e-9)
+          << n << " sample " << k;
   }
   const AxesIdentificationOptions o;  // nb 2, na 5 (the predictive-compensation paper)
   for (std::size_t v = 1; v < caps.size(); ++v) {

@@ -5,9 +5,9 @@
 // zeros dropped: den = [1 a1 .. a_na 0 ..] (padded by the delay), num = [b1 .. b_nb 0 ..] (padded to den's degree).
 // Both regress over the same rows (from max(na, nb) on).
 // Two data sets: the peer README's textbook system (A = 1 - 1.5 q^-1 + 0.7 q^-2, B = q^-1 + 0.5 q^-2, PRBS, noise)
-// and the predictive-compensation paper's real case, the simulated cascade X axis (Mikron UCP 710) under an inverse M-sequence on a ramp with
-// orders nb 2 / na 5 (badly conditioned: y is u delayed by micrometres), for nk = 1 and nk = 3 ('nk', 2 in Octave).
-// Skips when octave-cli or its control package is absent.
+// and the predictive-compensation paper's real case, the simulated cascade X axis (Mikron UCP 710) under an inverse
+// M-sequence on a ramp with orders nb 2 / na 5 (badly conditioned: y is u delayed by micrometres), for nk = 1 and nk =
+// 3 ('nk', 2 in Octave). Skips when octave-cli or its control package is absent.
 #include "core/machine.hpp"
 #include "drives/cascade_axis.hpp"
 #include "drives/discrete_tf.hpp"
@@ -70,7 +70,8 @@ Eigen::VectorXd octave_arx(const Eigen::VectorXd& u, const Eigen::VectorXd& y, i
       << "sys = arx(dat, 'na', " << na << ", 'nb', " << nb;
     if (nk > 1) f << ", 'nk', " << nk - 1;  // Octave's nk: samples beyond the built-in one
     f << ");\n[num, den] = tfdata(sys); num = num{1}; den = den{1};\n"
-      << "printf('%d\\n', numel(den)); printf('%.17g\\n', den); printf('%d\\n', numel(num)); printf('%.17g\\n', num);\n";
+      << "printf('%d\\n', numel(den)); printf('%.17g\\n', den); printf('%d\\n', numel(num)); printf('%.17g\\n', "
+         "num);\n";
   }
   std::string out;
   const int rc = run("cd '" + dir.string() + "' && octave-cli --no-gui --quiet vmsim_arx.m 2>/dev/null", &out);

@@ -31,7 +31,7 @@ namespace fs = std::filesystem;
 
 fs::path traces_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "traces"; }
 
-#define REQUIRE_REAL(path)                                                                                      \
+#define REQUIRE_REAL(path) \
   if (!fs::exists(path)) GTEST_SKIP() << (path).string() << " is absent: the real traces of ../shared are not here"
 
 fs::path temp(const std::string& name) {
@@ -251,8 +251,9 @@ TEST(TraceFormats, OptionsAreCheckedAndMisuseIsNamed) {
   const fs::path p = temp("scope.log");
   std::ofstream(p) << "Sampling period is 1000000 nSec\n\njoint.0.motor-pos-cmd +1.0 joint.0.motor-pos-fb +1.0\n"
                       "joint.0.motor-pos-cmd +1.0 joint.1.motor-pos-fb +1.0\n";
-  EXPECT_NE(error_of([&] { read_halscope_log(p); }).find(":4: channel 2 is 'joint.1.motor-pos-fb' here but "
-                                                          "'joint.0.motor-pos-fb' on line 3"),
+  EXPECT_NE(error_of([&] { read_halscope_log(p); })
+                .find(":4: channel 2 is 'joint.1.motor-pos-fb' here but "
+                      "'joint.0.motor-pos-fb' on line 3"),
             std::string::npos);
   std::ofstream(p) << "Sampling period is 1000000 nSec\n\njoint.0.motor-pos-cmd +1.0 joint.0.motor-pos-fb +1.0\n"
                       "joint.0.motor-pos-cmd +1.0 joint.0.motor-pos-fb +1.0\n";
