@@ -305,6 +305,70 @@ int worker_loop(int rank) {
   }
 }
 
+// The queue and the table of a study, shared by rank 0's two threads: the main thread (MPI, the only one that calls
+// it: MPI_THREAD_FUNNELED) and the local worker. Each result is written once, before it is listed as finished.
+class StudyTable {
+ public:
+  StudyTable(const sim::Study& study, const StudyArgs& staged) : study_(study), staged_(staged) {
+    for (std::size_t i = 0; i < study.variations.size(); ++i) queue_.push_back(i);
+    results_.resize(study.variations.size());
+  }
+  void store(std::size_t i, const sim::StudyResult& r) {
+    std::lock_guard<std::mutex> lock(mu_);
+    results_[i] = r;
+    finished_.push_back(i);
+  }
+  // The next variation ready to run; one whose overrides cannot be applied is a failed row at once.
+  std::optional<nlohmann::json> next_task() {
+    while (true) {
+      std::size_t i;
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (queue_.empty()) return std::nullopt;
+        i = queue_.front();
+        queue_.pop_front();
+      }
+      sim::StudyResult failed;
+      if (auto task = prepare_task(study_, i, staged_, failed)) return task;
+      store(i, failed);
+    }
+  }
+  void clear_queue() {
+    std::lock_guard<std::mutex> lock(mu_);
+    queue_.clear();
+  }
+  // The variations finished since the last call, in the order they finished.
+  std::vector<std::size_t> take_finished() {
+    std::lock_guard<std::mutex> lock(mu_);
+    std::vector<std::size_t> fresh(finished_.begin() + static_cast<std::ptrdiff_t>(reported_), finished_.end());
+    reported_ = finished_.size();
+    return fresh;
+  }
+  std::size_t reported() const { return reported_; }                           // main thread only
+  const sim::StudyResult& result(std::size_t i) const { return results_[i]; }  // i listed as finished
+  std::vector<sim::StudyResult> snapshot() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return results_;
+  }
+
+ private:
+  const sim::Study& study_;
+  const StudyArgs& staged_;
+  mutable std::mutex mu_;
+  std::deque<std::size_t> queue_;
+  std::vector<sim::StudyResult> results_;
+  std::vector<std::size_t> finished_;
+  std::size_t reported_ = 0;
+};
+
+void write_tables(const fs::path& dir, const sim::Study& study, const std::vector<sim::StudyResult>& results, int ranks,
+                  double elapsed_s) {
+  core::write_file_atomic(dir / "results.csv", sim::results_csv(study, results));
+  const nlohmann::json sj = sim::study_json(study, results, ranks, elapsed_s);
+  core::write_file_atomic(dir / "study.json", sj.dump(2) + "\n");
+  render::write_report_html(dir, sj);
+}
+
 }  // namespace
 
 int run_study(const StudyArgs& args) {
@@ -322,34 +386,7 @@ int run_study(const StudyArgs& args) {
   StudyArgs staged = args;
   staged.out_dir = out.path();
   const std::size_t n = study.variations.size();
-
-  // The queue and the table, shared by this rank's two threads: the main thread (MPI, the only one that calls it:
-  // MPI_THREAD_FUNNELED) and the local worker.
-  std::mutex mu;
-  std::deque<std::size_t> queue;
-  for (std::size_t i = 0; i < n; ++i) queue.push_back(i);
-  std::vector<sim::StudyResult> results(n);
-  std::vector<std::size_t> finished;  // in the order they finished, for the progress lines
-  auto store = [&](std::size_t i, const sim::StudyResult& r) {
-    std::lock_guard<std::mutex> lock(mu);
-    results[i] = r;
-    finished.push_back(i);
-  };
-  // The next variation ready to run; one whose overrides cannot be applied is a failed row at once.
-  auto next_task = [&]() -> std::optional<nlohmann::json> {
-    while (true) {
-      std::size_t i;
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        if (queue.empty()) return std::nullopt;
-        i = queue.front();
-        queue.pop_front();
-      }
-      sim::StudyResult failed;
-      if (auto task = prepare_task(study, i, staged, failed)) return task;
-      store(i, failed);
-    }
-  };
+  StudyTable table(study, staged);
 
   // Progress lines go to the terminal through a copy of stdout taken now: the local worker points stdout at its
   // variation's run.log while it runs.
@@ -363,22 +400,12 @@ int run_study(const StudyArgs& args) {
 
   std::atomic<bool> local_done{false};
   std::thread local([&] {
-    while (auto task = next_task()) store(task->at("index").get<std::size_t>() - 1, run_variation(*task, 0));
+    while (auto task = table.next_task())
+      table.store(task->at("index").get<std::size_t>() - 1, run_variation(*task, 0));
     local_done = true;
   });
 
-  auto write_tables = [&]() {
-    std::vector<sim::StudyResult> copy;
-    {
-      std::lock_guard<std::mutex> lock(mu);
-      copy = results;
-    }
-    core::write_file_atomic(out.path() / "results.csv", sim::results_csv(study, copy));
-    const nlohmann::json sj = sim::study_json(study, copy, size, seconds_since(t_start));
-    core::write_file_atomic(out.path() / "study.json", sj.dump(2) + "\n");
-    render::write_report_html(out.path(), sj);
-  };
-  std::size_t reported = 0, written = 0;
+  std::size_t written = 0;
   auto last_write = Clock::now();
   double write_s = 0;
   int remote_active = size - 1;
@@ -390,8 +417,8 @@ int run_study(const StudyArgs& args) {
         const std::optional<Request> req = poll_request(n);
         if (req) {
           busy = true;
-          if (req->result) store(req->index - 1, *req->result);
-          if (auto task = next_task()) {
+          if (req->result) table.store(req->index - 1, *req->result);
+          if (auto task = table.next_task()) {
             send_json(*task, req->rank, kTagToWorker);
           } else {
             send_json({{"stop", true}}, req->rank, kTagToWorker);
@@ -399,38 +426,29 @@ int run_study(const StudyArgs& args) {
           }
         }
       }
-      std::vector<std::size_t> fresh;
-      std::size_t shown = reported;
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        fresh.assign(finished.begin() + static_cast<std::ptrdiff_t>(reported), finished.end());
-        reported = finished.size();
-      }
-      for (std::size_t i : fresh)  // results[i] was written once, before it was listed as finished
-        say(finished_line(++shown, n, study.variations[i], results[i]));
+      std::size_t shown = table.reported();
+      for (std::size_t i : table.take_finished()) say(finished_line(++shown, n, study.variations[i], table.result(i)));
       // The table so far, now and then: a study cut short (a killed job) keeps what it had. Every 2 s at most, and
       // never more than 5 % of the time (a study of many variations has long tables).
-      if (reported > written && seconds_since(last_write) > std::max(2.0, 20 * write_s)) {
+      if (table.reported() > written && seconds_since(last_write) > std::max(2.0, 20 * write_s)) {
         const auto w0 = Clock::now();
-        write_tables();
+        write_tables(out.path(), study, table.snapshot(), size, seconds_since(t_start));
         write_s = seconds_since(w0);
-        written = reported;
+        written = table.reported();
         last_write = Clock::now();
       }
       if (remote_active == 0 && local_done) break;
       if (!busy) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
   } catch (...) {
-    {
-      std::lock_guard<std::mutex> lock(mu);
-      queue.clear();
-    }
+    table.clear_queue();
     local.join();
     if (console) std::fclose(console);
     throw;
   }
   local.join();
-  write_tables();
+  const std::vector<sim::StudyResult> results = table.snapshot();
+  write_tables(out.path(), study, results, size, seconds_since(t_start));
   out.commit();
   int ok = 0;
   for (const sim::StudyResult& r : results) ok += r.status == sim::StudyResult::Status::Ok;

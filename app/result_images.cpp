@@ -218,14 +218,9 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
   w.save("deviation_3d.png", render::render_part(w.window, s, dev, lit).image);
 }
 
-void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
-  const sim::BinnedSignals& s = *d.signals;
-  render::ChartPicture base;
-  base.width = o.width, base.height = o.height;
-  const std::string decimation =
-      s.bin_samples > 1 ? fmt::format("; {} samples, drawn as min/max over bins of {}", s.samples, s.bin_samples)
-                        : fmt::format("; {} samples", s.samples);
-
+// Contour error along the path; feed, programmed against reached.
+void path_charts(Writer& w, const sim::BinnedSignals& s, const render::ChartPicture& base,
+                 const std::string& decimation) {
   // Contour error along the path.
   {
     render::Chart c;
@@ -263,86 +258,101 @@ void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
       w.save("feed.png", render::render_charts(w.window, p).image);
     }
   }
-  // Per axis: setpoint against actual position; velocity, acceleration, jerk against their limits.
-  for (const auto& [A, u] : s.axes) {
-    const bool mm = u == "mm";
-    const double es = 1e3;
-    const std::string eu = mm ? "µm" : "mdeg";
-    {
-      render::ChartPicture p = base;
-      p.caption = {s.job + ": axis " + A + ", setpoint and actual position",
-                   "setpoint: the interpolator's command; actual: the drive model's position; tracking error = "
-                   "setpoint - actual" +
-                       decimation};
-      render::Chart pos;
-      pos.title = "position";
-      pos.x_title = "t [s]";
-      pos.y_title = A + " [" + u + "]";
-      pos.series.push_back(envelope(s, "t_s", A + "_setpoint_" + u, 1, "setpoint", 0, 2.4));
-      pos.series.push_back(envelope(s, "t_s", A + "_actual_" + u, 1, "actual", 1, 1.4));
-      render::Chart err;
-      err.title = "tracking error";
-      err.x_title = "t [s]";
-      err.y_title = "setpoint - actual [" + eu + "]";
-      err.series.push_back(envelope(s, "t_s", A + "_tracking_error_" + u, es, "tracking error", 2));
-      err.legend = false;
-      p.charts = {pos, err};
-      w.save("position_" + A + ".png", render::render_charts(w.window, p).image);
-    }
-    {
-      render::ChartPicture p = base;
-      std::vector<std::string> notes;
-      const std::pair<const char*, const char*> q[3] = {{"velocity", "/s"}, {"acceleration", "/s²"}, {"jerk", "/s³"}};
-      const char* suffix[3] = {"_per_s", "_per_s2", "_per_s3"};
-      for (int k = 0; k < 3; ++k) {
-        render::Chart c;
-        c.title = q[k].first;
-        c.x_title = "t [s]";
-        c.y_title = std::string(q[k].first) + " [" + u + q[k].second + "]";
-        const std::string sp = A + "_" + q[k].first + "_setpoint_" + u + suffix[k];
-        const std::string ac = A + "_" + q[k].first + "_actual_" + u + suffix[k];
-        c.series.push_back(envelope(s, "t_s", sp, 1, "setpoint", 0, 2.2));
-        const auto lim = s.limit(A + "_" + q[k].first + "_" + u + suffix[k]);
-        // The drives' jerk carries the current loop's ripple, orders of magnitude above the setpoints' limit: drawn
-        // at that scale it would flatten the setpoint curve the limit applies to. Its peak is given instead.
-        const double peak = max_abs(s, ac);
-        if (lim && k == 2 && peak > 5 * *lim)
-          notes.push_back(
-              fmt::format("actual jerk not drawn (peak {} {}/s³, the current loop's ripple)", num(peak), u));
-        else
-          c.series.push_back(envelope(s, "t_s", ac, 1, "actual", 1, 1.2));
-        if (lim) add_limits(c, *lim, u + q[k].second);
-        p.charts.push_back(c);
-      }
-      std::string second =
-          "setpoints: the interpolator's output by backward differences (the limits apply to them); "
-          "actual: the drive model";
-      p.caption = {s.job + ": axis " + A + ", velocity, acceleration and jerk against the machine's limits",
-                   second + decimation};
-      for (const auto& n : notes) p.caption.push_back(n);
-      w.save("axis_" + A + ".png", render::render_charts(w.window, p).image);
-    }
-  }
-  // Currents with their limits.
-  if (!s.axes.empty()) {
+}
+
+// One axis: setpoint against actual position; velocity, acceleration, jerk against their limits.
+void axis_charts(Writer& w, const sim::BinnedSignals& s, const render::ChartPicture& base,
+                 const std::string& decimation, const std::string& A, const std::string& u) {
+  const bool mm = u == "mm";
+  const double es = 1e3;
+  const std::string eu = mm ? "µm" : "mdeg";
+  {
     render::ChartPicture p = base;
-    p.caption = {
-        s.job + ": motor currents",
-        "mean over each position-loop period (signed) and the largest |current| within it; dashed: the drive's "
-        "current limit" +
-            decimation};
-    for (const auto& [A, u] : s.axes) {
+    p.caption = {s.job + ": axis " + A + ", setpoint and actual position",
+                 "setpoint: the interpolator's command; actual: the drive model's position; tracking error = "
+                 "setpoint - actual" +
+                     decimation};
+    render::Chart pos;
+    pos.title = "position";
+    pos.x_title = "t [s]";
+    pos.y_title = A + " [" + u + "]";
+    pos.series.push_back(envelope(s, "t_s", A + "_setpoint_" + u, 1, "setpoint", 0, 2.4));
+    pos.series.push_back(envelope(s, "t_s", A + "_actual_" + u, 1, "actual", 1, 1.4));
+    render::Chart err;
+    err.title = "tracking error";
+    err.x_title = "t [s]";
+    err.y_title = "setpoint - actual [" + eu + "]";
+    err.series.push_back(envelope(s, "t_s", A + "_tracking_error_" + u, es, "tracking error", 2));
+    err.legend = false;
+    p.charts = {pos, err};
+    w.save("position_" + A + ".png", render::render_charts(w.window, p).image);
+  }
+  {
+    render::ChartPicture p = base;
+    std::vector<std::string> notes;
+    const std::pair<const char*, const char*> q[3] = {{"velocity", "/s"}, {"acceleration", "/s²"}, {"jerk", "/s³"}};
+    const char* suffix[3] = {"_per_s", "_per_s2", "_per_s3"};
+    for (int k = 0; k < 3; ++k) {
       render::Chart c;
-      c.title = "axis " + A;
+      c.title = q[k].first;
       c.x_title = "t [s]";
-      c.y_title = "current [A]";
-      c.series.push_back(envelope(s, "t_s", A + "_current_A", 1, "mean per Te", 0, 1.8));
-      c.series.push_back(envelope(s, "t_s", A + "_current_peak_A", 1, "peak |i| per Te", 1, 1.0));
-      if (const auto lim = s.limit(A + "_current_A")) add_limits(c, *lim, "A");
+      c.y_title = std::string(q[k].first) + " [" + u + q[k].second + "]";
+      const std::string sp = A + "_" + q[k].first + "_setpoint_" + u + suffix[k];
+      const std::string ac = A + "_" + q[k].first + "_actual_" + u + suffix[k];
+      c.series.push_back(envelope(s, "t_s", sp, 1, "setpoint", 0, 2.2));
+      const auto lim = s.limit(A + "_" + q[k].first + "_" + u + suffix[k]);
+      // The drives' jerk carries the current loop's ripple, orders of magnitude above the setpoints' limit: drawn
+      // at that scale it would flatten the setpoint curve the limit applies to. Its peak is given instead.
+      const double peak = max_abs(s, ac);
+      if (lim && k == 2 && peak > 5 * *lim)
+        notes.push_back(fmt::format("actual jerk not drawn (peak {} {}/s³, the current loop's ripple)", num(peak), u));
+      else
+        c.series.push_back(envelope(s, "t_s", ac, 1, "actual", 1, 1.2));
+      if (lim) add_limits(c, *lim, u + q[k].second);
       p.charts.push_back(c);
     }
-    w.save("currents.png", render::render_charts(w.window, p).image);
+    std::string second =
+        "setpoints: the interpolator's output by backward differences (the limits apply to them); "
+        "actual: the drive model";
+    p.caption = {s.job + ": axis " + A + ", velocity, acceleration and jerk against the machine's limits",
+                 second + decimation};
+    for (const auto& n : notes) p.caption.push_back(n);
+    w.save("axis_" + A + ".png", render::render_charts(w.window, p).image);
   }
+}
+
+// Currents with their limits.
+void current_charts(Writer& w, const sim::BinnedSignals& s, const render::ChartPicture& base,
+                    const std::string& decimation) {
+  render::ChartPicture p = base;
+  p.caption = {s.job + ": motor currents",
+               "mean over each position-loop period (signed) and the largest |current| within it; dashed: the drive's "
+               "current limit" +
+                   decimation};
+  for (const auto& [A, u] : s.axes) {
+    render::Chart c;
+    c.title = "axis " + A;
+    c.x_title = "t [s]";
+    c.y_title = "current [A]";
+    c.series.push_back(envelope(s, "t_s", A + "_current_A", 1, "mean per Te", 0, 1.8));
+    c.series.push_back(envelope(s, "t_s", A + "_current_peak_A", 1, "peak |i| per Te", 1, 1.0));
+    if (const auto lim = s.limit(A + "_current_A")) add_limits(c, *lim, "A");
+    p.charts.push_back(c);
+  }
+  w.save("currents.png", render::render_charts(w.window, p).image);
+}
+
+void chart_pictures(Writer& w, const ResultData& d, const ImageOptions& o) {
+  const sim::BinnedSignals& s = *d.signals;
+  render::ChartPicture base;
+  base.width = o.width, base.height = o.height;
+  const std::string decimation =
+      s.bin_samples > 1 ? fmt::format("; {} samples, drawn as min/max over bins of {}", s.samples, s.bin_samples)
+                        : fmt::format("; {} samples", s.samples);
+
+  path_charts(w, s, base, decimation);
+  for (const auto& [A, u] : s.axes) axis_charts(w, s, base, decimation, A, u);
+  if (!s.axes.empty()) current_charts(w, s, base, decimation);
 }
 
 }  // namespace
