@@ -29,6 +29,9 @@ function(vmsim_test_suite name)
   set(_target ${name}_tests)
   add_executable(${_target} ${_srcs})
   target_link_libraries(${_target} PRIVATE ${ARG_DEPENDS} GTest::gtest GTest::gtest_main)
+  # The test code itself at -O1: it compiles ~1.5x faster than at -O3 (make test's build is mostly tests) and runs the
+  # libraries under test, which keep the build's optimisation. No fast-math anywhere, so results are the same.
+  target_compile_options(${_target} PRIVATE -O1)
   target_compile_definitions(${_target} PRIVATE
     VMSIM_SOURCE_DIR="${CMAKE_SOURCE_DIR}" VMSIM_SHARED_DIR="${VMSIM_SHARED_DIR}"
     VMSIM_BINARY_DIR="${CMAKE_BINARY_DIR}")
