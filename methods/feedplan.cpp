@@ -494,6 +494,70 @@ FeedPlan plan_feed(const PathSamples& ps, const FeedPlanOptions& opt) {
   return plan;
 }
 
+// ---- the plan the interpolator can follow ---------------------------------------------------------------------------
+
+namespace {
+
+double plan_time(const Eigen::ArrayXd& s, const Eigen::ArrayXd& feed) {
+  double t = 0.0;
+  for (Index i = 0; i + 1 < s.size(); ++i) {
+    const double vs = feed[i] + feed[i + 1];
+    t += vs > 0 ? 2 * (s[i + 1] - s[i]) / vs : kInf;
+  }
+  return t;
+}
+
+}  // namespace
+
+FeedPlan follow_interpolator(const PathSamples& ps, const FeedPlan& lp, const core::Machine& machine, double period_s) {
+  const Index n = ps.size();
+  if (lp.feed.size() != n || !(period_s > 0))
+    throw core::Error("follow_interpolator: one feed per sample and a period > 0 expected");
+  // motion/interp's margins on the acceleration and jerk limits (kAccelMargin, kJerkMargin).
+  constexpr double kMargin = 0.97;
+  Eigen::Vector3d amax = Eigen::Vector3d::Constant(kInf), jmax = Eigen::Vector3d::Constant(kInf);
+  for (const core::MachineAxis& ax : machine.axes)
+    if (ax.program_axis <= 2)
+      amax[ax.program_axis] = kMargin * ax.max_acceleration, jmax[ax.program_axis] = kMargin * ax.max_jerk;
+  // The filter: the longest natural jerk time A / J of the directions travelled, in whole periods (motion/interp).
+  double filter_s = period_s;
+  for (Index i = 0; i < n; ++i) {
+    double at = kInf, jt = kInf;
+    for (int r = 0; r < 3; ++r) {
+      const double t = std::abs(ps.t(i, r));
+      if (t <= kTiny) continue;
+      at = std::min(at, amax[r] / t);
+      jt = std::min(jt, jmax[r] / t);
+    }
+    if (std::isfinite(at) && std::isfinite(jt)) filter_s = std::max(filter_s, at / jt);
+  }
+  filter_s = std::ceil(filter_s / period_s - 1e-9) * period_s;
+  // Tangential acceleration limit per sample at the LP's feed there (the interpolator's at its ceiling).
+  Eigen::ArrayXd alim(n);
+  for (Index i = 0; i < n; ++i) {
+    const double v = lp.feed[i];
+    double a = kInf;
+    for (int r = 0; r < 3; ++r) {
+      const double t = ps.t_abs_max(i, r), k = ps.k_abs_max(i, r), dk = std::abs(ps.dk(i, r));
+      if (t > kTiny) a = std::min(a, std::max(0.0, amax[r] - k * v * v) / t);
+      const double den = t / filter_s + 3 * k * v;
+      if (den > kTiny) a = std::min(a, std::max(0.0, jmax[r] - dk * v * v * v) / den);
+    }
+    alim[i] = std::isfinite(a) ? a : 1e300;
+  }
+  Eigen::ArrayXd q = lp.feed.square();
+  for (Index i = 0; i + 1 < n; ++i)
+    q[i + 1] = std::min(q[i + 1], q[i] + 2 * std::min(alim[i], alim[i + 1]) * (ps.s[i + 1] - ps.s[i]));
+  for (Index i = n - 1; i > 0; --i)
+    q[i - 1] = std::min(q[i - 1], q[i] + 2 * std::min(alim[i], alim[i - 1]) * (ps.s[i] - ps.s[i - 1]));
+  FeedPlan out = lp;
+  out.lp_feed = lp.feed;
+  out.lp_time_s = lp.time_s;
+  out.feed = q.max(0.0).sqrt();
+  out.time_s = plan_time(ps.s, out.feed);
+  return out;
+}
+
 // ---- independent check -------------------------------------------------------------------------------------------
 
 double FeedPlanCheck::worst() const {

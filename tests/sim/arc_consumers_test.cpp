@@ -265,12 +265,13 @@ TEST(ArcConsumers, CompensatedProgramArcsAreTheFrame) {
     in.machine = &mc;
     in.kinematics = kin.get();
     const methods::CompensatedProgram out = methods::write_compensated_program(in);
-    // The arc's blocks ("G94 G17 G3 X.. Y.. Z.. I.. J.. F.."): as many as quarter-turn pieces, the direction of the
-    // frame's sweep, each ending on the arc, the centre words relative to the block's start.
+    // The arc's blocks ("G94 G17 G3 X.. Y.. Z.. I.. J.. F.."): with no correction, as many as pieces of the longest
+    // angle for the radius (methods::arc_piece_max_angle_rad), the direction of the frame's sweep, each ending on the
+    // arc, the centre words relative to the block's start.
     std::istringstream text(out.text);
     std::string line;
     int pieces = 0;
-    const int n = f.chords(1.0, kPi / 2);
+    const int n = f.chords(1.0, methods::arc_piece_max_angle_rad(std::max(f.start_radius_mm, f.end_radius_mm)));
     Vector3d last = m.start.head<3>();
     static constexpr char kCentreWord[3] = {'I', 'J', 'K'};
     while (std::getline(text, line)) {
