@@ -71,21 +71,20 @@ void write_feed_profile(const fs::path& file, const sim::PlanFeedResult& r) {
        "15 (chord), 22 (axis velocity), 23 without tangential part (centripetal), 24 (f_star = the smallest with "
        "f_max); feed_without_contour: the same plan without eq. 13; contour_scale: the factor on the tolerance the "
        "verified plan used; simulated errors: the largest contour error of the simulated axes whose foot point lies "
-       "at the sample; feed and feed_without_contour are the LP's plans made followable by the interpolator "
-       "(methods::follow_interpolator), feed_lp the LP's own\n";
+       "at the sample\n";
   o << "s_mm,u,x_mm,y_mm,z_mm,curvature_per_mm,f_star,bound_contour,bound_chord,bound_axis_velocity,bound_centripetal,"
        "omega0_rad_s,feed_without_contour,feed,contour_scale,sim_contour_error_no_plan_um,"
-       "sim_contour_error_without_contour_um,sim_contour_error_um,feed_lp\n";
+       "sim_contour_error_without_contour_um,sim_contour_error_um\n";
   std::string line;
   for (Index i = 0; i < samples.size(); ++i) {
     line = fmt::format(
-        "{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6g},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.4f},{:.4f},{:.4f},{:.6f}\n",
+        "{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6g},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.4f},{:.4f},{:.4f}\n",
         samples.s[i], csv_number(samples.u[i], 9), samples.p(i, 0), samples.p(i, 1), samples.p(i, 2),
         samples.kappa_max[i], csv_number(plan.f_star[i], 6), csv_number(plan.bound_contour[i], 6),
         csv_number(plan.bound_chord[i], 6), csv_number(plan.bound_axis_velocity[i], 6),
         csv_number(plan.bound_centripetal[i], 6), csv_number(plan.omega0[i], 6), r.free_plan.feed[i], plan.feed[i],
         r.verified.contour_scale[i], r.no_plan.per_sample[i] * 1e3, r.free_played.per_sample[i] * 1e3,
-        r.verified.played.per_sample[i] * 1e3, plan.lp_feed.size() ? plan.lp_feed[i] : plan.feed[i]);
+        r.verified.played.per_sample[i] * 1e3);
     o << line;
   }
   f.commit();
@@ -234,10 +233,6 @@ void print_summary(const core::Job& job, const sim::PlanFeedResult& r, const fs:
   std::printf("plan (contour error <= %g um)  %8.3f s  %8.3f s    %7.2f / %.2f um  (%d round%s)\n",
               spec.contour_error_mm * 1e3, played.interp.stats.cycle_time_s, plan.time_s, played.max_abs_mm * 1e3,
               r.model_peak_mm * 1e3, r.verified.rounds, r.verified.rounds == 1 ? "" : "s");
-  if (plan.lp_feed.size())
-    std::printf("plan time: the LP's plan %.3f s, made followable by the interpolator %.3f s; played %.3f s (%.3f x)\n",
-                plan.lp_time_s, plan.time_s, played.interp.stats.cycle_time_s,
-                played.interp.stats.cycle_time_s / plan.time_s);
   std::printf(
       "cycle-time cost of the contour constraint: %+.1f %%; every constraint at every sample: worst %.6f of its "
       "limit\n",

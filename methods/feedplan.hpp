@@ -89,9 +89,6 @@ struct FeedPlanStats {
 
 struct FeedPlan {
   Eigen::ArrayXd s, feed;  // per sample: arc length (mm), planned feed (mm/s)
-  // The LP's own feed and time where the plan was then made followable (follow_interpolator; else empty and 0).
-  Eigen::ArrayXd lp_feed;
-  double lp_time_s = 0.0;
   // Eq. 24's pointwise bound f* and its parts (mm/s; infinity where one does not apply), and eq. 11's w0 (rad/s).
   Eigen::ArrayXd f_star, bound_contour, bound_chord, bound_axis_velocity, bound_centripetal, omega0;
   double time_s = 0.0;  // the plan's own traversal time (q linear in s between samples)
@@ -112,19 +109,6 @@ struct FeedPlanCheck {
 };
 FeedPlanCheck check_feed_plan(const PathSamples& path, const Eigen::ArrayXd& feed, const FeedPlanLimits& limits,
                               const ContourErrorModel* model);
-
-// The plan in the form vmsim's interpolator (motion/interp) can follow. The LP keeps each axis' jerk as Chen et al.'s
-// model writes it (f d a / ds at the samples), which lets the tangential acceleration step from sample to sample; the
-// interpolator ramps every acceleration step over its filter (T_f = A / J, in whole periods) and so budgets each axis'
-// jerk as |t_r| a_t / T_f + 3 |k_r| v a_t + |dk_r| v^3 <= J_r, with |t_r| a_t + |k_r| v^2 <= A_r (both at 0.97 of the
-// limits, as motion/interp's tangential_accel). Under the LP plan as a ceiling it therefore brakes earlier and
-// accelerates later than the plan round every curvature peak (the butterfly: 14.64 s played for 11.88 s planned).
-// Here the plan's feed is lowered to what that model allows: the interpolator's tangential acceleration limit at each
-// sample, at the LP's feed there, and the fastest profile under the LP's feeds with it (q = f^2 linear in s between
-// samples; forward and backward scans). feed and time_s become the followable plan's; lp_feed and lp_time_s keep the
-// LP's. `machine`: the axis limits the interpolator uses (X Y Z); `period_s`: its Te.
-FeedPlan follow_interpolator(const PathSamples& path, const FeedPlan& lp, const core::Machine& machine,
-                             double period_s);
 
 // The plan as the interpolator's feed ceiling (motion::FeedCeiling): the samples' arc lengths mapped by `to_path_s`
 // onto the smoothed path the interpolator follows (identity for programs; motion::NurbsPath's map for NURBS). The

@@ -79,7 +79,6 @@ VerifiedPlan plan_feed_verified(const PathSamples& samples, const FeedPlanOption
   if (!(verify.margin > 0 && verify.margin <= 1) || !(verify.reach_back_mm >= 0) || !(verify.reach_ahead_mm >= 0) ||
       verify.max_rounds < 1)
     throw core::Error("feed plan verification: margin in (0, 1], reaches >= 0, at least one round");
-  if (verify.follow_interpolator && !player.machine) throw core::Error("feed plan verification: no machine");
   const Eigen::Index n = samples.size();
   VerifiedPlan out;
   FeedPlanOptions opt = options;
@@ -87,8 +86,6 @@ VerifiedPlan plan_feed_verified(const PathSamples& samples, const FeedPlanOption
   for (int round = 1; round <= verify.max_rounds; ++round) {
     opt.contour_scale = out.contour_scale;
     out.plan = plan_feed(samples, opt);
-    if (verify.follow_interpolator)
-      out.plan = follow_interpolator(samples, out.plan, *player.machine, player.interp.period_s);
     out.played = play_plan(player, samples, &out.plan);
     out.rounds = round;
     out.simulated_peak_mm.push_back(out.played.max_abs_mm);

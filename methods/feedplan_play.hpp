@@ -67,13 +67,9 @@ struct VerifyOptions {
   // the motion just before it (its slow pole-zero pair), so the feed is lowered on the way in.
   double margin = 0.98;
   double reach_back_mm = 10.0, reach_ahead_mm = 2.0;
-  // Each round's LP plan made followable by the interpolator (follow_interpolator, with the player's machine and Te)
-  // before it is played: the played time then stays close to the plan's.
-  bool follow_interpolator = true;
 };
 
-// Round 1 is plan_feed as Chen et al. 2016 has it (then follow_interpolator); further rounds tighten where the
-// simulation exceeds the tolerance.
+// Round 1 is plan_feed as Chen et al. 2016 has it; further rounds tighten where the simulation exceeds the tolerance.
 VerifiedPlan plan_feed_verified(const PathSamples& samples, const FeedPlanOptions& options, const PlanPlayer& player,
                                 const VerifyOptions& verify = {});
 

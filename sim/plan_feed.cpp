@@ -114,14 +114,12 @@ void fill_report(const core::FeedPlanSpec& spec, const nlohmann::json& path_json
   runs["no_plan"] = run_json(r.no_plan);
   nlohmann::json& free = runs["plan_without_contour_error"] = run_json(r.free_played);
   free["plan_time_s"] = r.free_plan.time_s;
-  free["lp_plan_time_s"] = r.free_plan.lp_time_s;
-  free["played_over_planned"] = r.free_played.interp.stats.cycle_time_s / r.free_plan.time_s;
   free["model_contour_error_max_um"] = r.model_peak_free_mm * 1e3;
   free["check"] = check_json(r.check_free);
   const methods::VerifiedPlan& ver = r.verified;
   nlohmann::json& p = runs["plan"] = run_json(ver.played);
-  p["plan_time_s"] = plan.time_s;        // the followable plan's, the one played (methods::follow_interpolator)
-  p["lp_plan_time_s"] = plan.lp_time_s;  // Chen et al.'s LP plan's own
+  p["plan_time_s"] = plan.time_s;
+  // The interpolator plays a plan more slowly than its own time (parts/feedplan/README.md says where and why).
   p["played_over_planned"] = ver.played.interp.stats.cycle_time_s / plan.time_s;
   p["model_contour_error_max_um"] = r.model_peak_mm * 1e3;
   p["check"] = check_json(r.check);
@@ -186,7 +184,7 @@ PlanFeedResult plan_feed(const core::Job& job, core::Progress& progress) {
   r.no_plan = methods::play_plan(player, r.samples, nullptr);
   progress.done();
   progress.stage(job.name + ": planning and simulating without the contour-error constraint");
-  r.free_plan = methods::follow_interpolator(r.samples, methods::plan_feed(r.samples, opt_free), machine, te);
+  r.free_plan = methods::plan_feed(r.samples, opt_free);
   r.free_played = methods::play_plan(player, r.samples, &r.free_plan);
   progress.done();
   progress.stage(job.name + ": planning with the contour-error constraint, simulating, verifying");
@@ -196,10 +194,8 @@ PlanFeedResult plan_feed(const core::Job& job, core::Progress& progress) {
   progress.done();
   r.timings["plans_and_simulations"] = seconds_since(t0);
   const methods::FeedPlan& plan = r.verified.plan;
-  // Chen et al.'s constraints on the LP's plans; the followable plans hold them too but for the jerk rows (their
-  // acceleration steps are what the interpolator's filter ramps, methods::follow_interpolator).
-  r.check = methods::check_feed_plan(r.samples, plan.lp_feed, r.limits, &model);
-  r.check_free = methods::check_feed_plan(r.samples, r.free_plan.lp_feed, opt_free.limits, &model);
+  r.check = methods::check_feed_plan(r.samples, plan.feed, r.limits, &model);
+  r.check_free = methods::check_feed_plan(r.samples, r.free_plan.feed, opt_free.limits, &model);
   r.model_peak_free_mm = methods::model_contour_peak(r.samples, r.free_plan.feed, model);
   r.model_peak_mm = methods::model_contour_peak(r.samples, plan.feed, model);
   r.ceiling = methods::feed_ceiling(plan, player.to_path_s);
