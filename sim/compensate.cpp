@@ -17,6 +17,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 namespace vmsim::sim {
 
@@ -298,8 +299,9 @@ std::vector<Index> places_over(const ContourFigures& original, const ContourFigu
 // The compensated program, written, read back and run on the machine model (check_program). Where it cuts worse than
 // the original (not_worse), the correction it carries is faded out around the places where its error exceeds the
 // original's largest (zero over +-w setpoints, back to full over w more; w doubled each round), up to kMaxFadeRounds:
-// a program that carries no correction there is the original there. What still cuts worse is rejected: written as
-// compensated_rejected.<extension>, not as the program to send (report.json and a warning say why).
+// a program that carries no correction there is the original there. What still cuts worse is rejected: the program
+// with the whole correction (and its figures) is written as compensated_rejected.<extension>, not as the program to
+// send (report.json and a warning say why).
 void write_and_check_program(const core::Job& job, const CompensateJobOptions& options, const Chain& machine,
                              const motion::Kinematics& kin, const core::ToolPath& axis_path, CompensateJobResult& r) {
   const core::Setpoints& sp = r.interp.setpoints;
@@ -307,21 +309,40 @@ void write_and_check_program(const core::Job& job, const CompensateJobOptions& o
   const Eigen::MatrixXd delta = r.compensation.setpoints - sp.position;
   Eigen::VectorXd weight = Eigen::VectorXd::Ones(ns);
   Eigen::MatrixXd carried = r.compensation.setpoints;
+  std::optional<CompensateJobResult> whole;  // round 0: the program with the whole correction
   for (int round = 0;; ++round) {
     write_programs(job, options, kin, axis_path, carried, r);
     check_program(job, machine, kin, axis_path, r);
     r.fade_rounds = round;
     r.program_accepted = not_worse(r.original_on_machine, r.program_on_machine);
-    if (r.program_accepted || round == kMaxFadeRounds) break;
+    if (r.program_accepted) break;
+    if (round == 0) whole = r;
+    if (round == kMaxFadeRounds) {
+      // Rejected: the program with the whole correction is the one to look at (fading gave up some of its gain
+      // without making it not worse); its figures with it.
+      const int rounds = r.fade_rounds;
+      r = std::move(*whole);
+      r.fade_rounds = rounds;
+      weight.setOnes();
+      break;
+    }
     const std::vector<Index> over = places_over(r.original_on_machine, r.program_on_machine, ns);
-    if (over.empty()) break;  // worse on the mean only: a local fade does not answer that
+    if (over.empty()) {  // worse on the mean only: a local fade does not answer that
+      if (round > 0) {
+        const int rounds = r.fade_rounds;
+        r = std::move(*whole);
+        r.fade_rounds = rounds;
+        weight.setOnes();
+      }
+      break;
+    }
     const Index w = kFadeWindowSamples << round;
     for (const Index at : over)
       for (Index i = std::max<Index>(0, at - 2 * w); i <= std::min(ns - 1, at + 2 * w); ++i)
         weight[i] = std::min(weight[i], std::clamp(static_cast<double>(std::abs(i - at) - w) / w, 0.0, 1.0));
     carried = sp.position + weight.asDiagonal() * delta;
   }
-  r.faded_setpoints = (weight.array() < 1.0).count();
+  r.faded_setpoints = r.program_accepted ? (weight.array() < 1.0).count() : 0;
   const std::string ext = r.compensated_program.extension;
   r.program_file = r.program_accepted ? "compensated." + ext : "compensated_rejected." + ext;
 }
@@ -453,7 +474,8 @@ CompensateJobResult compensate_job(const core::Job& job, const CompensateJobOpti
         {"compensated_program_worse", r.program_file,
          fmt::format(
              "the compensated program cuts worse than the original on the machine model (max {:.4f} -> {:.4f} "
-             "um, mean {:.4f} -> {:.4f} um; {} rounds of fading its correction where it cut worse): written as {}, "
+             "um, mean {:.4f} -> {:.4f} um; {} rounds of fading its correction where it cut worse did not bring it "
+             "within the original's figures): written, with the whole correction, as {}, "
              "not as the program to send; send the compensated setpoints (compensated_setpoints.csv) or the dense "
              "form (--dense-program) instead",
              r.original_on_machine.max_mm * 1e3, r.program_on_machine.max_mm * 1e3, r.original_on_machine.mean_mm * 1e3,
