@@ -55,9 +55,9 @@ std::vector<std::string> write_results(const fs::path& dir, const core::Job& job
     files.push_back(name);
   };
   write("compensated_setpoints.csv", s);
-  write("compensated." + r.compensated_program.extension, r.compensated_program.text);
+  write(r.program_file, r.compensated_program.text);
   if (r.tcp_program) {
-    write("compensated_tcp.ngc", r.tcp_program->text);
+    write(r.program_accepted ? "compensated_tcp.ngc" : "compensated_tcp_rejected.ngc", r.tcp_program->text);
     write("original_tcp.ngc", *r.original_tcp_text);
   }
   if (r.dense_program_text) write("compensated_dense.ngc", *r.dense_program_text);
@@ -141,19 +141,16 @@ void print_summary(const core::Job& job, const sim::CompensateJobResult& r, cons
   if (r.machine_before) line("contour error, machine cascades", *r.machine_before, *r.machine_after);
   const sim::ContourFigures &om = r.original_on_machine, &pm = r.program_on_machine;
   line("compensated program on the machine", om, pm);
-  // The program form moves only the programmed points (arcs keep their shape between corrected ends), so it can cut
-  // worse than the original where the correction varies along a move: say so rather than let it go to a machine.
-  // Worse: a larger mean, or a largest error grown by more than 5 % (the max sits at friction glitches that move by
-  // a fraction of a per cent from run to run of a correction).
-  if (pm.max_mm > 1.05 * om.max_mm || pm.mean_mm > om.mean_mm)
-    std::fprintf(stderr,
-                 "vmsim: warning: the compensated program cuts worse than the original on the machine model (max "
-                 "%.3f -> %.3f um, mean %.3f -> %.3f um); send the dense form (--dense-program) or the compensated "
-                 "setpoints instead\n",
-                 om.max_mm * 1e3, pm.max_mm * 1e3, om.mean_mm * 1e3, pm.mean_mm * 1e3);
+  // A program that cuts worse is written as compensated_rejected.*, and the run's warnings say so (print_verdict).
+  if (r.fade_rounds > 0 && r.program_accepted)
+    std::printf(
+        "compensated program: the correction faded around the places where it cut worse (%lld setpoints, %d "
+        "rounds)\n",
+        static_cast<long long>(r.faded_setpoints), r.fade_rounds);
   const double co = r.cycle_time_original_s, cp = r.cycle_time_program_s;
-  std::printf("compensated program: %d blocks for %zu moves, cycle time %.3f s (original %.3f s, %+.2f %%)\n",
-              r.compensated_program.blocks, r.program.moves.size(), cp, co, co > 0 ? 100.0 * (cp - co) / co : 0.0);
+  std::printf("compensated program (%s): %d blocks for %zu moves, cycle time %.3f s (original %.3f s, %+.2f %%)\n",
+              r.program_file.c_str(), r.compensated_program.blocks, r.program.moves.size(), cp, co,
+              co > 0 ? 100.0 * (cp - co) / co : 0.0);
   if (r.tcp_cycle_times_s)
     std::printf("tool-centre-point G-code: compensated_tcp.ngc %.3f s, original_tcp.ngc %.3f s ([job] tcp = true)\n",
                 r.tcp_cycle_times_s->second, r.tcp_cycle_times_s->first);

@@ -130,6 +130,11 @@ sim::OgaJobOptions oga_options(const OgaArgs& args) {
   o.lead_in_rows = args.lead_in_rows;
   o.settle_s = args.settle_s;
   o.from_start = args.from_start;
+  try {
+    o.limits = methods::parse_limit_set(args.limits);
+  } catch (const core::Error& e) {
+    throw core::Error(std::string("--limits: ") + e.what());
+  }
   if (args.threads && (*args.threads < 1 || *args.threads > 1024)) throw core::Error("--threads: expected 1 .. 1024");
   // Under mpirun: the best-fixed-pair search (most of a whole run's CPU, bench/README.md) is spread over the ranks;
   // every rank then holds the same values and reaches the same result, which rank 0 alone verifies and writes.
@@ -399,9 +404,22 @@ void print_summary(const core::Job& job, const sim::OgaJobResult& o, const fs::p
   std::printf("job %s: %lld setpoints (%.3f s), axes %s and %s\n", job.name.c_str(),
               static_cast<long long>(o.interp.setpoints.samples()), o.interp.stats.cycle_time_s,
               r.axis_names[0].c_str(), r.axis_names[1].c_str());
-  for (std::size_t q = 0; q < nq; ++q)
-    std::printf("admissible %s: %d of %zu configurations\n", r.axis_names[q].c_str(),
-                o.report["admissible"][r.axis_names[q]]["admissible"].get<int>(), r.sweep[q].size());
+  for (std::size_t q = 0; q < nq; ++q) {
+    std::printf("admissible %s: %d of %zu configurations (limits: %s)\n", r.axis_names[q].c_str(),
+                o.report["admissible"][r.axis_names[q]]["admissible"].get<int>(), r.sweep[q].size(),
+                methods::limit_set_name(o.options.limits).c_str());
+    if (o.report.contains("admissible_by_limit")) {
+      const auto& b = o.report["admissible_by_limit"][r.axis_names[q]];
+      const auto& d = b["drive_without_friction"];
+      const auto& f = b["drive_with_friction"];
+      std::printf(
+          "  each limit alone: velocity %d, acceleration %d, jerk %d, current %d (drive without friction); "
+          "with friction: velocity %d, acceleration %d, jerk %d; jerk of the setpoints %d\n",
+          d["velocity"].get<int>(), d["acceleration"].get<int>(), d["jerk"].get<int>(), d["current"].get<int>(),
+          f["velocity"].get<int>(), f["acceleration"].get<int>(), f["jerk"].get<int>(),
+          b["setpoints"]["jerk"].get<int>());
+    }
+  }
   if (!r.best.empty())
     std::printf("best fixed pair: %s Kv %g KF %g, %s Kv %g KF %g (MSE(CE) %.4g um^2, %lld pairs)\n",
                 r.axis_names[0].c_str(), r.best[0].kp, r.best[0].kf, r.axis_names[1].c_str(), r.best[1].kp,

@@ -23,6 +23,7 @@ struct OgaArgs {
   long long lead_in_rows = 100;
   double settle_s = 0.2;
   bool from_start = false;     // Task 2 as Duong et al.: every candidate from the first instant
+  std::string limits = "all";  // the limits that judge admissibility (methods::parse_limit_set)
   std::optional<int> threads;  // OpenMP threads (default: OpenMP's own)
   bool no_render = false;      // no charts
   std::string image_size = "1600x900";

@@ -325,6 +325,10 @@ void add_oga(CLI::App& cli, Commands& cmds) {
   c->add_option("--settle-s", a->settle_s, "simulated after the last setpoint, s (default 0.2)");
   c->add_flag("--from-start", a->from_start,
               "simulate every candidate from the first instant, as Duong et al. (same answer, slower)");
+  c->add_option("--limits", a->limits,
+                "the limits that judge the configurations and the candidates: all (default), none, or a "
+                "comma-separated list of velocity, acceleration, jerk, current (report.json's admissible_by_limit "
+                "counts each alone)");
   c->add_option("--threads", a->threads, "OpenMP threads (default: all; the result does not depend on it)");
   add_no_render(c, a->no_render, "draw no charts (by default: PNG files in OUT/images)");
   add_image_size(c, a->image_size, "size of the charts, WIDTHxHEIGHT (default 1600x900)");

@@ -21,6 +21,13 @@ namespace {
 using Index = Eigen::Index;
 using core::Vec6;
 
+// How far a piece of a compensated arc may leave the corrected points between its ends (see arc_pieces): a tenth of
+// a micrometre, below the contour errors the compensation removes (several micrometres on a circle at 3 m/min).
+constexpr double kArcPieceToleranceMm = 0.1e-3;
+// The smallest kink between two pieces of a compensated arc (see arc_pieces): five times the 1e-6 rad below which the
+// interpolator takes a junction for tangent, well above what the words' 1e-6 mm rounding makes of it (~1e-7 rad).
+constexpr double kMinKinkRad = 5e-6;
+
 // The points a move is written with, in axis coordinates (Vec6 by program axis): its end, or for arcs the ends of
 // chords whose sag stays within tol, or of pieces of at most max_angle (the arc's frame, core/arc: the radius, the
 // normal coordinate and any rotary axis linear in the swept angle, as the interpolator's arcs are).
@@ -139,11 +146,12 @@ std::string header(const CompensatedProgramInput& in, const char* open, const ch
 }
 
 // G-code feed words around a G1's motion words: G93 / G94 before them when the mode changes, F after them when the
-// value changes (every G93 block carries its F). `pieces`: the move is written as that many blocks (chords).
+// value changes (every G93 block carries its F). `pieces`: the move is written as that many blocks (chords), or the
+// move's length over the block's (a piece of an arc).
 struct FeedState {
   std::optional<core::FeedMode> mode;
   double f = -1.0;
-  std::string block(const core::Move& m, int pieces, const std::string& motion) {
+  std::string block(const core::Move& m, double pieces, const std::string& motion) {
     std::string pre;
     if (!mode || *mode != m.feed_mode) {
       pre = m.feed_mode == core::FeedMode::InverseTime ? "G93 " : "G94 ";
@@ -167,7 +175,122 @@ std::string rotary_words(const Context& c, const Eigen::VectorXd& q) {
   return w;
 }
 
+// A piece of an arc as written: the words of its corrected end, that end in the words' coordinates, and the move's
+// sweep over the piece's (the inverse-time feed of the piece).
+struct ArcPiece {
+  std::string words;
+  Eigen::Vector3d end;
+  double pieces = 1.0;
+};
+
+// Where the last arc piece written ended, for the next arc of the same circle (its centre, plane and direction).
+struct ArcChain {
+  bool open = false;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  core::ArcPlane plane = core::ArcPlane::XY;
+  bool ccw = true;
+  double slope = 0.0;  // d(radius)/d(angle) of the last piece, mm/rad
+};
+
+// The pieces a programmed arc is written in. A correction that varies along an arc needs more than new end points:
+// each piece is an arc about the programmed centre from one corrected point to the next, its radius (and the normal
+// coordinate of a helix) linear in the swept angle between theirs (LinuxCNC's and core/arc's spiral), so a piece holds
+// the correction exactly at its ends and by linear interpolation between them. A piece ends where the corrected points
+// of a fine grid (8 per longest piece) would leave it by more than kArcPieceToleranceMm, and spans at most
+// arc_piece_max_angle_rad: where two pieces meet at a kink (their radii change at different rates) the interpolator
+// blends the corner over up to half of each, and a long blend leaves the arc by up to the interpolation tolerance
+// (the cause of the 90-degree pieces' 26.7 um on a circle). And every kink is at least kMinKinkRad: the interpolator
+// (motion/smooth_path) stops the axes at a junction tangent within 1e-6 rad but not within 1e-9 whose curvature jumps
+// (its rounding target is then below what a blend resolves), which the 1e-6 mm rounding of the words alone makes of
+// pieces of one circle; where the correction would leave a smaller kink, the piece's end moves radially by the
+// few nanometres that make it kMinKinkRad. `last`: where the previous block ended (this arc's start).
+template <class Words>
+std::vector<ArcPiece> arc_pieces(Context& c, const core::Move& m, const core::Move& am, const std::string& file,
+                                 const std::string& axis_file, std::size_t mi, const Eigen::Vector3d& last,
+                                 const Words& words, ArcChain& chain, CompensatedProgram& out) {
+  const core::ArcFrame wf = core::arc_frame(m, file);        // the words' coordinates: centre, plane, angles
+  const core::ArcFrame af = core::arc_frame(am, axis_file);  // axis space: the points corrected
+  const int longest = wf.chords(0.0, arc_piece_max_angle_rad(std::max(wf.start_radius_mm, wf.end_radius_mm)));
+  const int n = 8 * longest;
+  std::vector<Eigen::Vector3d> p(static_cast<std::size_t>(n) + 1);
+  std::vector<Eigen::VectorXd> q(p.size());
+  std::vector<double> phi(p.size()), rho(p.size());
+  const double c1 = wf.centre_mm[0], c2 = wf.centre_mm[1];
+  for (int i = 0; i <= n; ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    if (i == 0) {
+      p[0] = last;
+    } else {
+      q[u] = c.corrected(af.point_at(static_cast<double>(i) / n), mi, i == n, m.tool_length_offset_mm, out);
+      (void)words(q[u], p[u]);
+    }
+    // The angle unwrapped along the sweep: the programmed point's plus the correction's (far below pi).
+    const double nominal = wf.angle_at(static_cast<double>(i) / n);
+    const double d = std::atan2(p[u][wf.axis2] - c2, p[u][wf.axis1] - c1) - nominal;
+    phi[u] = nominal + std::remainder(d, 2 * core::units::kPi);
+    rho[u] = std::hypot(p[u][wf.axis1] - c1, p[u][wf.axis2] - c2);
+  }
+  const double max_angle = std::abs(wf.sweep_rad) / longest * (1 + 1e-9);
+  // The largest distance of the grid points strictly between a and b from the piece a -> b.
+  auto deviation = [&](std::size_t a, std::size_t b) {
+    double worst = 0.0;
+    for (std::size_t i = a + 1; i < b; ++i) {
+      const double g = (phi[i] - phi[a]) / (phi[b] - phi[a]);
+      worst =
+          std::max(worst, std::hypot(rho[i] - (rho[a] + g * (rho[b] - rho[a])),
+                                     p[i][wf.normal] - (p[a][wf.normal] + g * (p[b][wf.normal] - p[a][wf.normal]))));
+    }
+    return worst;
+  };
+  const bool ccw = wf.sweep_rad > 0;
+  const bool same_circle = chain.open && chain.plane == m.plane && chain.ccw == ccw &&
+                           (chain.centre - wf.centre_mm).norm() <= 1e-9 * std::max(1.0, wf.start_radius_mm);
+  bool has_prev = same_circle;
+  double prev_slope = chain.slope;
+  double start_rho = rho[0];
+  std::vector<ArcPiece> pieces;
+  for (std::size_t a = 0, size = p.size(); a + 1 < size;) {
+    std::size_t b = a + 1;
+    while (b + 1 < size && std::abs(phi[b + 1] - phi[a]) <= max_angle && deviation(a, b + 1) <= kArcPieceToleranceMm)
+      ++b;
+    const double span = phi[b] - phi[a];
+    double slope = (rho[b] - start_rho) / span;
+    Eigen::VectorXd qb = q[b];
+    if (has_prev && std::abs(slope - prev_slope) < kMinKinkRad * rho[b]) {
+      // Too small a kink: the end moves radially so that the slopes differ by twice kMinKinkRad.
+      const double want = prev_slope + (slope >= prev_slope ? 2.0 : -2.0) * kMinKinkRad * rho[b];
+      const double dr = (want - slope) * span;
+      const double ca = std::cos(phi[b]), sa = std::sin(phi[b]);
+      for (Index ax = 0; ax < c.na; ++ax) {
+        const int pa = c.in.machine->axes[static_cast<std::size_t>(ax)].program_axis;
+        if (c.in.machine->axes[static_cast<std::size_t>(ax)].kind != core::AxisKind::Linear) continue;
+        if (pa == wf.axis1) qb[ax] += dr * ca;
+        if (pa == wf.axis2) qb[ax] += dr * sa;
+      }
+      slope = want;
+    }
+    ArcPiece piece;
+    piece.words = words(qb, piece.end);
+    piece.pieces = std::abs(wf.sweep_rad / span);
+    pieces.push_back(std::move(piece));
+    start_rho = std::hypot(pieces.back().end[wf.axis1] - c1, pieces.back().end[wf.axis2] - c2);
+    prev_slope = slope;
+    has_prev = true;
+    a = b;
+  }
+  chain = {true, wf.centre_mm, m.plane, ccw, prev_slope};
+  return pieces;
+}
+
 }  // namespace
+
+double arc_piece_max_angle_rad(double radius_mm) {
+  // A G2 quintic over an arc of angle phi (the interpolator's blend, its tangent length the chord) leaves it by about
+  // 0.5 R phi^6 (measured from 1 to 20 degrees): phi for 0.01 um, at most a quarter turn.
+  constexpr double kBlendDeviationMm = 1e-5;
+  return std::clamp(std::pow(2.0 * kBlendDeviationMm / std::max(radius_mm, 1e-9), 1.0 / 6.0), 1e-3,
+                    0.5 * core::units::kPi);
+}
 
 CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) {
   Context c(in);
@@ -219,6 +342,7 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
   s += "(X Y Z: the programmed point as the original program gives it, without tool length compensation)\n";
   s += "G21 G90 G17\n";
   FeedState fs;
+  ArcChain arc_chain;
   // Where the last block left the programmed point, in the words' coordinates (arcs' I J K are relative to it).
   Eigen::Vector3d last =
       prog.moves.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(prog.moves.front().start.head<3>());
@@ -226,20 +350,10 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
     const core::Move& m = prog.moves[mi];
     const core::Move& am = ap.moves[mi];
     const bool tcp = chain && (m.tcp || is_cl(m));
-    // Arcs of 3-axis and joint programs stay arcs (G2/G3 about the programmed centre, to the corrected end: the radial
-    // part of the correction at the ends, a steady radial lag whole; a spiral where the ends' corrections differ) so
-    // the interpolator times them as the original's arcs; chords would slow it at every joint.
-    const bool keep_arc = !tcp && m.kind == core::MotionKind::Arc;
-    // (Arcs in pieces of at most 90 deg: a full circle's corrected end is not its corrected start.)
-    const std::vector<Vec6> pts =
-        tcp        ? chain_move_points(am, ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm)
-        : keep_arc ? move_points(am, ap.source_path, in.chord_tolerance_mm, 0.5 * core::units::kPi)
-                   : move_points(am, ap.source_path, in.chord_tolerance_mm);
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      const double tlo = m.tool_length_offset_mm;
-      const Eigen::VectorXd q = c.corrected(pts[i], mi, i + 1 == pts.size(), tlo, out);
+    const double tlo = m.tool_length_offset_mm;
+    // The words of a block to machine axes q, and the programmed point they name (the words' coordinates).
+    auto words = [&](const Eigen::VectorXd& q, Eigen::Vector3d& xyz) {
       std::string w;
-      Eigen::Vector3d xyz;
       if (chain && !tcp) {
         // Joint programming: the words are the axes (the reader adds the tool length offset to Z again).
         xyz = last;
@@ -250,23 +364,38 @@ CompensatedProgram write_compensated_program(const CompensatedProgramInput& in) 
           if (ax.kind == core::AxisKind::Linear && ax.program_axis <= core::kZ) xyz[ax.program_axis] = v;
           w += fmt::format("{}{}{:.6f}", w.empty() ? "" : " ", ax.name, v);
         }
-      } else {
-        const motion::ToolPose p = in.kinematics->forward(q, tlo);
-        xyz = p.tip_mm;
-        w = fmt::format("X{:.6f} Y{:.6f} Z{:.6f}", p.tip_mm.x(), p.tip_mm.y(), p.tip_mm.z());
-        w += rotary_words(c, q);
+        return w;
       }
-      if (keep_arc) {
-        // I J K: the programmed centre relative to where this arc starts (the last block's corrected point).
+      const motion::ToolPose p = in.kinematics->forward(q, tlo);
+      xyz = p.tip_mm;
+      return fmt::format("X{:.6f} Y{:.6f} Z{:.6f}", p.tip_mm.x(), p.tip_mm.y(), p.tip_mm.z()) + rotary_words(c, q);
+    };
+    if (!tcp && m.kind == core::MotionKind::Arc) {
+      // Arcs of 3-axis and joint programs stay arcs, so the interpolator times them as the original's arcs (chords
+      // would slow it at every joint), in pieces about the programmed centre that follow the correction (below).
+      for (const ArcPiece& piece :
+           arc_pieces(c, m, am, prog.source_path, ap.source_path, mi, last, words, arc_chain, out)) {
+        // I J K: the programmed centre relative to where this piece starts (the last block's corrected point).
         static constexpr char kWord[3] = {'I', 'J', 'K'};
         const core::PlaneAxes ax = core::plane_axes(m.plane);
         const int f = ax.axis1, g = ax.axis2;
-        w += fmt::format(" {}{:.6f} {}{:.6f}", kWord[f], m.centre_mm[0] - last[f], kWord[g], m.centre_mm[1] - last[g]);
+        const std::string w = piece.words + fmt::format(" {}{:.6f} {}{:.6f}", kWord[f], m.centre_mm[0] - last[f],
+                                                        kWord[g], m.centre_mm[1] - last[g]);
         const char* plane = m.plane == core::ArcPlane::XY ? "G17 " : m.plane == core::ArcPlane::ZX ? "G18 " : "G19 ";
-        s += fs.block(m, static_cast<int>(pts.size()), plane + std::string(m.rotation < 0 ? "G2 " : "G3 ") + w) + "\n";
-      } else {
-        s += (m.rapid ? "G0 " + w : fs.block(m, static_cast<int>(pts.size()), "G1 " + w)) + "\n";
+        s += fs.block(m, piece.pieces, plane + std::string(m.rotation < 0 ? "G2 " : "G3 ") + w) + "\n";
+        last = piece.end;
+        ++out.blocks;
       }
+      continue;
+    }
+    arc_chain.open = false;
+    const std::vector<Vec6> pts =
+        tcp ? chain_move_points(am, ap.source_path, m.kind == core::MotionKind::Arc, in.chord_tolerance_mm)
+            : move_points(am, ap.source_path, in.chord_tolerance_mm);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      Eigen::Vector3d xyz;
+      const std::string w = words(c.corrected(pts[i], mi, i + 1 == pts.size(), tlo, out), xyz);
+      s += (m.rapid ? "G0 " + w : fs.block(m, static_cast<int>(pts.size()), "G1 " + w)) + "\n";
       last = xyz;
       ++out.blocks;
     }

@@ -2,10 +2,11 @@
 // The compensated NC program of `vmsim compensate`: the original program's own moves, in order, with the same feeds
 // and feed modes, each programmed point (move end) moved by the correction the compensation found at the setpoint
 // nearest to it, so that an NC's interpolator re-times it as it times the original (the predictive-compensation paper
-// section 5 sends its compensated points to the CNC). Arcs stay arcs about their programmed centre, to the corrected
-// end point (the correction at the arc's ends; a steady radial lag is corrected whole); on five-axis chains an arc of a
-// CL or tool-centre-point program becomes the points of its axis-space image (in inverse-time feed, each piece gets an
-// equal share of the move's time).
+// section 5 sends its compensated points to the CNC). Arcs stay arcs about their programmed centre, split into pieces
+// that follow the correction along the arc (each a spiral between two corrected points, as LinuxCNC reads an arc whose
+// radii at start and end differ; the .cpp says how long); on five-axis chains an arc of a CL or tool-centre-point
+// program becomes the points of its axis-space image (in inverse-time feed, each piece of an arc gets the share of the
+// move's time its swept angle has; of an image, an equal share).
 #include "motion/kinematics.hpp"
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
@@ -36,6 +37,10 @@ struct CompensatedProgram {
   double largest_tip_correction_mm = 0.0;
   double largest_axis_correction_rad = 0.0;  // tool axis (five-axis chains)
 };
+
+// The longest piece (rad) of a compensated arc of this radius: short enough that the interpolator's blend where two
+// pieces meet stays within 0.01 um of the arc, at most a quarter turn.
+double arc_piece_max_angle_rad(double radius_mm);
 
 // G-code programs: G-code (G0/G1, G93/G94 as the original; on five-axis chains the words of the original's own
 // convention: tool-centre-point X Y Z with the rotary words, or joint words). APT CL programs: CL (GOTO/ tip and tool

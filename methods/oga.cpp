@@ -417,22 +417,59 @@ void gain_function(double k_prev, double k_final, int p, Index n, double* out) {
 
 // ---- limits ---------------------------------------------------------------------------------------------------------
 
-double limit_ratio(const MotionPeaks& p, const core::MachineAxis& ax) {
-  double r = std::max(
-      {p.velocity.value / ax.max_velocity, p.acceleration.value / ax.max_acceleration, p.jerk.value / ax.max_jerk});
-  if (ax.drive) r = std::max(r, p.current.value / ax.drive->current_limit_A);
+std::string limit_set_name(const LimitSet& l) {
+  std::string s;
+  for (const auto& [on, name] : {std::pair{l.velocity, "velocity"}, std::pair{l.acceleration, "acceleration"},
+                                 std::pair{l.jerk, "jerk"}, std::pair{l.current, "current"}})
+    if (on) s += (s.empty() ? "" : ",") + std::string(name);
+  return s.empty() ? "none" : s;
+}
+
+LimitSet parse_limit_set(const std::string& text) {
+  if (text == "all") return {};
+  LimitSet l{false, false, false, false};
+  if (text == "none") return l;
+  std::size_t at = 0;
+  while (at <= text.size()) {
+    const std::size_t end = std::min(text.find(',', at), text.size());
+    const std::string w = text.substr(at, end - at);
+    if (w == "velocity")
+      l.velocity = true;
+    else if (w == "acceleration")
+      l.acceleration = true;
+    else if (w == "jerk")
+      l.jerk = true;
+    else if (w == "current")
+      l.current = true;
+    else
+      throw core::Error(
+          fmt::format("limits \"{}\": unknown limit \"{}\" (expected a comma-separated list of "
+                      "velocity, acceleration, jerk, current; or all, none)",
+                      text, w));
+    at = end + 1;
+  }
+  return l;
+}
+
+double limit_ratio(const MotionPeaks& p, const core::MachineAxis& ax, const LimitSet& l) {
+  double r = 0.0;
+  if (l.velocity) r = std::max(r, p.velocity.value / ax.max_velocity);
+  if (l.acceleration) r = std::max(r, p.acceleration.value / ax.max_acceleration);
+  if (l.jerk) r = std::max(r, p.jerk.value / ax.max_jerk);
+  if (l.current && ax.drive) r = std::max(r, p.current.value / ax.drive->current_limit_A);
   return r;
 }
 
-std::string limit_violation(const MotionPeaks& p, const core::MachineAxis& ax, double te) {
+std::string limit_violation(const MotionPeaks& p, const core::MachineAxis& ax, double te, const LimitSet& l) {
   const Peak* peaks[3] = {&p.velocity, &p.acceleration, &p.jerk};
   const double limits[3] = {ax.max_velocity, ax.max_acceleration, ax.max_jerk};
+  const bool on[3] = {l.velocity, l.acceleration, l.jerk};
   const char* names[3] = {"velocity", "acceleration", "jerk"};
   for (int q = 0; q < 3; ++q)
-    if (!(peaks[q]->value <= limits[q]))
+    if (on[q] && !(peaks[q]->value <= limits[q]))
       return fmt::format("{} {} > {} at t {:.3f} s", names[q], trade_units(peaks[q]->value, q),
                          trade_units(limits[q], q), peaks[q]->row * te);
-  if (ax.drive && !(p.current.value < ax.drive->current_limit_A))
+  if (l.current && ax.drive && !(p.current.value < ax.drive->current_limit_A))
     return fmt::format("current {:.4g} A >= the limit {:.4g} A at t {:.3f} s", p.current.value,
                        ax.drive->current_limit_A, p.current.row * te);
   return "";
@@ -522,8 +559,10 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
       x[0] = P.setpoint(a, 0);
       for (Index k = 0; k + 1 < R; ++k)
         x[k + 1] = step_track(t, P.setpoint(a, k), P.te, cc.gains.kp * kKv, cc.gains.kf, cc.twin);
-      cc.violation = x.allFinite() ? limit_violation(cc.twin, *ax[q], P.te) : "the motion diverges";
+      cc.violation = x.allFinite() ? limit_violation(cc.twin, *ax[q], P.te, o.limits) : "the motion diverges";
       cc.admissible = cc.violation.empty();
+      cc.model = finite_difference_motion_peaks(x, P.te);
+      cc.model.current = cc.twin.current;
     }
   }
   res.timings_s["admissible_gains"] = seconds_since(t0);
@@ -716,8 +755,8 @@ OgaResult offline_gain_adjustment(const core::Setpoints& sp, const core::Machine
         c.x[k - a] = step_track(t, P.setpoint(axis, k), P.te, g * kKv, kf[q], c.peaks);
       }
       c.ok = c.x.allFinite();
-      c.violation = c.ok ? limit_violation(c.peaks, *ax[q], P.te) : "the motion diverges";
-      c.ratio = c.ok ? limit_ratio(c.peaks, *ax[q]) : kInf;
+      c.violation = c.ok ? limit_violation(c.peaks, *ax[q], P.te, o.limits) : "the motion diverges";
+      c.ratio = c.ok ? limit_ratio(c.peaks, *ax[q], o.limits) : kInf;
       c.ok = c.violation.empty();
       c.end = std::move(t);
     }

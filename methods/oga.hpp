@@ -129,10 +129,23 @@ struct MotionPeaks {
   Peak velocity, acceleration, jerk;  // per-Te finite differences of the positions
   Peak current;                       // period peak |i|
 };
-// max(peak / limit) over the four; < 1 when every limit holds strictly (current) or is met (v, a, j <= limit).
-double limit_ratio(const MotionPeaks& peaks, const core::MachineAxis& axis);
-// "" when every limit holds; else the first broken one, e.g. "jerk 10.5 m/s^3 > 10 m/s^3 at t 0.412 s".
-std::string limit_violation(const MotionPeaks& peaks, const core::MachineAxis& axis, double te_s);
+// Which of the four limits judge a motion. Duong et al. names them all (the default); each alone shows which one
+// makes the admissible sets what they are (report.json's admissible_by_limit, parts/oga_profile/README.md).
+struct LimitSet {
+  bool velocity = true, acceleration = true, jerk = true, current = true;
+  bool all() const { return velocity && acceleration && jerk && current; }
+};
+// "velocity,acceleration,jerk,current" or a part of it (in that order); "none" for none.
+std::string limit_set_name(const LimitSet& limits);
+// From such a list (any order, comma-separated; "all" for the four). Throws core::Error naming an unknown limit.
+LimitSet parse_limit_set(const std::string& text);
+
+// max(peak / limit) over the four (those in `limits`); < 1 when every limit holds strictly (current) or is met (v, a,
+// j <= limit).
+double limit_ratio(const MotionPeaks& peaks, const core::MachineAxis& axis, const LimitSet& limits = {});
+// "" when every limit (of `limits`) holds; else the first broken one, e.g. "jerk 10.5 m/s^3 > 10 m/s^3 at t 0.412 s".
+std::string limit_violation(const MotionPeaks& peaks, const core::MachineAxis& axis, double te_s,
+                            const LimitSet& limits = {});
 // Finite-difference peaks of a position column (rows x 1), at rest before row 0, over rows [first, rows).
 MotionPeaks finite_difference_motion_peaks(const Eigen::VectorXd& position, double te_s, Eigen::Index first = 0);
 
@@ -146,13 +159,17 @@ struct AxisGains {
 // One configuration of one axis simulated on the whole profile (Duong et al. Fig. 7).
 struct ConfigCheck {
   AxisGains gains;
-  MotionPeaks twin;  // velocity, acceleration, jerk of the frictionless twin; current of the full model
+  MotionPeaks twin;   // velocity, acceleration, jerk of the frictionless twin; current of the full model
+  MotionPeaks model;  // velocity, acceleration, jerk of the full model (friction included), for the counts; current
   bool admissible = false;
   std::string violation;  // why not
 };
 
 struct OgaOptions {
   std::vector<double> kp_grid;  // (m/min)/mm; empty: Duong et al.'s [1 : 0.5 : 9]
+  // The limits that judge the configurations (step 1) and the schedule's candidates (step 4); the verification
+  // (step 5) reports every limit whatever this says.
+  LimitSet limits;
   std::vector<double> kf_grid;  // empty: Duong et al.'s [0 : 0.1 : 1.2]
   // C1: the best fixed pair of the search (Duong et al.'s definition), or the machine file's own gains.
   enum class Reference { Best, Machine } reference = Reference::Best;

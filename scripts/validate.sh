@@ -39,7 +39,8 @@ echo "== Random-path limits and tolerance (10 000 paths, the interpolator's hard
 "$here/build/tests/core_tests" --gtest_filter='Interp.RandomPaths*' | grep -E 'worst|OK|FAILED'
 
 echo
-echo "== OGA on parts/oga_profile (Duong et al. Table II: MSE(CE) 0.76 -> 0.25 um^2, -67 %; Fig. 7: 72 X / 108 Z admissible)"
+echo "== OGA on parts/oga_profile (Duong et al. Table II: MSE(CE) 0.76 -> 0.25 um^2, -67 %; Fig. 7: 72 X / 108 Z admissible;"
+echo "   each limit alone: the lines under admissible, parts/oga_profile/README.md)"
 start=$(date +%s.%N)
 "$vmsim" oga "$here/parts/oga_profile/job.toml" --out "$tmp/oga" --no-render
 end=$(date +%s.%N)

@@ -17,6 +17,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 namespace vmsim::sim {
 
@@ -169,7 +170,12 @@ void results_json(const core::Job& job, CompensateJobResult& r) {
   const double co = r.cycle_time_original_s, cp = r.cycle_time_program_s;
   const auto& t = r.tcp_cycle_times_s;
   rep["compensated_program"] = {
-      {"file", "compensated." + r.compensated_program.extension},
+      {"file", r.program_file},
+      {"verdict", r.program_accepted
+                      ? (r.fade_rounds > 0 ? "not worse, with the correction faded where it cut worse" : "not worse")
+                      : "rejected: cuts worse than the original on the machine model"},
+      {"fade_rounds", r.fade_rounds},
+      {"faded_setpoints", r.faded_setpoints},
       {"blocks", r.compensated_program.blocks},
       {"original_moves", r.program.moves.size()},
       {"largest_tip_correction_mm", r.compensated_program.largest_tip_correction_mm},
@@ -178,11 +184,12 @@ void results_json(const core::Job& job, CompensateJobResult& r) {
       {"cycle_time_compensated_program_s", cp},
       {"cycle_time_change_percent", co > 0 ? 100.0 * (cp - co) / co : 0.0},
       {"within_limits", r.program_within_limits},
-      {"tcp_form", t ? nlohmann::json{{"file", "compensated_tcp.ngc"},
-                                      {"reference", "original_tcp.ngc"},
-                                      {"cycle_time_original_s", t->first},
-                                      {"cycle_time_compensated_s", t->second}}
-                     : nlohmann::json(nullptr)},
+      {"tcp_form",
+       t ? nlohmann::json{{"file", r.program_accepted ? "compensated_tcp.ngc" : "compensated_tcp_rejected.ngc"},
+                          {"reference", "original_tcp.ngc"},
+                          {"cycle_time_original_s", t->first},
+                          {"cycle_time_compensated_s", t->second}}
+         : nlohmann::json(nullptr)},
       {"what",
        "the program read back, re-timed by vmsim's interpolator and run on the machine file's cascades; "
        "contour error against the original plan"}};
@@ -194,14 +201,15 @@ void results_json(const core::Job& job, CompensateJobResult& r) {
 
 // The compensated program in its forms: the original's moves with corrected points, the tool-centre-point G-code
 // (five-axis CL programs, with the original in the same form as its reference), the dense form.
+// `carried`: the setpoints whose correction the programs carry (the compensated ones, or faded, see compensate_job).
 void write_programs(const core::Job& job, const CompensateJobOptions& options, const motion::Kinematics& kin,
-                    const core::ToolPath& axis_path, CompensateJobResult& r) {
+                    const core::ToolPath& axis_path, const Eigen::MatrixXd& carried, CompensateJobResult& r) {
   const core::Setpoints& sp = r.interp.setpoints;
   methods::CompensatedProgramInput pin;
   pin.program = &r.program;
   pin.axis_path = &axis_path;
   pin.setpoints = &sp;
-  pin.compensated = &r.compensation.setpoints;
+  pin.compensated = &carried;
   pin.command_tip = &r.compensation.command_tip;
   pin.machine = &job.machine;
   pin.kinematics = &kin;
@@ -233,9 +241,10 @@ void check_program(const core::Job& job, const Chain& machine, const motion::Kin
   const Eigen::MatrixXd cactual = machine.simulate(cir.setpoints).position;
   r.program_on_machine =
       figures_of(r.compensation, kin, cactual, tool_length_offsets(cprogram, cir.setpoints), cir.setpoints, cprogram);
-  r.original_on_machine = r.machine_before ? *r.machine_before
-                                           : figures_of(r.compensation, kin, machine.simulate(sp).position,
-                                                        r.tool_length_offset_mm, sp, r.program);
+  if (r.original_on_machine.samples == 0)  // the same for every round of compensate_job's fading
+    r.original_on_machine = r.machine_before ? *r.machine_before
+                                             : figures_of(r.compensation, kin, machine.simulate(sp).position,
+                                                          r.tool_length_offset_mm, sp, r.program);
   r.limits_program = methods::check_axis_limits(cir.setpoints.position, sp.period_s, job.machine);
   r.program_within_limits = within(r.limits_program);
   r.cycle_time_original_s = sp.duration_s();
@@ -255,6 +264,87 @@ void check_program(const core::Job& job, const Chain& machine, const motion::Kin
   };
   r.tcp_cycle_times_s = std::make_pair(cycle_of(*r.original_tcp_text, "original_tcp.ngc"),
                                        cycle_of(r.tcp_program->text, "compensated_tcp.ngc"));
+}
+
+// How much worse than the original the program may cut and still count as "not worse": the figures' own resolution
+// (report.json's contour errors are exact to far below; a program that carries no correction somewhere re-times
+// there to within rounding of the original).
+constexpr double kNotWorseMm = 1e-6;
+constexpr double kNotWorseRad = 1e-6 * core::units::kDegToRad;
+constexpr int kMaxFadeRounds = 8;
+constexpr Index kFadeWindowSamples = 25;  // first round's half-width; doubled every round
+
+bool not_worse(const ContourFigures& original, const ContourFigures& program) {
+  bool ok = program.max_mm <= original.max_mm + kNotWorseMm && program.mean_mm <= original.mean_mm + kNotWorseMm;
+  if (original.orientation && program.orientation)
+    ok = ok && program.orientation_max_rad <= original.orientation_max_rad + kNotWorseRad &&
+         program.orientation_mean_rad <= original.orientation_mean_rad + kNotWorseRad;
+  return ok;
+}
+
+// The original setpoints (the plan's foot segments) where the program's run exceeds the original's largest error, tip
+// or tool axis, on the rows counted.
+std::vector<Index> places_over(const ContourFigures& original, const ContourFigures& program, Index ns) {
+  std::vector<Index> out;
+  for (Index k = 0; k < program.ce.signed_mm.size(); ++k) {
+    if (!program.counted[static_cast<std::size_t>(k)]) continue;
+    const bool tip = std::abs(program.ce.signed_mm[k]) > original.max_mm + kNotWorseMm;
+    const bool axis = original.orientation && program.orientation &&
+                      program.angle_rad[k] > original.orientation_max_rad + kNotWorseRad;
+    if (tip || axis) out.push_back(std::clamp<Index>(program.ce.foot_segment[k], 0, ns - 1));
+  }
+  return out;
+}
+
+// The compensated program, written, read back and run on the machine model (check_program). Where it cuts worse than
+// the original (not_worse), the correction it carries is faded out around the places where its error exceeds the
+// original's largest (zero over +-w setpoints, back to full over w more; w doubled each round), up to kMaxFadeRounds:
+// a program that carries no correction there is the original there. What still cuts worse is rejected: the program
+// with the whole correction (and its figures) is written as compensated_rejected.<extension>, not as the program to
+// send (report.json and a warning say why).
+void write_and_check_program(const core::Job& job, const CompensateJobOptions& options, const Chain& machine,
+                             const motion::Kinematics& kin, const core::ToolPath& axis_path, CompensateJobResult& r) {
+  const core::Setpoints& sp = r.interp.setpoints;
+  const Index ns = sp.samples();
+  const Eigen::MatrixXd delta = r.compensation.setpoints - sp.position;
+  Eigen::VectorXd weight = Eigen::VectorXd::Ones(ns);
+  Eigen::MatrixXd carried = r.compensation.setpoints;
+  std::optional<CompensateJobResult> whole;  // round 0: the program with the whole correction
+  for (int round = 0;; ++round) {
+    write_programs(job, options, kin, axis_path, carried, r);
+    check_program(job, machine, kin, axis_path, r);
+    r.fade_rounds = round;
+    r.program_accepted = not_worse(r.original_on_machine, r.program_on_machine);
+    if (r.program_accepted) break;
+    if (round == 0) whole = r;
+    if (round == kMaxFadeRounds) {
+      // Rejected: the program with the whole correction is the one to look at (fading gave up some of its gain
+      // without making it not worse); its figures with it.
+      const int rounds = r.fade_rounds;
+      r = std::move(*whole);
+      r.fade_rounds = rounds;
+      weight.setOnes();
+      break;
+    }
+    const std::vector<Index> over = places_over(r.original_on_machine, r.program_on_machine, ns);
+    if (over.empty()) {  // worse on the mean only: a local fade does not answer that
+      if (round > 0) {
+        const int rounds = r.fade_rounds;
+        r = std::move(*whole);
+        r.fade_rounds = rounds;
+        weight.setOnes();
+      }
+      break;
+    }
+    const Index w = kFadeWindowSamples << round;
+    for (const Index at : over)
+      for (Index i = std::max<Index>(0, at - 2 * w); i <= std::min(ns - 1, at + 2 * w); ++i)
+        weight[i] = std::min(weight[i], std::clamp(static_cast<double>(std::abs(i - at) - w) / w, 0.0, 1.0));
+    carried = sp.position + weight.asDiagonal() * delta;
+  }
+  r.faded_setpoints = r.program_accepted ? (weight.array() < 1.0).count() : 0;
+  const std::string ext = r.compensated_program.extension;
+  r.program_file = r.program_accepted ? "compensated." + ext : "compensated_rejected." + ext;
 }
 
 }  // namespace
@@ -279,9 +369,11 @@ ContourFigures contour_figures(const Eigen::MatrixXd& command_tip, const Eigen::
     f.angle_rad = methods::axis_angles(methods::axes_at(*command_axis, param), *actual_axis);
   }
   double sum = 0, sum2 = 0, osum = 0;
+  f.counted.assign(static_cast<std::size_t>(f.ce.signed_mm.size()), 0);
   for (Index k = 0; k < f.ce.signed_mm.size(); ++k) {
     const int mi = sp.move_index[std::min(k, sp.samples() - 1)];
     if (mi < 0 || program.moves[static_cast<std::size_t>(mi)].rapid) continue;
+    f.counted[static_cast<std::size_t>(k)] = 1;
     const double e = std::abs(f.ce.signed_mm[k]);
     f.max_mm = std::max(f.max_mm, e);
     sum += e;
@@ -367,17 +459,28 @@ CompensateJobResult compensate_job(const core::Job& job, const CompensateJobOpti
   r.limits_before = methods::check_axis_limits(sp.position, sp.period_s, job.machine);
   r.limits_after = methods::check_axis_limits(r.compensation.setpoints, sp.period_s, job.machine);
   r.within_limits = within(r.limits_after);
-  write_programs(job, options, *kin, axis_path, r);
 
   progress.stage(job.name + ": the compensated program, read back and re-timed");
   t0 = Clock::now();
-  check_program(job, machine, *kin, axis_path, r);
+  write_and_check_program(job, options, machine, *kin, axis_path, r);
   r.timings["program_check"] = seconds_since(t0);
   progress.done();
   method_json(r, chain.axis_models(), r.report);
   results_json(job, r);
   r.report["drive_checks"] = drive_checks.axes;
-  add_verdict(r.report, drive_checks.warnings);
+  core::Warnings warnings = drive_checks.warnings;
+  if (!r.program_accepted)
+    warnings.push_back(
+        {"compensated_program_worse", r.program_file,
+         fmt::format(
+             "the compensated program cuts worse than the original on the machine model (max {:.4f} -> {:.4f} "
+             "um, mean {:.4f} -> {:.4f} um; {} rounds of fading its correction where it cut worse did not bring it "
+             "within the original's figures): written, with the whole correction, as {}, "
+             "not as the program to send; send the compensated setpoints (compensated_setpoints.csv) or the dense "
+             "form (--dense-program) instead",
+             r.original_on_machine.max_mm * 1e3, r.program_on_machine.max_mm * 1e3, r.original_on_machine.mean_mm * 1e3,
+             r.program_on_machine.mean_mm * 1e3, r.fade_rounds, r.program_file)});
+  add_verdict(r.report, warnings);
   if (job.gain_schedule_file)
     r.report["gain_schedule"] = "not applied: the prediction runs the drives' own gains (" +
                                 job.gain_schedule_file->string() + " belongs to the uncompensated setpoints)";

@@ -35,6 +35,7 @@ struct ContourFigures {
   double orientation_max_rad = 0, orientation_mean_rad = 0;
   bool orientation = false;
   Eigen::Index samples = 0;   // rows counted
+  std::vector<char> counted;  // per row: 1 where the row is counted (a cutting move's)
   motion::ContourError ce;    // every row
   Eigen::VectorXd angle_rad;  // every row (five-axis)
 };
@@ -64,8 +65,16 @@ struct CompensateJobResult {
   ContourFigures original_on_machine, program_on_machine;
   std::vector<methods::AxisLimitCheck> limits_before, limits_after, limits_program;
   bool within_limits = true, program_within_limits = true;
-  methods::CompensatedProgram compensated_program;         // compensated.<extension>
-  std::optional<methods::CompensatedProgram> tcp_program;  // compensated_tcp.ngc (five-axis CL programs)
+  // The compensated program as written: compensated.<extension> when it cuts at least as well as the original on the
+  // machine model (max and mean of the tip's contour error and, five-axis, of the orientation error, within 1 nm and
+  // 1e-6 deg), else compensated_rejected.<extension>. Where it first cut worse, the correction it carries is faded out
+  // around the places where its error exceeds the original's largest and it is written and checked again.
+  methods::CompensatedProgram compensated_program;
+  bool program_accepted = true;
+  std::string program_file;  // compensated.<extension> or compensated_rejected.<extension>
+  int fade_rounds = 0;       // rounds of fading (0: the program carries the compensated setpoints' correction whole)
+  Eigen::Index faded_setpoints = 0;  // setpoints whose correction the program carries below its full value
+  std::optional<methods::CompensatedProgram> tcp_program;  // compensated_tcp.ngc (five-axis CL programs, accepted)
   std::optional<std::string> original_tcp_text;            // original_tcp.ngc: the same form with no correction
   std::optional<std::string> dense_program_text;           // compensated_dense.ngc
   double cycle_time_original_s = 0, cycle_time_program_s = 0;

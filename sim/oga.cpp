@@ -48,6 +48,7 @@ nlohmann::json options_json(const methods::OgaOptions& o, const methods::OgaResu
           {"lead_in_rows", o.lead_in_rows},
           {"settle_s", o.settle_s},
           {"from_start", o.from_start},
+          {"limits", methods::limit_set_name(o.limits)},
           {"threads", omp_get_max_threads()}};
 }
 
@@ -94,6 +95,44 @@ void search_json(const methods::OgaOptions& o, const methods::OgaResult& r, OgaJ
     wins.push_back(j);
   }
   rep["windows"] = wins;
+}
+
+// How many configurations each limit alone admits (Duong et al. Fig. 7 counts every limit at once): on the drive
+// without its friction (what vmsim judges, methods/oga.hpp says why), on the full model with its Coulomb/Stribeck
+// friction, and on the setpoints themselves (the same for every gain: all or none). The current is the full model's.
+nlohmann::json admissible_by_limit(const core::Machine& machine, const core::Setpoints& sp,
+                                   const methods::OgaResult& r) {
+  const methods::LimitSet kAlone[4] = {{true, false, false, false},
+                                       {false, true, false, false},
+                                       {false, false, true, false},
+                                       {false, false, false, true}};
+  const char* kNames[4] = {"velocity", "acceleration", "jerk", "current"};
+  nlohmann::json out = nlohmann::json::object();
+  for (std::size_t q = 0; q < r.axes.size(); ++q) {
+    const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(r.axes[q])];
+    const methods::MotionPeaks sp_peaks =
+        methods::finite_difference_motion_peaks(sp.position.col(r.axes[q]), r.period_s);
+    nlohmann::json drive, model, setpoints;
+    for (int l = 0; l < 4; ++l) {
+      int n_drive = 0, n_model = 0;
+      for (const methods::ConfigCheck& c : r.sweep[q]) {
+        n_drive += methods::limit_violation(c.twin, ax, r.period_s, kAlone[l]).empty();
+        n_model += methods::limit_violation(c.model, ax, r.period_s, kAlone[l]).empty();
+      }
+      drive[kNames[l]] = n_drive;
+      if (l < 3) {
+        model[kNames[l]] = n_model;
+        setpoints[kNames[l]] = methods::limit_violation(sp_peaks, ax, r.period_s, kAlone[l]).empty()
+                                   ? static_cast<int>(r.sweep[q].size())
+                                   : 0;
+      }
+    }
+    out[r.axis_names[q]] = {{"configurations", r.sweep[q].size()},
+                            {"drive_without_friction", drive},
+                            {"drive_with_friction", model},
+                            {"setpoints", setpoints}};
+  }
+  return out;
 }
 
 // The verification's figures (Duong et al. Table II, Fig. 12): MSE(CE) of C1 and C2, and per axis the limits and
@@ -185,6 +224,7 @@ OgaJobResult oga_job(const core::Job& job, const OgaJobOptions& options, core::P
                                  {"cycle_time_s", out.interp.stats.cycle_time_s}};
   out.report["options"] = options_json(o, out.result);
   search_json(o, out.result, out);
+  out.report["admissible_by_limit"] = admissible_by_limit(job.machine, sp, out.result);
   verification_json(job.machine, o, out.result, *out.verification, out);
   o.progress = nullptr;  // refers to this call's locals
   return out;

@@ -119,6 +119,8 @@ void fill_report(const core::FeedPlanSpec& spec, const nlohmann::json& path_json
   const methods::VerifiedPlan& ver = r.verified;
   nlohmann::json& p = runs["plan"] = run_json(ver.played);
   p["plan_time_s"] = plan.time_s;
+  // The interpolator plays a plan more slowly than its own time (parts/feedplan/README.md says where and why).
+  p["played_over_planned"] = ver.played.interp.stats.cycle_time_s / plan.time_s;
   p["model_contour_error_max_um"] = r.model_peak_mm * 1e3;
   p["check"] = check_json(r.check);
   p["verification_rounds"] = ver.rounds;

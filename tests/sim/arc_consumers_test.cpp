@@ -265,12 +265,13 @@ TEST(ArcConsumers, CompensatedProgramArcsAreTheFrame) {
     in.machine = &mc;
     in.kinematics = kin.get();
     const methods::CompensatedProgram out = methods::write_compensated_program(in);
-    // The arc's blocks ("G94 G17 G3 X.. Y.. Z.. I.. J.. F.."): as many as quarter-turn pieces, the direction of the
-    // frame's sweep, each ending on the arc, the centre words relative to the block's start.
+    // The arc's blocks ("G94 G17 G3 X.. Y.. Z.. I.. J.. F.."): with no correction, as many as pieces of the longest
+    // angle for the radius (methods::arc_piece_max_angle_rad), the direction of the frame's sweep, each ending on the
+    // arc, the centre words relative to the block's start.
     std::istringstream text(out.text);
     std::string line;
     int pieces = 0;
-    const int n = f.chords(1.0, kPi / 2);
+    const int n = f.chords(1.0, methods::arc_piece_max_angle_rad(std::max(f.start_radius_mm, f.end_radius_mm)));
     Vector3d last = m.start.head<3>();
     static constexpr char kCentreWord[3] = {'I', 'J', 'K'};
     while (std::getline(text, line)) {
@@ -289,7 +290,10 @@ TEST(ArcConsumers, CompensatedProgramArcsAreTheFrame) {
       if (dir.empty()) continue;
       EXPECT_EQ(dir, f.sweep_rad > 0 ? "G3" : "G2") << k << ": " << line;
       ++pieces;
-      EXPECT_LT((p - f.point_at(double(pieces) / n).head<3>()).norm(), 2e-6) << k << ": " << line;
+      // On the arc, but for the radial step that keeps every kink between pieces at least 5e-6 rad (the writer's
+      // kMinKinkRad, see methods/compensated_program.cpp): at most twice that times the radius times the piece's angle.
+      const double step = 2 * 5e-6 * std::max(f.start_radius_mm, f.end_radius_mm) * std::abs(f.sweep_rad) / n;
+      EXPECT_LT((p - f.point_at(double(pieces) / n).head<3>()).norm(), 2e-6 + 1.01 * step) << k << ": " << line;
       EXPECT_NEAR(centre[0], f.centre_mm[0] - last[f.axis1], 2e-6) << k << ": " << line;
       EXPECT_NEAR(centre[1], f.centre_mm[1] - last[f.axis2], 2e-6) << k << ": " << line;
       last = p;
