@@ -11,7 +11,9 @@
 #include <gtest/gtest.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -66,13 +68,19 @@ TEST(NormalMarks, BallMilledTiltedPlaneAgainstTheSmallerBallsPartIsTheOffsetAlon
     // Away from the passes' ends and the stock's edges (more than R): scallops 0.02^2 / 8R = 17 nm deep, and the
     // reference's gradient at their cusps is that of a kinked surface (0.02 / R rad): 2 % of d allowed for it.
     int checked = 0;
+    double worst_n = 0, worst_v = 0;
     for (Eigen::Index j = 0; j < n.ny(); ++j)
       for (Eigen::Index i = 0; i < n.nx(); ++i) {
         if (n.x(i) < 3.5 || n.x(i) > 4.5 || n.y(j) < 0.3 || n.y(j) > 0.7) continue;
         EXPECT_NEAR(n.z_mm(j, i), -d, 0.02 * d) << deg << " deg at x " << n.x(i) << " y " << n.y(j);
         EXPECT_NEAR(v.z_mm(j, i), -d / std::cos(th), 0.02 * d / std::cos(th)) << deg << " deg";
+        worst_n = std::max(worst_n, std::abs(n.z_mm(j, i) + d));
+        worst_v = std::max(worst_v, std::abs(v.z_mm(j, i) + d / std::cos(th)));
         ++checked;
       }
+    std::printf(
+        "[ normal   ] %2.0f deg: %d nodes, normal deviation -d within %.3g um, vertical -d/cos within %.3g um\n", deg,
+        checked, worst_n * 1e3, worst_v * 1e3);
     EXPECT_GT(checked, 3000) << deg;
     ASSERT_FALSE(r.marks.empty()) << deg;
     const nlohmann::json& m = r.report["marks"][0];
