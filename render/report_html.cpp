@@ -716,11 +716,11 @@ std::string marks_table(const json& marks) {
     std::vector<std::string> row = {std::to_string(++k), plain(at(m, "kind")), um_from_mm(at(m, "depth_mm")),
                                     mm(at(m, "x_mm")), mm(at(m, "y_mm"))};
     if (vertical)
-      row.insert(row.end(),
-                 {um_from_mm(at(m, "depth_vertical_mm")),
-                  at(m, "slope_deg").is_number() ? num(m["slope_deg"].get<double>(), 3) + "°" +
-                                                       (at(m, "steep_wall") == json(true) ? " (steep wall)" : "")
-                                                 : plain(at(m, "slope_deg"))});
+      row.insert(row.end(), {um_from_mm(at(m, "depth_vertical_mm")),
+                             at(m, "slope_deg").is_number()
+                                 ? data(m["slope_deg"], num(m["slope_deg"].get<double>(), 3) + "°" +
+                                                            (at(m, "steep_wall") == json(true) ? " (steep wall)" : ""))
+                                 : plain(at(m, "slope_deg"))});
     if (extent) row.insert(row.end(), {mm(at(m, "x_extent_mm")), mm(at(m, "y_extent_mm"))});
     if (width) row.push_back(mm(at(m, "width_mm")));
     if (along) row.push_back(mm(at(m, "along_mm").is_null() ? at(m, "along_path_mm") : at(m, "along_mm")));
