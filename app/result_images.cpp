@@ -197,13 +197,15 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
   render::PartPicture map = pic;
   map.view.direction = render::ViewDirection::Top;
   map.deviation = colours;
-  map.caption = {d.job + ": deviation from the reference (map, true scale)",
+  const std::string what = d.deviation_along == "normal" ? "deviation from the reference along its normal"
+                                                         : "vertical deviation from the reference";
+  map.caption = {d.job + ": " + what + " (map, true scale)",
                  "reference: " + (d.reference.empty() ? std::string("see report.json") : d.reference),
                  limit_text + iso_text};
   w.save("deviation.png", render::render_part(w.window, s, dev, map).image);
   if (zoom) {
     map.view.region = zoom;
-    map.caption[0] = d.job + ": deviation from the reference (map, true scale), zoom";
+    map.caption[0] = d.job + ": " + what + " (map, true scale), zoom";
     map.caption[1] = zoom_text + "; reference: " + (d.reference.empty() ? std::string("see report.json") : d.reference);
     w.save("deviation_mark.png", render::render_part(w.window, s, dev, map).image);
   }
@@ -213,7 +215,7 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
   lit.deviation = colours;
   lit.deviation->lit = true;
   lit.deviation->isolines = 0;
-  lit.caption = {d.job + ": the part coloured by its deviation from the reference",
+  lit.caption = {d.job + ": the part coloured by its " + what,
                  (zoom ? zoom_text + "; " : std::string()) + "under a raking light, true to scale" + exag, limit_text};
   w.save("deviation_3d.png", render::render_part(w.window, s, dev, lit).image);
 }
@@ -403,6 +405,8 @@ ResultData load_results(const fs::path& dir) {
   if (take("surface.csv")) d.surface = metrology::read_height_csv(dir / "surface.csv");
   if (take("deviation.csv")) {
     d.deviation = metrology::read_height_csv(dir / "deviation.csv");
+    const nlohmann::json along = r.value("surface", nlohmann::json::object()).value("deviation_along", "vertical");
+    d.deviation_along = along.is_string() ? along.get<std::string>() : "vertical";
     d.marks = metrology::find_marks(*d.deviation, 1e-3);  // as vmsim run: marks deeper than 1 um
   }
   if (take("signals.csv")) d.signals = sim::read_signals(dir / "signals.csv");

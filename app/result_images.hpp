@@ -19,6 +19,9 @@ struct ResultData {
   std::string reference;                      // what the deviation is measured from (report.json "reference")
   std::optional<core::HeightGrid> surface;    // predicted surface
   std::optional<core::HeightGrid> deviation;  // surface - reference, same grid
+  // How the deviation is measured (report.json surface.deviation_along): "normal" (along the reference's normal,
+  // what vmsim run writes) or "vertical" (results written before it did).
+  std::string deviation_along = "normal";
   std::vector<metrology::Mark> marks;         // deepest first
   std::optional<sim::BinnedSignals> signals;
 };

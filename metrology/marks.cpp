@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <string>
 #include <vector>
 
 namespace vmsim::metrology {
@@ -16,6 +18,99 @@ core::HeightGrid deviation(const core::HeightGrid& a, const core::HeightGrid& b)
   core::HeightGrid d = a;
   d.z_mm = a.z_mm - b.z_mm;  // NaN propagates
   return d;
+}
+
+namespace {
+void require_same_grid(const core::HeightGrid& a, const core::HeightGrid& b, const char* what) {
+  if (a.nx() != b.nx() || a.ny() != b.ny() || std::abs(a.dx_mm - b.dx_mm) > 1e-12 ||
+      std::abs(a.dy_mm - b.dy_mm) > 1e-12 || std::abs(a.x0_mm - b.x0_mm) > 1e-9 || std::abs(a.y0_mm - b.y0_mm) > 1e-9)
+    throw core::Error(std::string(what) + ": the deviation and the reference are not sampled on the same grid");
+}
+
+// d r / d(axis) at a node from its two neighbours along the axis (central), or the one valid neighbour
+// (one-sided), or 0 without either. `at(k)` is the height k nodes away along the axis (NaN off the grid).
+template <class At>
+double derivative(const At& at, double h) {
+  const double zm = at(-1), z0 = at(0), zp = at(1);
+  const bool m = std::isfinite(zm), p = std::isfinite(zp);
+  if (m && p) return (zp - zm) / (2 * h);
+  if (p) return (zp - z0) / h;
+  if (m) return (z0 - zm) / h;
+  return 0.0;
+}
+}  // namespace
+
+Slope slope_of(const core::HeightGrid& r) {
+  const Eigen::Index nx = r.nx(), ny = r.ny();
+  Slope s{r, r};
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  auto z = [&](Eigen::Index j, Eigen::Index i) { return j < 0 || j >= ny || i < 0 || i >= nx ? nan : r.z_mm(j, i); };
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index j = 0; j < ny; ++j) {
+    for (Eigen::Index i = 0; i < nx; ++i) {
+      if (!std::isfinite(r.z_mm(j, i))) {
+        s.slope_rad.z_mm(j, i) = s.normal_factor.z_mm(j, i) = nan;
+        continue;
+      }
+      const double gx = derivative([&](int k) { return z(j, i + k); }, r.dx_mm);
+      const double gy = derivative([&](int k) { return z(j + k, i); }, r.dy_mm);
+      const double g2 = gx * gx + gy * gy;
+      s.slope_rad.z_mm(j, i) = std::atan(std::sqrt(g2));
+      s.normal_factor.z_mm(j, i) = 1.0 / std::sqrt(1.0 + g2);  // exactly 1 where the reference is flat
+    }
+  }
+  return s;
+}
+
+core::HeightGrid normal_deviation(const core::HeightGrid& vertical, const Slope& slope) {
+  require_same_grid(vertical, slope.normal_factor, "normal_deviation");
+  core::HeightGrid d = vertical;
+  d.z_mm = vertical.z_mm * slope.normal_factor.z_mm;  // NaN propagates
+  return d;
+}
+
+SteepWalls steep_walls(const Slope& ref, double slope_deg) {
+  const double limit = slope_deg * 3.14159265358979323846 / 180.0;
+  SteepWalls w;
+  std::size_t valid = 0;
+  for (Eigen::Index j = 0; j < ref.slope_rad.ny(); ++j)
+    for (Eigen::Index i = 0; i < ref.slope_rad.nx(); ++i) {
+      const double a = ref.slope_rad.z_mm(j, i);
+      if (std::isfinite(a)) ++valid, w.nodes += a > limit ? 1 : 0;
+    }
+  w.fraction = valid ? static_cast<double>(w.nodes) / static_cast<double>(valid) : 0.0;
+  return w;
+}
+
+double wall_step_max_mm(const core::HeightGrid& surf, double slope_deg) {
+  const double tan_limit = std::tan(slope_deg * 3.14159265358979323846 / 180.0);
+  double worst = 0.0;
+  for (Eigen::Index j = 0; j < surf.ny(); ++j)
+    for (Eigen::Index i = 0; i < surf.nx(); ++i) {
+      const double z0 = surf.z_mm(j, i);
+      if (i + 1 < surf.nx()) {
+        const double step = std::abs(surf.z_mm(j, i + 1) - z0);  // NaN compares false
+        if (step > tan_limit * surf.dx_mm) worst = std::max(worst, step);
+      }
+      if (j + 1 < surf.ny()) {
+        const double step = std::abs(surf.z_mm(j + 1, i) - z0);
+        if (step > tan_limit * surf.dy_mm) worst = std::max(worst, step);
+      }
+    }
+  return worst;
+}
+
+void add_vertical(std::vector<Mark>& marks, const core::HeightGrid& vertical, const Slope& slope) {
+  require_same_grid(vertical, slope.slope_rad, "add_vertical");
+  const double limit = kSteepWallSlopeDeg * 3.14159265358979323846 / 180.0;
+  for (Mark& m : marks) {
+    const auto i = static_cast<Eigen::Index>(std::lround((m.x_mm - vertical.x0_mm) / vertical.dx_mm));
+    const auto j = static_cast<Eigen::Index>(std::lround((m.y_mm - vertical.y0_mm) / vertical.dy_mm));
+    if (i < 0 || j < 0 || i >= vertical.nx() || j >= vertical.ny()) continue;
+    m.depth_vertical_mm = std::abs(vertical.z_mm(j, i));
+    m.slope_rad = slope.slope_rad.z_mm(j, i);
+    m.steep_wall = m.slope_rad > limit;
+  }
 }
 
 std::vector<Mark> find_marks(const core::HeightGrid& dev, double threshold, std::size_t max_marks, double path_dir,

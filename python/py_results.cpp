@@ -132,10 +132,10 @@ holding each foot point; report: the figures `vmsim motion` writes to report.jso
 
   py::class_<PyResult, std::shared_ptr<PyResult>>(m, "Result", R"(A whole run (`vmsim run`).
 
-surface, reference, deviation: vmsim.Grid (heights on the z-map's nodes, the reference's, and surface - reference:
-negative is overcut), or None (no reference; N-buffer fields have needles instead: needle_offset_mm,
+surface, reference, deviation, deviation_vertical: vmsim.Grid (heights on the z-map's nodes, the reference's, and
+surface - reference along the reference's normal and vertically: negative is overcut), or None (no reference; N-buffer fields have needles instead: needle_offset_mm,
 needle_reference_mm, needle_deviation_mm); marks: a list of dicts as report.json lists them (depth_mm, kind,
-x_mm, y_mm, x_extent_mm, y_extent_mm, area_mm2), deepest first; report: report.json as a dict; mesh: the part as a
+x_mm, y_mm, x_extent_mm, y_extent_mm, area_mm2, depth_vertical_mm, slope_deg, steep_wall), deepest first; report: report.json as a dict; mesh: the part as a
 vmsim.Mesh with point_data["deviation_mm"], or None; out, files: where job.run(out=...) wrote and what.)")
       .def_property_readonly(
           "surface", [](PyResult& r) -> core::HeightGrid* { return r.run.surface ? &*r.run.surface : nullptr; }, kRef)
@@ -147,6 +147,12 @@ vmsim.Mesh with point_data["deviation_mm"], or None; out, files: where job.run(o
           kRef)
       .def_property_readonly(
           "deviation", [](PyResult& r) -> core::HeightGrid* { return r.run.deviation ? &*r.run.deviation : nullptr; },
+          kRef)
+      .def_property_readonly(
+          "deviation_vertical",
+          [](PyResult& r) -> core::HeightGrid* {
+            return r.run.deviation_vertical ? &*r.run.deviation_vertical : nullptr;
+          },
           kRef)
       .def_property_readonly(
           "mesh",

@@ -694,14 +694,17 @@ std::string rest_html(Page& p, const std::set<std::string>& always_skip = {}) {
 // The marks as `vmsim run` and `vmsim compare` write them.
 std::string marks_table(const json& marks) {
   std::vector<std::vector<std::string>> rows;
-  bool along = false, extent = false, area = false, width = false;
+  bool along = false, extent = false, area = false, width = false, vertical = false;
   for (const auto& m : marks) {
     along |= m.contains("along_mm") || m.contains("along_path_mm");
     width |= m.contains("width_mm");
     extent |= m.contains("x_extent_mm");
     area |= m.contains("area_mm2");
+    vertical |= m.contains("depth_vertical_mm");
   }
-  std::vector<std::string> head = {"#", "kind", "depth", "x", "y"};
+  // vmsim run's depth is along the reference's normal; its vertical depth and the slope there beside it.
+  std::vector<std::string> head = {"#", "kind", vertical ? "depth (normal)" : "depth", "x", "y"};
+  if (vertical) head.insert(head.end(), {"depth (vertical)", "slope"});
   if (extent) head.insert(head.end(), {"extent x", "extent y"});
   if (width) head.push_back("width across the path");
   if (along) head.push_back("length along the path");
@@ -712,6 +715,12 @@ std::string marks_table(const json& marks) {
   for (const auto& m : marks) {
     std::vector<std::string> row = {std::to_string(++k), plain(at(m, "kind")), um_from_mm(at(m, "depth_mm")),
                                     mm(at(m, "x_mm")), mm(at(m, "y_mm"))};
+    if (vertical)
+      row.insert(row.end(), {um_from_mm(at(m, "depth_vertical_mm")),
+                             at(m, "slope_deg").is_number()
+                                 ? data(m["slope_deg"], num(m["slope_deg"].get<double>(), 3) + "°" +
+                                                            (at(m, "steep_wall") == json(true) ? " (steep wall)" : ""))
+                                 : plain(at(m, "slope_deg"))});
     if (extent) row.insert(row.end(), {mm(at(m, "x_extent_mm")), mm(at(m, "y_extent_mm"))});
     if (width) row.push_back(mm(at(m, "width_mm")));
     if (along) row.push_back(mm(at(m, "along_mm").is_null() ? at(m, "along_path_mm") : at(m, "along_mm")));
@@ -831,8 +840,14 @@ void run_page(Page& p) {
            (p.has_picture("images/deviation.png") || p.has_picture("images/deviation_mark.png")
                 ? colour_scale(json(limit_um))
                 : "");
-    dev += "<p>Deviation = predicted − reference: from " + um_from_mm(surf["deviation_min_mm"]) + " to " +
-           um_from_mm(surf["deviation_max_mm"]) + ". Colour limits ±" + num(limit_um) +
+    const bool normal = get(surf, {"deviation_along"}) == json("normal");
+    dev += std::string("<p>Deviation = predicted − reference") +
+           (normal ? " along the reference surface's normal (vertically: from " +
+                         um_from_mm(surf["deviation_vertical_min_mm"]) + " to " +
+                         um_from_mm(surf["deviation_vertical_max_mm"]) + ")"
+                   : std::string()) +
+           ": from " + um_from_mm(surf["deviation_min_mm"]) + " to " + um_from_mm(surf["deviation_max_mm"]) +
+           ". Colour limits ±" + num(limit_um) +
            " µm: the largest |deviation| rounded up to 1, 2, 2.5 or 5 × 10^k.</p>\n";
   }
   p.section("deviation", "Deviation map", dev);

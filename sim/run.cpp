@@ -9,6 +9,8 @@
 #include "sim/contour_stats.hpp"
 #include "sim/report.hpp"
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cmath>
 #include <set>
@@ -21,6 +23,10 @@ namespace {
 using core::Clock;
 using core::process_cpu_s;
 using core::seconds_since;
+
+// A reference with at least this fraction of its nodes steeper than metrology::kSteepWallSlopeDeg is said to
+// have steep walls (a warning): 1 %, so that a few nodes on a pocket's rim do not warn on every flat part.
+constexpr double kSteepWallWarnFraction = 0.01;
 
 const char* field_name(const Field& f) {
   return f.kind == core::RemovalSpec::Field::ZMap       ? "zmap"
@@ -49,16 +55,40 @@ LevelSetPart level_set_part(removal::VdbPart part, const removal::VdbPart* ref_p
   return out;
 }
 
-// Grid fields: heights, reference, deviation, marks, and the part mesh.
-void read_back_grids(const core::Job& job, RunResult& r, nlohmann::json& surface_json) {
+// Where the reference has steep walls, what its height grid means there and which fields resolve them.
+core::Warning steep_wall_warning(const Field& field, const metrology::SteepWalls& walls, double step_mm) {
+  core::Warning w;
+  w.code = "steep_walls";
+  w.subject = "removal.field";
+  w.message = fmt::format(
+      "{:.1f} % of the reference surface ({} nodes) is steeper than {:g} deg: the {} height grid's deviation there "
+      "is reported along the reference's normal (surface.deviation_along; the vertical figure is "
+      "deviation_vertical), to first order and within about the spacing ({:g} mm) where a wall falls between "
+      "nodes{}. The part mesh of a tri-dexel field (removal.field = \"tridexel\") or a level set (removal.method = "
+      "\"vdb\") follows the walls themselves, each vertex with its signed distance to the reference part.",
+      100.0 * walls.fraction, walls.nodes, metrology::kSteepWallSlopeDeg, field_name(field), field.spacing_mm,
+      step_mm > 0
+          ? fmt::format("; the part mesh's faces can be up to {:.3f} mm off them (surface.mesh_wall_step_max_mm)",
+                        step_mm)
+          : std::string());
+  return w;
+}
+
+// Grid fields: heights, reference, deviation (along the reference's normal, and vertical), marks, and the part mesh.
+void read_back_grids(const core::Job& job, RunResult& r, nlohmann::json& surface_json, core::Warnings& warnings) {
   const Field& field = r.cut.field;
   const std::optional<Field>& ref = r.cut.reference.field;
   r.surface = surface_of(field);
   const core::HeightGrid& pred = *r.surface;
+  metrology::SteepWalls walls;
   if (ref) {
     r.reference_surface = surface_of(*ref);
-    r.deviation = metrology::deviation(pred, *r.reference_surface);
-    r.marks = metrology::find_marks(*r.deviation, 1e-3);  // marks deeper than 1 um
+    r.deviation_vertical = metrology::deviation(pred, *r.reference_surface);
+    const metrology::Slope slope = metrology::slope_of(*r.reference_surface);
+    r.deviation = metrology::normal_deviation(*r.deviation_vertical, slope);
+    r.marks = metrology::find_marks(*r.deviation, 1e-3);  // marks deeper than 1 um along the normal
+    metrology::add_vertical(r.marks, *r.deviation_vertical, slope);
+    walls = metrology::steep_walls(slope);
   }
   surface_json = {{"grid",
                    {{"x0_mm", pred.x0_mm},
@@ -82,11 +112,21 @@ void read_back_grids(const core::Job& job, RunResult& r, nlohmann::json& surface
   } else {
     r.part_mesh = removal::heightfield_mesh(pred, field.region.lo.z(), r.deviation ? &*r.deviation : nullptr);
     surface_json["mesh_triangles"] = r.part_mesh->triangles.rows();
+    // The height-field mesh's error bound between nodes on walls (it interpolates straight across them).
+    surface_json["mesh_wall_step_max_mm"] = metrology::wall_step_max_mm(pred);
   }
   if (r.deviation) {
     const core::HeightGrid& dev = *r.deviation;
+    const core::HeightGrid& vert = *r.deviation_vertical;
+    surface_json["deviation_along"] = "normal";
     surface_json["deviation_min_mm"] = dev.z_mm.isNaN().select(0, dev.z_mm).minCoeff();
     surface_json["deviation_max_mm"] = dev.z_mm.isNaN().select(0, dev.z_mm).maxCoeff();
+    surface_json["deviation_vertical_min_mm"] = vert.z_mm.isNaN().select(0, vert.z_mm).minCoeff();
+    surface_json["deviation_vertical_max_mm"] = vert.z_mm.isNaN().select(0, vert.z_mm).maxCoeff();
+    surface_json["steep_walls"] = {
+        {"slope_deg", metrology::kSteepWallSlopeDeg}, {"nodes", walls.nodes}, {"fraction", walls.fraction}};
+    if (walls.fraction >= kSteepWallWarnFraction)
+      warnings.push_back(steep_wall_warning(field, walls, surface_json.value("mesh_wall_step_max_mm", 0.0)));
   }
 }
 
@@ -190,8 +230,9 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
   const auto t0 = Clock::now();
   progress.stage(job.name + ": surfaces");
   nlohmann::json surface_json;
+  core::Warnings warnings = c.motion.drive_checks.warnings;
   if (c.field.kind != core::RemovalSpec::Field::NBuffer)
-    read_back_grids(job, r, surface_json);
+    read_back_grids(job, r, surface_json, warnings);
   else
     read_back_needles(job, r, surface_json);
   if (c.motion.response && c.motion.contour)
@@ -207,7 +248,7 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
   nlohmann::json marks_json = nlohmann::json::array();
-  for (const metrology::Mark& m : r.marks)
+  for (const metrology::Mark& m : r.marks) {
     marks_json.push_back({{"depth_mm", m.depth_mm},
                           {"kind", m.overcut ? "overcut" : "undercut"},
                           {"x_mm", m.x_mm},
@@ -215,6 +256,13 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
                           {"x_extent_mm", m.x_extent_mm},
                           {"y_extent_mm", m.y_extent_mm},
                           {"area_mm2", m.area_mm2}});
+    if (std::isfinite(m.depth_vertical_mm)) {
+      // depth_mm is along the reference's normal; the vertical figure and the slope where the mark is deepest.
+      marks_json.back()["depth_vertical_mm"] = m.depth_vertical_mm;
+      marks_json.back()["slope_deg"] = m.slope_rad * 180.0 / 3.14159265358979323846;
+      marks_json.back()["steep_wall"] = m.steep_wall;
+    }
+  }
   report["marks"] = marks_json;
   report["surface"] = surface_json;
   const Motion& motion = c.motion;
@@ -234,7 +282,7 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
     report["contour_error"] =
         contour_json(*motion.contour, cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program));
   if (motion.response) report["drive_checks"] = motion.drive_checks.axes;
-  add_verdict(report, motion.drive_checks.warnings);
+  add_verdict(report, warnings);
   report["timings_s"] = c.timings;
   report["timings_s"]["surfaces"] = seconds_since(t0);
   return r;

@@ -55,12 +55,13 @@ struct LevelSetPart {
 struct RunResult {
   Cut cut;
   // Grid fields (z-map, tri-dexel, level set): heights on the z-map's nodes (mm), the reference's, and the signed
-  // deviation surface - reference (negative: overcut). The last two when the job has a reference.
-  std::optional<core::HeightGrid> surface, reference_surface, deviation;
+  // deviation surface - reference (negative: overcut) along the reference's normal (metrology::normal_deviation),
+  // and the same vertically. The last three when the job has a reference.
+  std::optional<core::HeightGrid> surface, reference_surface, deviation, deviation_vertical;
   // N-buffer fields: per needle, the surface's offset from its nominal point along its normal, the reference's
   // (NaN without a reference or where a needle is empty), and their difference.
   Eigen::VectorXd needle_offset_mm, needle_reference_mm, needle_deviation_mm;
-  std::vector<metrology::Mark> marks;  // deeper than 1 um, deepest first
+  std::vector<metrology::Mark> marks;  // deeper than 1 um along the normal, deepest first
   // The part as a closed mesh with its deviation per vertex: the height field's (z-map), or the level set's.
   std::optional<core::TriangleMesh> part_mesh;
   std::optional<LevelSetPart> level_set;

@@ -56,9 +56,13 @@ std::vector<std::string> write_run_outputs(const core::Job& job, const RunResult
       metrology::write_height_csv(dir / "deviation.csv", *r.deviation);
       metrology::write_height_npy(dir / "deviation.npy", *r.deviation);
       files.insert(files.end(), {"reference.csv", "deviation.csv", "deviation.npy", "deviation.npy.json"});
+      // deviation.* is along the reference's normal; the vertical height difference beside it.
+      metrology::write_height_npy(dir / "deviation_vertical.npy", *r.deviation_vertical);
+      files.insert(files.end(), {"deviation_vertical.npy", "deviation_vertical.npy.json"});
       x3p.comment = "reference surface of job " + job.name + " (" + r.cut.reference.name + ")";
       metrology::write_x3p(dir / "reference.x3p", *r.reference_surface, x3p);
-      x3p.comment = "deviation of job " + job.name + ": predicted - reference (negative: overcut)";
+      x3p.comment =
+          "deviation of job " + job.name + ": predicted - reference along the reference's normal (negative: overcut)";
       metrology::write_x3p(dir / "deviation.x3p", *r.deviation, x3p);
       files.insert(files.end(), {"reference.x3p", "deviation.x3p"});
     }

@@ -119,6 +119,45 @@ def main():
     with open(os.path.join(here, "dome_spiral.cl"), "w") as f:
         f.write("\n".join(lines) + "\n")
     write_stock(os.path.join(here, "dome_stock.stl"))
+    write_slow_ring(os.path.join(here, "dome_ring_slow.cl"))
+
+
+# The paper's own case for its 0.001 deg (job_slow.toml): the rotary table turning slowly. A type-1 position loop
+# lags a ramp of w deg/s by w ((1 - KF) / Kv + Te) = w x 0.010 s on the Mikron's C drive, so 0.001 deg is C at about
+# 0.1 deg/s: an arc of SLOW_DPHI deg of azimuth at the polar angle SLOW_THETA (A fixed), fed at SLOW_FEED, with the
+# approach and retract along the normal at SLOW_APPROACH_FEED.
+SLOW_THETA = 40.0        # deg: the spiral's outer turn (tip 19.3 mm from the C axis)
+SLOW_PHI0, SLOW_DPHI = 0.0, 10.0
+SLOW_STEP = 0.5          # deg of azimuth between points
+SLOW_FEED = 2.0          # mm/min: C at 2 / (RS sin 40 deg) rad/min = 0.099 deg/s
+SLOW_APPROACH_FEED = 500.0
+
+
+def write_slow_ring(path):
+    lines = [
+        "PARTNO/FIVE_AXIS_DOME_SLOW_RING",
+        "$$ vmsim parts/five_axis/generate.py: spherical dome RS 30 mm, ball-end D10 along the normal,",
+        f"$$ arc at theta {SLOW_THETA:g} deg, phi {SLOW_PHI0:g}..{SLOW_PHI0 + SLOW_DPHI:g} deg, F{SLOW_FEED:g} mm/min "
+        "(C at about 0.1 deg/s)",
+        "UNITS/MM",
+        "MULTAX/ON",
+        "CUTTER/10.000000,5.000000",
+    ]
+    p, n = point(SLOW_THETA, SLOW_PHI0)
+    lines.append("RAPID")
+    lines.append("GOTO/" + fmt(tuple(p[i] + APPROACH * n[i] for i in range(3))) + "," + fmt(n))
+    lines.append(f"FEDRAT/MMPM,{SLOW_APPROACH_FEED:.1f}")
+    lines.append("GOTO/" + fmt(p) + "," + fmt(n))
+    lines.append(f"FEDRAT/MMPM,{SLOW_FEED:.1f}")
+    steps = int(round(SLOW_DPHI / SLOW_STEP))
+    for k in range(1, steps + 1):
+        p, n = point(SLOW_THETA, SLOW_PHI0 + k * SLOW_STEP)
+        lines.append("GOTO/" + fmt(p) + "," + fmt(n))
+    lines.append(f"FEDRAT/MMPM,{SLOW_APPROACH_FEED:.1f}")
+    lines.append("GOTO/" + fmt(tuple(p[i] + APPROACH * n[i] for i in range(3))) + "," + fmt(n))
+    lines.append("FINI")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":
