@@ -8,6 +8,7 @@
 #include "sim/axis_following.hpp"
 #include "sim/contour_stats.hpp"
 #include "sim/report.hpp"
+#include "sim/tools.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -206,8 +207,14 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
   report["reference"] = c.reference.name;
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
+  report["tools"] = tools_json(job, c);
+  // Each grid mark's tool: the one whose sweep made the surface at its deepest point (sim/tools.hpp says why).
+  const std::vector<int> mark_tool =
+      r.surface ? mark_tools(c, r.marks, *r.surface, c.field.vdb ? 0.5 * job.removal.voxel_mm : 1e-4)
+                : std::vector<int>(r.marks.size(), -1);
   nlohmann::json marks_json = nlohmann::json::array();
-  for (const metrology::Mark& m : r.marks)
+  for (std::size_t k = 0; k < r.marks.size(); ++k) {
+    const metrology::Mark& m = r.marks[k];
     marks_json.push_back({{"depth_mm", m.depth_mm},
                           {"kind", m.overcut ? "overcut" : "undercut"},
                           {"x_mm", m.x_mm},
@@ -215,6 +222,8 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
                           {"x_extent_mm", m.x_extent_mm},
                           {"y_extent_mm", m.y_extent_mm},
                           {"area_mm2", m.area_mm2}});
+    if (mark_tool[k] >= 0) marks_json.back()["tool"] = tool_label(job, mark_tool[k]);
+  }
   report["marks"] = marks_json;
   report["surface"] = surface_json;
   const Motion& motion = c.motion;
