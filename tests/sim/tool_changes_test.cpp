@@ -296,5 +296,56 @@ TEST(ToolChanges, SinumerikNamesMapThroughTheJob) {
   EXPECT_NE(err.find("name = \"BALL_D4\""), std::string::npos) << err;
 }
 
+// CAMotics' botomata_bottom.nc (../shared/data/real/cam, skipped when absent) through parts/botomata/job.toml: three
+// flat end mills, T1 1/4 in, T2 1/8 in, T3 1/16 in (the program's comments). Its "Profile: Layer 6" (T2, F300) runs
+// G01 from Y-17 to Y-35.306 at Z-1.27, and nothing else reaches the groove's outer side: its outer wall lies
+// at x = -38.29 - D2/2 = -39.8775 (T1 would put it at -41.465, T3 at -39.084) with a flat floor at -1.27. Checked on
+// a 0.01 mm z-map of a window across the groove, cut along the programmed path (the run's per-move tool mapping).
+TEST(ToolChanges, BotomataProfileGrooveHasTool2sWidth) {
+  const fs::path data = fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "botomata_bottom.nc";
+  if (!fs::exists(data)) GTEST_SKIP() << data << " is absent (the real CAM programs of ../shared)";
+  core::Job job = core::load_job(fs::path(VMSIM_SOURCE_DIR) / "parts" / "botomata" / "job.toml");
+  ASSERT_EQ(job.tools.size(), 3u);
+  job.stock.min_mm = Eigen::Vector3d(-41.0, -30.0, -22.0);
+  job.stock.max_mm = Eigen::Vector3d(-38.6, -22.0, 0.0);
+  job.removal.spacing_mm = 0.01;
+  job.removal.motion = core::RemovalSpec::Motion::Program;
+  job.reference.kind = core::ReferenceSpec::Kind::None;
+  const RunResult r = run_job(job);
+  ASSERT_TRUE(r.surface);
+  const core::HeightGrid& s = *r.surface;
+  const double wall = -38.29 - job.tools[1].diameter_mm / 2;
+  double worst_floor = 0, worst_top = 0, worst_wall = 0;
+  for (Eigen::Index j = 0; j < s.ny(); ++j) {
+    // The first node from the left whose surface lies below the stock top: the wall is between it and its neighbour.
+    Eigen::Index first = -1;
+    for (Eigen::Index i = 0; i < s.nx() && first < 0; ++i)
+      if (s.z_mm(j, i) < -0.5) first = i;
+    ASSERT_GT(first, 0) << "no groove at y " << s.y(j);
+    worst_wall = std::max(worst_wall, std::abs(s.x(first) - s.dx_mm / 2 - wall));
+    for (Eigen::Index i = 0; i < s.nx(); ++i) {
+      const double x = s.x(i), z = s.z_mm(j, i);
+      if (x < wall - 1e-6) worst_top = std::max(worst_top, std::abs(z));
+      if (x > wall + 1e-6) worst_floor = std::max(worst_floor, std::abs(z + 1.27));
+    }
+  }
+  EXPECT_LE(worst_wall, s.dx_mm / 2 + 1e-9) << "the groove's wall is not where T2's radius puts it";
+  EXPECT_LT(worst_floor, 1e-5) << "the groove's floor is not T2's flat floor at -1.27";
+  EXPECT_LT(worst_top, 1e-9) << "material was cut outside the groove";
+  const nlohmann::json& tools = r.report.at("tools").at("list");
+  ASSERT_EQ(tools.size(), 3u);
+  std::size_t moves = 0;
+  for (const auto& t : tools) {
+    EXPECT_GT(t.at("moves").get<int>(), 100) << t.dump();
+    moves += t.at("moves").get<std::size_t>();
+  }
+  EXPECT_EQ(moves, r.cut.motion.program.moves.size());
+  std::printf(
+      "[ BOTOMATA ] T2 groove wall within %.4f mm of x = %.4f (grid %.2f mm), floor within %.1e of -1.27; "
+      "moves T1 %d, T2 %d, T3 %d\n",
+      worst_wall, wall, s.dx_mm, worst_floor, tools[0]["moves"].get<int>(), tools[1]["moves"].get<int>(),
+      tools[2]["moves"].get<int>());
+}
+
 }  // namespace
 }  // namespace vmsim::sim
