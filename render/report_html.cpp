@@ -778,18 +778,21 @@ void tools_section(Page& p) {
   const json& tools = get(p.report(), {"tools", "list"});
   if (!tools.is_array() || tools.empty()) return;
   p.shown("tools");
-  bool timed = false;
-  for (const auto& t : tools) timed |= t.contains("time_s");
-  std::vector<std::string> head = {"tool", "type", "diameter", "corner radius", "moves", "feed moves", "sweeps"};
+  bool timed = false, numbered = false;
+  for (const auto& t : tools) timed |= t.contains("time_s"), numbered |= t.contains("number");
+  std::vector<std::string> head = {"tool",   "type",       "diameter", "corner radius", "flute length",
+                                   "length", "moves",      "feed moves", "sweeps"};
   if (timed) head.push_back("time");
+  if (numbered) head.push_back("T number");
   std::vector<bool> numeric(head.size(), true);
   numeric[0] = numeric[1] = false;
   std::vector<std::vector<std::string>> rows;
   for (const auto& t : tools) {
-    std::vector<std::string> row = {plain(at(t, "tool")),          plain(at(t, "type")),  mm(at(t, "diameter_mm")),
-                                    mm(at(t, "corner_radius_mm")), plain(at(t, "moves")), plain(at(t, "feed_moves")),
-                                    plain(at(t, "sweeps"))};
+    std::vector<std::string> row = {plain(at(t, "tool")),        plain(at(t, "type")),         mm(at(t, "diameter_mm")),
+                                    mm(at(t, "corner_radius_mm")), mm(at(t, "flute_length_mm")), mm(at(t, "length_mm")),
+                                    plain(at(t, "moves")),       plain(at(t, "feed_moves")),   plain(at(t, "sweeps"))};
     if (timed) row.push_back(seconds(at(t, "time_s")));
+    if (numbered) row.push_back(plain(at(t, "number")));
     rows.push_back(row);
   }
   p.section("tools", "Tools",
