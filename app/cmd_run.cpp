@@ -211,7 +211,8 @@ int run_run(const RunArgs& args) {
   // Test hook (tests/app/study_cli_test.cpp, README "What you can rely on"): a crash in the run of this job.
   if (const char* h = std::getenv("VMSIM_TEST_SEGFAULT_JOB"); h && job.name == h) std::raise(SIGSEGV);
   // A CL program's own tool when the job gives none (APT TLDATA/, CUTTER/); a note when the job's differs from it.
-  if (const auto note = sim::use_program_tool(job); note && mpi_rank() == 0) std::printf("tool: %s\n", note->c_str());
+  if (const auto note = sim::use_program_tool(job); note && mpi_rank() == 0)
+    std::fprintf(stderr, "tool: %s\n", note->c_str());
   // The picture options are checked now, not after the simulation.
   ImageArgs image_args;
   image_args.size = args.image_size;

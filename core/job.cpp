@@ -12,9 +12,11 @@ namespace vmsim::core {
 
 namespace {
 
+// The keys [tool] and [[tools]] share; the caller reads its own and finishes the table.
 ToolSpec read_tool(const TomlTable& t) {
   ToolSpec tool;
-  const std::string type = t.choice("type", {"ball", "flat", "bullnose"});
+  // "bull" is the short name issue 24 used; both mean the same torus-ended tool.
+  const std::string type = t.choice("type", {"ball", "flat", "bullnose", "bull"});
   tool.diameter_mm = t.positive("diameter_mm");
   if (type == "ball") {
     tool.shape = ToolShape::Ball;
@@ -32,8 +34,28 @@ ToolSpec read_tool(const TomlTable& t) {
   tool.flute_length_mm = t.opt_positive("flute_length_mm").value_or(2 * tool.diameter_mm);
   tool.length_mm = t.opt_positive("length_mm").value_or(std::max(50.0, tool.flute_length_mm));
   if (tool.length_mm < tool.flute_length_mm) t.fail("length_mm", "expected at least flute_length_mm");
-  t.finish();
   return tool;
+}
+
+// [[tools]]: each with its T number (or, for 840D programs' T="name", its name), no number or name twice.
+std::vector<ToolSpec> read_tools(const TomlTable& top) {
+  std::vector<ToolSpec> tools;
+  for (const TomlTable& t : top.array_of_tables("tools")) {
+    ToolSpec tool = read_tool(t);
+    const std::optional<long long> n = t.opt_integer("number");
+    tool.name = t.opt_string("name").value_or("");
+    if (!n && tool.name.empty())
+      t.fail("number", "missing (expected the program's T number, or a name for an 840D program's T=\"name\")");
+    if (n && (*n < 0 || *n > 1000000000)) t.fail("number", fmt::format("expected a T number 0 or more, found {}", *n));
+    tool.number = n ? static_cast<int>(*n) : -1;  // -1: by name only
+    for (const ToolSpec& o : tools) {
+      if (n && o.number == tool.number) t.fail("number", fmt::format("T{} is described twice", tool.number));
+      if (!tool.name.empty() && o.name == tool.name) t.fail("name", "\"" + tool.name + "\" is described twice");
+    }
+    t.finish();
+    tools.push_back(tool);
+  }
+  return tools;
 }
 
 StockSpec read_stock(const TomlTable& t) {
@@ -237,9 +259,16 @@ Job load_job(const std::filesystem::path& path) {
   }
   job.machine = load_machine(job.machine_file);
   if (auto t = top.opt_table("tool")) {
+    if (top.has("tools"))
+      top.fail("tools",
+               "the job gives both [tool] and [[tools]] (expected [tool] for a single-tool job, or one "
+               "[[tools]] per T number)");
     job.tool = read_tool(*t);
+    job.tool_all_numbers = t->opt_boolean("all_tools").value_or(false);
+    t->finish();
     job.tool_given = true;
   }
+  if (top.has("tools")) job.tools = read_tools(top);
   if (auto t = top.opt_table("stock")) job.stock = read_stock(*t);
   if (auto t = top.opt_table("interpolation")) job.interp = read_interp(*t);
   if (auto t = top.opt_table("removal")) job.removal = read_removal(*t);

@@ -20,6 +20,10 @@ struct ToolSpec {
   double corner_radius_mm = 5.0;  // ball: D/2, flat: 0, bull-nose: given
   double flute_length_mm = 20.0;
   double length_mm = 50.0;  // gauge length, spindle nose to tip
+  // [[tools]]: the program's T word this tool answers to (-1: by name only), and (840D T="name") its name; 0 and
+  // empty in [tool].
+  int number = 0;
+  std::string name;
 };
 
 struct StockSpec {
@@ -132,6 +136,15 @@ struct Job {
   Machine machine;
   ToolSpec tool;
   bool tool_given = false;  // the job has a [tool]; without one a CL program's own tool cuts (sim::use_program_tool)
+  // [tool] all_tools = true: the one [tool] cuts for every T number the program calls (a deliberate simplification);
+  // without it a program calling several different tools is refused (sim/tools.hpp).
+  bool tool_all_numbers = false;
+  // [[tools]]: one per T number (and 840D name) the program calls; every move is cut by the tool in the spindle.
+  // Empty: the one `tool` cuts every move.
+  std::vector<ToolSpec> tools;
+  // Where `tool` came from when not from the job file: "file:line" of the CL program's TLDATA/ or CUTTER/
+  // (sim::use_program_tool); empty otherwise.
+  std::string tool_from_program;
   StockSpec stock;
   InterpSpec interp;
   RemovalSpec removal;

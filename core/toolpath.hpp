@@ -85,6 +85,8 @@ struct ToolPath {
   double tool_corner_radius_mm = 0.0;
   double tool_length_mm = 0.0;  // APT TLDATA/MILL's length; 0 = unknown
   int tool_line = 0;            // the line the program's tool was read from (APT CUTTER/, TLDATA/); 0 = none
+  // 840D T="name": the reader numbers named tools 1, 2, ... in order of first call; tool_names[n - 1] is tool n's name.
+  std::vector<std::string> tool_names;
   // The interpolation tolerance the program itself sets (Sinumerik CYCLE832: the smallest in force for a feed move);
   // a job without [interpolation] tolerance_mm interpolates with it. Empty: the program sets none.
   std::optional<double> program_tolerance_mm;

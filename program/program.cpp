@@ -81,6 +81,7 @@ core::ToolPath read_program(const std::filesystem::path& path, const ProgramOpti
       SinumerikResult r = interpret_sinumerik(path, s);
       r.path.warnings = std::move(r.warnings);
       r.path.program_tolerance_mm = r.contour_tolerance_mm;
+      r.path.tool_names = std::move(r.tools);
       return std::move(r.path);
     }
     case Dialect::Rs274ngc:

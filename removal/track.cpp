@@ -238,6 +238,42 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   }
   out.orientation_error_mm = reach * chord;
   out.error_bound_mm = e_hermite + e_merge + out.orientation_error_mm;
+  out.runs.push_back({0, 0, out.sweeps.size()});
+  return out;
+}
+
+TrackSweeps sweeps_from_track(const std::vector<Tool>& tools, const PoseTrack& track, const TrackOptions& options) {
+  if (tools.empty()) throw core::Error("removal: no tool to cut the track with");
+  const Eigen::Index n = track.tip_mm.rows();
+  if (track.tool.empty()) return sweeps_from_track(tools[0], track, options);
+  if (static_cast<Eigen::Index>(track.tool.size()) != n)
+    throw core::Error(fmt::format("removal: the track has {} tip samples but {} tool indices", n, track.tool.size()));
+  for (std::size_t k = 0; k < track.tool.size(); ++k)
+    if (track.tool[k] < 0 || track.tool[k] >= static_cast<int>(tools.size()))
+      throw core::Error(fmt::format("removal: track sample {} names tool {} of {}", k, track.tool[k], tools.size()));
+  const bool per_sample = track.axis_per_sample.rows() == n && n > 0;
+  const bool hermite = track.tip_velocity_mm_per_s.rows() == n && n > 0;
+  TrackSweeps out;
+  for (Eigen::Index a = 0; a < n;) {
+    Eigen::Index b = a;
+    while (b + 1 < n && track.tool[static_cast<std::size_t>(b + 1)] == track.tool[static_cast<std::size_t>(a)]) ++b;
+    // The run's own track: from the sample before it (the new tool starts where the axes stood) to its last.
+    const Eigen::Index first = std::max<Eigen::Index>(0, a - 1), rows = b - first + 1;
+    PoseTrack part;
+    part.period_s = track.period_s;
+    part.axis = track.axis;
+    part.tip_mm = track.tip_mm.middleRows(first, rows);
+    if (per_sample) part.axis_per_sample = track.axis_per_sample.middleRows(first, rows);
+    if (hermite) part.tip_velocity_mm_per_s = track.tip_velocity_mm_per_s.middleRows(first, rows);
+    const int t = track.tool[static_cast<std::size_t>(a)];
+    TrackSweeps r = sweeps_from_track(tools[static_cast<std::size_t>(t)], part, options);
+    out.runs.push_back({t, out.sweeps.size(), r.sweeps.size()});
+    out.sweeps.insert(out.sweeps.end(), r.sweeps.begin(), r.sweeps.end());
+    out.points += r.points;
+    out.error_bound_mm = std::max(out.error_bound_mm, r.error_bound_mm);
+    out.orientation_error_mm = std::max(out.orientation_error_mm, r.orientation_error_mm);
+    a = b + 1;
+  }
   return out;
 }
 

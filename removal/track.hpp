@@ -52,6 +52,10 @@ struct PoseTrack {
   // Optional tip velocities (samples x 3, mm/s): between samples the tip then follows the cubic Hermite curve
   // through both samples with these velocities, not the chord.
   Eigen::MatrixXd tip_velocity_mm_per_s;
+  // Optional, per sample: which tool is in the spindle (an index into the tools given to sweeps_from_track), for a
+  // program that changes tools. The interval from sample k - 1 to k is cut by sample k's tool (the move that sample
+  // lies on). Empty: one tool cuts the whole track.
+  std::vector<int> tool;
 };
 
 struct TrackOptions {
@@ -67,6 +71,13 @@ struct TrackSweeps {
   // than 1000 sub-samples (capped: the bound then says how far it is).
   double error_bound_mm = 0;
   double orientation_error_mm = 0;  // reach * max over sweeps of max |a(u) - a*|
+  // Consecutive sweeps cut by one tool, in track order: sweeps [first, first + count) by tools[tool] (one run for a
+  // single tool).
+  struct Run {
+    int tool = 0;
+    std::size_t first = 0, count = 0;
+  };
+  std::vector<Run> runs;
 };
 
 // Bound on the Hausdorff distance between the volume a tool sweeps while its axis turns by phi_rad (about the tip,
@@ -76,5 +87,11 @@ double orientation_error_bound_mm(const Tool& tool, double phi_rad);
 // Throws core::Error for tracks whose shapes disagree, a zero or non-finite axis, an axis turning by 90 degrees or
 // more between two samples, or an interval needing more than 1e6 orientation sub-steps at this tolerance.
 TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const TrackOptions& options = {});
+
+// A track cut by several tools (PoseTrack::tool): each run of samples with one tool becomes its own track, from the
+// sample before the run (where the previous tool left the axes) to the run's last, and its sweeps are that tool's,
+// within the same tolerance. Sweeps and runs stay in track order. Without PoseTrack::tool, tools[0] cuts it all
+// (exactly the single-tool sweeps). Throws core::Error when a sample's tool index is not one of `tools`.
+TrackSweeps sweeps_from_track(const std::vector<Tool>& tools, const PoseTrack& track, const TrackOptions& options = {});
 
 }  // namespace vmsim::removal

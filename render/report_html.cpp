@@ -694,8 +694,9 @@ std::string rest_html(Page& p, const std::set<std::string>& always_skip = {}) {
 // The marks as `vmsim run` and `vmsim compare` write them.
 std::string marks_table(const json& marks) {
   std::vector<std::vector<std::string>> rows;
-  bool along = false, extent = false, area = false, width = false, vertical = false;
+  bool along = false, extent = false, area = false, width = false, vertical = false, tool = false;
   for (const auto& m : marks) {
+    tool |= m.contains("tool");
     along |= m.contains("along_mm") || m.contains("along_path_mm");
     width |= m.contains("width_mm");
     extent |= m.contains("x_extent_mm");
@@ -709,8 +710,10 @@ std::string marks_table(const json& marks) {
   if (width) head.push_back("width across the path");
   if (along) head.push_back("length along the path");
   if (area) head.push_back("area");
+  if (tool) head.push_back("tool");
   std::vector<bool> numeric(head.size(), true);
   numeric[1] = false;
+  if (tool) numeric.back() = false;
   int k = 0;
   for (const auto& m : marks) {
     std::vector<std::string> row = {std::to_string(++k), plain(at(m, "kind")), um_from_mm(at(m, "depth_mm")),
@@ -727,6 +730,7 @@ std::string marks_table(const json& marks) {
     if (area)
       row.push_back(at(m, "area_mm2").is_number() ? data(m["area_mm2"], num(m["area_mm2"].get<double>(), 4) + " mm²")
                                                   : plain(at(m, "area_mm2")));
+    if (tool) row.push_back(plain(at(m, "tool")));
     rows.push_back(row);
   }
   return table(head, rows, numeric);
@@ -776,6 +780,35 @@ void motion_charts(Page& p) {
   axes.emplace_back("images/currents.png", "Motor currents (mean and peak per Te) with the drives' current limit");
   s += p.figures(axes);
   p.section("motion", "Contour error, feed and axes", s);
+}
+
+// report.json "tools": which tool cut what (issue 24), one row per tool.
+void tools_section(Page& p) {
+  const json& tools = get(p.report(), {"tools", "list"});
+  if (!tools.is_array() || tools.empty()) return;
+  p.shown("tools");
+  bool timed = false, numbered = false;
+  for (const auto& t : tools) timed |= t.contains("time_s"), numbered |= t.contains("number");
+  std::vector<std::string> head = {"tool",   "type",       "diameter", "corner radius", "flute length",
+                                   "length", "moves",      "feed moves", "sweeps"};
+  if (timed) head.push_back("time");
+  if (numbered) head.push_back("T number");
+  std::vector<bool> numeric(head.size(), true);
+  numeric[0] = numeric[1] = false;
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& t : tools) {
+    std::vector<std::string> row = {plain(at(t, "tool")),        plain(at(t, "type")),         mm(at(t, "diameter_mm")),
+                                    mm(at(t, "corner_radius_mm")), mm(at(t, "flute_length_mm")), mm(at(t, "length_mm")),
+                                    plain(at(t, "moves")),       plain(at(t, "feed_moves")),   plain(at(t, "sweeps"))};
+    if (timed) row.push_back(seconds(at(t, "time_s")));
+    if (numbered) row.push_back(plain(at(t, "number")));
+    rows.push_back(row);
+  }
+  p.section("tools", "Tools",
+            "<p>The tools that cut, from " + plain(get(p.report(), {"tools", "source"})) +
+                ": each move is cut by the tool in the spindle; time is on the setpoints. A mark's tool is the one "
+                "whose sweep made the surface at its deepest point.</p>\n" +
+                table(head, rows, numeric));
 }
 
 void run_page(Page& p) {
@@ -830,6 +863,7 @@ void run_page(Page& p) {
     }
     p.section("marks", "Marks", s);
   }
+  tools_section(p);
 
   std::string dev;
   if (std::isfinite(lo) && std::isfinite(hi)) {

@@ -106,6 +106,7 @@ std::optional<std::string> use_program_tool(core::Job& job) {
   const core::ToolPath tp = read_job_program(job);
   const double d = tp.tool_diameter_mm, r = tp.tool_corner_radius_mm;
   if (tp.tool_line == 0 || !(d > 0)) return std::nullopt;
+  if (!job.tools.empty()) return std::nullopt;  // [[tools]]: the job describes every tool itself
   if (job.tool_given) {
     // The job's tool cuts; say so when the program names another (a stand-in, or a tool change the job ignores).
     if (std::abs(job.tool.diameter_mm - d) <= 1e-6 && std::abs(job.tool.corner_radius_mm - r) <= 1e-6)
@@ -131,6 +132,7 @@ std::optional<std::string> use_program_tool(core::Job& job) {
   t.flute_length_mm = tp.tool_length_mm > 0 ? tp.tool_length_mm : 2 * d;
   t.length_mm = std::max(50.0, t.flute_length_mm);
   job.tool = t;
+  job.tool_from_program = fmt::format("{}:{}", job.program_file.string(), tp.tool_line);
   return fmt::format("{}:{}: the job has no [tool]: the program's {} D{:.4g} R{:.4g} mm, flute length {:.4g} mm",
                      job.program_file.string(), tp.tool_line, kind, d, t.corner_radius_mm, t.flute_length_mm);
 }

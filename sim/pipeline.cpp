@@ -4,6 +4,7 @@
 
 #include "sim/job_program.hpp"
 #include "sim/tool_poses.hpp"
+#include "sim/tools.hpp"
 #include "core/arc.hpp"
 #include "core/csv.hpp"
 #include "core/error.hpp"
@@ -22,6 +23,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 namespace vmsim::sim {
@@ -48,6 +50,7 @@ Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core:
   Motion m;
   auto t0 = Clock::now();
   m.program = read_job_program(job);
+  (void)move_tools(job, m.program);  // a tool the job does not describe fails here, before any motion is computed
   m.timings["read_program"] = seconds_since(t0);
   if (kind == core::RemovalSpec::Motion::Program) return m;
   t0 = Clock::now();
@@ -105,22 +108,40 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
     // A five-axis program: tool tip and axis along the programmed moves (app/tool_poses.hpp), sampled within a tenth
     // of the track tolerance as the arcs below are.
     const auto kin = motion::make_kinematics(job.machine);
-    return program_pose_track(m.program, motion::toolpath_in_axis_space(m.program, job.machine), *kin, job.machine,
-                              removal::make_tool(job.tool), 0.1 * track_tolerance(job, true));
+    // Sampled for the farthest-reaching tool; its poses carry no move index, so it is cut by one tool only.
+    const std::vector<removal::Tool> tools = cutting_tools(job);
+    const auto far = std::max_element(tools.begin(), tools.end(),
+                                      [](const auto& a, const auto& b) { return a.reach() < b.reach(); });
+    removal::PoseTrack five = program_pose_track(m.program, motion::toolpath_in_axis_space(m.program, job.machine),
+                                                 *kin, job.machine, *far, 0.1 * track_tolerance(job, true));
+    if (!job.tools.empty()) {
+      const std::vector<int> per_move = move_tools(job, m.program);
+      if (std::adjacent_find(per_move.begin(), per_move.end(), std::not_equal_to<>()) != per_move.end())
+        throw core::Error(job.file.string() +
+                          ": motion = \"program\" on a five-axis program with tool changes is not supported (the "
+                          "programmed track carries no move per pose); use motion = \"setpoints\" or \"actual\"");
+      five.tool.assign(static_cast<std::size_t>(five.tip_mm.rows()), per_move.empty() ? 0 : per_move.front());
+    }
+    return five;
   }
   if (kind == core::RemovalSpec::Motion::Program) {
     // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
     // tenth of the track tolerance (the kernel's sweeps are exact between points).
     std::vector<Eigen::Vector3d> pts;
+    // Each point's tool: its move's (the first point, the first move's start, too).
+    const std::vector<int> per_move = job.tools.empty() ? std::vector<int>{} : move_tools(job, m.program);
     if (!m.program.moves.empty()) pts.push_back(m.program.moves.front().start.head<3>());
-    for (const core::Move& mv : m.program.moves) {
+    if (!per_move.empty()) tr.tool.push_back(per_move.front());
+    for (std::size_t mi = 0; mi < m.program.moves.size(); ++mi) {
+      const core::Move& mv = m.program.moves[mi];
       if (mv.kind == core::MotionKind::Line) {
         pts.push_back(mv.end.head<3>());
-        continue;
+      } else {
+        const core::ArcFrame arc = core::arc_frame(mv, m.program.source_path);
+        const int n = arc.chords(0.1 * job.removal.track_tolerance_mm);
+        for (int k = 1; k <= n; ++k) pts.push_back(arc.point_at(double(k) / n).head<3>());
       }
-      const core::ArcFrame arc = core::arc_frame(mv, m.program.source_path);
-      const int n = arc.chords(0.1 * job.removal.track_tolerance_mm);
-      for (int k = 1; k <= n; ++k) pts.push_back(arc.point_at(double(k) / n).head<3>());
+      if (!per_move.empty()) tr.tool.resize(pts.size(), per_move[mi]);
     }
     tr.tip_mm.resize(static_cast<Eigen::Index>(pts.size()), 3);
     for (std::size_t k = 0; k < pts.size(); ++k) tr.tip_mm.row(static_cast<Eigen::Index>(k)) = pts[k].transpose();
@@ -133,8 +154,10 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
   // Tool tip and axis per sample through the forward transform (a turning axis on five-axis machines). Between Te
   // samples of the actual motion the tip follows the cubic through both samples with the drives' velocities through
   // the chain's Jacobian (Cartesian machine: the X Y Z velocities).
-  return pose_track_from_axes(*kin, job.machine, axes, actual ? &m.response->velocity : nullptr, sp.period_s,
-                              [&](Eigen::Index k) { return tlo_at(m, k); });
+  removal::PoseTrack tr_axes = pose_track_from_axes(*kin, job.machine, axes, actual ? &m.response->velocity : nullptr,
+                                                    sp.period_s, [&](Eigen::Index k) { return tlo_at(m, k); });
+  tr_axes.tool = sample_tools(job, m, tr_axes.tip_mm.rows());
+  return tr_axes;
 }
 
 std::size_t Field::rays() const {
@@ -250,7 +273,8 @@ void fill_stock(Field& f, const core::Job& job, const std::optional<core::Triang
 
 }  // namespace
 
-std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+namespace {
+std::size_t cut_field_one_tool(Field& f, const std::vector<removal::SweptTool>& sweeps) {
   if (f.vdb) {
     f.part.cut(sweeps);
     return sweeps.size();
@@ -288,10 +312,29 @@ std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
   return static_cast<std::size_t>(std::count(reaches.begin(), reaches.end(), 1));
 }
 
+bool same_tool(const removal::Tool& a, const removal::Tool& b) {
+  return a.radius_mm == b.radius_mm && a.corner_radius_mm == b.corner_radius_mm && a.length_mm == b.length_mm;
+}
+}  // namespace
+
+std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+  // One kernel call per run of consecutive sweeps of one tool (a program with tool changes), in program order.
+  std::size_t a = 0, reach = 0;
+  while (a < sweeps.size()) {
+    std::size_t b = a + 1;
+    while (b < sweeps.size() && same_tool(sweeps[b].tool, sweeps[a].tool)) ++b;
+    if (a == 0 && b == sweeps.size()) return cut_field_one_tool(f, sweeps);  // one tool: no copy
+    reach += cut_field_one_tool(f, std::vector<removal::SweptTool>(sweeps.begin() + static_cast<std::ptrdiff_t>(a),
+                                                                   sweeps.begin() + static_cast<std::ptrdiff_t>(b)));
+    a = b;
+  }
+  return reach;
+}
+
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
   removal::TrackOptions topt;
   topt.tolerance_mm = track_tolerance(job, track_turns(tr));
-  return removal::sweeps_from_track(removal::make_tool(job.tool), tr, topt);
+  return removal::sweeps_from_track(cutting_tools(job), tr, topt);
 }
 
 Field final_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain, const Tile& tile) {

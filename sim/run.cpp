@@ -8,6 +8,7 @@
 #include "sim/axis_following.hpp"
 #include "sim/contour_stats.hpp"
 #include "sim/report.hpp"
+#include "sim/tools.hpp"
 
 #include <fmt/format.h>
 
@@ -247,8 +248,14 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
   report["reference"] = c.reference.name;
   if (job.gain_schedule_file) report["gain_schedule"] = job.gain_schedule_file->string();
   if (job.axis_models_file) report["axis_models"] = job.axis_models_file->string();
+  report["tools"] = tools_json(job, c);
+  // Each grid mark's tool: the one whose sweep made the surface at its deepest point (sim/tools.hpp says why).
+  const std::vector<int> mark_tool =
+      r.surface ? mark_tools(c, r.marks, *r.surface, c.field.vdb ? 0.5 * job.removal.voxel_mm : 1e-4)
+                : std::vector<int>(r.marks.size(), -1);
   nlohmann::json marks_json = nlohmann::json::array();
-  for (const metrology::Mark& m : r.marks) {
+  for (std::size_t k = 0; k < r.marks.size(); ++k) {
+    const metrology::Mark& m = r.marks[k];
     marks_json.push_back({{"depth_mm", m.depth_mm},
                           {"kind", m.overcut ? "overcut" : "undercut"},
                           {"x_mm", m.x_mm},
@@ -262,6 +269,7 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
       marks_json.back()["slope_deg"] = m.slope_rad * 180.0 / 3.14159265358979323846;
       marks_json.back()["steep_wall"] = m.steep_wall;
     }
+    if (mark_tool[k] >= 0) marks_json.back()["tool"] = tool_label(job, mark_tool[k]);
   }
   report["marks"] = marks_json;
   report["surface"] = surface_json;

@@ -33,7 +33,7 @@ TEST(NxClsfCli, InterpRunsTheVariableAxisFileOnTheHaas) {
 TEST(NxClsfCli, RunWarnsOfMissingUnitsAndSaysWhichToolCuts) {
   if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)";
   TempDir tmp;
-  // No program_units and no [tool]: the file is read as mm (a warning), its TLDATA/ ball cuts (said on stdout).
+  // No program_units and no [tool]: the file is read as mm (a warning), its TLDATA/ ball cuts (said on stderr).
   const fs::path job = tmp.path() / "bare.toml";
   write_file(job,
              "[job]\nmachine = '" + (fs::path(VMSIM_SOURCE_DIR) / "parts" / "machines" / "haas_umc750.toml").string() +
@@ -46,11 +46,17 @@ TEST(NxClsfCli, RunWarnsOfMissingUnitsAndSaysWhichToolCuts) {
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   EXPECT_NE(r.err.find("vmsim: warning: "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("no UNITS/ record and no [job] program_units"), std::string::npos) << r.err;
-  EXPECT_NE(r.out.find("tool: "), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("APT_Variable_Axis.txt:2: the job has no [tool]: the program's ball D1 R0.5 mm"),
+  EXPECT_NE(r.err.find("tool: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("APT_Variable_Axis.txt:2: the job has no [tool]: the program's ball D1 R0.5 mm"),
             std::string::npos)
-      << r.out;
+      << r.err;
   const nlohmann::json report = vmsim_test::read_json(tmp.path() / "out" / "report.json");
+  // report.json says the program's own tool cut (issue 24: on stderr and in the report).
+  ASSERT_TRUE(report.contains("tools")) << report.dump();
+  EXPECT_NE(report["tools"]["source"].get<std::string>().find("APT_Variable_Axis.txt:2"), std::string::npos)
+      << report["tools"].dump();
+  EXPECT_EQ(report["tools"]["list"][0]["type"], "ball");
+  EXPECT_DOUBLE_EQ(report["tools"]["list"][0]["diameter_mm"].get<double>(), 1.0);  // read as mm (no UNITS/)
   ASSERT_TRUE(report.contains("program_warnings"));
   EXPECT_EQ(report["program_warnings"].size(), 1u);
 }

@@ -344,6 +344,59 @@ TEST(Job, LoadsAValidJob) {
   EXPECT_DOUBLE_EQ(job.interp.tolerance_mm, 0.02);
 }
 
+// [[tools]] (issue 24): one per T number (or 840D name), in the job's order; each with the [tool] keys.
+TEST(Job, ToolsTableGivesOneToolPerNumber) {
+  const JobFiles f = job_files(
+      "[job]\nmachine = \"machine.toml\"\nprogram = \"part.apt\"\n"
+      "[[tools]]\nnumber = 2\ntype = \"flat\"\ndiameter_mm = 6.35\nflute_length_mm = 19.0\nlength_mm = 60.0\n"
+      "[[tools]]\nnumber = 1\ntype = \"bull\"\ndiameter_mm = 10.0\ncorner_radius_mm = 2.0\n"
+      "[[tools]]\nname = \"ENTFRAESER_D8\"\ntype = \"ball\"\ndiameter_mm = 8.0\n");
+  const Job job = load_job(f.job);
+  EXPECT_FALSE(job.tool_given);
+  ASSERT_EQ(job.tools.size(), 3u);
+  EXPECT_EQ(job.tools[0].number, 2);
+  EXPECT_EQ(job.tools[0].shape, ToolShape::Flat);
+  EXPECT_DOUBLE_EQ(job.tools[0].diameter_mm, 6.35);
+  EXPECT_DOUBLE_EQ(job.tools[0].corner_radius_mm, 0.0);
+  EXPECT_DOUBLE_EQ(job.tools[0].flute_length_mm, 19.0);
+  EXPECT_DOUBLE_EQ(job.tools[0].length_mm, 60.0);
+  EXPECT_EQ(job.tools[1].number, 1);
+  EXPECT_EQ(job.tools[1].shape, ToolShape::BullNose);  // "bull" is "bullnose"
+  EXPECT_DOUBLE_EQ(job.tools[1].corner_radius_mm, 2.0);
+  EXPECT_DOUBLE_EQ(job.tools[1].flute_length_mm, 20.0);  // default 2 x diameter
+  EXPECT_EQ(job.tools[2].number, -1);                    // by name only
+  EXPECT_EQ(job.tools[2].name, "ENTFRAESER_D8");
+  EXPECT_DOUBLE_EQ(job.tools[2].corner_radius_mm, 4.0);
+}
+
+TEST(Job, ToolsErrorsNameTheKeys) {
+  const std::string head = "[job]\nmachine = \"machine.toml\"\nprogram = \"part.apt\"\n";
+  const struct {
+    std::string body;
+    std::vector<std::string> expected;
+  } cases[] = {
+      // Both: the error names both tables.
+      {"[tool]\ntype = \"ball\"\ndiameter_mm = 6.0\n[[tools]]\nnumber = 1\ntype = \"ball\"\ndiameter_mm = 6.0\n",
+       {"job.toml:", "key 'tools'", "both [tool] and [[tools]]"}},
+      {"[[tools]]\ntype = \"ball\"\ndiameter_mm = 6.0\n", {"key 'tools[0].number'", "missing", "T number"}},
+      {"[[tools]]\nnumber = 1\ntype = \"ball\"\ndiameter_mm = 6.0\n[[tools]]\nnumber = 1\ntype = \"flat\"\n"
+       "diameter_mm = 3.0\n",
+       {"key 'tools[1].number'", "T1 is described twice"}},
+      {"[[tools]]\nnumber = -3\ntype = \"ball\"\ndiameter_mm = 6.0\n", {"key 'tools[0].number'", "found -3"}},
+      {"[[tools]]\nnumber = 1\ntype = \"ball\"\ndiameter_mm = 6.0\nall_tools = true\n",
+       {"unknown key 'tools[0].all_tools'"}},
+      {"[[tools]]\nnumber = 1\ntype = \"cone\"\ndiameter_mm = 6.0\n", {"key 'tools[0].type'"}},
+  };
+  for (const auto& c : cases) {
+    const std::string err = job_error(job_files(head + c.body));
+    for (const std::string& e : c.expected) EXPECT_NE(err.find(e), std::string::npos) << c.body << "\n -> " << err;
+  }
+  // [tool] all_tools = true: accepted there.
+  const Job job = load_job(job_files(head + "[tool]\ntype = \"flat\"\ndiameter_mm = 3.0\nall_tools = true\n").job);
+  EXPECT_TRUE(job.tool_all_numbers);
+  EXPECT_TRUE(job.tools.empty());
+}
+
 TEST(Job, OptionalTablesTakeTheirDefaults) {
   const JobFiles f = job_files("[job]\nmachine = \"machine.toml\"\nprogram = \"part.apt\"\n");
   const Job job = load_job(f.job);
