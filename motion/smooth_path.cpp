@@ -478,8 +478,15 @@ double corner_gain(const core::ToolPath& path, const PathPiece& a, const PathPie
   return g2 == 1.0 ? 1.0 : std::sqrt(g2);
 }
 
-// The path-space tolerance of a move: on chain machines a path-space step moves the tool tip by up to this gain.
-double move_gain(const core::Move& m) { return std::sqrt(m.tip_per_mm * m.tip_per_mm + m.tip_per_deg.squaredNorm()); }
+// How far the tool tip moves per unit of path-space length along a line piece (Move::tip_per_mm, tip_per_deg, the
+// latter only for the rotary axes the piece turns; Cauchy-Schwarz as corner_gain).
+double line_gain(const core::ToolPath& path, const PathPiece& p) {
+  const core::Move& m = path.moves[static_cast<std::size_t>(p.move_index)];
+  double g2 = m.tip_per_mm * m.tip_per_mm;
+  for (int r = 0; r < 3; ++r)
+    if (p.b[3 + r] != 0) g2 += m.tip_per_deg[r] * m.tip_per_deg[r];
+  return std::sqrt(g2);
+}
 
 // A line a tiny one can be merged into: a whole straight move (no via points) under the same tool and offset.
 bool mergeable(const core::ToolPath& path, const PathPiece& p, const PathPiece& q) {
@@ -510,7 +517,7 @@ void merge_tiny_lines(const core::ToolPath& path, double tiny_tip_mm, std::vecto
   for (std::size_t i = 0; i < base.size(); ++i) {
     PathPiece& p = base[i];
     const bool tiny = p.kind == PathPiece::Kind::Line &&
-                      p.length * move_gain(path.moves[static_cast<std::size_t>(p.move_index)]) < tiny_tip_mm;
+                      p.length * line_gain(path, p) < tiny_tip_mm;
     if (tiny && i + 1 < base.size() && mergeable(path, p, base[i + 1])) {
       PathPiece& n = base[i + 1];
       reshape_line(n, p.a, n.a + n.b);
