@@ -516,8 +516,7 @@ void merge_tiny_lines(const core::ToolPath& path, double tiny_tip_mm, std::vecto
   out_shift.reserve(base.size());
   for (std::size_t i = 0; i < base.size(); ++i) {
     PathPiece& p = base[i];
-    const bool tiny = p.kind == PathPiece::Kind::Line &&
-                      p.length * line_gain(path, p) < tiny_tip_mm;
+    const bool tiny = p.kind == PathPiece::Kind::Line && p.length * line_gain(path, p) < tiny_tip_mm;
     if (tiny && i + 1 < base.size() && mergeable(path, p, base[i + 1])) {
       PathPiece& n = base[i + 1];
       reshape_line(n, p.a, n.a + n.b);
