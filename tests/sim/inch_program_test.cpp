@@ -71,15 +71,15 @@ Eigen::MatrixXd xyz_columns(const Eigen::MatrixXd& m, const std::vector<std::str
   return out;
 }
 
-struct Run {
+struct JobRun {
   motion::InterpResult interp;
   Eigen::MatrixXd command, actual;  // X Y Z
 };
 
-Run run(const fs::path& job_file) {
+JobRun run_job(const fs::path& job_file) {
   const core::Job job = core::load_job(job_file);
   const sim::Chain chain(job);
-  Run r;
+  JobRun r;
   r.interp = chain.interpolate(sim::read_job_program(job));
   const drives::AxisResponse resp = chain.simulate(r.interp.setpoints);
   r.command = xyz_columns(r.interp.setpoints.position, r.interp.setpoints.axis_names);
@@ -104,8 +104,8 @@ TEST(InchProgram, FollowsTheSamePathInTheSameTimeAsInMm) {
   job = std::regex_replace(job, std::regex("\"corner_needles.csv\""), "\"" + kCorner + "corner_needles.csv\"");
   std::ofstream(dir / "job.toml") << job;
 
-  const Run mm = run(kCorner + "job_fast.toml");
-  const Run in = run(dir / "job.toml");
+  const JobRun mm = run_job(kCorner + "job_fast.toml");
+  const JobRun in = run_job(dir / "job.toml");
   fs::remove_all(dir);
   const double te = mm.interp.setpoints.period_s;
   std::printf("cycle time: mm %.4f s, inch %.4f s; blends %d / %d; stops %d / %d\n", mm.interp.stats.cycle_time_s,
