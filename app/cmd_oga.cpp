@@ -7,6 +7,7 @@
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "app/result_images.hpp"
+#include "app/tiled_run.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/output_dir.hpp"
@@ -142,6 +143,8 @@ sim::OgaJobOptions oga_options(const OgaArgs& args) {
     o.share.index = mpi_rank();
     o.share.count = mpi_size();
     o.share.combine = [](std::vector<double>& v) {
+      // Every rank meets first under the watchdog (a stopped rank is named), so the reduction itself cannot hang.
+      quiet_barrier("oga: the exchange of the fixed-pair search's results");
       MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
     };
   }

@@ -3,6 +3,7 @@
 #include "app/commands.hpp"
 #include "app/result_images.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "render/report_html.hpp"
 
 #include <fmt/format.h>
@@ -17,6 +18,8 @@ namespace vmsim::app {
 int run_render(const RenderArgs& args) {
   const auto t0 = std::chrono::steady_clock::now();
   const ImageOptions opt = image_options(args.images);
+  // DIR's lock while reading it and writing its pictures: a run replacing DIR meanwhile would mix two results.
+  const core::OutputLock lock(args.dir, "vmsim render");
   const ResultData data = load_results(args.dir);
   const std::filesystem::path out = args.out_dir.value_or(args.dir / "images");
   const std::vector<std::string> files = write_result_images(data, out, opt);

@@ -25,6 +25,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <sstream>
 
@@ -242,6 +243,25 @@ nlohmann::json recv_json(int source, int tag) {
   return nlohmann::json::parse(s);
 }
 
+// rank 0's answer to this worker's request, waited for under the watchdog (mpi_session.hpp watchdog_seconds): rank 0
+// answers within milliseconds (its main thread only polls), so a longer wait means it stopped.
+nlohmann::json recv_answer(int rank) {
+  const double limit_s = watchdog_seconds();
+  const auto t0 = Clock::now();
+  while (true) {
+    int flag = 0;
+    MPI_Iprobe(0, kTagToWorker, MPI_COMM_WORLD, &flag, MPI_STATUS_IGNORE);
+    if (flag) return recv_json(0, kTagToWorker);
+    if (seconds_since(t0) > limit_s)
+      throw core::Error(
+          fmt::format("rank {}: rank 0 did not answer within {:g} s at study: the next variation "
+                      "(stopped, or a stalled file system?); the job is ended (the limit: "
+                      "--watchdog-s, or VMSIM_WATCHDOG_S)",
+                      rank, limit_s));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
 // Variation i as a task for a rank; one whose overrides cannot be applied is `failed` (its row) instead.
 std::optional<nlohmann::json> prepare_task(const sim::Study& study, std::size_t i, const StudyArgs& args,
                                            sim::StudyResult& failed) {
@@ -295,10 +315,12 @@ std::string finished_line(std::size_t shown, std::size_t n, const sim::StudyVari
 
 // Ranks 1..N-1: ask rank 0 for a variation, run it, send its result with the next request, until told to stop.
 int worker_loop(int rank) {
+  // Test hook (tests/app/study_cli_test.cpp, README "What you can rely on"): this rank stops (SIGSTOP) at once.
+  if (const char* h = std::getenv("VMSIM_TEST_STOP_RANK"); h && std::atoi(h) == rank) std::raise(SIGSTOP);
   nlohmann::json msg = {{"rank", rank}};
   while (true) {
     send_json(msg, 0, kTagToCoordinator);
-    const nlohmann::json task = recv_json(0, kTagToWorker);
+    const nlohmann::json task = recv_answer(rank);
     if (task.contains("stop")) return 0;
     const sim::StudyResult r = run_variation(task, rank);
     msg = {{"rank", rank}, {"index", task.at("index")}, {"result", sim::result_to_json(r)}};
@@ -409,14 +431,31 @@ int run_study(const StudyArgs& args) {
   auto last_write = Clock::now();
   double write_s = 0;
   int remote_active = size - 1;
+  // Every worker asks for its first variation as it starts: one that has not within the watchdog's limit is named.
+  std::vector<char> heard(static_cast<std::size_t>(size), 0);
+  const double watchdog_s = size > 1 ? watchdog_seconds() : 0.0;
+  bool all_heard = size == 1;
   try {
     while (true) {
       bool busy = false;
+      if (!all_heard && seconds_since(t_start) > watchdog_s) {
+        std::string missing;
+        for (int r = 1; r < size; ++r)
+          if (!heard[static_cast<std::size_t>(r)]) missing += (missing.empty() ? "" : ", ") + std::to_string(r);
+        if (!missing.empty())
+          throw core::Error(
+              fmt::format("rank 0: rank {} did not reach study: the first request for a variation "
+                          "within {:g} s (stopped, or a stalled file system?); the job is ended (the "
+                          "limit: --watchdog-s, or VMSIM_WATCHDOG_S)",
+                          missing, watchdog_s));
+        all_heard = true;
+      }
       if (remote_active > 0) {
         // A worker's request (with the result of its last variation): its next variation, or stop.
         const std::optional<Request> req = poll_request(n);
         if (req) {
           busy = true;
+          heard[static_cast<std::size_t>(req->rank)] = 1;
           if (req->result) table.store(req->index - 1, *req->result);
           if (auto task = table.next_task()) {
             send_json(*task, req->rank, kTagToWorker);

@@ -37,6 +37,15 @@ void add_no_render(CLI::App* c, bool& flag, const std::string& what) { c->add_fl
 void add_image_size(CLI::App* c, std::string& size, const std::string& what) {
   c->add_option("--image-size", size, what);
 }
+// Under mpirun: how long a rank waits for the others at an exchange before the job is ended naming the ranks that did
+// not arrive (app/tiled_run.hpp); wins over VMSIM_WATCHDOG_S.
+void add_watchdog(CLI::App* c) {
+  c->add_option_function<double>(
+       "--watchdog-s", [](const double& s) { app::set_watchdog_seconds(s); },
+       "under mpirun: end the job when a rank has not reached an exchange within this many seconds (default: "
+       "VMSIM_WATCHDOG_S, else 3600)")
+      ->check(CLI::PositiveNumber);
+}
 void add_job(CLI::App* c, Path& job, const std::string& what = "job file (job.toml)") {
   c->add_option("JOB", job, what)->required()->check(CLI::ExistingFile);
 }
@@ -133,6 +142,7 @@ void add_run(CLI::App& cli, Commands& cmds) {
   c->add_option("--memory-per-rank-gb", a->memory_per_rank_gb,
                 "--plan: memory per rank (GB) to advise how many ranks or which spacing the job needs")
       ->check(CLI::PositiveNumber);
+  add_watchdog(c);
   cmds.push_back({c, [a] { return app::run_run(*a); }});
 }
 
@@ -149,6 +159,7 @@ void add_study(CLI::App& cli, Commands& cmds) {
                 "run.log)")
       ->check(CLI::IsMember({"all", "summary"}));
   c->add_flag("--quiet,-q", a->quiet, "no line per finished variation");
+  add_watchdog(c);
   cmds.push_back({c, [a] { return app::run_study(*a); }});
 }
 
@@ -332,6 +343,7 @@ void add_oga(CLI::App& cli, Commands& cmds) {
   c->add_option("--threads", a->threads, "OpenMP threads (default: all; the result does not depend on it)");
   add_no_render(c, a->no_render, "draw no charts (by default: PNG files in OUT/images)");
   add_image_size(c, a->image_size, "size of the charts, WIDTHxHEIGHT (default 1600x900)");
+  add_watchdog(c);
   cmds.push_back({c, [a] { return app::run_oga(*a); }});
 }
 

@@ -1,7 +1,11 @@
 #include "app/mpi_session.hpp"
 
+#include "core/error.hpp"
+
+#include <fmt/format.h>
 #include <mpi.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <string>
 
@@ -10,7 +14,8 @@ namespace {
 bool g_started = false;
 int g_rank = 0;
 int g_size = 1;
-thread_local bool t_single = false;  // inside an MpiSingleProcess on this thread
+thread_local bool t_single = false;
+double g_watchdog_option_s = 0;  // --watchdog-s; 0: not given  // inside an MpiSingleProcess on this thread
 
 // The launchers' own markers: Open MPI's mpirun, PMI-1/2 (MPICH's hydra, Slurm's srun) and PMIx.
 bool launched_by_mpi() {
@@ -49,6 +54,23 @@ std::string mpi_broadcast(const std::string& from_rank0) {
   s.resize(static_cast<std::size_t>(n));
   MPI_Bcast(s.data(), n, MPI_CHAR, 0, MPI_COMM_WORLD);
   return s;
+}
+
+double watchdog_seconds() {
+  if (g_watchdog_option_s > 0) return g_watchdog_option_s;
+  const char* v = std::getenv("VMSIM_WATCHDOG_S");
+  if (!v || !*v) return 3600.0;
+  char* end = nullptr;
+  const double s = std::strtod(v, &end);
+  if (end == v || *end != '\0' || !(s > 0) || !std::isfinite(s))
+    throw core::Error(fmt::format("VMSIM_WATCHDOG_S: expected a positive number of seconds, found \"{}\"", v));
+  return s;
+}
+
+void set_watchdog_seconds(double seconds) {
+  if (!(seconds > 0) || !std::isfinite(seconds))
+    throw core::Error(fmt::format("--watchdog-s: expected a positive number of seconds, found {}", seconds));
+  g_watchdog_option_s = seconds;
 }
 
 bool mpi_active() { return !t_single && g_started && g_size > 1; }

@@ -20,6 +20,12 @@ void mpi_abort_all(int exit_code);
 // Rank 0's string on every rank (a collective: every rank calls it); the string itself without MPI.
 std::string mpi_broadcast(const std::string& from_rank0);
 
+// The watchdog's limit (s) at the ranks' exchanges (app/tiled_run.hpp quiet_barrier): the command's --watchdog-s
+// (set_watchdog_seconds), else the environment variable VMSIM_WATCHDOG_S, else 3600. Throws core::Error on a value
+// that is not a positive number of seconds.
+double watchdog_seconds();
+void set_watchdog_seconds(double seconds);
+
 bool mpi_active();  // MPI was started and the world has more than one rank
 int mpi_rank();     // 0 without MPI
 int mpi_size();     // 1 without MPI

@@ -28,16 +28,6 @@ removal::Tile process_tile() {
   return removal::Tile{mpi_rank(), mpi_size()};
 }
 
-double watchdog_seconds() {
-  const char* v = std::getenv("VMSIM_WATCHDOG_S");
-  if (!v || !*v) return 3600.0;
-  char* end = nullptr;
-  const double s = std::strtod(v, &end);
-  if (end == v || *end != '\0' || !(s > 0) || !std::isfinite(s))
-    throw core::Error(fmt::format("VMSIM_WATCHDOG_S: expected a positive number of seconds, found \"{}\"", v));
-  return s;
-}
-
 void quiet_barrier(const char* stage) {
   if (!mpi_active()) return;
   const double limit_s = watchdog_seconds();
@@ -80,10 +70,10 @@ void quiet_barrier(const char* stage) {
       throw core::Error(
           rank == 0
               ? fmt::format("rank 0: rank {} did not reach {} within {:g} s (stopped, or a stalled file system?); "
-                            "the job is ended (the limit: VMSIM_WATCHDOG_S)",
+                            "the job is ended (the limit: --watchdog-s, or VMSIM_WATCHDOG_S)",
                             missing.empty() ? std::string("?") : missing, stage, limit_s)
               : fmt::format("rank {}: waited {:g} s at {} for the other ranks; the job is ended (the limit: "
-                            "VMSIM_WATCHDOG_S)",
+                            "--watchdog-s, or VMSIM_WATCHDOG_S)",
                             rank, limit_s, stage));
     }
     const timespec pause{0, 1000000};

@@ -56,12 +56,11 @@ void write_tile_manifest(const std::filesystem::path& dir, const std::string& jo
 
 // A barrier that sleeps (1 ms polls of MPI_Ibarrier) instead of spinning: a rank that finished its tile early, or
 // waits while rank 0 writes the outputs, leaves its core to the others (oversubscribed or loaded machines).
-// A watchdog bounds the wait (VMSIM_WATCHDOG_S seconds, default 3600): when a rank has not arrived by then (stopped
-// with kill -STOP, stuck on a stalled file system), every waiting rank throws core::Error naming STAGE, and rank 0's
-// names the ranks that never arrived; the error ends every rank (mpi_abort_all) instead of hanging the job.
+// A watchdog bounds the wait (watchdog_seconds(): --watchdog-s, VMSIM_WATCHDOG_S, default 3600 s): when a rank has not
+// arrived by then (stopped with kill -STOP, stuck on a stalled file system), every waiting rank throws core::Error
+// naming STAGE, and rank 0's names the ranks that never arrived; the error ends every rank (mpi_abort_all) instead of
+// hanging the job.
 void quiet_barrier(const char* stage = "the ranks' meeting point");
-// The watchdog's limit (s): VMSIM_WATCHDOG_S, or 3600. Throws core::Error on a value that is not a positive number.
-double watchdog_seconds();
 
 using core::peak_rss_bytes;  // core/timing.hpp
 using core::process_cpu_s;

@@ -12,6 +12,8 @@ struct AvailableMemory {
   std::string source;  // which figure set it, for messages: "MemAvailable", "cgroup v2 memory.max", ...
 };
 
+// Test hook: the environment variable VMSIM_TEST_AVAILABLE_BYTES, when set, is returned instead (a number of bytes;
+// anything else throws core::Error naming it), so tests can reach the guards' refusals on any machine.
 AvailableMemory available_memory();
 
 // "3.2 GB" / "640 MB": sizes in messages.

@@ -136,13 +136,46 @@ int rename2(const fs::path& from, const fs::path& to, unsigned flags) {
   return ::renameat2(AT_FDCWD, from.c_str(), AT_FDCWD, to.c_str(), flags) == 0 ? 0 : errno;
 }
 
+// Takes TARGET's lock (a hidden file beside it, never removed: removing it would let two runs lock two files) and
+// writes who holds it into the file; returns the descriptor, which holds the lock until closed. HINT ends the refusal.
+int lock_output_dir(const fs::path& target, std::string_view command, std::string_view hint) {
+  const fs::path lock_file = target.parent_path() / fmt::format(".{}.vmsim-lock", target.filename().string());
+  const int fd = ::open(lock_file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
+  if (fd < 0) throw Error(fmt::format("{}: cannot open the lock file: {}", lock_file.string(), std::strerror(errno)));
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    char holder[512] = {};
+    [[maybe_unused]] const ssize_t n = ::pread(fd, holder, sizeof holder - 1, 0);
+    ::close(fd);
+    std::string who(holder);
+    while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
+    if (err == EWOULDBLOCK)
+      throw Error(fmt::format("{}: another process is writing this output directory ({}); {}", target.string(),
+                              who.empty() ? "unknown" : who, hint));
+    throw Error(fmt::format("{}: cannot lock {}: {}", target.string(), lock_file.string(), std::strerror(err)));
+  }
+  const std::string me =
+      fmt::format("{} (pid {} on {}, since {})\n", command, static_cast<long>(::getpid()), hostname(), now_utc());
+  if (::ftruncate(fd, 0) != 0 || ::pwrite(fd, me.data(), me.size(), 0) != static_cast<ssize_t>(me.size())) {
+    // The lock holds without the note; only a second run's message loses the holder's name.
+  }
+  return fd;
+}
+
+// TARGET made absolute and normal, without a trailing slash ("out/" -> "out"), as the lock file is named from it.
+fs::path normal_target(const fs::path& target) {
+  std::error_code ec;
+  fs::path t = fs::absolute(target, ec).lexically_normal();
+  if (ec) throw Error(target.string() + ": cannot resolve the output directory: " + ec.message());
+  if (!t.has_filename()) t = t.parent_path();
+  return t;
+}
+
 }  // namespace
 
 OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals signals) {
   std::error_code ec;
-  fs::path t = fs::absolute(target, ec).lexically_normal();
-  if (ec) throw Error(target.string() + ": cannot resolve the output directory: " + ec.message());
-  if (!t.has_filename()) t = t.parent_path();  // "out/" -> "out"
+  const fs::path t = normal_target(target);
   require_utf8_path(t, "the output directory");
   if (t == t.root_path()) throw Error(t.string() + ": cannot be an output directory (vmsim replaces it whole)");
   // The current directory (or one holding it) cannot be swapped out from under the shell that stands in it.
@@ -161,31 +194,7 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals s
   fs::create_directories(parent, ec);
   if (ec) throw Error(parent.string() + ": cannot create the directory for " + target_.string() + ": " + ec.message());
 
-  // The lock: a hidden file beside the target, never removed (removing it would let two runs lock two files).
-  const fs::path lock_file = parent / fmt::format(".{}.vmsim-lock", target_.filename().string());
-  lock_fd_ = ::open(lock_file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
-  if (lock_fd_ < 0)
-    throw Error(fmt::format("{}: cannot open the lock file: {}", lock_file.string(), std::strerror(errno)));
-  if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
-    const int err = errno;
-    char holder[512] = {};
-    [[maybe_unused]] const ssize_t n = ::pread(lock_fd_, holder, sizeof holder - 1, 0);
-    ::close(lock_fd_);
-    lock_fd_ = -1;
-    std::string who(holder);
-    while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
-    if (err == EWOULDBLOCK)
-      throw Error(
-          fmt::format("{}: another process is writing this output directory ({}); wait for it to end or give "
-                      "another --out",
-                      target_.string(), who.empty() ? "unknown" : who));
-    throw Error(fmt::format("{}: cannot lock {}: {}", target_.string(), lock_file.string(), std::strerror(err)));
-  }
-  const std::string me =
-      fmt::format("{} (pid {} on {}, since {})\n", command, static_cast<long>(::getpid()), hostname(), now_utc());
-  if (::ftruncate(lock_fd_, 0) != 0 || ::pwrite(lock_fd_, me.data(), me.size(), 0) != static_cast<ssize_t>(me.size())) {
-    // The lock holds without the note; only a second run's message loses the holder's name.
-  }
+  lock_fd_ = lock_output_dir(target_, command, "wait for it to end or give another --out");
 
   try {
     if (fs::exists(target_, ec)) {
@@ -277,6 +286,17 @@ void OutputDir::commit() {
   // After the exchange the staging name holds the previous result; a failure here leaves it for the next run.
   std::error_code ec;
   fs::remove_all(staging_, ec);
+}
+
+OutputLock::OutputLock(const fs::path& dir, std::string_view command) {
+  const fs::path t = normal_target(dir);
+  std::error_code ec;
+  if (!fs::is_directory(t, ec)) throw Error(t.string() + ": is not a directory");
+  fd_ = lock_output_dir(t, command, "wait for it to end, then run this again");
+}
+
+OutputLock::~OutputLock() {
+  if (fd_ >= 0) ::close(fd_);
 }
 
 }  // namespace vmsim::core

@@ -42,6 +42,21 @@ class OutputDir {
   bool committed_ = false;
 };
 
+// DIR's lock alone, for a command that adds files to an existing result directory (vmsim render writes DIR/images
+// and DIR/report.html): while it is held, a run into DIR refuses, and it refuses while a run holds it (core::Error
+// naming the holder: command, pid, host, start time). Released by the destructor, or by the kernel when the process
+// dies.
+class OutputLock {
+ public:
+  OutputLock(const std::filesystem::path& dir, std::string_view command);
+  ~OutputLock();
+  OutputLock(const OutputLock&) = delete;
+  OutputLock& operator=(const OutputLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 // The marker file in every result directory OutputDir writes (hidden; what makes a later run replace it).
 inline constexpr const char* kOutputMarker = ".vmsim-output";
 

@@ -521,6 +521,10 @@ SmoothPathOptions smooth_path_options(const Limits6& lim, const InterpOptions& o
   sopt.axis_accel = lim.a;
   sopt.rapid_speed = lim.v.head<3>().minCoeff();
   sopt.feed_scale = options.feed_scale;
+  sopt.period_s = options.period_s;
+  sopt.axis_velocity = lim.v;
+  sopt.plan_accel_share = kAccelMargin;
+  sopt.plan_jerk_share = kJerkMargin;
   return sopt;
 }
 

@@ -478,6 +478,100 @@ double corner_gain(const core::ToolPath& path, const PathPiece& a, const PathPie
   return g2 == 1.0 ? 1.0 : std::sqrt(g2);
 }
 
+// How far the tool tip moves per unit of path-space length along a line piece (Move::tip_per_mm, tip_per_deg, the
+// latter only for the rotary axes the piece turns; Cauchy-Schwarz as corner_gain).
+double line_gain(const core::ToolPath& path, const PathPiece& p) {
+  const core::Move& m = path.moves[static_cast<std::size_t>(p.move_index)];
+  double g2 = m.tip_per_mm * m.tip_per_mm;
+  for (int r = 0; r < 3; ++r)
+    if (p.b[3 + r] != 0) g2 += m.tip_per_deg[r] * m.tip_per_deg[r];
+  return std::sqrt(g2);
+}
+
+// A line a tiny one can be merged into: a whole straight move (no via points) under the same tool and offset.
+bool mergeable(const core::ToolPath& path, const PathPiece& p, const PathPiece& q) {
+  if (p.kind != PathPiece::Kind::Line || q.kind != PathPiece::Kind::Line) return false;
+  const core::Move& a = path.moves[static_cast<std::size_t>(p.move_index)];
+  const core::Move& b = path.moves[static_cast<std::size_t>(q.move_index)];
+  return a.via.empty() && b.via.empty() && a.tool_number == b.tool_number &&
+         a.tool_length_offset_mm == b.tool_length_offset_mm && a.tcp == b.tcp;
+}
+
+// Moves line q so that it starts at `from` (or ends at `to`), keeping an inverse-time feed's duration.
+void reshape_line(PathPiece& q, const core::Vec6& from, const core::Vec6& to) {
+  const double old_length = q.length;
+  q.a = from;
+  q.b = to - from;
+  q.finalize();
+  if (q.feed_metric == PathPiece::FeedMetric::Path && old_length > 0) q.feed_limit *= q.length / old_length;
+}
+
+// Lines shorter than the tiny length merged into the next line (or, for the last, the previous one). shift[i] bounds
+// how far piece i now lies from the programmed path (path space): the merged line's length, summed over merges.
+void merge_tiny_lines(const core::ToolPath& path, double tiny_tip_mm, std::vector<PathPiece>& base,
+                      std::vector<double>& shift) {
+  std::vector<PathPiece> out;
+  std::vector<double> out_shift;
+  out.reserve(base.size());
+  out_shift.reserve(base.size());
+  for (std::size_t i = 0; i < base.size(); ++i) {
+    PathPiece& p = base[i];
+    const bool tiny = p.kind == PathPiece::Kind::Line && p.length * line_gain(path, p) < tiny_tip_mm;
+    if (tiny && i + 1 < base.size() && mergeable(path, p, base[i + 1])) {
+      PathPiece& n = base[i + 1];
+      reshape_line(n, p.a, n.a + n.b);
+      shift[i + 1] += shift[i] + p.length;
+      continue;
+    }
+    if (tiny && !out.empty() && mergeable(path, out.back(), p)) {
+      PathPiece& q = out.back();
+      reshape_line(q, q.a, p.a + p.b);
+      out_shift.back() += shift[i] + p.length;
+      continue;
+    }
+    out.push_back(std::move(p));
+    out_shift.push_back(shift[i]);
+  }
+  base.swap(out);
+  shift.swap(out_shift);
+}
+
+// Whether the kink between A (ending with jet ja) and B (starting with jb) is taken without a blend
+// (SmoothPathOptions::period_s): per axis, the velocity step at the fastest speed allowed there against what the
+// plan leaves of the axis' jerk and acceleration over one period.
+bool kink_within_limits(const PathPiece& A, const PathPiece& B, const PathJet& ja, const PathJet& jb,
+                        const SmoothPathOptions& o) {
+  const double te = o.period_s;
+  if (!(te > 0)) return false;
+  const core::Vec6 m = ja.t.cwiseAbs().cwiseMax(jb.t.cwiseAbs());  // the larger tangent component per axis
+  // Only where the rotary axes hold still: where they turn, a kink moves the tool tip through the chain's gains, and
+  // on the five-axis dome passing such kinks made the cycle 0.2 s longer (not understood yet): they keep their blends.
+  if (m.tail<3>().maxCoeff() > 0) return false;
+  // The fastest path speed at the junction: the programmed feeds (X Y Z speed, the path speed when the rotary axes
+  // hold still), and every axis' velocity limit.
+  double v = kInf;
+  for (const PathPiece* p : {&A, &B})
+    if (p->feed_metric == PathPiece::FeedMetric::Xyz && m.tail<3>().maxCoeff() == 0) v = std::min(v, p->feed_limit);
+  // Largest path acceleration and jerk the plan can give here: each axis i carries m_i of them.
+  double a_path = kInf, j_path = kInf;
+  for (int i = 0; i < 6; ++i) {
+    if (m[i] <= 0) continue;
+    v = std::min(v, o.axis_velocity[i] / m[i]);
+    a_path = std::min(a_path, o.plan_accel_share * o.axis_accel[i] / m[i]);
+    j_path = std::min(j_path, o.plan_jerk_share * o.axis_jerk[i] / m[i]);
+  }
+  if (!std::isfinite(v)) return false;
+  // A velocity step dv between two setpoints gives one period an acceleration of at most dv / T and a jerk of at
+  // most dv / T^2 on top of the plan's.
+  for (int i = 0; i < 6; ++i) {
+    const double dv = v * std::abs(ja.t[i] - jb.t[i]);
+    if (dv == 0) continue;
+    if (!(dv <= (o.axis_jerk[i] - m[i] * j_path) * te * te)) return false;
+    if (!(dv <= (o.axis_accel[i] - m[i] * a_path) * te)) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions& options) {
@@ -487,6 +581,8 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   std::vector<PathPiece> base;
   base.reserve(path.moves.size());
   for (std::size_t i = 0; i < path.moves.size(); ++i) pieces_from_move(path, i, options.feed_scale, base);
+  std::vector<double> shift(base.size(), 0.0);
+  merge_tiny_lines(path, options.tiny_move_share * options.tolerance_mm, base, shift);
   if (base.empty()) return out;
   out.start = base.front().point_u(base.front().u_begin);
   out.end = base.back().point_u(base.back().u_end);
@@ -508,12 +604,17 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
     const PathJet ja = A.jet_s(A.length), jb = B.jet_s(0.0);
     const double cosang = std::clamp(ja.t.dot(jb.t), -1.0, 1.0);
     const double angle = std::acos(cosang);
-    const bool g1 = angle < 1e-9;
+    // Between lines only: at an arc the kink comes with a curvature jump, which the tangent rounding below handles.
+    const bool kink = angle >= 1e-9 && A.kind == PathPiece::Kind::Line && B.kind == PathPiece::Kind::Line &&
+                      kink_within_limits(A, B, ja, jb, options);
+    const bool g1 = angle < 1e-9 || kink;
     // The tolerance holds on the tool tip in the workpiece frame: on chain machines a path-space deviation moves it by
-    // up to corner_gain times as much (1 on "xyz" machines and wherever the rotary axes hold still).
+    // up to corner_gain times as much (1 on "xyz" machines and wherever the rotary axes hold still); a merged tiny
+    // line already moved A or B by up to its shift.
     const double gain = corner_gain(path, A, B);
-    double target = corner_target / gain;
-    if (angle < 1e-6) {
+    const double shifted = std::max(shift[i], shift[i + 1]);
+    double target = corner_target / gain - shifted;
+    if (angle < 1e-6 || kink) {
       // Tangent junction: a transition of length L bridging the curvature jump dK has a rate |dK| / L, so the axis
       // jerk v^3 |dK_i| / L stays within J_i for L >= v^3 |dK_i| / J_i; it then leaves the path by about
       // L^2 |dK| / 24 (a clothoid's shift). Twice that, within the tolerance, is all the rounding it gets: at low
@@ -528,7 +629,7 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
       double L = 0;
       for (int i = 0; i < 6; ++i)
         if (std::abs(dk[i]) > 0) L = std::max(L, v * v * v * std::abs(dk[i]) / options.axis_jerk[i]);
-      target = std::min(corner_target / gain, 2 * L * L * dk.norm() / 24);
+      target = std::min(corner_target / gain - shifted, 2 * L * L * dk.norm() / 24);
     }
     const bool g2 = g1 && (ja.k - jb.k).norm() < 1e-9;
     if (g2) {  // already curvature-continuous

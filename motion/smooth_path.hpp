@@ -79,6 +79,20 @@ struct SmoothPathOptions {
   // Corners sharper than this (angle between the tangents) are not blended: the axes stop there.
   double max_blend_angle_rad = 170.0 * 3.14159265358979323846 / 180.0;
   double feed_scale = 1.0;
+  // Kinks the axes take without a blend (a G20 program's last-digit rounding leaves direction changes of 1e-5 rad,
+  // which a blend would turn into a crawl through a corner): a junction is passed as it is when, at the fastest speed
+  // the feeds and the axis velocities allow there, the step of each axis' velocity across it (v |t_a,i - t_b,i|)
+  // fits within what the interpolator's plan leaves of that axis' jerk over one period (J_i - plan share T^2) and
+  // of its acceleration (A_i - plan share T). The programmed path is then followed exactly. period_s = 0: every
+  // kink is blended.
+  double period_s = 0.0;
+  core::Vec6 axis_velocity = core::Vec6::Constant(1e300);
+  double plan_accel_share = 1.0, plan_jerk_share = 1.0;  // shares of the axis limits the plan may use
+  // Lines shorter than tiny_move_share x tolerance (on the tool tip) are merged into a neighbouring line of the same
+  // tool: kept, each would be a corner of its own whose blends, limited to half its length, make the axes crawl
+  // (a G20 program's first point 1.7 um from a start given in mm). The path moves by at most the tiny line's length,
+  // which the blends beside it give up from their tolerance.
+  double tiny_move_share = 0.25;
 };
 
 struct SmoothPath {

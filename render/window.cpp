@@ -332,7 +332,7 @@ void check_size(int width, int height, const char* what) {
   if (need > avail.bytes)
     throw core::Error(
         fmt::format("{}: a {}x{} picture needs about {} while {} is available ({}); choose a smaller "
-                    "--image-size",
+                    "picture (--image-size of vmsim run, --size of vmsim render)",
                     what, width, height, core::format_bytes(need), core::format_bytes(avail.bytes), avail.source));
 }
 

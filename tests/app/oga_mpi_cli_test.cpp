@@ -63,3 +63,29 @@ TEST(OgaMpi, PairSearchOverRanksGivesTheOneProcessFiles) {
       EXPECT_EQ(rep[k], one[k]) << np << " ranks: " << k;
   }
 }
+
+// A rank that stops (the test hook VMSIM_TEST_STOP_RANK=1: rank 1 stops itself with SIGSTOP at its first exchange)
+// would hang the pair search: the watchdog (--watchdog-s 3) ends the job naming the rank and the exchange.
+TEST(OgaMpi, AStoppedRankIsNamedByTheWatchdog) {
+  TempDir tmp;
+  const fs::path d = tmp.path();
+  write_file(d / "short.ngc",
+             "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F3000\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
+             "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\nG1 X33.065263 Z1.983980\nM30\n");
+  write_file(d / "short.toml",
+             "[job]\nname = \"short\"\nmachine = \"" + std::string(VMSIM_SOURCE_DIR) +
+                 "/parts/machines/mikron_ucp710.toml\"\nprogram = \"short.ngc\"\nstart_mm = [-20.0, 0.0, "
+                 "0.0]\n\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n");
+  const std::string mpirun = std::string("env VMSIM_TEST_STOP_RANK=1 timeout 300 '") + VMSIM_MPIEXEC + "' " +
+                             VMSIM_MPIEXEC_NUMPROC_FLAG + " 2 --allow-run-as-root --oversubscribe";
+  std::string err;
+  const int code = cli(mpirun,
+                       "oga '" + (d / "short.toml").string() +
+                           "' --kp-grid 4:1:8 --kf-grid 0:0.25:1 --dk 0.25 --no-render --watchdog-s 3 --out '" +
+                           (d / "w").string() + "'",
+                       tmp, &err);
+  EXPECT_NE(code, 0);
+  EXPECT_NE(code, 124) << "timed out: the job hung";
+  EXPECT_NE(err.find("rank 1 did not reach oga: the exchange"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(d / "w"));
+}

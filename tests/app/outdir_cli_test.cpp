@@ -13,16 +13,19 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <random>
+#include <sstream>
 #include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "core/output_dir.hpp"
 #include "tests/app/cli_util.hpp"
 
 using vmsim_test::CliRun;
@@ -347,4 +350,244 @@ TEST(OutDirCli, WithoutOutACommandWritesNameCommandHere) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(tmp.path() / "scan_compare" / "report.json"));
   EXPECT_TRUE(fs::exists(tmp.path() / "plain_run" / "report.json"));  // the run's result is untouched
+}
+
+// `vmsim render DIR` holds DIR's lock (core::OutputLock) while it reads DIR and writes DIR/images: while another
+// process holds it (here this test, as a run writing DIR would), render is refused naming the holder and writes
+// nothing; once it is released, render draws. Reference: the lock's holder as this process wrote it.
+TEST(OutDirCli, RenderIsRefusedWhileAnotherProcessHoldsTheDirectory) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path b = write_job(tmp, "no_reference", false, 0.2);
+  CliRun r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  {
+    const vmsim::core::OutputLock held(out, "a test holding the lock");
+    const CliRun d = run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY ");
+    EXPECT_EQ(d.code, 2) << d.out;
+    EXPECT_NE(d.err.find(out.string()), std::string::npos) << d.err;
+    EXPECT_NE(d.err.find("another process is writing"), std::string::npos) << d.err;
+    EXPECT_NE(d.err.find("a test holding the lock (pid " + std::to_string(::getpid())), std::string::npos) << d.err;
+    EXPECT_FALSE(fs::exists(out / "images"));
+    // And a run into it is refused the same way.
+    r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("a test holding the lock"), std::string::npos) << r.err;
+  }
+  const CliRun d = run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY ");
+  EXPECT_EQ(d.code, 0) << d.err;
+  EXPECT_TRUE(fs::exists(out / "images" / "part.png")) << d.out;
+}
+
+// The memory guards of the X3P reader and of the pictures, reached through the test hook VMSIM_TEST_AVAILABLE_BYTES
+// (core::available_memory returns it instead of the machine's figure): a scan or a picture that needs more than is
+// available is refused before it is allocated, naming the file or the option, the bytes needed and the bytes
+// available. References: the reader's own 57 B per point and the pictures' 17 B per pixel (metrology/x3p.cpp,
+// render/window.cpp), against the X3P's point count read here from the run's report.
+TEST(OutDirCli, LargeScansAndPicturesAreRefusedAgainstTheAvailableMemory) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path b = write_job(tmp, "no_reference", false, 0.2);
+  CliRun r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+
+  // The run's surface X3P read by compare with 100 kB available.
+  const std::string scan = (out / "surface.x3p").string();
+  r = run_vmsim("compare -m " + q(scan) + " -p " + q(scan) + " --no-render --out " + q(tmp.path() / "cmp"), tmp,
+                "env VMSIM_TEST_AVAILABLE_BYTES=100000 ");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.err.find(scan), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("points need about"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("while 100 kB is available (VMSIM_TEST_AVAILABLE_BYTES"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(tmp.path() / "cmp"));
+  // With the machine's own figure it is read.
+  r = run_vmsim("compare -m " + q(scan) + " -p " + q(scan) + " --no-render --out " + q(tmp.path() / "cmp"), tmp);
+  EXPECT_EQ(r.code, 0) << r.err;
+
+  // A 4000 x 4000 picture needs 17 B x 16e6 = 272 MB; 200 MB available.
+  const CliRun d =
+      run_vmsim("render " + q(out) + " --size 4000x4000", tmp, "env -u DISPLAY VMSIM_TEST_AVAILABLE_BYTES=200000000 ");
+  EXPECT_EQ(d.code, 2) << d.out;
+  EXPECT_NE(d.err.find("4000x4000 picture needs about 272 MB while 200 MB is available"), std::string::npos) << d.err;
+  EXPECT_NE(d.err.find("--size"), std::string::npos) << d.err;
+  EXPECT_EQ(d.err.find("internal error"), std::string::npos) << d.err;
+  // And the hook refuses what is not a number of bytes.
+  const CliRun bad =
+      run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY VMSIM_TEST_AVAILABLE_BYTES=lots ");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("VMSIM_TEST_AVAILABLE_BYTES: expected a number of bytes"), std::string::npos) << bad.err;
+}
+
+namespace {
+
+// The processes whose parent is PID.
+std::vector<pid_t> children_of(pid_t pid) {
+  std::vector<pid_t> v;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string n = e.path().filename().string();
+    if (n.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream st(e.path() / "stat");
+    std::string line;
+    if (!std::getline(st, line)) continue;
+    const auto close = line.rfind(')');  // "pid (comm) state ppid ..."; comm may hold spaces
+    if (close == std::string::npos) continue;
+    std::istringstream rest(line.substr(close + 2));
+    char state = 0;
+    long ppid = 0;
+    rest >> state >> ppid;
+    if (ppid == pid) v.push_back(static_cast<pid_t>(std::stol(n)));
+  }
+  return v;
+}
+
+// The MPI rank of a process launched by mpirun (Open MPI's OMPI_COMM_WORLD_RANK in its environment), or -1.
+int rank_of(pid_t pid) {
+  const std::string env = slurp(fs::path("/proc") / std::to_string(pid) / "environ");
+  const std::string key = std::string("OMPI_COMM_WORLD_RANK=");
+  std::size_t k = 0;
+  while (k < env.size()) {
+    const std::size_t end = env.find('\0', k);
+    const std::string var = env.substr(k, end == std::string::npos ? std::string::npos : end - k);
+    if (var.rfind(key, 0) == 0) return std::atoi(var.c_str() + key.size());
+    if (end == std::string::npos) break;
+    k = end + 1;
+  }
+  return -1;
+}
+
+// mpirun -np 2 vmsim ARGS started without a shell; its pid.
+pid_t spawn_mpirun(const std::vector<std::string>& args, const TempDir& tmp, const std::string& tag) {
+  std::vector<std::string> all = {VMSIM_MPIEXEC,         VMSIM_MPIEXEC_NUMPROC_FLAG, "2",
+                                  "--allow-run-as-root", "--oversubscribe",          VMSIM_EXE};
+  all.insert(all.end(), args.begin(), args.end());
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, (tmp.path() / (tag + ".out")).c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&fa, 2, (tmp.path() / (tag + ".err")).c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, VMSIM_MPIEXEC, &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  return rc == 0 ? pid : -1;
+}
+
+// Waits for PID at most LIMIT_S seconds; false (and PID killed) when it had not ended by then.
+bool wait_bounded(pid_t pid, double limit_s, int* status) {
+  const auto t0 = std::chrono::steady_clock::now();
+  while (true) {
+    const pid_t w = waitpid(pid, status, WNOHANG);
+    if (w == pid) return true;
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > limit_s) {
+      kill(pid, SIGKILL);
+      waitpid(pid, status, 0);
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+}  // namespace
+
+// Rank 0 of a 2-rank tiled `vmsim run` (rank 0 owns --out: the lock, the staging directory, the swap) killed at random
+// moments, 20 times (SIGTERM and SIGKILL in turn), into a directory holding the previous complete result of another
+// job: after each kill the directory holds the previous result or the new one (file names and sizes as complete
+// 2-rank runs of each job leave them), mpirun and every rank end within 60 s (the watchdog, --watchdog-s 10, bounds a
+// rank left waiting), and the next run leaves nothing staged. Long (about a minute and a half here): run by `make
+// validate` (scripts/validate.sh), not by `make test`.
+TEST(OutDirCli, DISABLED_KilledRank0UnderMpirunLeavesThePreviousResultOrTheNewOne) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path jobs[2] = {write_job(tmp, "with_reference", true, 0.1), write_job(tmp, "no_reference", false, 0.2)};
+  auto args = [&](int j, const fs::path& dir) {
+    return std::vector<std::string>{"run", jobs[j].string(), "--quiet",   "--no-render", "--watchdog-s",
+                                    "10",  "--out",          dir.string()};
+  };
+  std::map<std::string, std::uintmax_t> snapshot[2];
+  double seconds[2];
+  for (int j = 0; j < 2; ++j) {
+    const fs::path ref = tmp.path() / ("ref" + std::to_string(j));
+    const auto t0 = std::chrono::steady_clock::now();
+    const pid_t pid = spawn_mpirun(args(j, ref), tmp, "ref");
+    ASSERT_GT(pid, 0);
+    int status = 0;
+    ASSERT_TRUE(wait_bounded(pid, 300, &status));
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(tmp.path() / "ref.err");
+    seconds[j] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    snapshot[j] = files_of(ref);
+  }
+  ASSERT_NE(snapshot[0].size(), snapshot[1].size());
+  {
+    int status = 0;
+    const pid_t pid = spawn_mpirun(args(0, out), tmp, "first");
+    ASSERT_TRUE(wait_bounded(pid, 300, &status));
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(tmp.path() / "first.err");
+  }
+  int holds = 0;
+  std::mt19937 rng(20261126);
+  int completed = 0, interrupted = 0;
+  double longest_end_s = 0;
+  const auto t_all = std::chrono::steady_clock::now();
+  for (int k = 0; k < 20; ++k) {
+    const int next = 1 - holds;
+    const int sig = k % 2 == 0 ? SIGTERM : SIGKILL;
+    const auto t0 = std::chrono::steady_clock::now();
+    const pid_t mpirun = spawn_mpirun(args(next, out), tmp, "killed");
+    ASSERT_GT(mpirun, 0);
+    // Rank 0 among mpirun's children (Open MPI starts local ranks itself), once it is there.
+    pid_t rank0 = -1;
+    std::vector<pid_t> ranks;
+    while (rank0 < 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 30) {
+      ranks = children_of(mpirun);
+      for (pid_t c : ranks)
+        if (rank_of(c) == 0) rank0 = c;
+      if (rank0 < 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_GT(rank0, 0) << "no rank 0 under mpirun";
+    // Anywhere from rank 0's start to a little past the end of a run.
+    const double delay_s = std::uniform_real_distribution<double>(0.0, 1.1 * seconds[next])(rng);
+    std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
+    const auto t_kill = std::chrono::steady_clock::now();
+    kill(rank0, sig);
+    int status = 0;
+    const bool ended = wait_bounded(mpirun, 60, &status);
+    const double end_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_kill).count();
+    longest_end_s = std::max(longest_end_s, end_s);
+    const std::string when = "kill " + std::to_string(k) + " (" + (sig == SIGTERM ? "SIGTERM" : "SIGKILL") +
+                             " to rank 0 after " + std::to_string(delay_s) + " s, mpirun's exit status " +
+                             std::to_string(status) + ")";
+    ASSERT_TRUE(ended) << when << ": mpirun did not end within 60 s (a rank hangs)";
+    for (pid_t c : ranks) {  // every rank has ended (mpirun reaped them)
+      const bool gone = kill(c, 0) != 0 && errno == ESRCH;
+      EXPECT_TRUE(gone) << when << ": rank process " << c << " is still there";
+    }
+    const bool finished = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    finished ? ++completed : ++interrupted;
+    expect_whole(out, when);
+    const auto now = files_of(out);
+    const bool is_prev = same_files(now, snapshot[holds]), is_new = same_files(now, snapshot[next]);
+    EXPECT_TRUE(is_prev || is_new) << when << ": neither the previous result nor the new one\n"
+                                   << slurp(tmp.path() / "killed.err");
+    if (is_new) holds = next;
+    if (sig == SIGTERM) {  // rank 0's own staging directory is gone
+      for (const std::string& n : leftovers(out))
+        EXPECT_EQ(n.find("staging-" + std::to_string(rank0) + "-"), std::string::npos) << when << ": " << n;
+    }
+  }
+  // The next run removes what the killed ones left.
+  int status = 0;
+  const pid_t pid = spawn_mpirun(args(1 - holds, out), tmp, "last");
+  ASSERT_TRUE(wait_bounded(pid, 300, &status));
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(tmp.path() / "last.err");
+  EXPECT_TRUE(same_files(files_of(out), snapshot[1 - holds]));
+  const auto left = leftovers(out);
+  EXPECT_TRUE(left.empty()) << (left.empty() ? "" : left.front());
+  std::printf(
+      "%d of 20 runs cut short, %d finished before their signal; complete 2-rank runs %.1f s and %.1f s; "
+      "mpirun ended at most %.2f s after a kill; %.0f s for the 20 kills\n",
+      interrupted, completed, seconds[0], seconds[1], longest_end_s,
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_all).count());
+  EXPECT_GE(interrupted, 5) << completed << " runs finished before their kill";
 }

@@ -472,3 +472,32 @@ feed_scale = [0.5, 1, 2]
   }
   EXPECT_EQ(axes, 5);
 }
+
+// A worker rank that stops (the test hook VMSIM_TEST_STOP_RANK=1: rank 1 stops itself with SIGSTOP as it starts)
+// never asks for a variation: the watchdog (--watchdog-s 3) ends the study naming the rank and the exchange, instead
+// of waiting for it for ever.
+TEST(StudyCli, AStoppedWorkerIsNamedByTheWatchdog) {
+  TempDir tmp("vmsim_study_");
+  const fs::path root = tmp.path();
+  make_layout(root);
+  write(root / "studies" / "two.toml", R"([study]
+job = "../part/job.toml"
+
+[common]
+removal.spacing_mm = 0.5
+
+[[variation]]
+name = "base"
+
+[[variation]]
+name = "slow"
+feed_scale = 0.5
+)");
+  const CliRun r = cli("env VMSIM_TEST_STOP_RANK=1 timeout 300 " + fmt_mpirun(2),
+                       "study studies/two.toml --out out --watchdog-s 3", root, tmp);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.code, 124) << "timed out: the study hung";
+  EXPECT_NE(r.err.find("rank 1 did not reach study: the first request for a variation within 3 s"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(root / "out"));
+}

@@ -293,3 +293,20 @@ TEST(TiledRunCli, PlanStatesTheFieldTheRunMakes) {
   EXPECT_TRUE(p.contains("advice"));
   EXPECT_GE(p["advice"]["ranks_gathered"].get<int>(), 1);
 }
+
+// --watchdog-s sets the same limit and wins over VMSIM_WATCHDOG_S (an hour here, which would hang the test): the
+// stopped rank is named within seconds, the message names the option.
+TEST(TiledRunCli, WatchdogOptionWinsOverTheVariable) {
+  TempDir tmp("vmsim_tiled_");
+  const fs::path job = plane_cylinder_job(tmp.path());
+  std::string err;
+  const int code = run_vmsim(
+      2, "run '" + job.string() + "' -q --no-render --watchdog-s 3 --out '" + (tmp.path() / "w").string() + "'",
+      tmp.path() / "w.log", &err, "env VMSIM_WATCHDOG_S=3600 VMSIM_TEST_STOP_RANK=1 ");
+  EXPECT_NE(code, 0);
+  EXPECT_NE(code, 124) << "timed out: the option did not win over the variable";
+  EXPECT_NE(err.find("rank 1 did not reach the gathering of the tiles"), std::string::npos) << err;
+  EXPECT_NE(err.find("within 3 s"), std::string::npos) << err;
+  EXPECT_NE(err.find("--watchdog-s"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(tmp.path() / "w"));
+}

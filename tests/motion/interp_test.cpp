@@ -361,3 +361,73 @@ TEST(Interp, RandomPathsKeepEveryLimitAndTheTolerance) {
   std::printf("worst limit ratio %.6f, worst deviation / tolerance %.4f, %d of %d paths needed a repair pass\n",
               worst_ratio, worst_dev, nrep, kPaths);
 }
+
+// Tiny moves and kinks (issue 18: a G20 program's last-digit rounding). A direction change whose velocity step, at
+// the fastest speed allowed there, fits within the axes' jerk over one period (SmoothPathOptions::period_s) is passed
+// as it is: no blend, no stop, the programmed lines followed exactly. Reference: the straight line of the same length
+// (the cycle time within one period) and the programmed geometry.
+TEST(Interp, KinkWithinOnePeriodsJerkIsPassedWithoutABlend) {
+  const Machine mc = mikron();
+  const double kink_rad = 5e-6, feed = 10000;  // 166.7 mm/s: the Y velocity step 0.8 um/s, J_Y T^2 = 10 um/s
+  ToolPath kinked, straight;
+  kinked.moves.push_back(line(xyz(0, 0, 0), xyz(50, 0, 0), feed));
+  kinked.moves.push_back(line(xyz(50, 0, 0), xyz(50 + 50 * std::cos(kink_rad), 50 * std::sin(kink_rad), 0), feed));
+  straight.moves.push_back(line(xyz(0, 0, 0), xyz(100, 0, 0), feed));
+  InterpOptions opt;
+  opt.tolerance_mm = 0.02;
+  const InterpResult r = interpolate(kinked, mc, opt), s = interpolate(straight, mc, opt);
+  EXPECT_EQ(r.stats.blends, 0);
+  EXPECT_EQ(r.stats.exact_stops, 0);
+  EXPECT_LE(std::abs(r.stats.cycle_time_s - s.stats.cycle_time_s), opt.period_s);
+  EXPECT_LT(max_deviation(r.setpoints, kinked), 1e-9);
+  EXPECT_LE(limit_ratio(r.setpoints, mc).worst_ratio, 1.0 + 1e-6) << limit_ratio(r.setpoints, mc).where;
+}
+
+// Real small corners keep their blends (the kink rule does not flatten them): at 10 m/min a 0.01 deg corner's Y
+// velocity step is 29 um/s, three times J_Y T^2; the excursion stays within the tolerance and the limits hold.
+TEST(Interp, SmallRealCornersAreStillBlendedWithinTolerance) {
+  const Machine mc = mikron();
+  for (const double deg : {0.01, 0.5, 2.0}) {
+    const double a = deg * kPi / 180;
+    ToolPath tp;
+    tp.moves.push_back(line(xyz(0, 0, 0), xyz(50, 0, 0), 10000));
+    tp.moves.push_back(line(xyz(50, 0, 0), xyz(50 + 50 * std::cos(a), 50 * std::sin(a), 0), 10000));
+    InterpOptions opt;
+    opt.tolerance_mm = 0.02;
+    const InterpResult r = interpolate(tp, mc, opt);
+    EXPECT_EQ(r.stats.blends, 1) << deg;
+    EXPECT_EQ(r.stats.exact_stops, 0) << deg;
+    const double dev = max_deviation(r.setpoints, tp);
+    EXPECT_LE(dev, opt.tolerance_mm) << deg;
+    // At 0.5 and 2 deg the blend is as large as the tolerance allows (half of each line would leave it).
+    if (deg >= 0.5) {
+      EXPECT_GT(dev, 0.5 * opt.tolerance_mm) << deg;
+    }
+    EXPECT_LE(limit_ratio(r.setpoints, mc).worst_ratio, 1.0 + 1e-6) << deg << " " << limit_ratio(r.setpoints, mc).where;
+  }
+}
+
+// A move far shorter than the tolerance (a G20 program's first point 1.7 um from a start given in mm) is merged into
+// the next line: no corner of its own, no crawl. Reference: the same program started at the tiny move's end.
+TEST(Interp, TinyMoveIsMergedWithoutACornerOrTime) {
+  const Machine mc = mikron();
+  const Vec6 p0 = xyz(0, 0, 0), p1 = xyz(1.26e-3, -1.12e-3, -0.04e-3);
+  ToolPath with, without;
+  with.initial_position = p0;
+  with.moves.push_back(line(p0, p1, 0, true));
+  for (ToolPath* tp : {&with, &without}) {
+    tp->moves.push_back(line(p1, p1 + xyz(0, 0, -20), 0, true));
+    tp->moves.push_back(line(p1 + xyz(0, 0, -20), p1 + xyz(0, 0, -22), 1000));
+    tp->moves.push_back(line(p1 + xyz(0, 0, -22), p1 + xyz(0, 75, -22), 10000));
+  }
+  without.initial_position = p1;
+  InterpOptions opt;
+  opt.tolerance_mm = 0.02;
+  const InterpResult r = interpolate(with, mc, opt), s = interpolate(without, mc, opt);
+  EXPECT_EQ(r.stats.blends, s.stats.blends);
+  EXPECT_EQ(r.stats.exact_stops, s.stats.exact_stops);
+  EXPECT_LE(std::abs(r.stats.cycle_time_s - s.stats.cycle_time_s), opt.period_s)
+      << r.stats.cycle_time_s << " vs " << s.stats.cycle_time_s;
+  EXPECT_LE(max_deviation(r.setpoints, with), opt.tolerance_mm);
+  EXPECT_LE(limit_ratio(r.setpoints, mc).worst_ratio, 1.0 + 1e-6) << limit_ratio(r.setpoints, mc).where;
+}
