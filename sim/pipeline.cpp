@@ -1,6 +1,7 @@
 // vmsim run's chain as callable stages (app/run_pipeline.hpp): the motion, its sweeps, the stock's field cut by
 // them, the reference field, and the surfaces read back.
 #include "sim/pipeline.hpp"
+#include "sim/cut_progress.hpp"
 
 #include "sim/job_program.hpp"
 #include "sim/tool_poses.hpp"
@@ -250,7 +251,9 @@ void fill_stock(Field& f, const core::Job& job, const std::optional<core::Triang
 
 }  // namespace
 
-std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) { return cut_field(f, sweeps, nullptr); }
+
+std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps, core::Progress* progress) {
   if (f.vdb) {
     f.part.cut(sweeps);
     return sweeps.size();
@@ -274,7 +277,23 @@ std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
     return reach;
   }
   if (f.tile.whole()) {
-    for (removal::DexelGrid* g : f.grids()) removal::cut(*g, sweeps);
+    if (!progress) {
+      for (removal::DexelGrid* g : f.grids()) removal::cut(*g, sweeps);
+      return sweeps.size();
+    }
+    // Batches of a few thousand sweeps: a report every second or so on long five-axis cuts, at a per-call cost (the
+    // footprints, the row blocks' set-up) far below the batch's.
+    constexpr std::size_t kBatch = 4096;
+    std::size_t done = 0;
+    for (removal::DexelGrid* g : f.grids()) {
+      for (std::size_t b = 0; b < sweeps.size(); b += kBatch) {
+        const std::size_t e = std::min(sweeps.size(), b + kBatch);
+        removal::cut(*g, std::vector<removal::SweptTool>(sweeps.begin() + static_cast<std::ptrdiff_t>(b),
+                                                         sweeps.begin() + static_cast<std::ptrdiff_t>(e)));
+        done += e - b;
+        progress->update(static_cast<double>(done));
+      }
+    }
     return sweeps.size();
   }
   // A tile: each grid's band of rows only with the sweeps that reach it.
