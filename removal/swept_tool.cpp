@@ -343,14 +343,19 @@ bool ray_interval_bull(const SweptTool& s, const Eigen::Vector3d& o, const Eigen
   Hull outer, in1, in2;
   ray_swept_disk(o, u, s.tip0, s.axis, R, L, s.d, outer);
   if (outer.empty()) return false;
-  ray_swept_disk(o, u, s.tip0, s.axis, rho, L, s.d, in1);
-  ray_swept_disk(o, u, s.tip0 + rc * s.axis, s.axis, R, hgt, s.d, in2);
-  Hull inner = in1;
-  if (!in2.empty()) inner.add(in2.lo), inner.add(in2.hi);
   const CoreDistance core(s, s.tip0 + rc * s.axis, rho, hgt);
   auto g = [&](double t) { return core(o + t * u) - rc; };
   double a = outer.lo, b = outer.hi;  // outer ends
   double ga = g(a), gb = g(b);
+  // Both outer ends on the body (a ray through the cylindrical side, most rays across a tilted tool): they are its.
+  if (ga <= 0 && gb <= 0) {
+    t0 = a, t1 = b;
+    return true;
+  }
+  ray_swept_disk(o, u, s.tip0, s.axis, rho, L, s.d, in1);
+  ray_swept_disk(o, u, s.tip0 + rc * s.axis, s.axis, R, hgt, s.d, in2);
+  Hull inner = in1;
+  if (!in2.empty()) inner.add(in2.lo), inner.add(in2.hi);
   double tin, gin;  // a point of the ray inside the swept body
   if (!inner.empty() && inner.hi - inner.lo > 1e-9) {
     tin = 0.5 * (inner.lo + inner.hi);
