@@ -445,7 +445,12 @@ void cut_block_general(DexelGrid& g, const SweptTool& sw, const Footprint& f, st
           ++c.bound;
           continue;
         }
-        if (!ray_interval(sw, g.ray_origin(i, j), W, t0, t1)) continue;
+        // The ray's material [bottom, top]: a bull-nose's end beyond it needs no refinement (swept_tool.hpp).
+        if (reference_bull_solver()
+                ? !ray_interval_reference(sw, g.ray_origin(i, j), W, t0, t1)
+                : !ray_interval_within(sw, g.ray_origin(i, j), W, std::isnan(h.lo) ? g.bottom(i, j) : double(h.lo),
+                                       std::isnan(h.lo) ? g.top(i, j) : double(h.hi), t0, t1))
+          continue;
         if (t1 <= 0 || t0 >= g.length() || t1 - t0 <= 1e-9) continue;  // zero-width contacts cut nothing
         g.subtract(i, j, t0, t1);
         ++c.cuts;

@@ -93,6 +93,12 @@ inline bool& replay_every_ray() {
   static bool all = false;
   return all;
 }
+// Tests: cut() and the needles' cut use ray_interval_reference (the bull-nose solver as it was), so that the tests of
+// the kernels' culls compare bit for bit with cut_reference; tests/removal/bull_nose_test.cpp compares the solvers.
+inline bool& reference_bull_solver() {
+  static bool ref = false;
+  return ref;
+}
 inline bool use_avx2() {
   static const bool cpu = __builtin_cpu_supports("avx2");
   return cpu && !generic_kernels_only();

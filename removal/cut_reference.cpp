@@ -97,7 +97,7 @@ CutStats cut_reference(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
           if (!std::isnan(h.lo) && (!(h.lo <= h.hi) || w1 <= h.lo || w0 >= h.hi)) continue;
           double t0, t1;
           ++tests;
-          if (!ray_interval(sw, grid.ray_origin(i, j), W, t0, t1)) continue;
+          if (!ray_interval_reference(sw, grid.ray_origin(i, j), W, t0, t1)) continue;
           if (t1 <= 0 || t0 >= grid.length() || t1 - t0 <= 1e-9) continue;  // zero-width contacts cut nothing
           grid.subtract(i, j, t0, t1);
           ++cuts;
@@ -145,7 +145,7 @@ CutStats cut_reference(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
       for (std::size_t s : cand) {
         double t0, t1;
         ++tests;
-        if (!ray_interval(sweeps[s], n.origin(k), n.direction(k), t0, t1)) continue;
+        if (!ray_interval_reference(sweeps[s], n.origin(k), n.direction(k), t0, t1)) continue;
         if (t1 <= 0 || t0 >= n.length(k) || t1 - t0 <= 1e-9) continue;
         n.store().subtract(k, t0, t1);
         ++cuts;

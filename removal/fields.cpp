@@ -1,6 +1,7 @@
 #include "removal/fields.hpp"
 
 #include "core/error.hpp"
+#include "removal/cut_internal.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -165,7 +166,9 @@ CutStats cut(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
         if ((sbw[s].hi.array() < mat.lo.array()).any() || (sbw[s].lo.array() > mat.hi.array()).any()) continue;
         double t0, t1;
         ++tests;
-        if (!ray_interval(sweeps[s], n.origin(k), n.direction(k), t0, t1)) continue;
+        if (!(detail::reference_bull_solver() ? ray_interval_reference : ray_interval)(sweeps[s], n.origin(k),
+                                                                                       n.direction(k), t0, t1))
+          continue;
         if (t1 <= 0 || t0 >= n.length(k) || t1 - t0 <= 1e-9) continue;  // zero-width contacts cut nothing
         n.store().subtract(k, t0, t1);
         ++cuts;

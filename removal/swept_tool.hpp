@@ -42,8 +42,20 @@ struct SweptTool {
 
 // The interval [t0, t1] of the ray o + t u (u unit) inside the swept volume, if any. Exact up to round-off for
 // ball-end and flat-end tools in every direction, and for bull-nose tools on rays parallel to their axis; a
-// bull-nose on other rays is solved numerically to within 1e-7 mm.
+// bull-nose on other rays is bracketed by three exact flat-end sweeps and its ends refined numerically to within
+// 1e-7 mm (swept_tool.cpp).
 bool ray_interval(const SweptTool& sweep, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0, double& t1);
+
+// ray_interval for a ray whose material lies within [w0, w1] along it: an end the kernel knows to lie beyond the
+// material (on the far side of it from the other end) may be returned anywhere further out, since subtracting either
+// interval leaves the ray the same. Spares a bull-nose's numerical refinement of such ends.
+bool ray_interval_within(const SweptTool& sweep, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double w0,
+                         double w1, double& t0, double& t1);
+
+// ray_interval with the bull-nose solver as it was before issue 24 (nested golden sections on every ray, ~100x
+// slower): the reference removal/cut_reference.cpp keeps for the tests.
+bool ray_interval_reference(const SweptTool& sweep, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0,
+                            double& t1);
 
 // Signed-distance-like inside test (reference for tests): the distance from p to the swept volume, <= 0 inside.
 double distance(const SweptTool& sweep, const Eigen::Vector3d& p);

@@ -1,6 +1,7 @@
 // vmsim run's chain as callable stages (app/run_pipeline.hpp): the motion, its sweeps, the stock's field cut by
 // them, the reference field, and the surfaces read back.
 #include "sim/pipeline.hpp"
+#include "sim/cut_progress.hpp"
 
 #include "sim/job_program.hpp"
 #include "sim/tool_poses.hpp"
@@ -274,7 +275,9 @@ void fill_stock(Field& f, const core::Job& job, const std::optional<core::Triang
 }  // namespace
 
 namespace {
-std::size_t cut_field_one_tool(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+// `done` counts the sweeps times grids cut so far over the whole field (the progress' total), across tool runs.
+std::size_t cut_field_one_tool(Field& f, const std::vector<removal::SweptTool>& sweeps, core::Progress* progress,
+                               std::size_t& done) {
   if (f.vdb) {
     f.part.cut(sweeps);
     return sweeps.size();
@@ -298,7 +301,22 @@ std::size_t cut_field_one_tool(Field& f, const std::vector<removal::SweptTool>& 
     return reach;
   }
   if (f.tile.whole()) {
-    for (removal::DexelGrid* g : f.grids()) removal::cut(*g, sweeps);
+    if (!progress) {
+      for (removal::DexelGrid* g : f.grids()) removal::cut(*g, sweeps);
+      return sweeps.size();
+    }
+    // Batches of a few thousand sweeps: a report every second or so on long five-axis cuts, at a per-call cost (the
+    // footprints, the row blocks' set-up) far below the batch's.
+    constexpr std::size_t kBatch = 4096;
+    for (removal::DexelGrid* g : f.grids()) {
+      for (std::size_t b = 0; b < sweeps.size(); b += kBatch) {
+        const std::size_t e = std::min(sweeps.size(), b + kBatch);
+        removal::cut(*g, std::vector<removal::SweptTool>(sweeps.begin() + static_cast<std::ptrdiff_t>(b),
+                                                         sweeps.begin() + static_cast<std::ptrdiff_t>(e)));
+        done += e - b;
+        progress->update(static_cast<double>(done));
+      }
+    }
     return sweeps.size();
   }
   // A tile: each grid's band of rows only with the sweeps that reach it.
@@ -317,15 +335,19 @@ bool same_tool(const removal::Tool& a, const removal::Tool& b) {
 }
 }  // namespace
 
-std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) {
+std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps) { return cut_field(f, sweeps, nullptr); }
+
+std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps, core::Progress* progress) {
   // One kernel call per run of consecutive sweeps of one tool (a program with tool changes), in program order.
-  std::size_t a = 0, reach = 0;
+  std::size_t a = 0, reach = 0, done = 0;
   while (a < sweeps.size()) {
     std::size_t b = a + 1;
     while (b < sweeps.size() && same_tool(sweeps[b].tool, sweeps[a].tool)) ++b;
-    if (a == 0 && b == sweeps.size()) return cut_field_one_tool(f, sweeps);  // one tool: no copy
-    reach += cut_field_one_tool(f, std::vector<removal::SweptTool>(sweeps.begin() + static_cast<std::ptrdiff_t>(a),
-                                                                   sweeps.begin() + static_cast<std::ptrdiff_t>(b)));
+    if (a == 0 && b == sweeps.size()) return cut_field_one_tool(f, sweeps, progress, done);  // one tool: no copy
+    reach += cut_field_one_tool(f,
+                                std::vector<removal::SweptTool>(sweeps.begin() + static_cast<std::ptrdiff_t>(a),
+                                                                sweeps.begin() + static_cast<std::ptrdiff_t>(b)),
+                                progress, done);
     a = b;
   }
   return reach;

@@ -1,4 +1,5 @@
 #include "sim/run.hpp"
+#include "sim/cut_progress.hpp"
 
 #include "core/error.hpp"
 #include "core/timing.hpp"
@@ -213,7 +214,10 @@ Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& pro
   c.track = track_of(c.motion, job, job.removal.motion);
   c.track_tolerance_mm = track_tolerance(job, track_turns(c.track));
   c.sweeps = sweeps_of(job, c.track);
-  c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps);
+  // The sweeps times the grids: cut_field reports them done, and the terminal turns that into the time left.
+  progress.stage(job.name + ": material removal",
+                 static_cast<double>(c.sweeps.sweeps.size() * std::max<std::size_t>(1, c.field.grids().size())));
+  c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps, &progress);
   progress.done();
   c.timings["removal"] = seconds_since(t0);
   c.timings["removal_cpu"] = process_cpu_s() - cpu0;  // every thread's CPU time

@@ -6,7 +6,9 @@
 // bound settles most evaluations), tools buried in the stock (material above the tool's top: the kernel's scalar
 // fallback and split rays), rays that already hold several intervals, and moves along a grid axis or almost along
 // the rays; blocks of rows cut in program order and lowest sweep first (order-free), and with the order-free pass's
-// replay of every ray. Also: the generic and AVX2 builds agree bit for bit, and 1 and 2 threads do.
+// replay of every ray. Also: the generic and AVX2 builds agree bit for bit, and 1 and 2 threads do. The comparisons
+// with the reference run the fast kernels with the reference's bull-nose solver (they test the culls and the order of
+// the cuts); the fast bull-nose solver is compared with it in bull_nose_test.cpp.
 #include "removal/cut_internal.hpp"
 #include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
@@ -213,9 +215,16 @@ CutStats cut_way(DexelGrid& g, const std::vector<SweptTool>& s, Way way) {
   return st;
 }
 
+// For a test's duration: the fast kernels solve a bull-nose on other rays as the reference does.
+struct ReferenceBullSolver {
+  ReferenceBullSolver() { detail::reference_bull_solver() = true; }
+  ~ReferenceBullSolver() { detail::reference_bull_solver() = false; }
+};
+
 }  // namespace
 
 TEST(CutEquivalence, ZmapEqualsTheReferenceKernelBitForBit) {
+  const ReferenceBullSolver solver;
   for (const Case& c : cases()) {
     for (const double h : {0.2, 0.0625}) {
       if (!c.fine && h < 0.2) continue;
@@ -250,6 +259,7 @@ TEST(CutEquivalence, ZmapEqualsTheReferenceKernelBitForBit) {
 }
 
 TEST(CutEquivalence, TridexelEqualsTheReferenceKernelBitForBit) {
+  const ReferenceBullSolver solver;
   for (const Case& c : cases()) {
     TriDexel fast = make_tridexel(kStock, 0.4), ref = make_tridexel(kStock, 0.4);
     DexelGrid* f[3] = {&fast.x, &fast.y, &fast.z};
@@ -265,6 +275,7 @@ TEST(CutEquivalence, TridexelEqualsTheReferenceKernelBitForBit) {
 }
 
 TEST(CutEquivalence, NeedlesEqualTheReferenceKernelBitForBit) {
+  const ReferenceBullSolver solver;
   // Needles 2 mm each side of points on and in the stock, in random directions (an N-buffer on a measurement grid).
   std::mt19937 rng(23);
   std::uniform_real_distribution<double> ux(0, 40), uy(0, 30), uz(4, 12), un(-1, 1);
