@@ -18,6 +18,9 @@
 #include <ctime>
 #include <cstdint>
 #include <fstream>
+#include <limits>
+#include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -245,11 +248,46 @@ std::vector<TileFigures> gather_tile_figures(const TileFigures& mine) {
   return all;
 }
 
+namespace {
+
+// The tile's reference with one row more on each side where a neighbouring rank holds it (NaN rows where none does):
+// the reference's slope (metrology::slope_of) takes central differences across the tile's edges as the whole grid
+// has them, so a tile's deviation along the normal is the whole run's, node for node. Bands follow the ranks' order.
+core::HeightGrid with_neighbour_rows(const core::HeightGrid& ref) {
+  const Eigen::Index nx = ref.nx(), ny = ref.ny();
+  core::HeightGrid out = ref;
+  out.y0_mm = ref.y0_mm - ref.dy_mm;
+  out.z_mm = core::HeightArray::Constant(ny + 2, nx, std::numeric_limits<double>::quiet_NaN());
+  out.z_mm.middleRows(1, ny) = ref.z_mm;
+  if (!mpi_active() || mpi_size() < 2 || ny == 0) return out;
+  constexpr int kTagDown = 7301, kTagUp = 7302;
+  const int rank = mpi_rank(), size = mpi_size();
+  const int before = rank > 0 ? rank - 1 : MPI_PROC_NULL, after = rank + 1 < size ? rank + 1 : MPI_PROC_NULL;
+  std::vector<double> first(static_cast<std::size_t>(nx)), last(first.size()), above(first.size(), NAN),
+      below(first.size(), NAN);
+  for (Eigen::Index i = 0; i < nx; ++i) first[i] = ref.z_mm(0, i), last[i] = ref.z_mm(ny - 1, i);
+  const int n = static_cast<int>(nx);
+  MPI_Sendrecv(last.data(), n, MPI_DOUBLE, after, kTagDown, above.data(), n, MPI_DOUBLE, before, kTagDown,
+               MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  MPI_Sendrecv(first.data(), n, MPI_DOUBLE, before, kTagUp, below.data(), n, MPI_DOUBLE, after, kTagUp, MPI_COMM_WORLD,
+               MPI_STATUS_IGNORE);
+  for (Eigen::Index i = 0; i < nx; ++i) out.z_mm(0, i) = above[i], out.z_mm(ny + 1, i) = below[i];
+  return out;
+}
+
+}  // namespace
+
 TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_name, const sim::Field& field,
                      const sim::Field* reference) {
   if (field.vdb || field.kind == core::RemovalSpec::Field::NBuffer)
     throw core::Error("--tiles-out writes each tile's height grid: it needs a z-map or tri-dexel field");
   const core::HeightGrid s = sim::surface_of(field);
+  // Every rank takes part in the exchange of edge rows before anything can fail on its own (a tile not written).
+  std::optional<core::HeightGrid> ref_rows;
+  if (reference) {
+    quiet_barrier("the exchange of the tiles' edge rows");
+    ref_rows = with_neighbour_rows(sim::surface_of(*reference));
+  }
   const removal::DexelGrid& g = field.kind == core::RemovalSpec::Field::TriDexel ? field.tri.z : field.zmap;
   TileFiles t;
   const int rank = mpi_rank();
@@ -269,10 +307,22 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
                             t.first_row, t.first_row + t.rows - 1);
   metrology::write_x3p(dir / t.surface, s, x3p);
   if (reference) {
-    const core::HeightGrid dev = metrology::deviation(s, sim::surface_of(*reference));
+    // Along the reference's normal, as the whole run's deviation (sim/run.cpp): the slope from the rows with the
+    // neighbours' edge rows, then only this tile's rows.
+    const core::HeightGrid ref = sim::surface_of(*reference);
+    const metrology::Slope wide = metrology::slope_of(*ref_rows);
+    metrology::Slope slope;
+    for (auto [from, to] :
+         {std::pair{&wide.slope_rad, &slope.slope_rad}, {&wide.normal_factor, &slope.normal_factor}}) {
+      *to = ref;
+      to->z_mm = from->z_mm.middleRows(1, ref.ny());
+    }
+    const core::HeightGrid dev = metrology::normal_deviation(metrology::deviation(s, ref), slope);
     t.deviation = fmt::format("tiles/deviation_{:04d}.x3p", rank);
-    x3p.comment = fmt::format("deviation of job {}, tile {} of {}: predicted - reference (negative: overcut)", job_name,
-                              rank, mpi_size());
+    x3p.comment = fmt::format(
+        "deviation of job {}, tile {} of {}: predicted - reference along the reference's normal "
+        "(negative: overcut)",
+        job_name, rank, mpi_size());
     metrology::write_x3p(dir / t.deviation, dev, x3p);
   }
   return t;

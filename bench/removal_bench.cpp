@@ -16,10 +16,10 @@
 // (make_zmap + fill_box, not in the timed region). The timed region is cut() alone. VMSIM_REMOVAL_HEIGHTS=prefix writes
 // the z-map's heights at x, y = 1..99 mm to prefix_<n>_t<threads>.xyz ("x y z" lines, the layout of the peer script's
 // .heights.xyz) for comparison with peer_envelope_grid.py's ref.xyz. Figures: bench/README.md.
-#include "core/interp.hpp"
+#include "motion/interp.hpp"
 #include "core/job.hpp"
-#include "core/kinematics.hpp"
-#include "core/program.hpp"
+#include "motion/kinematics.hpp"
+#include "program/program.hpp"
 #include "removal/cut_internal.hpp"
 #include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
@@ -197,17 +197,17 @@ const Flower& flower() {
     const std::filesystem::path job_file = std::filesystem::path(VMSIM_SOURCE_DIR) / "bench/flower_mold/job.toml";
     try {
       const vmsim::core::Job job = vmsim::core::load_job(job_file);
-      vmsim::core::ProgramOptions po;
+      vmsim::program::ProgramOptions po;
       po.tool_table = job.tool_table_file;
       po.no_motion_mcodes = job.no_motion_mcodes;
       if (job.start_mm) po.start_mm = std::array<double, 3>{job.start_mm->x(), job.start_mm->y(), job.start_mm->z()};
-      const vmsim::core::ToolPath program = vmsim::core::read_program(job.program_file, po);
-      vmsim::core::InterpOptions io;
+      const vmsim::core::ToolPath program = vmsim::program::read_program(job.program_file, po);
+      vmsim::motion::InterpOptions io;
       io.period_s = job.interp.period_s;
       io.tolerance_mm = job.interp.tolerance_mm;
-      const vmsim::core::InterpResult ir =
-          vmsim::core::interpolate(vmsim::core::toolpath_in_axis_space(program, job.machine), job.machine, io);
-      const auto kin = vmsim::core::make_kinematics(job.machine);
+      const vmsim::motion::InterpResult ir =
+          vmsim::motion::interpolate(vmsim::motion::toolpath_in_axis_space(program, job.machine), job.machine, io);
+      const auto kin = vmsim::motion::make_kinematics(job.machine);
       const vmsim::core::Setpoints& sp = ir.setpoints;
       r.track.period_s = sp.period_s;
       r.track.tip_mm.resize(sp.samples(), 3);
