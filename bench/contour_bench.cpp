@@ -11,7 +11,7 @@
 
 namespace {
 
-using namespace vmsim::core;
+using namespace vmsim::motion;
 
 struct Case {
   Eigen::MatrixXd command, actual;

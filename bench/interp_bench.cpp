@@ -14,6 +14,8 @@
 namespace {
 
 using namespace vmsim::core;
+using namespace vmsim::motion;
+using namespace vmsim::program;
 
 const std::filesystem::path kShared = VMSIM_SHARED_DIR;
 const std::filesystem::path kSource = VMSIM_SOURCE_DIR;

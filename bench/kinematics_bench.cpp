@@ -15,6 +15,7 @@
 namespace {
 
 using namespace vmsim::core;
+using namespace vmsim::motion;
 
 const std::filesystem::path kSource = VMSIM_SOURCE_DIR;
 constexpr double kDeg = std::numbers::pi / 180.0;
