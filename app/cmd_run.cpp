@@ -164,8 +164,14 @@ void print_summary(const core::Job& job, const sim::RunResult& r, const fs::path
   if (c.reference.field && r.marks.empty()) std::printf("marks: none deeper than 1 um\n");
   for (std::size_t k = 0; k < r.marks.size() && k < 5; ++k) {
     const metrology::Mark& m = r.marks[k];
-    std::printf("mark %zu: %s %.2f um at x %.3f y %.3f, %.3f x %.3f mm\n", k + 1, m.overcut ? "overcut " : "undercut",
-                m.depth_mm * 1e3, m.x_mm, m.y_mm, m.x_extent_mm, m.y_extent_mm);
+    // The depth is along the reference's normal; on a slope the vertical figure (what a height map shows) beside it.
+    const std::string vertical =
+        std::isfinite(m.depth_vertical_mm) && std::abs(m.depth_vertical_mm - m.depth_mm) > 5e-6
+            ? fmt::format(" along the normal ({:.2f} um vertically, on a {:.0f} deg slope{})",
+                          m.depth_vertical_mm * 1e3, m.slope_rad * 180.0 / M_PI, m.steep_wall ? ", a steep wall" : "")
+            : "";
+    std::printf("mark %zu: %s %.2f um%s at x %.3f y %.3f, %.3f x %.3f mm\n", k + 1, m.overcut ? "overcut " : "undercut",
+                m.depth_mm * 1e3, vertical.c_str(), m.x_mm, m.y_mm, m.x_extent_mm, m.y_extent_mm);
   }
   if (n_images > 0) std::printf("images: %s (%zu PNG files)\n", (dir / "images").string().c_str(), n_images);
   std::printf("wrote %s (%zu files) in %.1f s\n", dir.string().c_str(), n_files, seconds_since(t_start));
