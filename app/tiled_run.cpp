@@ -275,6 +275,15 @@ core::HeightGrid with_neighbour_rows(const core::HeightGrid& ref) {
   return out;
 }
 
+// The reference's slope on this tile's rows, taken with the neighbours' edge rows.
+metrology::Slope tile_slope(const core::HeightGrid& ref) {
+  const metrology::Slope wide = metrology::slope_of(with_neighbour_rows(ref));
+  metrology::Slope slope{ref, ref};
+  slope.slope_rad.z_mm = wide.slope_rad.z_mm.middleRows(1, ref.ny());
+  slope.normal_factor.z_mm = wide.normal_factor.z_mm.middleRows(1, ref.ny());
+  return slope;
+}
+
 }  // namespace
 
 TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_name, const sim::Field& field,
@@ -283,10 +292,12 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
     throw core::Error("--tiles-out writes each tile's height grid: it needs a z-map or tri-dexel field");
   const core::HeightGrid s = sim::surface_of(field);
   // Every rank takes part in the exchange of edge rows before anything can fail on its own (a tile not written).
-  std::optional<core::HeightGrid> ref_rows;
+  std::optional<core::HeightGrid> ref;
+  std::optional<metrology::Slope> slope;
   if (reference) {
     quiet_barrier("the exchange of the tiles' edge rows");
-    ref_rows = with_neighbour_rows(sim::surface_of(*reference));
+    ref = sim::surface_of(*reference);
+    slope = tile_slope(*ref);
   }
   const removal::DexelGrid& g = field.kind == core::RemovalSpec::Field::TriDexel ? field.tri.z : field.zmap;
   TileFiles t;
@@ -307,17 +318,8 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
                             t.first_row, t.first_row + t.rows - 1);
   metrology::write_x3p(dir / t.surface, s, x3p);
   if (reference) {
-    // Along the reference's normal, as the whole run's deviation (sim/run.cpp): the slope from the rows with the
-    // neighbours' edge rows, then only this tile's rows.
-    const core::HeightGrid ref = sim::surface_of(*reference);
-    const metrology::Slope wide = metrology::slope_of(*ref_rows);
-    metrology::Slope slope;
-    for (auto [from, to] :
-         {std::pair{&wide.slope_rad, &slope.slope_rad}, {&wide.normal_factor, &slope.normal_factor}}) {
-      *to = ref;
-      to->z_mm = from->z_mm.middleRows(1, ref.ny());
-    }
-    const core::HeightGrid dev = metrology::normal_deviation(metrology::deviation(s, ref), slope);
+    // Along the reference's normal, as the whole run's deviation (sim/run.cpp).
+    const core::HeightGrid dev = metrology::normal_deviation(metrology::deviation(s, *ref), *slope);
     t.deviation = fmt::format("tiles/deviation_{:04d}.x3p", rank);
     x3p.comment = fmt::format(
         "deviation of job {}, tile {} of {}: predicted - reference along the reference's normal "

@@ -106,7 +106,9 @@ struct Stretch {
   double sign = 0.0, v = 0.0, acc = 0.0, i = 0.0, sin_x = 0.0, cos_x = 0.0;
 };
 
-const char* gravity_name(GravityModel g) {
+}  // namespace
+
+const char* gravity_model_name(GravityModel g) {
   switch (g) {
     case GravityModel::Auto:
       return "auto";
@@ -119,8 +121,6 @@ const char* gravity_name(GravityModel g) {
   }
   return "?";
 }
-
-}  // namespace
 
 IdentifiedDrive identify_friction_inertia(const AxisTrace& tr, const IdentifyOptions& o) {
   const std::string& src = tr.source.empty() ? std::string("trace") : tr.source;
@@ -235,7 +235,7 @@ IdentifiedDrive identify_friction_inertia(const AxisTrace& tr, const IdentifyOpt
     throw fail(fmt::format(
         "gravity ({}) cannot be told from Coulomb friction with constant-velocity moves in one direction only "
         "({} positive, {} negative stretches): move the axis both ways, or fit without gravity",
-        gravity_name(g), out.stretches_positive, out.stretches_negative));
+        gravity_model_name(g), out.stretches_positive, out.stretches_negative));
   out.gravity = g;
   const int n_par = g == GravityModel::None ? 2 : g == GravityModel::Constant ? 3 : 4;
   if (out.stretches < n_par + 1)

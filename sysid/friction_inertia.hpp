@@ -53,6 +53,7 @@ enum class GravityModel {
   Constant,  // vertical axis: T_gravity constant
   Tilting,   // tilting table: T_gravity = G sin(angle - offset); needs positions
 };
+const char* gravity_model_name(GravityModel g);  // "auto", "none", "constant", "tilting"
 
 struct IdentifyOptions {
   double torque_constant_Nm_per_A = 0.0;  // Kt (> 0): from the motor's data sheet, not identifiable from currents

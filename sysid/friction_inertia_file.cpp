@@ -9,20 +9,6 @@
 
 namespace vmsim::sysid {
 
-const char* gravity_model_name(GravityModel g) {
-  switch (g) {
-    case GravityModel::Auto:
-      return "auto";
-    case GravityModel::None:
-      return "none";
-    case GravityModel::Constant:
-      return "constant";
-    case GravityModel::Tilting:
-      return "tilting";
-  }
-  return "?";
-}
-
 std::optional<GravityModel> parse_gravity_model(const std::string& name) {
   for (GravityModel g : {GravityModel::Auto, GravityModel::None, GravityModel::Constant, GravityModel::Tilting})
     if (name == gravity_model_name(g)) return g;

@@ -11,8 +11,8 @@
 
 namespace vmsim::sysid {
 
-const char* gravity_model_name(GravityModel g);                            // "auto", "none", "constant", "tilting"
-std::optional<GravityModel> parse_gravity_model(const std::string& name);  // nullopt for anything else
+// The inverse of gravity_model_name (sysid/friction_inertia.hpp): nullopt for anything else.
+std::optional<GravityModel> parse_gravity_model(const std::string& name);
 
 // The torque constant, the screw lead or gear ratio and, when `gravity` is Auto, the gravity model of `axis`
 // (a machine file's [axes.drive]) for identifying it from `trace`. Throws core::Error naming `machine_file` when
