@@ -3,6 +3,7 @@
 // parameters of both on their common area); here the deviation (X3P), the aligned scan, profiles across the marks
 // (CSV), report.json, the pictures and a summary.
 #include "app/cmd_surface.hpp"
+#include "core/units.hpp"
 #include "app/commands.hpp"
 #include "app/report.hpp"
 #include "core/atomic_file.hpp"
@@ -30,7 +31,7 @@ namespace {
 
 using core::Clock;
 using core::seconds_since;
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 
 std::vector<metrology::Region> parse_regions(const std::vector<std::string>& texts) {
   std::vector<metrology::Region> out;

@@ -2,6 +2,7 @@
 // predictive-compensation paper sections 2-3) through sysid::identify_axis; the chosen models written to
 // axis_models.toml for jobs to run on, every model's figures to report.json and a table on stdout.
 #include "app/commands_sysid.hpp"
+#include "core/units.hpp"
 #include "app/report.hpp"
 #include "core/csv.hpp"
 #include "core/error.hpp"
@@ -24,7 +25,7 @@ namespace vmsim::app {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 
 std::optional<sysid::ModelOrders> parse_orders(const std::string& s, int nc) {
   if (s == "auto") return std::nullopt;

@@ -3,6 +3,7 @@
 // the gain schedules ([job] gain_schedule for vmsim run and vmsim motion), draws the charts, writes report.json and
 // prints the summary.
 #include "app/commands_oga.hpp"
+#include "core/units.hpp"
 #include "app/mpi_session.hpp"
 #include "app/progress.hpp"
 #include "app/report.hpp"
@@ -40,7 +41,7 @@ namespace fs = std::filesystem;
 using core::Clock;
 using core::seconds_since;
 using Eigen::Index;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 
 // "MIN:STEP:MAX" -> the grid MIN, MIN + STEP, ... <= MAX (as Duong et al. writes [1 : 0.5 : 9]); a single number is a
 // grid of one value.

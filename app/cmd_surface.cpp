@@ -90,21 +90,21 @@ nlohmann::json processing_json(const metrology::SurfaceProcessing& how, const st
 }
 
 namespace {
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json json_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 }  // namespace
 
 nlohmann::json areal_json(const metrology::ArealParameters& p) {
   return {{"points", p.points},
-          {"mean_mm", num(p.mean_mm)},
-          {"Sa_mm", num(p.Sa_mm)},
-          {"Sq_mm", num(p.Sq_mm)},
-          {"Sp_mm", num(p.Sp_mm)},
-          {"Sv_mm", num(p.Sv_mm)},
-          {"Sz_mm", num(p.Sz_mm)},
-          {"Ssk", num(p.Ssk)},
-          {"Sku", num(p.Sku)},
-          {"Sdq", num(p.Sdq)},
-          {"Sdr_percent", num(p.Sdr_percent)}};
+          {"mean_mm", json_or_null(p.mean_mm)},
+          {"Sa_mm", json_or_null(p.Sa_mm)},
+          {"Sq_mm", json_or_null(p.Sq_mm)},
+          {"Sp_mm", json_or_null(p.Sp_mm)},
+          {"Sv_mm", json_or_null(p.Sv_mm)},
+          {"Sz_mm", json_or_null(p.Sz_mm)},
+          {"Ssk", json_or_null(p.Ssk)},
+          {"Sku", json_or_null(p.Sku)},
+          {"Sdq", json_or_null(p.Sdq)},
+          {"Sdr_percent", json_or_null(p.Sdr_percent)}};
 }
 
 metrology::LineScan profile_in_range(const metrology::LineScan& p, const std::string& range) {
@@ -131,7 +131,6 @@ nlohmann::json line_scan_json(const metrology::LineScan& p) {
 
 nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrology::ProfileEvaluation& how) {
   const metrology::ProfileParameters& r = e.parameters;
-  const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   nlohmann::json filters = nlohmann::json::array();
   for (const auto& f : how.filters)
     filters.push_back({{"type", f.kind == 'S' ? "S (Gaussian mean line kept, ISO 16610-21)"
@@ -149,15 +148,15 @@ nlohmann::json profile_json(const metrology::EvaluatedProfile& e, const metrolog
           {"evaluation_length_mm", r.evaluation_length_mm},
           {"sections", r.sections},
           {"section_length_mm", r.section_length_mm},
-          {"Ra_mm", num(r.Ra_mm)},
-          {"Rq_mm", num(r.Rq_mm)},
-          {"Rsk", num(r.Rsk)},
-          {"Rku", num(r.Rku)},
-          {"Rp_mm", num(r.Rp_mm)},
-          {"Rv_mm", num(r.Rv_mm)},
-          {"Rz_mm", num(r.Rz_mm)},
-          {"Rt_mm", num(r.Rt_mm)},
-          {"Rzx_mm", num(r.Rzx_mm)}};
+          {"Ra_mm", json_or_null(r.Ra_mm)},
+          {"Rq_mm", json_or_null(r.Rq_mm)},
+          {"Rsk", json_or_null(r.Rsk)},
+          {"Rku", json_or_null(r.Rku)},
+          {"Rp_mm", json_or_null(r.Rp_mm)},
+          {"Rv_mm", json_or_null(r.Rv_mm)},
+          {"Rz_mm", json_or_null(r.Rz_mm)},
+          {"Rt_mm", json_or_null(r.Rt_mm)},
+          {"Rzx_mm", json_or_null(r.Rzx_mm)}};
 }
 
 nlohmann::json grid_json(const core::HeightGrid& g) {

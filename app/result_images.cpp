@@ -1,6 +1,7 @@
 // The pictures of a result: the part (whole, and the deepest mark seen along the path), its deviation maps, and the
 // charts of its drive signals. One headless window draws them all (its context and shaders are made once).
 #include "app/result_images.hpp"
+#include "core/units.hpp"
 
 #include "app/report.hpp"
 
@@ -25,7 +26,7 @@ namespace vmsim::app {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 
 // The largest of 1, 2, 5 x 10^k that is <= x.
 double nice_floor(double x) {

@@ -11,10 +11,6 @@
 
 namespace vmsim::drives {
 
-namespace {
-
-// longer / shorter as a whole number, or an error: the loops are scheduled by counting inner periods, so a period
-// that does not nest would drift against its outer loop.
 int whole_ratio(double longer, double shorter, const char* what) {
   const double q = longer / shorter;
   const double n = std::round(q);
@@ -22,6 +18,8 @@ int whole_ratio(double longer, double shorter, const char* what) {
     throw core::Error(fmt::format("{}: {:g} us is not a whole multiple of {:g} us", what, longer * 1e6, shorter * 1e6));
   return static_cast<int>(n);
 }
+
+namespace {
 
 void require_positive(double v, const char* name) {
   if (!(v > 0.0 && std::isfinite(v)))

@@ -26,6 +26,10 @@
 
 namespace vmsim::drives {
 
+// longer / shorter as a whole number, or core::Error naming `what`: the loops are scheduled by counting inner
+// periods, so a period that does not nest would drift against its outer loop (the linear model counts the same way).
+int whole_ratio(double longer, double shorter, const char* what);
+
 // One current-loop sample (load side, axis units): the state at the start of a current period and the current
 // setpoint and voltage held over it.
 struct InnerSample {

@@ -1,6 +1,7 @@
 #include "drives/linear_model.hpp"
 
 #include "core/error.hpp"
+#include "drives/cascade_axis.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -14,14 +15,6 @@ namespace vmsim::drives {
 namespace {
 
 using cd = std::complex<double>;
-
-int whole_ratio(double longer, double shorter, const char* what) {
-  const double q = longer / shorter;
-  const double n = std::round(q);
-  if (!(n >= 1.0 && n <= 1e6 && std::abs(q - n) <= 1e-6 * n))
-    throw core::Error(fmt::format("{}: {:g} us is not a whole multiple of {:g} us", what, longer * 1e6, shorter * 1e6));
-  return static_cast<int>(n);
-}
 
 // Zero-order hold followed by sampling, aliasing neglected: (1 - e^{-sT}) / (sT), 1 at DC.
 cd zoh(cd s, double T) {

@@ -1,4 +1,6 @@
 #include "methods/feedplan.hpp"
+#include "core/timing.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 
@@ -17,10 +19,10 @@ namespace {
 
 using Index = Eigen::Index;
 using Clock = std::chrono::steady_clock;
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using core::units::kInf;
 constexpr double kTiny = 1e-12;
 
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::seconds_since;
 
 // Sub-samples per interval for the interval maxima (curvature, |t_r|, |k_r|).
 constexpr int kSub = 8;

@@ -1,4 +1,5 @@
 #include "methods/feedplan_job.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 
@@ -10,7 +11,7 @@
 namespace vmsim::methods {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using core::units::kInf;
 }  // namespace
 
 Eigen::Vector3d moving_axes(const PathSamples& samples) {

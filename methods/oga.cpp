@@ -1,5 +1,6 @@
 // Offline gain adjustment (Duong et al.); see oga.hpp for the algorithm, the departures from the seed and the limits.
 #include "methods/oga.hpp"
+#include "core/timing.hpp"
 
 #include "core/error.hpp"
 #include "core/units.hpp"
@@ -22,15 +23,15 @@ namespace vmsim::methods {
 namespace {
 
 using Index = Eigen::Index;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using core::units::kNaN;
+using core::units::kInf;
 constexpr double kKv = core::units::kKvMPerMinPerMmToPerS;  // (m/min)/mm -> 1/s
 // motion::contour_error's index window: its largest default. The arc-length budget is the working limit of its
 // search; a fixed cap makes every evaluation here (whole path, windows) the same computation.
 constexpr int kContourWindow = 65536;
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::seconds_since;
 
 // ---- the profile every step shares -----------------------------------------------------------------------------
 

@@ -15,7 +15,7 @@ namespace vmsim::methods {
 namespace {
 
 using Index = Eigen::Index;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 constexpr const char* kMagic = "# vmsim gain schedule 1";
 constexpr double kSetpointTolerance = 1e-6;  // mm or deg: the file holds 9 decimals
 

@@ -1,4 +1,5 @@
 #include "metrology/bcr.hpp"
+#include "metrology/reader_common.hpp"
 #include "core/regular_file.hpp"
 
 #include "core/error.hpp"
@@ -21,16 +22,9 @@ namespace vmsim::metrology {
 
 namespace {
 
-constexpr std::uint64_t kMaxPoints = std::uint64_t{1} << 28;
 constexpr std::size_t kMaxHeaderChars = 1 << 20;
 
 [[noreturn]] void fail(const std::string& name, const std::string& what) { throw core::Error(name + ": " + what); }
-
-std::string trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return std::string(s);
-}
 
 bool utf16_header(std::string_view b) {
   return b.size() >= 4 && b[0] == 'f' && b[1] == '\0' && b[2] == 'i' && b[3] == '\0';
@@ -58,14 +52,14 @@ std::map<std::string, std::string> parse_keys(const std::string& text) {
   while (p < text.size()) {
     std::size_t e = text.find('\n', p);
     if (e == std::string::npos) e = text.size();
-    const std::string line = trim(std::string_view(text).substr(p, e - p));
+    const std::string line = trim_blanks(std::string_view(text).substr(p, e - p));
     p = e + 1;
     if (line.empty() || line[0] == '%' || line[0] == '\0') continue;
     const std::size_t eq = line.find('=');
     if (eq == std::string::npos) continue;
-    std::string key = trim(std::string_view(line).substr(0, eq));
+    std::string key = trim_blanks(std::string_view(line).substr(0, eq));
     for (char& c : key) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    keys.emplace(key, trim(std::string_view(line).substr(eq + 1)));
+    keys.emplace(key, trim_blanks(std::string_view(line).substr(eq + 1)));
   }
   return keys;
 }
@@ -101,8 +95,8 @@ core::HeightGrid read_bcr_bytes(std::string_view b, const std::string& name) {
   };
   const auto count = [&](const char* key) -> std::uint64_t {
     const double v = number(key, std::nullopt);
-    if (!(v >= 1) || v != std::floor(v) || v > static_cast<double>(kMaxPoints))
-      fail(name, fmt::format("header: {} = {} is not a point count (1 .. {})", key, v, kMaxPoints));
+    if (!(v >= 1) || v != std::floor(v) || v > static_cast<double>(kMaxGridPoints))
+      fail(name, fmt::format("header: {} = {} is not a point count (1 .. {})", key, v, kMaxGridPoints));
     return static_cast<std::uint64_t>(v);
   };
   const double header_chars = number("headersize", 2048.0);
@@ -114,7 +108,7 @@ core::HeightGrid read_bcr_bytes(std::string_view b, const std::string& name) {
     fail(name, fmt::format("headersize {} characters: the file has {} bytes", header_chars, b.size()));
   keys = parse_keys(narrow(b, utf16, static_cast<std::size_t>(header_chars)));
   const std::uint64_t nx = count("xpixels"), ny = count("ypixels");
-  if (nx > kMaxPoints / ny) fail(name, fmt::format("header: {} x {} points is more than vmsim accepts", nx, ny));
+  if (nx > kMaxGridPoints / ny) fail(name, fmt::format("header: {} x {} points is more than vmsim accepts", nx, ny));
   const auto unit_pow = [&](const char* key) {
     const auto it = keys.find(key);
     if (it == keys.end()) return -9;  // nm, the format's default

@@ -1,4 +1,5 @@
 #include "metrology/compare.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 #include "core/timing.hpp"
@@ -11,7 +12,7 @@ namespace vmsim::metrology {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 
 RigidTransform registered(const core::HeightGrid& scan, const core::HeightGrid& pred,
                           const SurfaceCompareOptions& options, std::optional<RegistrationResult>& result) {

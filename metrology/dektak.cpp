@@ -21,7 +21,7 @@ namespace {
 
 constexpr std::size_t kMaxSamples = std::size_t{1} << 28;
 
-std::string trim(std::string_view s) {
+std::string trim_blanks_and_nul(std::string_view s) {
   while (!s.empty() && (std::isspace(static_cast<unsigned char>(s.front())) || s.front() == '\0')) s.remove_prefix(1);
   while (!s.empty() && (std::isspace(static_cast<unsigned char>(s.back())) || s.back() == '\0')) s.remove_suffix(1);
   return std::string(s);
@@ -32,7 +32,7 @@ std::vector<std::string> split_csv(const std::string& line) {
   std::size_t p = 0;
   for (;;) {
     const std::size_t c = line.find(',', p);
-    out.push_back(trim(std::string_view(line).substr(p, c == std::string::npos ? std::string::npos : c - p)));
+    out.push_back(trim_blanks_and_nul(std::string_view(line).substr(p, c == std::string::npos ? std::string::npos : c - p)));
     if (c == std::string::npos) break;
     p = c + 1;
   }
@@ -118,7 +118,7 @@ DektakData read_dektak_csv(std::string_view text, const std::string& name) {
   std::vector<double> xs, zs;
   int dec = 0;
   for (std::size_t k = head + 1; k < lines.size(); ++k) {
-    const std::string t = trim(lines[k]);
+    const std::string t = trim_blanks_and_nul(lines[k]);
     if (t.empty()) {
       if (!xs.empty()) break;  // the data end at the first blank line
       continue;

@@ -1,4 +1,5 @@
 #include "metrology/filter.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 
@@ -13,7 +14,7 @@ namespace vmsim::metrology {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 
 // Kernel taps w_k = exp(-pi (k h / (alpha lc))^2), |k h| <= lc (the constant factor cancels in the normalisation).
 std::vector<double> taps(double h, double cutoff) {

@@ -1,4 +1,6 @@
 #include "metrology/grid_io.hpp"
+#include "metrology/reader_common.hpp"
+#include "core/units.hpp"
 #include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
@@ -24,19 +26,13 @@ namespace vmsim::metrology {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 // Larger grids than this are surely a typo or a hostile header (2^28 nodes = 2 GiB of heights).
 constexpr long long kMaxNodes = 1LL << 28;
 
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
-}
-
-std::string trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return std::string(s);
 }
 
 // Splits a data line at blanks, tabs, commas and semicolons.
@@ -249,14 +245,14 @@ core::HeightGrid read_xyz_grid(std::istream& in, const std::string& file_name) {
   int lineno = 0;
   while (std::getline(in, line)) {
     ++lineno;
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     if (t.empty()) continue;
     if (t[0] == '#' || t.rfind("//", 0) == 0) {
       const std::string l = lower(t);
       for (const char* key : {"unit:", "units:", "unit =", "units ="}) {
         const auto at = l.find(key);
         if (at == std::string::npos) continue;
-        const std::string u = trim(t.substr(at + std::strlen(key)));
+        const std::string u = trim_blanks(t.substr(at + std::strlen(key)));
         const auto p = length_unit_pow10(u);
         if (!p)
           throw core::Error(
@@ -320,8 +316,8 @@ std::vector<std::pair<std::string, std::string>> header_pairs(const std::string&
   std::vector<std::pair<std::string, std::string>> out;
   const std::size_t colon = body.find(':'), eq = body.find('=');
   if (colon != std::string::npos && (eq == std::string::npos || colon < eq)) {
-    out.emplace_back(lower(trim(std::string_view(body).substr(0, colon))),
-                     trim(std::string_view(body).substr(colon + 1)));
+    out.emplace_back(lower(trim_blanks(std::string_view(body).substr(0, colon))),
+                     trim_blanks(std::string_view(body).substr(colon + 1)));
     return out;
   }
   std::vector<std::size_t> eqs;
@@ -330,11 +326,11 @@ std::vector<std::pair<std::string, std::string>> header_pairs(const std::string&
   if (eqs.empty()) return out;
   std::size_t key_start = 0;
   for (std::size_t e = 0; e < eqs.size(); ++e) {
-    const std::string key = lower(trim(std::string_view(body).substr(key_start, eqs[e] - key_start)));
+    const std::string key = lower(trim_blanks(std::string_view(body).substr(key_start, eqs[e] - key_start)));
     std::size_t value_end = body.size(), next_key = body.size();
     if (e + 1 < eqs.size()) {
       const std::string_view seg = std::string_view(body).substr(eqs[e] + 1, eqs[e + 1] - eqs[e] - 1);
-      const std::string t = trim(seg);
+      const std::string t = trim_blanks(seg);
       const std::size_t sp = seg.find_last_of(" \t", seg.find_last_not_of(" \t"));
       if (sp == std::string_view::npos || t.empty()) {
         value_end = next_key = eqs[e + 1];  // "a=b=c": not pairs we know
@@ -343,7 +339,7 @@ std::vector<std::pair<std::string, std::string>> header_pairs(const std::string&
         next_key = value_end;
       }
     }
-    out.emplace_back(key, trim(std::string_view(body).substr(eqs[e] + 1, value_end - eqs[e] - 1)));
+    out.emplace_back(key, trim_blanks(std::string_view(body).substr(eqs[e] + 1, value_end - eqs[e] - 1)));
     key_start = next_key;
   }
   return out;
@@ -439,7 +435,7 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
         const std::size_t arrow = key.find("->"), close = key.find(')', arrow == std::string::npos ? 0 : arrow);
         const std::string u = arrow == std::string::npos
                                   ? std::string()
-                                  : trim(std::string_view(key).substr(
+                                  : trim_blanks(std::string_view(key).substr(
                                         arrow + 2, close == std::string::npos ? std::string::npos : close - arrow - 2));
         const auto p = length_unit_pow10(u);
         if (!p)
@@ -458,10 +454,10 @@ core::HeightGrid read_matrix_grid(std::istream& in, const std::string& file_name
   };
   while (std::getline(in, line)) {
     ++lineno;
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     if (t.empty()) continue;
     if (t[0] == '#') {
-      header_line(trim(std::string_view(t).substr(1)));
+      header_line(trim_blanks(std::string_view(t).substr(1)));
       continue;
     }
     split_fields(t, f);

@@ -1,4 +1,5 @@
 #include "metrology/profile.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 #include "metrology/register.hpp"
@@ -14,8 +15,8 @@ namespace vmsim::metrology {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kNaN;
+using core::units::kPi;
 
 std::size_t valid_count(const Eigen::ArrayXd& z) {
   std::size_t n = 0;

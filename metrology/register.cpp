@@ -1,4 +1,5 @@
 #include "metrology/register.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 #include "metrology/filter.hpp"
@@ -47,7 +48,7 @@ bool sample_bilinear(const core::HeightGrid& g, double x, double y, double& z, d
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 const char* const kDirection[6] = {"rotation x",    "rotation y",    "rotation z",
                                    "translation x", "translation y", "translation z"};
 

@@ -1,4 +1,6 @@
 #include "metrology/sdf.hpp"
+#include "metrology/reader_common.hpp"
+#include "core/units.hpp"
 #include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
@@ -26,18 +28,12 @@ namespace vmsim::metrology {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 constexpr std::size_t kBinaryHeader = 8 + 10 + 12 + 12 + 2 + 2 + 4 * 8 + 3;  // 81 bytes
 constexpr std::size_t kTypeSize[8] = {1, 2, 4, 4, 1, 2, 4, 8};
 
 [[noreturn]] void fail(const std::filesystem::path& file, const std::string& what) {
   throw core::Error(file.string() + ": " + what);
-}
-
-std::string trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return std::string(s);
 }
 
 template <typename T>
@@ -150,7 +146,7 @@ core::HeightGrid read_ascii(const std::filesystem::path& file, const std::string
   bool star = false;
   while (std::getline(in, line)) {
     ++lineno;
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     if (t.empty() || t[0] == ';') continue;
     if (t == "*") {
       star = true;
@@ -159,7 +155,7 @@ core::HeightGrid read_ascii(const std::filesystem::path& file, const std::string
     const std::size_t eq = t.find('=');
     if (eq == std::string::npos)
       fail(file, fmt::format("line {}: expected \"Key = value\" before the \"*\" that starts the data", lineno));
-    const std::string key = trim(std::string_view(t).substr(0, eq)), val = trim(std::string_view(t).substr(eq + 1));
+    const std::string key = trim_blanks(std::string_view(t).substr(0, eq)), val = trim_blanks(std::string_view(t).substr(eq + 1));
     seen[key] = true;
     const auto integer = [&](long lo, long hi) {
       const auto v = parse_decimal_scaled(val);
@@ -238,10 +234,10 @@ core::HeightGrid read_ascii(const std::filesystem::path& file, const std::string
   // Trailer: "key = value" lines; vmsim's XOffset and YOffset give the origin.
   while (std::getline(in, line)) {
     ++lineno;
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     const std::size_t eq = t.find('=');
     if (t == "*" || eq == std::string::npos) continue;
-    const std::string key = trim(std::string_view(t).substr(0, eq)), val = trim(std::string_view(t).substr(eq + 1));
+    const std::string key = trim_blanks(std::string_view(t).substr(0, eq)), val = trim_blanks(std::string_view(t).substr(eq + 1));
     if (key == "XOffset" || key == "YOffset") {
       const auto v = parse_decimal_scaled(val, 3);
       if (!v || !std::isfinite(*v)) fail(file, fmt::format("line {}: {}: expected a number of metres", lineno, key));

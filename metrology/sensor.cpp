@@ -1,4 +1,5 @@
 #include "metrology/sensor.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 #include "metrology/filter.hpp"
@@ -14,7 +15,7 @@ namespace vmsim::metrology {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 
 // splitmix64 of (seed, index, stream): a counter-based generator, so each node's noise is its own and the result
 // does not depend on the order or the number of threads.

@@ -1,4 +1,5 @@
 #include "metrology/sur.hpp"
+#include "metrology/reader_common.hpp"
 #include "core/regular_file.hpp"
 
 #include "core/atomic_file.hpp"
@@ -24,7 +25,6 @@ namespace vmsim::metrology {
 namespace {
 
 constexpr std::size_t kHeader = 512;
-constexpr std::uint64_t kMaxPoints = std::uint64_t{1} << 28;
 
 [[noreturn]] void fail(const std::string& name, const std::string& what) { throw core::Error(name + ": " + what); }
 
@@ -148,7 +148,7 @@ Object parse_header(std::string_view b, std::size_t base, const std::string& nam
   o.ny = at<std::int32_t>(h, kLines);
   if (o.nx < 1 || o.ny < 1)
     fail_at(kPointsPerLine, fmt::format("{} points per line, {} lines: both must be at least 1", o.nx, o.ny));
-  if (static_cast<std::uint64_t>(o.nx) * static_cast<std::uint64_t>(o.ny) > kMaxPoints)
+  if (static_cast<std::uint64_t>(o.nx) * static_cast<std::uint64_t>(o.ny) > kMaxGridPoints)
     fail_at(kPointsPerLine, fmt::format("{} x {} points is more than vmsim accepts", o.nx, o.ny));
   o.total = at<std::uint32_t>(h, kTotalPoints);
   if (o.total != static_cast<std::uint64_t>(o.nx) * static_cast<std::uint64_t>(o.ny))

@@ -1,4 +1,5 @@
 #include "metrology/x3p.hpp"
+#include "metrology/reader_common.hpp"
 #include "core/memory.hpp"
 #include "core/regular_file.hpp"
 
@@ -30,10 +31,8 @@ namespace vmsim::metrology {
 
 namespace {
 
-// Upper bounds that keep a hostile file from making vmsim allocate without limit. 2^28 points (16384 x 16384)
-// is far beyond a confocal scan (a 2000 x 2000 STIL scan has 4 M); main.xml of 256 MiB holds ~10 M points as text
-// (large scans come as binary data). Nothing is allocated for the points before the data's size is checked.
-constexpr std::uint64_t kMaxPoints = std::uint64_t{1} << 28;
+// Keeps a hostile file from making vmsim allocate without limit (the points: kMaxGridPoints): main.xml of 256 MiB
+// holds ~10 M points as text (large scans come as binary data).
 constexpr std::uint64_t kMaxXmlBytes = std::uint64_t{1} << 28;
 
 // The vendor extension (ISO5436_2/VendorSpecificID) vmsim writes: for each point, how many ulps the mm height
@@ -246,8 +245,8 @@ std::uint64_t parse_count(const XmlContext& cx, pugi::xml_node parent, const cha
     cx.error(n ? n : parent, path + "/" + name, "expected a positive integer, found \"" + s + "\"");
   const std::uint64_t v = std::stoull(s);
   if (v == 0) cx.error(n, path + "/" + name, "must be at least 1");
-  if (v > kMaxPoints)
-    cx.error(n, path + "/" + name, fmt::format("{} is more than the {} points vmsim accepts", v, kMaxPoints));
+  if (v > kMaxGridPoints)
+    cx.error(n, path + "/" + name, fmt::format("{} is more than the {} points vmsim accepts", v, kMaxGridPoints));
   return v;
 }
 
@@ -423,9 +422,9 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     const std::uint64_t nz = parse_count(cx, mdim, "SizeZ", "Record3/MatrixDimension");
     if (nz != 1)
       cx.error(mdim, "Record3/MatrixDimension/SizeZ", fmt::format("{} layers; vmsim reads single-layer data (1)", nz));
-    if (nx > kMaxPoints / ny)
+    if (nx > kMaxGridPoints / ny)
       cx.error(mdim, "Record3/MatrixDimension",
-               fmt::format("{} x {} points is more than the {} vmsim accepts", nx, ny, kMaxPoints));
+               fmt::format("{} x {} points is more than the {} vmsim accepts", nx, ny, kMaxGridPoints));
     npoints = nx * ny;
     if (meta.feature_type == "PCL")
       cx.error(mdim, "Record1/FeatureType", "PCL (point list) data must use ListDimension");
@@ -473,7 +472,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     if (data_name.empty()) cx.error(link, "Record3/DataLink/PointDataLink", "missing or empty");
     const auto di = zip.find(data_name);
     if (!di) cx.error(link, "Record3/DataLink/PointDataLink", "\"" + data_name + "\" is not in the zip");
-    const std::string data = zip.read(*di, data_name, kMaxPoints * 24, npoints * record);
+    const std::string data = zip.read(*di, data_name, kMaxGridPoints * 24, npoints * record);
     used.push_back(zip.name(*di));
     allocate();
     if (options.verify_checksums) {
@@ -493,7 +492,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     if (!valid_name.empty()) {
       const auto vi = zip.find(valid_name);
       if (!vi) cx.error(link, "Record3/DataLink/ValidPointsLink", "\"" + valid_name + "\" is not in the zip");
-      const std::string bits = zip.read(*vi, valid_name, kMaxPoints / 8 + 1, (npoints + 7) / 8);
+      const std::string bits = zip.read(*vi, valid_name, kMaxGridPoints / 8 + 1, (npoints + 7) / 8);
       used.push_back(zip.name(*vi));
       if (options.verify_checksums) {
         const std::string want = hex_lower(text_of(child(link, "MD5ChecksumValidPoints")));
@@ -510,7 +509,7 @@ X3pData read_x3p(const std::filesystem::path& file, const X3pReadOptions& option
     if (vendor && text_of(vendor) == kVendorUri && matrix && stored.size() == 1 && ax[2].data == 'D' &&
         ax[2].unit_inc && ax[2].zero_off)
       if (const auto ci = zip.find(kVendorEntry))
-        zcorr = zip.read(*ci, kVendorEntry, kMaxPoints, npoints), used.push_back(zip.name(*ci));
+        zcorr = zip.read(*ci, kVendorEntry, kMaxGridPoints, npoints), used.push_back(zip.name(*ci));
   } else if (list) {
     std::uint64_t count = 0;
     for (pugi::xml_node d = list.first_child(); d; d = d.next_sibling())

@@ -41,7 +41,7 @@ namespace vmsim::motion {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using core::units::kInf;
 constexpr double kEps = 1e-12;
 
 // Fractions of each axis limit the plan may use. The plan's continuous bounds are exact up to O(Te) terms;

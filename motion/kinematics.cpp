@@ -34,7 +34,7 @@ const char* family_name(KinematicFamily family) {
 
 namespace {
 
-constexpr double kTwoPi = 2 * core::units::kPi;
+using core::units::kTwoPi;
 const char* const kAxisNames[] = {"X", "Y", "Z", "A", "B", "C"};
 
 void require_xyz(const core::Machine& machine) {

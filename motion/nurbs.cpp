@@ -1,4 +1,5 @@
 #include "motion/nurbs.hpp"
+#include "motion/quintic_hermite.hpp"
 
 #include "core/csv.hpp"
 #include "core/error.hpp"
@@ -14,9 +15,9 @@ namespace vmsim::motion {
 namespace {
 
 // 5-point Gauss-Legendre on [-1, 1].
-constexpr std::array<double, 5> kGlX = {0.0, 0.5384693101056831, -0.5384693101056831, 0.9061798459386640,
+constexpr std::array<double, 5> kGauss5X = {0.0, 0.5384693101056831, -0.5384693101056831, 0.9061798459386640,
                                         -0.9061798459386640};
-constexpr std::array<double, 5> kGlW = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665, 0.2369268850561891,
+constexpr std::array<double, 5> kGauss5W = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665, 0.2369268850561891,
                                         0.2369268850561891};
 constexpr int kTablePerSpan = 64;
 constexpr int kMaxDegree = 9;
@@ -89,19 +90,6 @@ void basis_derivs(const NurbsCurve& c, int i, double u, int nd, double ders[4][k
     for (int j = 0; j <= p; ++j) ders[k][j] *= f;
     f *= (p - k);
   }
-}
-
-// Quintic Hermite through (P0, V0, A0) at t = 0 and (P1, V1, A1) at t = 1, monomial coefficients (as smooth_path).
-Eigen::Matrix<double, 6, 6> quintic_hermite(const core::Vec6& P0, const core::Vec6& V0, const core::Vec6& A0,
-                                            const core::Vec6& P1, const core::Vec6& V1, const core::Vec6& A1) {
-  Eigen::Matrix<double, 6, 6> c;
-  c.col(0) = P0;
-  c.col(1) = V0;
-  c.col(2) = 0.5 * A0;
-  c.col(3) = -10 * P0 - 6 * V0 - 1.5 * A0 + 0.5 * A1 - 4 * V1 + 10 * P1;
-  c.col(4) = 15 * P0 + 8 * V0 + 1.5 * A0 - A1 + 7 * V1 - 15 * P1;
-  c.col(5) = -6 * P0 - 3 * V0 - 0.5 * A0 + 0.5 * A1 - 3 * V1 + 6 * P1;
-  return c;
 }
 
 core::Vec6 vec6(const Eigen::Vector3d& v) {
@@ -267,7 +255,7 @@ NurbsArcLength::NurbsArcLength(const NurbsCurve& curve) : curve_(&curve) {
 double NurbsArcLength::integrate(double u0, double u1) const {
   const double half = 0.5 * (u1 - u0), mid = 0.5 * (u0 + u1);
   double sum = 0.0;
-  for (std::size_t i = 0; i < kGlX.size(); ++i) sum += kGlW[i] * nurbs_derivs(*curve_, mid + half * kGlX[i]).d1.norm();
+  for (std::size_t i = 0; i < kGauss5X.size(); ++i) sum += kGauss5W[i] * nurbs_derivs(*curve_, mid + half * kGauss5X[i]).d1.norm();
   return sum * half;
 }
 

@@ -1,4 +1,5 @@
 #include "motion/smooth_path.hpp"
+#include "motion/quintic_hermite.hpp"
 
 #include "core/arc.hpp"
 #include "core/error.hpp"
@@ -15,19 +16,19 @@ namespace vmsim::motion {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kTwoPi = 2.0 * core::units::kPi;
+using core::units::kInf;
+using core::units::kTwoPi;
 
 // 4-point Gauss-Legendre on [-1, 1], exact for polynomials of degree 7. |p_u| of a quintic is smooth, and the
 // rule is applied on at most 1/64 of the parameter range, where it integrates the speed to round-off.
-constexpr std::array<double, 2> kGlX = {0.3399810435848563, 0.8611363115940526};
-constexpr std::array<double, 2> kGlW = {0.6521451548625461, 0.3478548451374538};
+constexpr std::array<double, 2> kGauss4X = {0.3399810435848563, 0.8611363115940526};
+constexpr std::array<double, 2> kGauss4W = {0.6521451548625461, 0.3478548451374538};
 
 double integrate_speed(const PathPiece& piece, double u0, double u1) {
   const double half = 0.5 * (u1 - u0), mid = 0.5 * (u0 + u1);
   double sum = 0.0;
   for (int i = 0; i < 2; ++i) {
-    sum += kGlW[i] * (piece.speed_u(mid - half * kGlX[i]) + piece.speed_u(mid + half * kGlX[i]));
+    sum += kGauss4W[i] * (piece.speed_u(mid - half * kGauss4X[i]) + piece.speed_u(mid + half * kGauss4X[i]));
   }
   return sum * half;
 }
@@ -288,19 +289,6 @@ double distance_to_portion(const Portion& por, const core::Vec6& q) {
     best = std::min(best, (pc.point_u(u) - q).squaredNorm());
   }
   return std::sqrt(best);
-}
-
-// Quintic Hermite through (P0, V0, A0) at u = 0 and (P1, V1, A1) at u = 1, as monomial coefficients.
-Eigen::Matrix<double, 6, 6> quintic_hermite(const core::Vec6& P0, const core::Vec6& V0, const core::Vec6& A0,
-                                            const core::Vec6& P1, const core::Vec6& V1, const core::Vec6& A1) {
-  Eigen::Matrix<double, 6, 6> c;
-  c.col(0) = P0;
-  c.col(1) = V0;
-  c.col(2) = 0.5 * A0;
-  c.col(3) = -10 * P0 - 6 * V0 - 1.5 * A0 + 0.5 * A1 - 4 * V1 + 10 * P1;
-  c.col(4) = 15 * P0 + 8 * V0 + 1.5 * A0 - A1 + 7 * V1 - 15 * P1;
-  c.col(5) = -6 * P0 - 3 * V0 - 0.5 * A0 + 0.5 * A1 - 3 * V1 + 6 * P1;
-  return c;
 }
 
 struct BlendTrial {

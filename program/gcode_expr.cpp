@@ -1,4 +1,5 @@
 #include "program/gcode_expr.hpp"
+#include "core/units.hpp"
 
 #include <algorithm>
 #include <charconv>
@@ -9,10 +10,10 @@ namespace vmsim::program::gcode {
 namespace {
 
 // LinuxCNC converts angles with the long double M_PIl; doing the same keeps results bit-identical with `rs274`.
-constexpr long double kPiL = 3.141592653589793238462643383279502884L;
+using core::units::kPiLong;
 
-double deg_to_rad(double deg) { return static_cast<double>((static_cast<long double>(deg) * kPiL) / 180.0L); }
-double rad_to_deg(double rad) { return static_cast<double>((static_cast<long double>(rad) * 180.0L) / kPiL); }
+double deg_to_rad(double deg) { return static_cast<double>((static_cast<long double>(deg) * kPiLong) / 180.0L); }
+double rad_to_deg(double rad) { return static_cast<double>((static_cast<long double>(rad) * 180.0L) / kPiLong); }
 
 int precedence(BinaryOp op) {
   switch (op) {
@@ -39,9 +40,6 @@ int precedence(BinaryOp op) {
   }
   return 0;
 }
-
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-bool is_lower(char c) { return c >= 'a' && c <= 'z'; }
 
 std::string show(char c) {
   if (c == '\0') return "end of line";

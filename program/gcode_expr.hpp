@@ -14,6 +14,10 @@
 
 namespace vmsim::program::gcode {
 
+// Character classes of the G-code reader (the lexer and the expression parser; C locale, ASCII only).
+inline bool is_digit(char c) { return c >= '0' && c <= '9'; }
+inline bool is_lower(char c) { return c >= 'a' && c <= 'z'; }
+
 using ExprId = std::int32_t;
 inline constexpr ExprId kNoExpr = -1;
 inline constexpr int kMaxBracketDepth = 64;

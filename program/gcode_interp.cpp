@@ -2,6 +2,7 @@
 // LinuxCNC's order of execution (comment, feed mode, F, S, T, M codes, G codes, stops). Parameters live in
 // gcode_params.cpp, coordinate systems and offsets in gcode_offsets.cpp, motions in gcode_motion.cpp.
 #include "program/gcode_interp.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 
@@ -14,7 +15,7 @@ namespace vmsim::program::gcode {
 
 namespace {
 
-constexpr double kMmPerInch = 25.4;
+using core::units::kInchToMm;
 
 // Modal groups of the G codes vmsim executes (LinuxCNC's numbering), -1 for anything else.
 int g_group(int g) {
@@ -381,7 +382,7 @@ bool Interpreter::execute_block(Block& b) {
   block_f_ = b.has('F') ? b['F'] : 0.0;
   if (b.has('F') && !inverse_time_) {
     feed_rate_ = b['F'];
-    feed_linear_mm_ = feed_rate_ * (inch_ ? kMmPerInch : 1.0);
+    feed_linear_mm_ = feed_rate_ * (inch_ ? kInchToMm : 1.0);
     feed_angular_deg_ = feed_rate_;
     canon_.axes_call("SET_FEED_RATE", &feed_rate_, 1);
   }
@@ -659,7 +660,7 @@ void Interpreter::length_units(int g) {
   if (inch == inch_) return;
   // Everything the interpreter keeps in program units follows (LinuxCNC's convert_length_units); the
   // physical feed the canon layer holds does not change.
-  const double f = inch ? 1.0 / kMmPerInch : kMmPerInch;
+  const double f = inch ? 1.0 / kInchToMm : kInchToMm;
   inch_ = inch;
   for (int i = 0; i < 3; ++i) {
     pos_[static_cast<std::size_t>(i)] *= f;

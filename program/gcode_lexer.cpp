@@ -12,10 +12,7 @@ struct LineError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-bool is_lower(char c) { return c >= 'a' && c <= 'z'; }
-
-std::string show(char c) {
+std::string show_byte(char c) {
   if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) {
     static const char* hex = "0123456789abcdef";
     const auto u = static_cast<unsigned char>(c);
@@ -97,7 +94,7 @@ class LineReader {
           throw LineError(std::string(1, letter) + " word: " + e.what());
         }
       } else {
-        throw LineError("unexpected character " + show(c));
+        throw LineError("unexpected character " + show_byte(c));
       }
     }
     line.has_content = line.has_content || !line.words.empty() || !line.assignments.empty();
@@ -119,7 +116,7 @@ class LineReader {
     }
     if (peek() != '=')
       throw LineError("parameter setting needs '=' after the parameter, found " +
-                      (peek() ? show(peek()) : std::string("end of line")));
+                      (peek() ? show_byte(peek()) : std::string("end of line")));
     ++pos_;
     try {
       a.value = parser().value();
@@ -190,7 +187,7 @@ class LineReader {
       throw LineError(name + " " + keyword + ": " + e.what());
     }
     if (pos_ < text_.size())
-      throw LineError(name + " " + keyword + ": unexpected " + show(peek()) +
+      throw LineError(name + " " + keyword + ": unexpected " + show_byte(peek()) +
                       " (an O-word line holds only the O-word and comments)");
     return o;
   }

@@ -1,5 +1,6 @@
 // Motion: straight moves, arcs and helices, canned cycles, G28/G30, and the ToolPath they make.
 #include "core/error.hpp"
+#include "core/units.hpp"
 #include "program/gcode_interp.hpp"
 
 #include <algorithm>
@@ -10,12 +11,12 @@ namespace vmsim::program::gcode {
 
 namespace {
 
-constexpr long double kPiL = 3.141592653589793238462643383279502884L;
-constexpr double kMmPerInch = 25.4;
+using core::units::kPiLong;
+using core::units::kInchToMm;
 
 // LinuxCNC's arc tolerances (interp_internal.hh), in program units.
 constexpr double kRadiusToleranceInch = 0.00005;  // R-format: how far the end may be beyond the diameter
-constexpr double kRadiusToleranceMm = kRadiusToleranceInch * kMmPerInch;
+constexpr double kRadiusToleranceMm = kRadiusToleranceInch * kInchToMm;
 constexpr double kCenterToleranceInch = 2 * 0.001 * std::numbers::sqrt2;  // centre format: |r_start - r_end|
 constexpr double kCenterToleranceMm = 2 * 0.01 * std::numbers::sqrt2;
 constexpr double kSpiralRelativeTolerance = 0.001;
@@ -47,11 +48,11 @@ double find_turn(double x1, double y1, double cx, double cy, int turn, double x2
   double alpha = std::atan2(y1 - cy, x1 - cx);
   double beta = std::atan2(y2 - cy, x2 - cx);
   if (turn > 0) {
-    if (beta <= alpha) beta = static_cast<double>(beta + 2 * kPiL);
-    return static_cast<double>((beta - alpha) + (turn - 1) * (2 * kPiL));
+    if (beta <= alpha) beta = static_cast<double>(beta + 2 * kPiLong);
+    return static_cast<double>((beta - alpha) + (turn - 1) * (2 * kPiLong));
   }
-  if (alpha <= beta) alpha = static_cast<double>(alpha + 2 * kPiL);
-  return static_cast<double>((beta - alpha) + (turn + 1) * (2 * kPiL));
+  if (alpha <= beta) alpha = static_cast<double>(alpha + 2 * kPiLong);
+  return static_cast<double>((beta - alpha) + (turn + 1) * (2 * kPiLong));
 }
 
 std::string num(double v) {
@@ -74,7 +75,7 @@ core::Vec6 Interpreter::machine(const Pos& p) const {
   x += origin_offset_[0];
   y += origin_offset_[1];
   const double z = p[2] + axis_offset_[2] + origin_offset_[2];
-  const double u = inch_ ? kMmPerInch : 1.0;
+  const double u = inch_ ? kInchToMm : 1.0;
   constexpr double kRad = std::numbers::pi / 180.0;
   core::Vec6 v;
   v << x * u, y * u, z * u, (p[3] + axis_offset_[3] + origin_offset_[3]) * kRad,
@@ -83,7 +84,7 @@ core::Vec6 Interpreter::machine(const Pos& p) const {
 }
 
 void Interpreter::start_move(core::Move& m, const Pos& end) {
-  const double unit = inch_ ? kMmPerInch : 1.0;
+  const double unit = inch_ ? kInchToMm : 1.0;
   m.tool_number = current_tool_;
   m.tool_length_offset_mm = tool_offset_[2] * unit;
   // A new length offset moves the controlled point (along Z), not the machine.
@@ -109,14 +110,14 @@ void Interpreter::record_line(bool rapid, const Pos& end) {
     if (inverse_time_) {
       m.feed_mode = core::FeedMode::InverseTime;
       m.inverse_time_per_min = block_f_;
-      m.feed_mm_per_min = linear ? feed_rate_ * (inch_ ? kMmPerInch : 1.0) : feed_rate_;
+      m.feed_mm_per_min = linear ? feed_rate_ * (inch_ ? kInchToMm : 1.0) : feed_rate_;
     } else {
       m.feed_mm_per_min = linear ? feed_linear_mm_ : feed_angular_deg_;
     }
     if (!diameter_from_feed_) {
       diameter_from_feed_ = true;
       if (const ToolEntry* t = tools_ != nullptr && current_tool_ != 0 ? tools_->find(current_tool_) : nullptr)
-        path_.tool_diameter_mm = options_.inch_machine ? t->diameter * kMmPerInch : t->diameter;
+        path_.tool_diameter_mm = options_.inch_machine ? t->diameter * kInchToMm : t->diameter;
     }
   }
   path_.moves.push_back(m);
@@ -140,14 +141,14 @@ void Interpreter::record_arc(const Pos& end, Plane plane, double c1, double c2, 
   if (inverse_time_) {
     m.feed_mode = core::FeedMode::InverseTime;
     m.inverse_time_per_min = block_f_;
-    m.feed_mm_per_min = feed_rate_ * (inch_ ? kMmPerInch : 1.0);
+    m.feed_mm_per_min = feed_rate_ * (inch_ ? kInchToMm : 1.0);
   } else {
     m.feed_mm_per_min = feed_linear_mm_;
   }
   if (!diameter_from_feed_) {
     diameter_from_feed_ = true;
     if (const ToolEntry* t = tools_ != nullptr && current_tool_ != 0 ? tools_->find(current_tool_) : nullptr)
-      path_.tool_diameter_mm = options_.inch_machine ? t->diameter * kMmPerInch : t->diameter;
+      path_.tool_diameter_mm = options_.inch_machine ? t->diameter * kInchToMm : t->diameter;
   }
   path_.moves.push_back(m);
 }
@@ -302,7 +303,7 @@ void Interpreter::arc(int g, const Block& b) {
     if (half_length / abs_radius > 1 - kTiny) half_length = abs_radius;  // a semicircle, within rounding
     const long double base = std::atan2(y2 - y1, x2 - x1);
     // R > 0: the short arc (up to a semicircle), R < 0: the long one.
-    const double theta = static_cast<double>((g == 20) == (radius > 0) ? base - kPiL / 2 : base + kPiL / 2);
+    const double theta = static_cast<double>((g == 20) == (radius > 0) ? base - kPiLong / 2 : base + kPiLong / 2);
     const double turn2 = std::asin(half_length / abs_radius);
     const double offset = abs_radius * std::cos(turn2);
     cx = mid_x + offset * std::cos(theta);
@@ -435,7 +436,7 @@ void Interpreter::cycle(int g, Block& b) {
   if (saved_mode != ControlMode::ExactPath) emit_control_mode(ControlMode::ExactPath, 0.0);
 
   // G73 and G83 back off this much above the last peck before feeding again (G83_RAPID_DELTA).
-  const double rapid_delta = inch_ ? 0.010 : 0.010 * kMmPerInch;
+  const double rapid_delta = inch_ ? 0.010 : 0.010 * kInchToMm;
   for (long long repeat = repeats; repeat > 0; --repeat) {
     aa += aa_increment;
     bb += bb_increment;

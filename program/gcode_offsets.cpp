@@ -2,6 +2,7 @@
 // parameters (#5221...), G10 L2/L20, G92/G52 (#5210..#5216), tool length offsets (G43, G43.1, G43.2, G49),
 // G28.1/G30.1 reference points. Parameters hold machine units, the interpreter program units.
 #include "program/gcode_interp.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 
@@ -12,17 +13,17 @@
 namespace vmsim::program::gcode {
 
 namespace {
-constexpr double kMmPerInch = 25.4;
+using core::units::kInchToMm;
 }  // namespace
 
 double Interpreter::to_user_len(double v) const {
   if (options_.inch_machine == inch_) return v;
-  return options_.inch_machine ? v / kMmPerInch : v * kMmPerInch;
+  return options_.inch_machine ? v / kInchToMm : v * kInchToMm;
 }
 
 double Interpreter::from_user_len(double v) const {
   if (options_.inch_machine == inch_) return v;
-  return options_.inch_machine ? v * kMmPerInch : v / kMmPerInch;
+  return options_.inch_machine ? v * kInchToMm : v / kInchToMm;
 }
 
 double Interpreter::tool_offset_prog(const ToolEntry* t, int axis) const {

@@ -2,6 +2,7 @@
 // drilling cycles CYCLE81/82/83, each as the settings or the motion it makes (Siemens, SINUMERIK 840D sl cycles
 // programming manual: the cycles' parameters and their "Sequence" descriptions). MSG() is a call too.
 #include "core/error.hpp"
+#include "core/units.hpp"
 #include "program/sinumerik_interp.hpp"
 
 #include <cmath>
@@ -9,7 +10,7 @@
 namespace vmsim::program::sinumerik {
 
 namespace {
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
+using core::units::kDegToRad;
 }
 
 bool Executor::has_arg(const Call& c, std::size_t i) const { return i < c.args.size() && c.args[i] != kNoExpr; }

@@ -14,8 +14,8 @@ namespace vmsim::program::sinumerik {
 
 namespace {
 
-constexpr double kMmPerInch = 25.4;
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
+using core::units::kInchToMm;
+using core::units::kDegToRad;
 constexpr int kNumR = 1000;
 
 int axis_index(char letter) {
@@ -94,7 +94,7 @@ double Executor::eval(ExprId e) const {
     fail(err.what());
   }
 }
-double Executor::eval_length(ExprId e) const { return eval(e) * (inch_ ? kMmPerInch : 1.0); }
+double Executor::eval_length(ExprId e) const { return eval(e) * (inch_ ? kInchToMm : 1.0); }
 
 // ---------------------------------------------------------------------------------------------------------------
 // control flow
@@ -287,7 +287,7 @@ void Executor::technology(const Block& b) {
   if (b.f != kNoExpr && !dwell) {  // in a G4 block F is the dwell time
     const double f = eval(b.f);
     if (f <= 0.0) fail("F" + fmt4(f) + ": the feed must be positive");
-    feed_mm_per_min_ = f * (inch_ ? kMmPerInch : 1.0);
+    feed_mm_per_min_ = f * (inch_ ? kInchToMm : 1.0);
     canon_.print("SET_FEED_RATE(%.4f)", feed_mm_per_min_);
   }
   if (b.s != kNoExpr) {
@@ -589,7 +589,7 @@ void Executor::frame_statement(const Block& b) {
 Eigen::Vector3d Executor::programmed(const Frame& frame) const { return frame.inverse_apply(cur_.head<3>()); }
 
 void Executor::emit_position(const char* name, const core::Vec6& v) {
-  const double out[6] = {v[0], v[1], v[2], v[3] / kDeg, v[4] / kDeg, v[5] / kDeg};
+  const double out[6] = {v[0], v[1], v[2], v[3] / kDegToRad, v[4] / kDegToRad, v[5] / kDegToRad};
   canon_.axes_call(name, out, 6);
 }
 
@@ -637,7 +637,7 @@ bool Executor::motion(const Block& b, int g, bool supa) {
       p[a] = inc ? p[a] + v : v;
       linear = true;
     } else {
-      const double v = eval(w.value) * kDeg;
+      const double v = eval(w.value) * kDegToRad;
       rot[a - 3] = inc ? rot[a - 3] + v : v;
       rotary = true;
     }
@@ -732,7 +732,7 @@ void Executor::arc_to(const Block& b, int g, const Eigen::Vector3d& end_prog, co
     const Eigen::Vector3d cw = frame.apply(c3);
     const int rotation = static_cast<int>(sense * (n_w[k] > 0 ? 1 : -1)) * (1 + turns);
     const double plane4[4] = {end[wp[0]], end[wp[1]], cw[wp[0]], cw[wp[1]]};
-    const double rest4[4] = {end[wp[2]], end[3] / kDeg, end[4] / kDeg, end[5] / kDeg};
+    const double rest4[4] = {end[wp[2]], end[3] / kDegToRad, end[4] / kDegToRad, end[5] / kDegToRad};
     canon_.arc_call(plane4, rotation, rest4);
     core::Move m;
     m.kind = core::MotionKind::Arc;

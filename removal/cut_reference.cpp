@@ -1,4 +1,5 @@
 #include "removal/cut_reference.hpp"
+#include "core/units.hpp"
 
 #include "removal/cut_internal.hpp"
 #include "removal/fields.hpp"
@@ -161,7 +162,7 @@ CutStats cut_reference(NeedleSet& n, const std::vector<SweptTool>& sweeps) {
 // sweeps_from_track as it was before issue 21 (removal/track.cpp).
 namespace track_ref {
 
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 
 double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   const Eigen::Vector3d d = b - a;

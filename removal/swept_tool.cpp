@@ -1,4 +1,5 @@
 #include "removal/swept_tool.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 
@@ -10,7 +11,7 @@ namespace vmsim::removal {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using core::units::kInf;
 
 // Running [min, max] of the candidate ray parameters found on the volume's boundary.
 struct Hull {

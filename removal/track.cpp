@@ -1,4 +1,5 @@
 #include "removal/track.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 #include "removal/cut_internal.hpp"
@@ -13,7 +14,7 @@ namespace vmsim::removal {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 
 double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   const Eigen::Vector3d d = b - a;

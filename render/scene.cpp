@@ -2,6 +2,7 @@
 // vtkPolyDataNormals), a camera framed tightly on what is drawn, a raking key light, and the annotations (caption,
 // colour scale in um, scale bar) in a background layer around the scene's viewport.
 #include "render/scene.hpp"
+#include "core/units.hpp"
 
 #include "core/error.hpp"
 #include "render/colormap.hpp"
@@ -44,7 +45,7 @@ namespace vmsim::render {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using core::units::kPi;
 constexpr double kDeg = kPi / 180.0;
 
 // What is drawn: the surface (with its deviation scalars in um when coloured) and, for grids, its side walls.

@@ -1,4 +1,5 @@
 #include "sim/oga.hpp"
+#include "core/units.hpp"
 #include "sim/drive_checks.hpp"
 
 #include "core/error.hpp"
@@ -15,7 +16,7 @@ namespace vmsim::sim {
 namespace {
 
 using Eigen::Index;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 
 // Linear axes: mm/s -> m/min, mm/s^2 -> m/s^2, mm/s^3 -> m/s^3 (the units of Duong et al. Table I and the machine
 // file).

@@ -1,6 +1,7 @@
 // vmsim run's chain as callable stages (app/run_pipeline.hpp): the motion, its sweeps, the stock's field cut by
 // them, the reference field, and the surfaces read back.
 #include "sim/pipeline.hpp"
+#include "core/timing.hpp"
 #include "sim/cut_progress.hpp"
 
 #include "sim/job_program.hpp"
@@ -31,7 +32,7 @@ namespace vmsim::sim {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using core::seconds_since;
 }  // namespace
 
 const char* motion_name(core::RemovalSpec::Motion m) {

@@ -16,7 +16,7 @@ namespace vmsim::sim {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using core::units::kNaN;
 
 // Folds one signal at a time into per-bin minima and maxima; `value(k)` is called for k = 0, 1, ... in order, so
 // it may carry state from one sample to the next (differences, running sums).

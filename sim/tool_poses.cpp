@@ -16,7 +16,7 @@ namespace vmsim::sim {
 
 namespace {
 
-constexpr double kPi = core::units::kPi;
+using core::units::kPi;
 
 // Machine-file-order axis vector from program-axis (Vec6) positions.
 Eigen::VectorXd machine_axes(const core::Vec6& v, const core::Machine& machine) {

@@ -4,13 +4,9 @@
 
 namespace vmsim::sysid {
 
-namespace {
+using detail::monic;
 
-Eigen::VectorXd monic(const Eigen::VectorXd& tail) {
-  Eigen::VectorXd p(tail.size() + 1);
-  p << 1.0, tail;
-  return p;
-}
+namespace {
 
 Eigen::VectorXd delayed_numerator(const Eigen::VectorXd& b, int nk) {
   Eigen::VectorXd p = Eigen::VectorXd::Zero(nk + b.size());

@@ -8,6 +8,13 @@
 
 namespace vmsim::sysid::detail {
 
+// The polynomial 1 + tail(0) q^-1 + ...: the monic denominators (A, C, D, F) from their free coefficients.
+inline Eigen::VectorXd monic(const Eigen::VectorXd& tail) {
+  Eigen::VectorXd p(tail.size() + 1);
+  p << 1.0, tail;
+  return p;
+}
+
 // Checks the data and orders; returns the first sample the criteria sum from (every regressor defined).
 Eigen::Index check_problem(const IdData& data, const ModelOrders& orders, int parameters, bool use_nc);
 

@@ -7,15 +7,7 @@
 
 namespace vmsim::sysid {
 
-namespace {
-
-Eigen::VectorXd monic(const Eigen::VectorXd& tail) {
-  Eigen::VectorXd p(tail.size() + 1);
-  p << 1.0, tail;
-  return p;
-}
-
-}  // namespace
+using detail::monic;
 
 IdentifiedModel identify_oe(const IdData& data, const ModelOrders& o, const SearchOptions& options) {
   const int nf = o.na, nb = o.nb, nk = o.nk;

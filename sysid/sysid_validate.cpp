@@ -10,13 +10,9 @@
 
 namespace vmsim::sysid {
 
-namespace {
+using detail::monic;
 
-Eigen::VectorXd monic(const Eigen::VectorXd& tail) {
-  Eigen::VectorXd p(tail.size() + 1);
-  p << 1.0, tail;
-  return p;
-}
+namespace {
 
 double fit_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& yhat) {
   const double den = (y.array() - y.mean()).matrix().norm();
