@@ -143,8 +143,9 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
   return true;
 }
 
-void print_summary(const core::Job& job, const sim::RunResult& r, const fs::path& dir, std::size_t n_files,
-                   std::size_t n_images, Clock::time_point t_start) {
+// The result lines (the field, the contour error, the marks), printed before the pictures are drawn: they are what
+// the user waits for (the demo's mark table), and the pictures add nothing to them.
+void print_results(const core::Job& job, const sim::RunResult& r) {
   const sim::Cut& c = r.cut;
   if (c.field.vdb)
     std::printf("job %s: %s motion, %zu sweeps on a level set of %zu voxels at %g mm (%.1f MB, estimated %.1f MB)\n",
@@ -173,6 +174,10 @@ void print_summary(const core::Job& job, const sim::RunResult& r, const fs::path
     std::printf("mark %zu: %s %.2f um%s at x %.3f y %.3f, %.3f x %.3f mm\n", k + 1, m.overcut ? "overcut " : "undercut",
                 m.depth_mm * 1e3, vertical.c_str(), m.x_mm, m.y_mm, m.x_extent_mm, m.y_extent_mm);
   }
+  std::fflush(stdout);
+}
+
+void print_written(const fs::path& dir, std::size_t n_files, std::size_t n_images, Clock::time_point t_start) {
   if (n_images > 0) std::printf("images: %s (%zu PNG files)\n", (dir / "images").string().c_str(), n_images);
   std::printf("wrote %s (%zu files) in %.1f s\n", dir.string().c_str(), n_files, seconds_since(t_start));
 }
@@ -262,6 +267,7 @@ int run_run(const RunArgs& args) {
   create_out_dir(dir);
   std::vector<std::string> files = sim::write_run_outputs(job, result, dir, render::write_vtp);
   const double t_write = seconds_since(t0);
+  print_results(job, result);
 
   // Pictures, after every result file: a failure to draw loses no result.
   std::optional<std::string> render_error;
@@ -287,7 +293,7 @@ int run_run(const RunArgs& args) {
   files.push_back("report.json");
   if (out) out->commit();
 
-  print_summary(job, result, shown, files.size(), n_images, t_start);
+  print_written(shown, files.size(), n_images, t_start);
   const int verdict_code = print_verdict(report);
   if (render_error)
     throw core::Error("the results are written to " + shown.string() +
