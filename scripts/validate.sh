@@ -36,7 +36,7 @@ else
 fi
 
 echo "== Random-path limits and tolerance (10 000 paths, the interpolator's hard requirement)"
-"$here/build/tests/motion_tests" --gtest_filter='Interp.RandomPaths*' | grep -E 'worst|OK|FAILED'
+VMSIM_RANDOM_PATHS=10000 "$here/build/tests/motion_tests" --gtest_filter='Interp.RandomPaths*' | grep -E 'worst|OK|FAILED'
 
 echo
 echo "== OGA on parts/oga_profile (Duong et al. Table II: MSE(CE) 0.76 -> 0.25 um^2, -67 %; Fig. 7: 72 X / 108 Z admissible;"
