@@ -109,9 +109,9 @@ struct FeedPlanSpec {
 // nodes is "large": "auto" then writes no part mesh and no CSV grids (NPY and X3P hold the same heights).
 struct OutputsSpec {
   enum class Mesh { Auto, Full, Simplified, None } part_mesh = Mesh::Auto;  // part.stl and part.vtp of a z-map
-  enum class Csv { Auto, Always, Never } csv = Csv::Auto;  // surface.csv, reference.csv, deviation.csv
-  bool npy = true;                                         // surface.npy, deviation.npy, deviation_vertical.npy
-  bool x3p = true;                                         // surface.x3p, reference.x3p, deviation.x3p
+  enum class Csv { Auto, Always, Never } csv = Csv::Auto;                   // surface.csv, reference.csv, deviation.csv
+  bool npy = true;  // surface.npy, deviation.npy, deviation_vertical.npy
+  bool x3p = true;  // surface.x3p, reference.x3p, deviation.x3p
   double large_grid_nodes = 4e6;
   // The simplified mesh merges blocks of the grid that are flat to within this (its error bound is twice it).
   double mesh_tolerance_mm = 1e-4;
@@ -163,7 +163,7 @@ struct Job {
   RemovalSpec removal;
   ReferenceSpec reference;
   std::optional<FeedPlanSpec> feedplan;  // [feedplan]
-  OutputsSpec outputs;                    // [outputs]
+  OutputsSpec outputs;                   // [outputs]
 };
 
 Job load_job(const std::filesystem::path& path);

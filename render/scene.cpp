@@ -136,9 +136,9 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
   // A picture shows at most about one node per pixel: a finer grid is drawn at every `stride`-th node (point samples,
   // as the rasteriser samples a finer mesh anyway), which cuts the triangles of a 0.025 mm part several-fold.
   const Eigen::Index stride =
-      max_nodes_across > 0 ? std::max<Eigen::Index>(1, (std::max(i1 - i0, j1 - j0) + max_nodes_across - 1) /
-                                                            max_nodes_across)
-                           : 1;
+      max_nodes_across > 0
+          ? std::max<Eigen::Index>(1, (std::max(i1 - i0, j1 - j0) + max_nodes_across - 1) / max_nodes_across)
+          : 1;
   const std::vector<Eigen::Index> xs = drawn_nodes(i0, i1, stride), ys = drawn_nodes(j0, j1, stride);
   const auto nx = static_cast<Eigen::Index>(xs.size()), ny = static_cast<Eigen::Index>(ys.size());
   // The surface as drawn before the vertical exaggeration: with its deviation magnified where there is one.

@@ -20,7 +20,6 @@ struct SimplifiedMesh {
 // even number >= 2); a block with an invalid node, or at the grid's far edges where it does not fit whole, keeps
 // every cell. Throws core::Error for a tolerance that is not positive or a bad block size.
 SimplifiedMesh simplified_heightfield_mesh(const core::HeightGrid& top, double bottom_z_mm,
-                                           const core::HeightGrid* deviation, double tolerance_mm,
-                                           int block_cells = 8);
+                                           const core::HeightGrid* deviation, double tolerance_mm, int block_cells = 8);
 
 }  // namespace vmsim::sim

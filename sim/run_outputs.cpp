@@ -88,8 +88,8 @@ std::vector<std::string> write_run_outputs(const core::Job& job, const RunResult
       if (o.x3p) {
         x3p.comment = "reference surface of job " + job.name + " (" + r.cut.reference.name + ")";
         metrology::write_x3p(dir / "reference.x3p", *r.reference_surface, x3p);
-        x3p.comment = "deviation of job " + job.name +
-                      ": predicted - reference along the reference's normal (negative: overcut)";
+        x3p.comment =
+            "deviation of job " + job.name + ": predicted - reference along the reference's normal (negative: overcut)";
         metrology::write_x3p(dir / "deviation.x3p", *r.deviation, x3p);
         files.insert(files.end(), {"reference.x3p", "deviation.x3p"});
       }

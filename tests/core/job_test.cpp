@@ -495,10 +495,10 @@ TEST(Job, OutputsKeysDefaultsAndErrors) {
   EXPECT_DOUBLE_EQ(plain.outputs.large_grid_nodes, 4e6);
   EXPECT_DOUBLE_EQ(plain.outputs.mesh_tolerance_mm, 1e-4);
   EXPECT_EQ(plain.outputs.vtp_compression_level, 1);
-  const Job job = load_job(job_files(head +
-                                     "[outputs]\npart_mesh = \"simplified\"\ncsv = \"never\"\nnpy = false\nx3p = false\n"
-                                     "large_grid_nodes = 1000\nmesh_tolerance_mm = 0.002\nvtp_compression_level = 6\n")
-                               .job);
+  const Job job =
+      load_job(job_files(head + "[outputs]\npart_mesh = \"simplified\"\ncsv = \"never\"\nnpy = false\nx3p = false\n"
+                                "large_grid_nodes = 1000\nmesh_tolerance_mm = 0.002\nvtp_compression_level = 6\n")
+                   .job);
   EXPECT_EQ(job.outputs.part_mesh, OutputsSpec::Mesh::Simplified);
   EXPECT_EQ(job.outputs.csv, OutputsSpec::Csv::Never);
   EXPECT_FALSE(job.outputs.npy);

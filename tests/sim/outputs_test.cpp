@@ -65,8 +65,9 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
   const sim::RunResult r = sim::run_job(plain);
   ASSERT_TRUE(r.surface && r.deviation && r.part_mesh);
   const std::set<std::string> grids_csv = {"surface.csv", "reference.csv", "deviation.csv"};
-  const std::set<std::string> grids_npy = {"surface.npy",           "surface.npy.json",           "deviation.npy",
-                                           "deviation.npy.json",    "deviation_vertical.npy",     "deviation_vertical.npy.json"};
+  const std::set<std::string> grids_npy = {
+      "surface.npy",        "surface.npy.json",       "deviation.npy",
+      "deviation.npy.json", "deviation_vertical.npy", "deviation_vertical.npy.json"};
   const std::set<std::string> grids_x3p = {"surface.x3p", "reference.x3p", "deviation.x3p"};
   const std::set<std::string> mesh = {"part.stl", "part.vtp"};
   auto all_of = [&](std::initializer_list<std::set<std::string>> sets) {
@@ -96,10 +97,10 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
     EXPECT_NE(notes.find("part_mesh = \\\"full\\\""), std::string::npos) << notes;
   }
   {  // Every key given: no grids at all, the simplified mesh, zlib level 7.
-    const core::Job job = core::load_job(
-        write_job(tmp.path(),
-                  "[outputs]\npart_mesh = \"simplified\"\ncsv = \"never\"\nnpy = false\nx3p = false\n"
-                  "mesh_tolerance_mm = 0.001\nvtp_compression_level = 7\n"));
+    const core::Job job =
+        core::load_job(write_job(tmp.path(),
+                                 "[outputs]\npart_mesh = \"simplified\"\ncsv = \"never\"\nnpy = false\nx3p = false\n"
+                                 "mesh_tolerance_mm = 0.001\nvtp_compression_level = 7\n"));
     const Written w = write(job, r, tmp.path() / "chosen");
     EXPECT_EQ(w.files, all_of({mesh}));
     EXPECT_EQ(w.vtp_levels, std::vector<int>{7});
