@@ -265,28 +265,36 @@ int run_run(const RunArgs& args) {
 
   auto t0 = Clock::now();
   create_out_dir(dir);
-  std::vector<std::string> files = sim::write_run_outputs(job, result, dir, render::write_vtp);
-  const double t_write = seconds_since(t0);
+  const double cpu0 = core::process_cpu_s();
+  nlohmann::json outputs;
+  std::vector<std::string> files = sim::write_run_outputs(job, result, dir, render::write_vtp, &outputs);
+  const double t_write = seconds_since(t0), cpu_write = core::process_cpu_s() - cpu0;
+  if (mpi_rank() == 0)
+    for (const auto& n : outputs["outputs"].value("notes", nlohmann::json::array()))
+      std::fprintf(stderr, "vmsim: note: %s\n", n.get<std::string>().c_str());
   print_results(job, result);
 
   // Pictures, after every result file: a failure to draw loses no result.
   std::optional<std::string> render_error;
   std::size_t n_images = 0;
-  double t_render = 0;
+  double t_render = 0, cpu_render = 0;
   if (!args.no_render) {
     t0 = Clock::now();
+    const double cpu1 = core::process_cpu_s();
     progress.stage(job.name + ": pictures");
     render_error = draw_pictures(job, result, dir, image_opt, files, n_images);
     progress.done();
-    t_render = seconds_since(t0);
+    t_render = seconds_since(t0), cpu_render = core::process_cpu_s() - cpu1;
   }
 
   nlohmann::json report = result.report;
+  report["outputs"] = outputs["outputs"];
   if (!program_warnings.empty()) report["program_warnings"] = program_warnings;
   if (!tiles_json.is_null()) report["tiles"] = tiles_json;
   report["files"] = files;
   report["timings_s"]["write"] = t_write;
-  if (!args.no_render) report["timings_s"]["render"] = t_render;
+  report["timings_s"]["write_cpu"] = cpu_write;  // every thread's CPU time (llvmpipe draws in its own)
+  if (!args.no_render) report["timings_s"]["render"] = t_render, report["timings_s"]["render_cpu"] = cpu_render;
   if (render_error) report["render_error"] = *render_error;
   report["timings_s"]["total"] = seconds_since(t_start);
   write_report(dir / "report.json", report);

@@ -7,6 +7,7 @@
 
 #include "core/error.hpp"
 #include "metrology/grid_io.hpp"
+#include "metrology/x3p.hpp"
 #include "render/chart.hpp"
 #include "render/colormap.hpp"
 #include "render/window.hpp"
@@ -403,9 +404,18 @@ ResultData load_results(const fs::path& dir) {
           "{}: report.json lists {}, which is missing: the result is incomplete (run it again)", dir.string(), name));
     return true;
   };
-  if (take("surface.csv")) d.surface = metrology::read_height_csv(dir / "surface.csv");
-  if (take("deviation.csv")) {
-    d.deviation = metrology::read_height_csv(dir / "deviation.csv");
+  // A large grid's run writes no CSV by default ([outputs] csv): its X3P files hold the same heights.
+  if (take("surface.csv"))
+    d.surface = metrology::read_height_csv(dir / "surface.csv");
+  else if (take("surface.x3p"))
+    d.surface = metrology::read_x3p(dir / "surface.x3p").grid;
+  std::optional<core::HeightGrid> deviation;
+  if (take("deviation.csv"))
+    deviation = metrology::read_height_csv(dir / "deviation.csv");
+  else if (take("deviation.x3p"))
+    deviation = metrology::read_x3p(dir / "deviation.x3p").grid;
+  if (deviation) {
+    d.deviation = std::move(deviation);
     const nlohmann::json along = r.value("surface", nlohmann::json::object()).value("deviation_along", "vertical");
     d.deviation_along = along.is_string() ? along.get<std::string>() : "vertical";
     d.marks = metrology::find_marks(*d.deviation, 1e-3);  // as vmsim run: marks deeper than 1 um

@@ -215,6 +215,30 @@ FeedPlanSpec read_feedplan(const TomlTable& t) {
   return f;
 }
 
+OutputsSpec read_outputs(const TomlTable& t) {
+  OutputsSpec o;
+  const std::string mesh = t.opt_choice("part_mesh", {"auto", "full", "simplified", "none"}).value_or("auto");
+  o.part_mesh = mesh == "auto"         ? OutputsSpec::Mesh::Auto
+                : mesh == "full"       ? OutputsSpec::Mesh::Full
+                : mesh == "simplified" ? OutputsSpec::Mesh::Simplified
+                                       : OutputsSpec::Mesh::None;
+  const std::string csv = t.opt_choice("csv", {"auto", "always", "never"}).value_or("auto");
+  o.csv = csv == "auto" ? OutputsSpec::Csv::Auto : csv == "always" ? OutputsSpec::Csv::Always : OutputsSpec::Csv::Never;
+  o.npy = t.opt_boolean("npy").value_or(true);
+  o.x3p = t.opt_boolean("x3p").value_or(true);
+  if (auto n = t.opt_integer("large_grid_nodes")) {
+    if (*n < 1) t.fail("large_grid_nodes", fmt::format("expected a number of grid nodes >= 1, found {}", *n));
+    o.large_grid_nodes = static_cast<double>(*n);
+  }
+  if (auto tol = t.opt_positive("mesh_tolerance_mm")) o.mesh_tolerance_mm = *tol;
+  if (auto l = t.opt_integer("vtp_compression_level")) {
+    if (*l < 1 || *l > 9) t.fail("vtp_compression_level", fmt::format("expected a zlib level 1..9, found {}", *l));
+    o.vtp_compression_level = static_cast<int>(*l);
+  }
+  t.finish();
+  return o;
+}
+
 }  // namespace
 
 Job load_job(const std::filesystem::path& path) {
@@ -274,6 +298,7 @@ Job load_job(const std::filesystem::path& path) {
   if (auto t = top.opt_table("removal")) job.removal = read_removal(*t);
   if (auto t = top.opt_table("reference")) job.reference = read_reference(*t);
   if (auto t = top.opt_table("feedplan")) job.feedplan = read_feedplan(*t);
+  if (auto t = top.opt_table("outputs")) job.outputs = read_outputs(*t);
   if (job.program_file.empty() && !(job.feedplan && job.feedplan->nurbs))
     top.table("job").fail("program", "missing (expected a file path, or a [feedplan.nurbs] curve as the path)");
   if (job.reference.kind == ReferenceSpec::Kind::Stock && job.stock.kind != StockSpec::Kind::Job)

@@ -105,6 +105,19 @@ struct FeedPlanSpec {
   std::vector<Axis> axes;
 };
 
+// [outputs]: which heavy result files vmsim run writes (sim/run_outputs.hpp). A grid of more than large_grid_nodes
+// nodes is "large": "auto" then writes no part mesh and no CSV grids (NPY and X3P hold the same heights).
+struct OutputsSpec {
+  enum class Mesh { Auto, Full, Simplified, None } part_mesh = Mesh::Auto;  // part.stl and part.vtp of a z-map
+  enum class Csv { Auto, Always, Never } csv = Csv::Auto;                   // surface.csv, reference.csv, deviation.csv
+  bool npy = true;  // surface.npy, deviation.npy, deviation_vertical.npy
+  bool x3p = true;  // surface.x3p, reference.x3p, deviation.x3p
+  double large_grid_nodes = 4e6;
+  // The simplified mesh merges blocks of the grid that are flat to within this (its error bound is twice it).
+  double mesh_tolerance_mm = 1e-4;
+  int vtp_compression_level = 1;  // zlib level of part.vtp: 1 writes ~1.6x faster than VTK's 5, ~5 % larger
+};
+
 struct Job {
   std::string name;
   std::filesystem::path file;  // the job file itself
@@ -150,6 +163,7 @@ struct Job {
   RemovalSpec removal;
   ReferenceSpec reference;
   std::optional<FeedPlanSpec> feedplan;  // [feedplan]
+  OutputsSpec outputs;                   // [outputs]
 };
 
 Job load_job(const std::filesystem::path& path);

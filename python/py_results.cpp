@@ -230,7 +230,9 @@ py::object run_job(const PyJob& pj, std::optional<fs::path> out, bool render, py
     if (!dir) return 0;
     // The files `vmsim run --no-render` writes, through its writer, then its report.json (and report.html).
     const auto t0 = core::Clock::now();
-    res->files = sim::write_run_outputs(job, res->run, dir->path(), render::write_vtp);
+    nlohmann::json outputs;
+    res->files = sim::write_run_outputs(job, res->run, dir->path(), render::write_vtp, &outputs);
+    res->report["outputs"] = outputs["outputs"];
     res->report["files"] = res->files;
     res->report["timings_s"]["write"] = core::seconds_since(t0);
     res->report["timings_s"]["total"] = core::seconds_since(t_start);

@@ -14,7 +14,9 @@
 
 namespace vmsim::render {
 
-void write_vtp(const std::filesystem::path& file, const core::TriangleMesh& mesh) {
+void write_vtp(const std::filesystem::path& file, const core::TriangleMesh& mesh, int zlib_level) {
+  if (zlib_level < 1 || zlib_level > 9)
+    throw core::Error(file.string() + ": zlib compression level " + std::to_string(zlib_level) + " is not in 1..9");
   vtkNew<vtkPoints> pts;
   pts->SetDataTypeToDouble();
   pts->SetNumberOfPoints(mesh.vertices_mm.rows());
@@ -46,6 +48,7 @@ void write_vtp(const std::filesystem::path& file, const core::TriangleMesh& mesh
   w->SetInputData(pd);
   w->SetDataModeToBinary();
   w->SetCompressorTypeToZLib();
+  w->SetCompressionLevel(zlib_level);
   if (w->Write() != 1) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);

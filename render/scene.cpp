@@ -94,7 +94,17 @@ void update_bounds(Geometry& g) {
 
 // ---- height grid ----------------------------------------------------------------------------------------------
 
-Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, const View& view, bool coloured) {
+// The nodes drawn along one axis of the window [lo, hi]: every `stride`-th, and always the last so the drawn extent
+// stays the window's.
+std::vector<Eigen::Index> drawn_nodes(Eigen::Index lo, Eigen::Index hi, Eigen::Index stride) {
+  std::vector<Eigen::Index> v;
+  for (Eigen::Index i = lo; i < hi; i += stride) v.push_back(i);
+  v.push_back(hi);
+  return v;
+}
+
+Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, const View& view, bool coloured,
+                       Eigen::Index max_nodes_across) {
   if (s.nx() < 2 || s.ny() < 2) throw core::Error("render_part: the height grid has fewer than 2 x 2 nodes");
   if (!(s.dx_mm > 0) || !(s.dy_mm > 0)) throw core::Error("render_part: the height grid's spacing is not positive");
   const bool magnified = view.mark_magnification != 1.0;
@@ -124,7 +134,14 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
           "y {}..{} mm)",
           r.x_min_mm, r.x_max_mm, r.y_min_mm, r.y_max_mm, s.x0_mm, s.x(s.nx() - 1), s.y0_mm, s.y(s.ny() - 1)));
   }
-  const Eigen::Index nx = i1 - i0 + 1, ny = j1 - j0 + 1;
+  // A picture shows at most about one node per pixel: a finer grid is drawn at every `stride`-th node (point samples,
+  // as the rasteriser samples a finer mesh anyway), which cuts the triangles of a 0.025 mm part several-fold.
+  const Eigen::Index stride =
+      max_nodes_across > 0
+          ? std::max<Eigen::Index>(1, (std::max(i1 - i0, j1 - j0) + max_nodes_across - 1) / max_nodes_across)
+          : 1;
+  const std::vector<Eigen::Index> xs = drawn_nodes(i0, i1, stride), ys = drawn_nodes(j0, j1, stride);
+  const auto nx = static_cast<Eigen::Index>(xs.size()), ny = static_cast<Eigen::Index>(ys.size());
   // The surface as drawn before the vertical exaggeration: with its deviation magnified where there is one.
   const double mag = view.mark_magnification;
   auto zm = [&](Eigen::Index j, Eigen::Index i) {
@@ -134,8 +151,8 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
     return std::isfinite(d) ? z + (mag - 1) * d : z;
   };
   double zmin = std::numeric_limits<double>::max(), zmax = -zmin;
-  for (Eigen::Index j = j0; j <= j1; ++j)
-    for (Eigen::Index i = i0; i <= i1; ++i)
+  for (Eigen::Index j : ys)
+    for (Eigen::Index i : xs)
       if (s.valid(j, i)) zmin = std::min(zmin, zm(j, i)), zmax = std::max(zmax, zm(j, i));
   if (zmin > zmax) throw core::Error("render_part: the height grid has no valid node in the drawn region");
 
@@ -158,13 +175,19 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
   if (coloured) scalars->SetNumberOfValues(nx * ny);
   std::vector<std::int32_t> id(static_cast<std::size_t>(nx * ny), -1);
   vtkIdType n = 0;
-  for (Eigen::Index j = j0; j <= j1; ++j)
-    for (Eigen::Index i = i0; i <= i1; ++i) {
+  for (Eigen::Index jj = 0; jj < ny; ++jj)
+    for (Eigen::Index ii = 0; ii < nx; ++ii) {
+      const Eigen::Index j = ys[static_cast<std::size_t>(jj)], i = xs[static_cast<std::size_t>(ii)];
       if (!s.valid(j, i)) continue;
-      const Eigen::Index il = (i > 0 && s.valid(j, i - 1)) ? i - 1 : i,
-                         ir = (i + 1 < s.nx() && s.valid(j, i + 1)) ? i + 1 : i;
-      const Eigen::Index jl = (j > 0 && s.valid(j - 1, i)) ? j - 1 : j,
-                         jr = (j + 1 < s.ny() && s.valid(j + 1, i)) ? j + 1 : j;
+      // Neighbours one stride away (inside the window they are drawn nodes; at its edge, nodes outside it).
+      const Eigen::Index step_l = ii > 0 ? i - xs[static_cast<std::size_t>(ii - 1)] : stride;
+      const Eigen::Index step_r = ii + 1 < nx ? xs[static_cast<std::size_t>(ii + 1)] - i : stride;
+      const Eigen::Index step_d = jj > 0 ? j - ys[static_cast<std::size_t>(jj - 1)] : stride;
+      const Eigen::Index step_u = jj + 1 < ny ? ys[static_cast<std::size_t>(jj + 1)] - j : stride;
+      const Eigen::Index il = (i - step_l >= 0 && s.valid(j, i - step_l)) ? i - step_l : i,
+                         ir = (i + step_r < s.nx() && s.valid(j, i + step_r)) ? i + step_r : i;
+      const Eigen::Index jl = (j - step_d >= 0 && s.valid(j - step_d, i)) ? j - step_d : j,
+                         jr = (j + step_u < s.ny() && s.valid(j + step_u, i)) ? j + step_u : j;
       const double gx = ir > il ? (zd(j, ir) - zd(j, il)) / ((ir - il) * s.dx_mm) : 0.0;
       const double gy = jr > jl ? (zd(jr, i) - zd(jl, i)) / ((jr - jl) * s.dy_mm) : 0.0;
       const double len = std::sqrt(gx * gx + gy * gy + 1);
@@ -176,7 +199,7 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
         scalars->SetValue(n, static_cast<float>(d * 1e3));
         if (std::isfinite(d)) g.deviation_um.push_back(d * 1e3);
       }
-      id[static_cast<std::size_t>((j - j0) * nx + (i - i0))] = static_cast<std::int32_t>(n++);
+      id[static_cast<std::size_t>(jj * nx + ii)] = static_cast<std::int32_t>(n++);
     }
   pts->SetNumberOfPoints(n);
   normals->SetNumberOfTuples(n);
@@ -239,13 +262,13 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
     wconn.insert(wconn.end(), {first, first + 3, first + 2, first + 1});  // counter-clockwise seen from outside
     woff.push_back(static_cast<std::int32_t>(wconn.size()));
   };
-  for (Eigen::Index i = i0; i < i1; ++i) {
-    wall(j0, i, j0, i + 1, 0, -1);
-    wall(j1, i + 1, j1, i, 0, 1);
+  for (std::size_t k = 0; k + 1 < xs.size(); ++k) {
+    wall(j0, xs[k], j0, xs[k + 1], 0, -1);
+    wall(j1, xs[k + 1], j1, xs[k], 0, 1);
   }
-  for (Eigen::Index j = j0; j < j1; ++j) {
-    wall(j + 1, i0, j, i0, -1, 0);
-    wall(j, i1, j + 1, i1, 1, 0);
+  for (std::size_t k = 0; k + 1 < ys.size(); ++k) {
+    wall(ys[k + 1], i0, ys[k], i0, -1, 0);
+    wall(ys[k], i1, ys[k + 1], i1, 1, 0);
   }
   g.walls = vtkSmartPointer<vtkPolyData>::New();
   g.walls->SetPoints(wp);
@@ -697,7 +720,9 @@ Eigen::Vector2d PartImage::pixel(const Eigen::Vector3d& p) const {
 PartImage render_part(Window& window, const core::HeightGrid& surface, const core::HeightGrid* deviation,
                       const PartPicture& picture) {
   check_picture(picture);
-  Geometry g = grid_geometry(surface, deviation, picture.view, picture.deviation.has_value());
+  // About one node per pixel of the picture's larger side (the part fills most of it).
+  const Eigen::Index max_across = picture.full_resolution ? 0 : std::max(picture.width, picture.height);
+  Geometry g = grid_geometry(surface, deviation, picture.view, picture.deviation.has_value(), max_across);
   return draw(window, g, picture);
 }
 

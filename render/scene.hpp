@@ -63,6 +63,9 @@ struct PartPicture {
   Lighting light;
   // Colour by deviation (the grid given with the surface, or the mesh's per-vertex array); plain metal when empty.
   std::optional<DeviationColours> deviation;
+  // Height grids: draw every node. By default a grid finer than about one node per pixel of the picture's larger
+  // side is drawn at every k-th node (k the smallest that fits), which the picture cannot tell apart.
+  bool full_resolution = false;
 };
 
 struct PartImage {

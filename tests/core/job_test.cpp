@@ -480,3 +480,52 @@ TEST(Job, MachineFileErrorsNameTheMachineFile) {
 
 }  // namespace
 }  // namespace vmsim::core
+
+namespace vmsim::core {
+namespace {
+
+// [outputs] (parts/README.md): every key read, its defaults, and its errors naming the key.
+TEST(Job, OutputsKeysDefaultsAndErrors) {
+  const std::string head = "[job]\nmachine = \"machine.toml\"\nprogram = \"part.apt\"\n";
+  const Job plain = load_job(job_files(head).job);
+  EXPECT_EQ(plain.outputs.part_mesh, OutputsSpec::Mesh::Auto);
+  EXPECT_EQ(plain.outputs.csv, OutputsSpec::Csv::Auto);
+  EXPECT_TRUE(plain.outputs.npy);
+  EXPECT_TRUE(plain.outputs.x3p);
+  EXPECT_DOUBLE_EQ(plain.outputs.large_grid_nodes, 4e6);
+  EXPECT_DOUBLE_EQ(plain.outputs.mesh_tolerance_mm, 1e-4);
+  EXPECT_EQ(plain.outputs.vtp_compression_level, 1);
+  const Job job =
+      load_job(job_files(head + "[outputs]\npart_mesh = \"simplified\"\ncsv = \"never\"\nnpy = false\nx3p = false\n"
+                                "large_grid_nodes = 1000\nmesh_tolerance_mm = 0.002\nvtp_compression_level = 6\n")
+                   .job);
+  EXPECT_EQ(job.outputs.part_mesh, OutputsSpec::Mesh::Simplified);
+  EXPECT_EQ(job.outputs.csv, OutputsSpec::Csv::Never);
+  EXPECT_FALSE(job.outputs.npy);
+  EXPECT_FALSE(job.outputs.x3p);
+  EXPECT_DOUBLE_EQ(job.outputs.large_grid_nodes, 1000);
+  EXPECT_DOUBLE_EQ(job.outputs.mesh_tolerance_mm, 0.002);
+  EXPECT_EQ(job.outputs.vtp_compression_level, 6);
+  EXPECT_EQ(load_job(job_files(head + "[outputs]\npart_mesh = \"none\"\ncsv = \"always\"\n").job).outputs.part_mesh,
+            OutputsSpec::Mesh::None);
+  const struct {
+    std::string body;
+    std::vector<std::string> expected;
+  } cases[] = {
+      {"[outputs]\npart_mesh_max = 3\n", {"job.toml:", "unknown key 'outputs.part_mesh_max'"}},
+      {"[outputs]\npart_mesh = \"coarse\"\n", {"key 'outputs.part_mesh'", "\"coarse\" is not one of"}},
+      {"[outputs]\ncsv = true\n", {"key 'outputs.csv'"}},
+      {"[outputs]\nnpy = \"yes\"\n", {"key 'outputs.npy'"}},
+      {"[outputs]\nlarge_grid_nodes = 0\n", {"key 'outputs.large_grid_nodes'", ">= 1"}},
+      {"[outputs]\nmesh_tolerance_mm = -1\n", {"key 'outputs.mesh_tolerance_mm'"}},
+      {"[outputs]\nvtp_compression_level = 0\n", {"key 'outputs.vtp_compression_level'", "1..9"}},
+      {"[outputs]\nvtp_compression_level = 10\n", {"key 'outputs.vtp_compression_level'", "found 10"}},
+  };
+  for (const auto& c : cases) {
+    const std::string err = job_error(job_files(head + c.body));
+    for (const std::string& e : c.expected) EXPECT_NE(err.find(e), std::string::npos) << c.body << "\n -> " << err;
+  }
+}
+
+}  // namespace
+}  // namespace vmsim::core

@@ -269,3 +269,67 @@ TEST(Scene, BadInputsAreErrorsNotCrashes) {
   holes.z_mm.block(50, 100, 100, 200).setConstant(NAN);
   EXPECT_NO_THROW(render_part(shared_window(), holes, nullptr, pic));
 }
+
+// A grid finer than the picture is drawn at every k-th node (PartPicture::full_resolution). Reference: the same
+// picture drawn from every node. A 1201 x 901-node wavy part with a groove (0.01 mm spacing) in a 400 x 300 picture
+// is drawn at every 3rd node; the pictures must agree but for a small difference at the scale of a pixel (the
+// scallops, 15 nodes apart, are sampled at 5 nodes a period).
+TEST(Scene, DecimatedGridPictureIsCloseToTheFullResolutionOne) {
+  core::HeightGrid s;
+  s.dx_mm = s.dy_mm = 0.01;
+  s.z_mm.resize(901, 1201);
+  const Groove groove;
+  for (Eigen::Index j = 0; j < s.ny(); ++j)
+    for (Eigen::Index i = 0; i < s.nx(); ++i)
+      s.z_mm(j, i) = 0.2 * std::sin(s.x(i) / 1.7) * std::cos(s.y(j) / 1.3) + groove(s.x(i) * 20.0 / 12.0) +
+                     0.003 * std::sin(2 * M_PI * s.y(j) / 0.15);  // scallops 5 pixels apart
+  core::HeightGrid dev = s;
+  for (Eigen::Index j = 0; j < s.ny(); ++j)
+    for (Eigen::Index i = 0; i < s.nx(); ++i)
+      dev.z_mm(j, i) = groove(s.x(i) * 20.0 / 12.0) + 0.0005 * std::sin(2 * M_PI * s.y(j) / 0.15);
+  struct Case {
+    const char* name;
+    ViewDirection dir;
+    bool coloured;
+  };
+  for (const Case& c : {Case{"isometric metal", ViewDirection::Isometric, false},
+                        Case{"top deviation map", ViewDirection::Top, true}}) {
+    SCOPED_TRACE(c.name);
+    PartPicture pic;
+    pic.width = 400, pic.height = 300;
+    pic.view.direction = c.dir;
+    if (c.coloured) pic.deviation = DeviationColours{0.01, 3, false, ""};
+    const PartImage fast = render_part(shared_window(), s, &dev, pic);
+    pic.full_resolution = true;
+    const PartImage full = render_part(shared_window(), s, &dev, pic);
+    ASSERT_EQ(fast.image.rgb.size(), full.image.rgb.size());
+    EXPECT_GT(test::distinct_colours(fast.image), 200u);  // not blank
+    // Mean and 99th percentile of max-channel |dRGB| over the picture.
+    auto difference = [&](const Image& a) {
+      std::vector<double> d;
+      for (int y = 0; y < full.image.height; ++y)
+        for (int x = 0; x < full.image.width; ++x) d.push_back(test::colour_distance(a.at(x, y), full.image.at(x, y)));
+      double mean = 0;
+      for (double v : d) mean += v / static_cast<double>(d.size());
+      std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(0.99 * d.size()), d.end());
+      return std::pair{mean, d[static_cast<std::size_t>(0.99 * d.size())]};
+    };
+    const auto [mean, p99] = difference(fast.image);
+    std::printf("%s: mean |dRGB| %.3f, 99th percentile %.0f\n", c.name, mean, p99);
+    EXPECT_LT(mean, 1.5);
+    EXPECT_LT(p99, 10.0);
+    // Control, that the bounds can fail: the grid sampled at every 12th node (4x coarser than the picture's pixels),
+    // drawn at full resolution, is further off than them.
+    core::HeightGrid coarse = s, coarse_dev = dev;
+    coarse.dx_mm = coarse.dy_mm = coarse_dev.dx_mm = coarse_dev.dy_mm = 0.12;
+    coarse.z_mm.resize(76, 101), coarse_dev.z_mm.resize(76, 101);
+    for (Eigen::Index j = 0; j < 76; ++j)
+      for (Eigen::Index i = 0; i < 101; ++i)
+        coarse.z_mm(j, i) = s.z_mm(12 * j, 12 * i), coarse_dev.z_mm(j, i) = dev.z_mm(12 * j, 12 * i);
+    const auto [cmean, cp99] = difference(render_part(shared_window(), coarse, &coarse_dev, pic).image);
+    std::printf("%s, control at every 12th node: mean |dRGB| %.3f, 99th percentile %.0f\n", c.name, cmean, cp99);
+    EXPECT_TRUE(cmean > 1.5 || cp99 > 10.0);
+    test::keep_if_failed(fast.image, "_fast");
+    test::keep_if_failed(full.image, "_full");
+  }
+}
