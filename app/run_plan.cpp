@@ -6,6 +6,7 @@
 #include "app/report.hpp"
 #include "core/error.hpp"
 #include "sim/memory_plan.hpp"
+#include "sim/time_plan.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -47,6 +48,15 @@ void print_plan(const core::Job& job, const nlohmann::json& plan) {
     if (ranks > 1) std::printf(" (rank %d: %s)", ranks - 1, gb(p["per_rank"].back()["total_bytes"]).c_str());
     std::printf("\n");
   }
+  const nlohmann::json& t = plan["time"];
+  if (t["removal_cpu_s"].is_null())
+    std::printf("time: not predicted (%s)\n", t["not_predicted"].get<std::string>().c_str());
+  else
+    std::printf("time: removal %.3g s CPU, whole run %.3g s CPU (%.3g shadow rays of %.0f sweeps; within about 2x)\n",
+                t["removal_cpu_s"].get<double>(), t["run_cpu_s"].get<double>(),
+                t["shadow_rays"]["axial_ball"].get<double>() + t["shadow_rays"]["general"].get<double>() +
+                    t["shadow_rays"]["bull_nose"].get<double>(),
+                t["sweeps"].get<double>());
   if (!plan.contains("advice")) return;
   const nlohmann::json& a = plan["advice"];
   const int ng = a["ranks_gathered"].get<int>(), nt = a["ranks_tiles_out"].get<int>();
@@ -76,7 +86,8 @@ int run_plan(const core::Job& job, const RunArgs& args) {
   options.feed_scale = args.feed_scale.value_or(1.0);
   options.ranks = args.ranks.value_or(mpi_size());
   if (args.memory_per_rank_gb) options.memory_per_rank_bytes = *args.memory_per_rank_gb * 1e9;
-  const nlohmann::json plan = sim::plan_memory(job, options, progress);
+  nlohmann::json plan = sim::plan_memory(job, options, progress);
+  plan["time"] = sim::plan_time(job, options.feed_scale, progress);  // sim/time_plan.hpp
   print_plan(job, plan);
   if (args.out_dir) {
     std::error_code ec;

@@ -35,6 +35,21 @@ Eigen::Vector3d slerp(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double
   return ((std::sin((1 - u) * theta) / s) * a + (std::sin(u * theta) / s) * b).normalized();
 }
 
+// The largest h in [0, L] with p + h a in the box (slab clipping), or -1 when no such h exists.
+double highest_in_box(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p, const Eigen::Vector3d& a, double L) {
+  double h0 = 0, h1 = L;
+  for (int c = 0; c < 3; ++c) {
+    if (a[c] == 0) {
+      if (p[c] < box.min()[c] || p[c] > box.max()[c]) return -1;
+      continue;
+    }
+    double x0 = (box.min()[c] - p[c]) / a[c], x1 = (box.max()[c] - p[c]) / a[c];
+    if (x0 > x1) std::swap(x0, x1);
+    h0 = std::max(h0, x0), h1 = std::min(h1, x1);
+  }
+  return h0 <= h1 ? h1 : -1;
+}
+
 }  // namespace
 
 double orientation_error_bound_mm(const Tool& tool, double phi_rad) { return 2 * tool.reach() * std::sin(phi_rad / 4); }
@@ -80,8 +95,41 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   const double reach = tool.reach();
   // Largest |a - a*| of a sweep; capped at 45 degrees so that a run's axes stay in a cap where the largest distance
   // to a* along each slerp arc is at an end of the arc (checking the points then checks the arcs).
-  const double chord_max = turning ? std::min(e_orient / reach, 2 * std::sin(kPi / 8)) : 0.0;
-  const double phi_max = 4 * std::asin(0.5 * chord_max);  // a sub-step's turn: its half turn has chord chord_max
+  const double chord_cap = 2 * std::sin(kPi / 8);
+  auto chord_limit = [&](double r) { return turning ? std::min(e_orient / r, chord_cap) : 0.0; };
+
+  // The reach each track interval counts (track.hpp): reach() without a material box, else reach_k from the engaging
+  // length. H_k needs the tip's largest move over the interval: the chord plus twice the Hermite bow (the curve stays
+  // within the bow of the chord), plus the sweep's tip error (e_hermite + e_merge <= bow + eps).
+  std::vector<double> reach_k(turning ? static_cast<std::size_t>(std::max<Eigen::Index>(n - 1, 1)) : 0, reach);
+  if (turning && options.material_box) {
+    const double L = tool.length_mm, R = tool.radius_mm;
+    for (Eigen::Index k = 0; k + 1 < n; ++k) {
+      const std::size_t ks = static_cast<std::size_t>(k);
+      const Eigen::Vector3d p0 = track.tip_mm.row(k).transpose(), p1 = track.tip_mm.row(k + 1).transpose();
+      double bow = 0;
+      if (hermite) {
+        const Eigen::Vector3d m0 = track.tip_velocity_mm_per_s.row(k).transpose() * track.period_s;
+        const Eigen::Vector3d m1 = track.tip_velocity_mm_per_s.row(k + 1).transpose() * track.period_s;
+        bow = std::max((6 * (p1 - p0) - 4 * m0 - 2 * m1).norm(), (-6 * (p1 - p0) + 2 * m0 + 4 * m1).norm()) / 8;
+      }
+      const double delta = (p1 - p0).norm() + 3 * bow + eps + L * (turn[ks] + std::min(e_orient / R, chord_cap));
+      Eigen::AlignedBox3d grown = *options.material_box;
+      grown.min().array() -= R + delta;
+      grown.max().array() += R + delta;
+      const double H = highest_in_box(grown, p0, axis[ks], L);
+      // Rounded up a little so that round-off in the distances cannot push a body point past the bound.
+      reach_k[ks] = std::min(reach, std::hypot(std::max(H, 0.0), R) * (1 + 1e-9));
+    }
+  }
+  // Interval k's sub-steps answer to the reach of both its end samples (each end's the larger of its two intervals'),
+  // so that a run of two neighbouring points (always taken by the merge) meets every point's limit.
+  auto interval_reach = [&](std::size_t k) {
+    double r = reach_k[k];
+    if (k > 0) r = std::max(r, reach_k[k - 1]);
+    if (k + 1 < reach_k.size()) r = std::max(r, reach_k[k + 1]);
+    return r;
+  };
 
   // 1. Points: the samples, plus points between them where the Hermite curve bows by more than eps or the axis
   //    turns by more than phi_max. The cubic's second derivative is linear in the parameter, so its largest |p''|
@@ -91,6 +139,7 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   // one is axis[0] everywhere).
   std::vector<double> bx, by, bz;
   std::vector<Eigen::Vector3d> axs;
+  std::vector<double> rch;  // per point (turning only): the reach its sweeps answer to
   const bool samples_only = !hermite && !turning;
   double e_hermite = 0;
   if (!samples_only) {
@@ -98,7 +147,7 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
         bz.reserve(static_cast<std::size_t>(n));
     auto push = [&](const Eigen::Vector3d& p) { bx.push_back(p.x()), by.push_back(p.y()), bz.push_back(p.z()); };
     push(track.tip_mm.row(0).transpose());
-    if (turning) axs.reserve(static_cast<std::size_t>(n)), axs.push_back(axis[0]);
+    if (turning) axs.reserve(static_cast<std::size_t>(n)), axs.push_back(axis[0]), rch.push_back(reach_k[0]);
     for (Eigen::Index k = 0; k + 1 < n; ++k) {
       const std::size_t ks = static_cast<std::size_t>(k);
       const Eigen::Vector3d p0 = track.tip_mm.row(k).transpose(), p1 = track.tip_mm.row(k + 1).transpose();
@@ -115,13 +164,15 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
       }
       const double turn_k = per_sample ? turn[ks] : 0.0;
       if (turn_k > 0) {
+        const double r = interval_reach(ks);
+        const double phi_max = 4 * std::asin(0.5 * chord_limit(r));  // a sub-step's half turn has the chord limit
         const double need = std::ceil(turn_k / phi_max);
         if (need > 1e6)
           throw core::Error(
               fmt::format("removal: the tool axis turns by {:.3g} degrees between track samples {} and {}: "
                           "holding it within {:.3g} mm of a {:.3g} mm tool takes {:.3g} sub-steps (over "
                           "1e6); raise the tolerance or sample the track more finely",
-                          turn_k * 180 / kPi, k, k + 1, e_orient, reach, need));
+                          turn_k * 180 / kPi, k, k + 1, e_orient, r, need));
         m = std::max(m, static_cast<int>(need));
       }
       e_hermite = std::max(e_hermite, bow / (double(m) * m));
@@ -132,10 +183,13 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
         } else {
           push((1 - u) * p0 + u * p1);
         }
-        if (turning) axs.push_back(turn_k > 0 ? slerp(axis[ks], axis[ks + 1], turn_k, u) : axis[ks]);
+        if (turning)
+          axs.push_back(turn_k > 0 ? slerp(axis[ks], axis[ks + 1], turn_k, u) : axis[ks]), rch.push_back(reach_k[ks]);
       }
       push(p1);
-      if (turning) axs.push_back(axis[ks + 1]);
+      if (turning)
+        axs.push_back(axis[ks + 1]),
+            rch.push_back(ks + 1 < reach_k.size() ? std::max(reach_k[ks], reach_k[ks + 1]) : reach_k[ks]);
     }
   }
   const double* px = samples_only ? track.tip_mm.col(0).data() : bx.data();
@@ -146,9 +200,11 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   out.points = np;
 
   // 2. Merge: the longest run of points whose tips all stay within eps of the chord from its first point and whose
-  //    axes stay within chord_max of its mid-axis (greedy, with a doubling search for the run's end, then a
+  //    axes stay within their chord limit (e_orient / reach at the point, at most 45 degrees) of its mid-axis (greedy,
+  //    with a doubling search for the run's end, then a
   //    bisection: O(n log n) checks of short runs). A run of two neighbouring points is always taken: its chord is
-  //    the track's (or within e_hermite of it) and its axes are phi_max apart, within chord_max of their middle.
+  //    the track's (or within e_hermite of it) and its axes are a sub-step apart, within both points' limits of their
+  //    middle.
   auto run_axis = [&](std::size_t a, std::size_t b) -> Eigen::Vector3d {
     if (!turning) return axis[0];
     return axs[a] == axs[b] ? axs[a] : Eigen::Vector3d((axs[a] + axs[b]).normalized());
@@ -183,18 +239,19 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
     }
     return true;
   };
-  // Slack for round-off: sub-steps are sized to sit exactly at chord_max.
-  const double chord_ok = chord_max * (1 + 1e-9);
+  // Each point's limit on |a - a*|, with slack for round-off: sub-steps are sized to sit exactly at the limit.
+  std::vector<double> chord_ok(rch.size());
+  for (std::size_t k = 0; k < rch.size(); ++k) chord_ok[k] = chord_limit(rch[k]) * (1 + 1e-9);
   auto run_ok = [&](std::size_t a, std::size_t b) {
     if (!tips_ok(a, b)) return false;
     if (turning) {
       const Eigen::Vector3d c = run_axis(a, b);
       for (std::size_t k = a; k <= b; ++k)
-        if ((axs[k] - c).norm() > chord_ok) return false;
+        if ((axs[k] - c).norm() > chord_ok[k]) return false;
     }
     return true;
   };
-  double e_merge = 0, chord = 0;
+  double e_merge = 0, e_orient_left = 0;
   auto emit = [&](std::size_t a, std::size_t b) {
     SweptTool s;
     s.tool = tool;
@@ -213,7 +270,7 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
       }
     }
     if (turning)
-      for (std::size_t k = a; k <= b; ++k) chord = std::max(chord, (axs[k] - s.axis).norm());
+      for (std::size_t k = a; k <= b; ++k) e_orient_left = std::max(e_orient_left, rch[k] * (axs[k] - s.axis).norm());
     out.sweeps.push_back(s);
   };
   std::size_t a = 0;
@@ -237,7 +294,7 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
     emit(a, lo);
     a = lo;
   }
-  out.orientation_error_mm = reach * chord;
+  out.orientation_error_mm = e_orient_left;
   out.error_bound_mm = e_hermite + e_merge + out.orientation_error_mm;
   out.runs.push_back({0, 0, out.sweeps.size()});
   return out;

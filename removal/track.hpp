@@ -36,7 +36,9 @@
 #include "removal/swept_tool.hpp"
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
+#include <optional>
 #include <vector>
 
 namespace vmsim::removal {
@@ -61,6 +63,16 @@ struct PoseTrack {
 struct TrackOptions {
   // Largest Hausdorff distance between the removed volume and the track's swept volume (see above for the split).
   double tolerance_mm = 1e-4;
+  // Optional: a box holding all the material the track can cut (workpiece frame: the stock's bounds). The bound then
+  // holds within the box (every point of V' inside it within the tolerance of V and vice versa: the removed material
+  // is), and e_orient counts only the tool's engaging length: a body point within the box lies within R of an axis
+  // point tip + h a within the box grown by R, so on track interval k no body point inside it is farther from the tip
+  // than reach_k = min(reach(), hypot(H_k, R)), H_k the highest such h over the interval (the box grown by R + delta_k,
+  // delta_k = the tip's largest move from sample k over the interval and the sweep, plus L (turn_k + e_orient / R):
+  // the axis' largest move; a sweep's axis is within e_orient / reach_k <= e_orient / R of the track's). Sub-steps and
+  // merging then use reach_k for reach: a tilted tool whose shank stands far above the stock needs far fewer sweeps.
+  // Unset: the whole body counts (reach()).
+  std::optional<Eigen::AlignedBox3d> material_box;
 };
 
 struct TrackSweeps {
@@ -70,7 +82,7 @@ struct TrackSweeps {
   // left) + e_orient (orientation_error_mm). At most tolerance_mm, except when a Hermite interval would need more
   // than 1000 sub-samples (capped: the bound then says how far it is).
   double error_bound_mm = 0;
-  double orientation_error_mm = 0;  // reach * max over sweeps of max |a(u) - a*|
+  double orientation_error_mm = 0;  // max over sweeps of reach (reach_k with a material box) * max |a(u) - a*|
   // Consecutive sweeps cut by one tool, in track order: sweeps [first, first + count) by tools[tool] (one run for a
   // single tool).
   struct Run {

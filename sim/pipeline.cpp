@@ -357,6 +357,9 @@ std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps, c
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
   removal::TrackOptions topt;
   topt.tolerance_mm = track_tolerance(job, track_turns(tr));
+  // A box stock holds all the material: a turning tool's sub-steps count only its engaging length (track.hpp).
+  if (job.stock.kind == core::StockSpec::Kind::Box)
+    topt.material_box = Eigen::AlignedBox3d(job.stock.min_mm, job.stock.max_mm);
   return removal::sweeps_from_track(cutting_tools(job), tr, topt);
 }
 

@@ -311,10 +311,12 @@ struct Comparison {
 };
 
 // The whole comparison for one track: sweeps_from_track and the tri-dexel cut against the brute force.
+// With `material`, the stock is that box and the sweeps count only the tool's length within it (TrackOptions).
 Comparison compare_with_brute_force(const Tool& tool, const PoseTrack& tr, double tolerance, double spacing,
-                                    const char* name, bool caps = false) {
+                                    const char* name, bool caps = false, const Box* material = nullptr) {
   TrackOptions opt;
   opt.tolerance_mm = tolerance;
+  if (material) opt.material_box = Eigen::AlignedBox3d(material->lo, material->hi);
   TrackSweeps ts = sweeps_from_track(tool, tr, opt);
   if (caps) {
     // The exact first and last poses added: what is left is the error inside the track.
@@ -338,7 +340,7 @@ Comparison compare_with_brute_force(const Tool& tool, const PoseTrack& tr, doubl
     const Aabb b = body_box(tool, p.tip, p.axis, Eigen::Vector3d::Zero());
     region.lo = region.lo.cwiseMin(b.lo), region.hi = region.hi.cwiseMax(b.hi);
   }
-  const Box stock{region.lo.array() - 1.03, region.hi.array() + 1.07};
+  const Box stock = material ? *material : Box{region.lo.array() - 1.03, region.hi.array() + 1.07};
   TriDexel td = make_tridexel(stock, spacing);
   std::vector<Segment> beyond, inside;
   constexpr double kFloat = 1e-5;  // the grids keep float offsets (ulp 3.8e-6 mm at 32..64 mm)
@@ -645,6 +647,31 @@ TEST(FiveAxisTrack, TurningFlatEndWithinTheBoundOfTheBruteForce) {
   EXPECT_LT(inner, 0.5);
   RecordProperty("ratio", std::to_string(ratio));
   RecordProperty("ratio_inside_the_track", std::to_string(inner));
+}
+
+// A long flat end (R 5, L 60) tilted 10 degrees, turning by 30 degrees over 20 mm, its tip in a 7 mm slab of stock:
+// with the slab as the material box only the ~12 mm of the tool near the slab count (reach ~13 mm against 60), so
+// far fewer sweeps, and the cut (the slab's material) stays within the bound of the brute force (same reference as
+// above: every pose of the track, dense).
+TEST(FiveAxisTrack, MaterialBoxCountsOnlyTheEngagingLength) {
+  const Tool tool = flat(5, 60);
+  const Eigen::Vector3d a0 =
+      Eigen::AngleAxisd(10 * kPi / 180, Eigen::Vector3d(0.2, 1, 0).normalized()) * Eigen::Vector3d::UnitZ();
+  const PoseTrack tr = turning_track({0, 0, 0}, {20, 4, -3}, 0.8, a0, Eigen::Vector3d(0.3, 1, 0.1), 30 * kPi / 180, 41);
+  const Box slab{Eigen::Vector3d(-8.03, -8.07, -4.01), Eigen::Vector3d(28.03, 12.07, 3.02)};
+  TrackOptions whole;
+  whole.tolerance_mm = 0.05;
+  const std::size_t n_whole = sweeps_from_track(tool, tr, whole).sweeps.size();
+  const Comparison c = compare_with_brute_force(tool, tr, 0.05, 0.5, "long flat end in a slab", false, &slab);
+  EXPECT_LT(3 * c.sweeps, n_whole);  // reach 60.2 against hypot(H, R) of ~13 to 18 mm along the track
+  std::printf("[ 5-axis   ] long flat end: %zu sweeps with the slab as material box, %zu without\n", c.sweeps, n_whole);
+  // A box the tool never comes near: no body point inside it, the bound holds however the axis turns.
+  const Box far{Eigen::Vector3d(100, 100, 100), Eigen::Vector3d(110, 110, 110)};
+  TrackOptions away = whole;
+  away.material_box = Eigen::AlignedBox3d(far.lo, far.hi);
+  const TrackSweeps ta = sweeps_from_track(tool, tr, away);
+  EXPECT_LE(ta.sweeps.size(), c.sweeps);  // only R counts (hypot(0, R)), the least any box gives
+  EXPECT_LE(ta.error_bound_mm, 0.05 * (1 + 1e-9));
 }
 
 // A pure rotation about the tip: a flat end turning 30 degrees from vertical over 7 samples, the tip fixed.
