@@ -12,7 +12,7 @@
 
 namespace vmsim::motion {
 
-// A ceiling on the feed along the path, e.g. Chen et al.'s contour-error-constrained feed plan (drives/feedplan): at
+// A ceiling on the feed along the path, e.g. Chen et al.'s contour-error-constrained feed plan (methods/feedplan): at
 // arc length s of the smoothed path the interpolator follows (smooth_path_for), the speed of the programmed point
 // (X Y Z, mm/s; the path speed for moves of the rotary axes alone) is at most ceiling(s). The squared ceiling is
 // linear in s between the points, as the plan's squared feed is (Chen et al. 2016 eq. 21), and constant beyond the
@@ -23,9 +23,9 @@ struct FeedCeiling {
   // A ceiling that is already a feed profile within the machine's limits (e.g. a plan made with the axes' own
   // velocity, acceleration and jerk limits, methods::plan_feed): the interpolator follows it as given, from rest at
   // the path's start (the first point: s 0, feed 0) to rest at its end (the last: the path's length, feed 0), instead
-  // of planning its own jerk-limited profile under it. Only a short moving average (the filter of the interpolator's
-  // jerk model) smooths it, and it is lowered locally where a finite difference of the setpoints would still exceed
-  // a limit. Paths with exact stops inside are refused.
+  // of planning its own jerk-limited profile under it (the programmed feed does not apply: the profile replaces it).
+  // Only the moving average of the interpolator's jerk model (T = A / J) smooths it, and it is lowered locally where
+  // a finite difference of the setpoints would still exceed a limit. Paths with exact stops inside are refused.
   bool follow = false;
   bool empty() const { return s_mm.empty(); }
   double at(double s) const;
