@@ -258,7 +258,7 @@ int run_plan_feed(const PlanFeedArgs& args) {
   const auto t0 = Clock::now();
   const fs::path dir = out.path();
   std::vector<std::string> files = {"feed_plan.csv", "feed_profile.csv", "motion.csv"};
-  // The plan as `[job] feed_plan` takes it: the ceiling the interpolator played, along the path it was made for.
+  // The plan as `[job] feed_plan` takes it: as the interpolator played it (a profile to follow, or a ceiling).
   methods::write_feed_plan(dir / "feed_plan.csv", r.ceiling, r.path, job.interp.period_s, job.name,
                            {fmt::format("contour error {:g} um, chord error {:g} um, f_max {:g} mm/s; {} round(s)",
                                         job.feedplan->contour_error_mm * 1e3, job.feedplan->chord_error_mm * 1e3,

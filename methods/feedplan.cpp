@@ -558,4 +558,20 @@ motion::FeedCeiling feed_ceiling(const FeedPlan& plan, const std::function<doubl
   return c;
 }
 
+motion::FeedCeiling feed_profile(const FeedPlan& plan, double path_length_mm,
+                                 const std::function<double(double)>& to_path_s) {
+  motion::FeedCeiling c;
+  c.follow = true;
+  const Index n = plan.feed.size();
+  if (n < 3) throw core::Error("feed profile: the plan needs at least 3 samples");
+  for (Index i = 0; i < n; ++i) {
+    const double s = i == 0 ? 0.0 : (i + 1 == n ? path_length_mm : (to_path_s ? to_path_s(plan.s[i]) : plan.s[i]));
+    if (i + 1 < n && !(s < path_length_mm)) continue;  // the map's round-off at the end: the end point is kept
+    if (!c.s_mm.empty() && !(s > c.s_mm.back())) continue;
+    c.s_mm.push_back(s);
+    c.feed_mm_per_s.push_back(i == 0 || i + 1 == n ? 0.0 : plan.feed[i]);
+  }
+  return c;
+}
+
 }  // namespace vmsim::methods

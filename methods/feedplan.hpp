@@ -114,5 +114,11 @@ FeedPlanCheck check_feed_plan(const PathSamples& path, const Eigen::ArrayXd& fee
 // onto the smoothed path the interpolator follows (identity for programs; motion::NurbsPath's map for NURBS). The
 // ends' zero feeds take their neighbours' values (the interpolator starts and stops at rest by itself).
 motion::FeedCeiling feed_ceiling(const FeedPlan& plan, const std::function<double(double)>& to_path_s = {});
+// The plan as a profile the interpolator follows (motion::FeedCeiling::follow): the same points with the ends at rest
+// (feed 0), the first at s 0 and the last at `path_length_mm`. The plan keeps the axes' acceleration and jerk limits
+// with the interpolator's model of them (the jerk of the tangential and centripetal parts, FeedPlanLimits::axis_jerk),
+// so the interpolator plays it in the plan's own time plus its filter's length.
+motion::FeedCeiling feed_profile(const FeedPlan& plan, double path_length_mm,
+                                 const std::function<double(double)>& to_path_s = {});
 
 }  // namespace vmsim::methods

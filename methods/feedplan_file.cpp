@@ -55,6 +55,8 @@ void write_feed_plan(const std::filesystem::path& file, const motion::FeedCeilin
   s << "# job=" << job_name << "\n";
   s << fmt::format("# period_s={:.17g}\n# path_length_mm={:.17g}\n# points={}\n", period_s, path.length,
                    ceiling.s_mm.size());
+  // Only a followed profile says so: a ceiling's file stays as it was.
+  if (ceiling.follow) s << "# follow=1\n";
   for (const std::string& c : comments) s << "# " << c << "\n";
   s << kHeader << "\n";
   motion::SmoothPath::Cursor cursor;
@@ -118,6 +120,11 @@ motion::FeedCeiling read_feed_plan(const std::filesystem::path& file, const moti
     throw core::Error(f + fmt::format(": '# points={}': expected a whole number >= 1", points));
 
   motion::FeedCeiling c;
+  if (meta.count("follow")) {
+    const double follow = number("follow");
+    if (follow != 0.0 && follow != 1.0) throw core::Error(f + ": '# follow=' expects 0 or 1");
+    c.follow = follow == 1.0;
+  }
   motion::SmoothPath::Cursor cursor;
   while (std::getline(in, line)) {
     ++lineno;
@@ -133,8 +140,10 @@ motion::FeedCeiling read_feed_plan(const std::filesystem::path& file, const moti
       if (!parse_number(cells[static_cast<std::size_t>(j)], v[j]))
         throw core::Error(core::located(
             f, lineno, fmt::format("cell {} '{}' is not a number", j + 1, cells[static_cast<std::size_t>(j)])));
-    if (!(v[1] > 0))
-      throw core::Error(core::located(f, lineno, fmt::format("feed ceiling {} mm/s: expected > 0", v[1])));
+    if (!(v[1] > 0) && !(c.follow && v[1] == 0.0))
+      throw core::Error(core::located(
+          f, lineno,
+          fmt::format("feed ceiling {} mm/s: expected > 0 (0 only at single points of a followed profile)", v[1])));
     if (!c.s_mm.empty() && !(v[0] > c.s_mm.back()))
       throw core::Error(core::located(
           f, lineno, fmt::format("s = {} mm: expected larger than the line before's {} mm", v[0], c.s_mm.back())));
@@ -156,7 +165,11 @@ motion::FeedCeiling read_feed_plan(const std::filesystem::path& file, const moti
   if (static_cast<double>(c.s_mm.size()) != points)
     throw core::Error(
         core::located(f, head_line, fmt::format("{} points, the header announces {}", c.s_mm.size(), points)));
-  c.check();
+  try {
+    c.check();
+  } catch (const core::Error& e) {
+    throw core::Error(f + ": " + e.what());
+  }
   return c;
 }
 

@@ -9,6 +9,8 @@
 //   # period_s=0.004           Te of the interpolation it was planned for (checked)
 //   # path_length_mm=382.93    arc length of the smoothed path the interpolator follows (checked within 1e-6 mm)
 //   # points=7659              the lines that follow (checked)
+//   # follow=1                 only in a profile to be followed as given (motion::FeedCeiling::follow): its first and
+//                              last feed (and single points between, such as a cusp) may be 0
 //   # ...                      free comment lines
 //   s_mm,feed_ceiling_mm_per_s,x_mm,y_mm,z_mm
 //   one line per ceiling point: s along the smoothed path (motion::smooth_path_for), strictly increasing; the ceiling

@@ -15,8 +15,13 @@ PlayedPlan play_plan(const PlanPlayer& player, const PathSamples& samples, const
   if (!player.program || !player.machine) throw core::Error("play_plan: no program or machine");
   const core::Machine& machine = *player.machine;
   motion::InterpOptions io = player.interp;
-  io.feed_ceiling = plan ? feed_ceiling(*plan, player.to_path_s) : motion::FeedCeiling{};
+  const motion::SmoothPath path = motion::smooth_path_for(*player.program, machine, io);
+  if (plan && player.follow)
+    io.feed_ceiling = feed_profile(*plan, path.length, player.to_path_s);
+  else if (plan)
+    io.feed_ceiling = feed_ceiling(*plan, player.to_path_s);
   PlayedPlan out;
+  out.ceiling = io.feed_ceiling;
   out.interp =
       player.interpolate ? player.interpolate(io.feed_ceiling) : motion::interpolate(*player.program, machine, io);
   const core::Setpoints& sp = out.interp.setpoints;
@@ -62,7 +67,6 @@ PlayedPlan play_plan(const PlanPlayer& player, const PathSamples& samples, const
   }
 
   // Chord error per setpoint: the path's point halfway along the arc between two setpoints against the chord's middle.
-  const motion::SmoothPath path = motion::smooth_path_for(*player.program, machine, io);
   out.chord_error_mm.setZero(ns);
   for (Eigen::Index k = 0; k + 1 < ns; ++k) {
     const double sm = 0.5 * (sp.path_length_mm[k] + sp.path_length_mm[k + 1]);

@@ -28,6 +28,10 @@ struct PlanPlayer {
   // One transfer function per machine axis (Chen et al.'s servo); empty: the machine's [axes.drive] cascades.
   std::vector<TransferFunction> servo;
   double settle_s = 0.3;  // simulated after the last setpoint
+  // The plan played as a profile the interpolator follows (feed_profile, motion::FeedCeiling::follow; the path must
+  // have no exact stops inside), or as a ceiling it plans its own jerk-limited profile under (feed_ceiling), which
+  // takes longer than the plan's own time (parts/feedplan/README.md).
+  bool follow = true;
   // The chain to play on, when given (vmsim plan-feed plays on the job's sim::Chain): the interpolator under a
   // ceiling, and the axes' positions for the setpoints (setpoint rows, then the settling rows). Empty: the members
   // above (motion::interpolate with `interp`; `servo` or the machine's cascades for settle_s).
@@ -36,6 +40,7 @@ struct PlanPlayer {
 };
 
 struct PlayedPlan {
+  motion::FeedCeiling ceiling;  // what the interpolator was given (a profile to follow, a ceiling, or none)
   motion::InterpResult interp;
   Eigen::MatrixXd actual;        // simulated axis positions, setpoint rows then the settling rows (axis units)
   motion::ContourError contour;  // X Y Z, per actual row

@@ -47,8 +47,8 @@ constexpr double kEps = 1e-12;
 // Fractions of each axis limit the plan may use. The plan's continuous bounds are exact up to O(Te) terms;
 // these margins keep the first plan within the limits almost everywhere, so the repair loop rarely runs.
 constexpr double kVelocityMargin = 1.0;  // chords are shorter than arcs: finite-difference speed <= v
-constexpr double kAccelMargin = 0.97;
-constexpr double kJerkMargin = 0.97;
+constexpr double kAccelMargin = kPlanAccelShare;
+constexpr double kJerkMargin = kPlanJerkShare;
 constexpr double kCurvatureShare = 0.9;      // share of axis acceleration the centripetal term may take
 constexpr double kCurvatureRateShare = 0.9;  // share of axis jerk for v^3 dK/ds (blends, where a_t = 0)
 // Half-width of the zone around a point of speed limit v* over which the raw profile holds v*: v* T / 2 (a dwell
@@ -499,6 +499,125 @@ std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const L
   return out;
 }
 
+// The path's points at arc lengths s (path space), and the move each belongs to (a blend: the move it leaves, then
+// the one it enters); the last row is the path's end exactly.
+void path_points(const SmoothPath& sp, const std::vector<double>& s, Eigen::MatrixXd& xp, std::vector<int>& move_of) {
+  const Eigen::Index ns = static_cast<Eigen::Index>(s.size());
+  xp.resize(ns, 6);
+  move_of.resize(static_cast<std::size_t>(ns));
+  SmoothPath::Cursor cursor;
+  for (Eigen::Index k = 0; k < ns; ++k) {
+    const double sk = s[static_cast<std::size_t>(k)];
+    xp.row(k) = sp.point(sk, cursor).transpose();
+    const PathPiece& pc = sp.pieces[sp.piece_at(sk, cursor.piece)];
+    move_of[static_cast<std::size_t>(k)] =
+        (pc.move_index == pc.move_index_next || sk < pc.s_begin + 0.5 * pc.length) ? pc.move_index : pc.move_index_next;
+  }
+  xp.row(ns - 1) = sp.end.transpose();
+}
+
+// Filter length of the interpolator's jerk model for a direction of travel: the natural jerk time A / J of the
+// axes it moves (the moving average of a profile whose acceleration steps by at most A has jerk <= A / T).
+double natural_jerk_time(const core::Vec6& t_abs, const Limits6& lim) {
+  double at = kInf, jt = kInf;
+  for (int i = 0; i < 6; ++i) {
+    if (t_abs[i] <= kEps) continue;
+    at = std::min(at, lim.a[i] * kAccelMargin / t_abs[i]);
+    jt = std::min(jt, lim.j[i] * kJerkMargin / t_abs[i]);
+  }
+  return std::isfinite(at) && std::isfinite(jt) ? at / jt : 0.0;
+}
+
+// Half-width of a followed profile's repair dip, in time at the local speed: wide enough that the dip's own curvature
+// adds little jerk (v depth pi^2 / (4 tau^2): 1 % of 5 m/s^3 for a 2 % dip at 50 mm/s).
+constexpr double kFollowDipTime = 0.2;
+
+struct Followed {
+  Sampled smp;
+  Eigen::MatrixXd xp;
+  std::vector<int> move_of;
+  int passes = 0;
+  std::vector<Violation> bad;  // what the last pass still exceeds (empty: none)
+};
+
+// A followed feed profile (FeedCeiling::follow): the profile's v^2 is linear in s between its points (constant
+// tangential acceleration), played in time exactly, then passed through the moving average of the interpolator's
+// jerk model (T = A / J): a profile made within the axes' acceleration and jerk limits keeps them through it, and the
+// average only adds T to the cycle time. It does not spread minima or erode acceleration limits as the planner does
+// (those guard a ceiling that is not a profile). Where a finite difference of the setpoints still exceeds a limit
+// (the profile's model is continuous, the setpoints are sampled), the profile is lowered locally and smoothly (a
+// raised-cosine dip in v^2, as deep as that limit needs, as wide as kFollowDipTime of travel), and played again.
+Followed follow_profile(const SmoothPath& sp, const FeedCeiling& c, const Limits6& lim, double te, int max_passes) {
+  const double length = sp.length;
+  const double tol = 1e-6 * std::max(1.0, length);
+  if (sp.exact_stops > 0)
+    throw core::Error(
+        "interpolator: a followed feed profile needs a path without exact stops inside (give the plan as a ceiling)");
+  const std::size_t n = c.s_mm.size();
+  if (n < 3 || std::abs(c.s_mm.front()) > tol || c.feed_mm_per_s.front() != 0.0 ||
+      std::abs(c.s_mm.back() - length) > tol || c.feed_mm_per_s.back() != 0.0)
+    throw core::Error(fmt::format(
+        "interpolator: a followed feed profile must start at rest at the path's start and end at rest at its end "
+        "(s from 0 to {:.9g} mm, feed 0 at both); it has {} points from {:.9g} to {:.9g} mm",
+        length, n, n ? c.s_mm.front() : 0.0, n ? c.s_mm.back() : 0.0));
+  std::vector<double> s(c.s_mm), q(n);
+  s.front() = 0.0;
+  s.back() = length;
+  double filter_s = te;
+  std::size_t hint = 0;
+  for (std::size_t j = 0; j < n; ++j) {
+    hint = sp.piece_at(s[j], hint);
+    const PathPiece& pc = sp.pieces[hint];
+    const PathJet jet = pc.jet_s(std::clamp(s[j] - pc.s_begin, 0.0, pc.length));
+    const double gain = feed_gain(pc, jet.t);
+    const double v = gain > kEps ? c.feed_mm_per_s[j] / gain : c.feed_mm_per_s[j];
+    q[j] = v * v;
+    filter_s = std::max(filter_s, natural_jerk_time(jet.t.cwiseAbs(), lim));
+  }
+  const int m = std::max(1, static_cast<int>(std::ceil(filter_s / te - 1e-9)));
+  std::vector<char> stop(n, 0);
+  stop.front() = stop.back() = 1;
+  Followed out;
+  std::vector<double> w(n);
+  for (int pass = 0;; ++pass) {
+    const std::vector<double> t = node_times(s, q, stop, 0.0);
+    out.smp = sample_and_filter(s, q, t, stop, 0.0, te, m, length);
+    path_points(sp, out.smp.s, out.xp, out.move_of);
+    out.bad = check_limits(out.xp, te, lim, 100000);
+    out.passes = pass;
+    if (out.bad.empty() || pass + 1 >= max_passes) return out;
+    // A dip around each offending sample's stretch of the path (the filter window and the differences behind it),
+    // deep enough to bring that limit back with 2 % to spare: velocity scales with sqrt(v^2), acceleration with v^2,
+    // jerk with v^3 along a given stretch.
+    std::fill(w.begin(), w.end(), 0.0);
+    const Eigen::Index nraw = static_cast<Eigen::Index>(out.smp.s_raw.size());
+    const Eigen::Index ns = static_cast<Eigen::Index>(out.smp.s.size());
+    for (const Violation& v : out.bad) {
+      const double ratio = std::abs(v.value) / v.limit;
+      const double keep = 0.98 * (v.order == 1   ? 1 / (ratio * ratio)
+                                  : v.order == 2 ? 1 / ratio
+                                                 : std::pow(ratio, -2.0 / 3));
+      const double depth = std::clamp(1 - keep, 0.02, 0.5);
+      const Eigen::Index k_hi = std::min<Eigen::Index>(v.sample, nraw - 1);
+      const Eigen::Index k_lo = std::clamp<Eigen::Index>(v.sample - 3 - m, 0, nraw - 1);
+      const double s_lo = std::min(out.smp.s_raw[k_lo], out.smp.s[std::clamp<Eigen::Index>(v.sample - 3, 0, ns - 1)]);
+      const double s_hi = std::max(out.smp.s_raw[k_hi], out.smp.s[std::min(v.sample, ns - 1)]);
+      const auto a = static_cast<std::size_t>(std::lower_bound(s.begin(), s.end(), s_lo) - s.begin());
+      const auto b = static_cast<std::size_t>(std::upper_bound(s.begin(), s.end(), s_hi) - s.begin());
+      double vmax = 0.0;
+      for (std::size_t j = a > 0 ? a - 1 : 0; j < std::min(n, b + 1); ++j) vmax = std::max(vmax, std::sqrt(q[j]));
+      const double r = std::max(kFollowDipTime * vmax, 4 * (s_hi - s_lo) + 1e-3);  // mm
+      const double mid = 0.5 * (s_lo + s_hi), half = 0.5 * (s_hi - s_lo);
+      const auto ja = static_cast<std::size_t>(std::lower_bound(s.begin(), s.end(), mid - half - r) - s.begin());
+      for (std::size_t j = ja; j < n && s[j] <= mid + half + r; ++j) {
+        const double d = std::max(0.0, std::abs(s[j] - mid) - half) / r;
+        w[j] = std::max(w[j], depth * 0.5 * (1 + std::cos(core::units::kPi * std::min(1.0, d))));
+      }
+    }
+    for (std::size_t j = 0; j < n; ++j) q[j] *= 1.0 - w[j];
+  }
+}
+
 // Axis limits in path space (rotary axes in degrees); +inf for axes the machine lacks (they must not move).
 Limits6 path_limits(const core::Machine& machine) {
   Limits6 lim;
@@ -526,6 +645,26 @@ SmoothPathOptions smooth_path_options(const Limits6& lim, const InterpOptions& o
   sopt.plan_accel_share = kAccelMargin;
   sopt.plan_jerk_share = kJerkMargin;
   return sopt;
+}
+
+// Travel limits of the machine.
+void check_travel(const core::Setpoints& out, const core::Machine& machine, const core::ToolPath& path) {
+  for (std::size_t a = 0; a < machine.axes.size(); ++a) {
+    const core::MachineAxis& ax = machine.axes[a];
+    if (ax.continuous) continue;
+    const auto col = out.position.col(static_cast<Eigen::Index>(a));
+    for (Eigen::Index k = 0; k < col.size(); ++k) {
+      if (col[k] < ax.travel_min - 1e-9 || col[k] > ax.travel_max + 1e-9) {
+        const double f = ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0;
+        const char* unit = ax.kind == core::AxisKind::Rotary ? "deg" : "mm";
+        const core::Move& mv = path.moves[static_cast<std::size_t>(std::max(0, out.move_index[k]))];
+        throw core::Error(core::located(
+            path.source_path, mv.source_line,
+            fmt::format("axis {} reaches {:.4f} {}, outside its travel [{:g}, {:g}] {} ({})", ax.name, col[k] * f, unit,
+                        ax.travel_min * f, ax.travel_max * f, unit, machine.source_file)));
+      }
+    }
+  }
 }
 
 // A geometry given in the options must be the moves' path: contiguous pieces naming existing moves, from the path's
@@ -586,10 +725,12 @@ void FeedCeiling::check() const {
   for (std::size_t i = 0; i < s_mm.size(); ++i) {
     if (!std::isfinite(s_mm[i]) || (i > 0 && !(s_mm[i] > s_mm[i - 1])))
       throw core::Error(fmt::format("feed ceiling: position {} ({} mm) does not increase", i, s_mm[i]));
-    if (!(feed_mm_per_s[i] > 0) || !std::isfinite(feed_mm_per_s[i]))
+    // A followed profile may come to rest at a point (the ends, a cusp), never over an interval.
+    const bool at_rest = follow && feed_mm_per_s[i] == 0.0 && (i == 0 || feed_mm_per_s[i - 1] != 0.0);
+    if (!at_rest && (!(feed_mm_per_s[i] > 0) || !std::isfinite(feed_mm_per_s[i])))
       throw core::Error(
           fmt::format("feed ceiling: feed {} at {} mm (expected > 0: the interpolator starts and stops at "
-                      "rest by itself)",
+                      "rest by itself; a followed profile may be 0 at single points)",
                       feed_mm_per_s[i], s_mm[i]));
   }
 }
@@ -682,6 +823,30 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
     Eigen::MatrixXd xp(1, 6);
     xp.row(0) = sp.start.transpose();
     write_samples({0.0}, xp, {path.moves.empty() ? -1 : 0});
+    return result;
+  }
+
+  if (lim.ceiling && lim.ceiling->follow) {
+    constexpr int kMaxFollowPasses = 60;
+    Followed f = follow_profile(sp, *lim.ceiling, lim, te, kMaxFollowPasses);
+    if (!f.bad.empty()) {
+      const Violation& v = f.bad.front();
+      const core::Move& mv = path.moves[static_cast<std::size_t>(f.move_of[static_cast<std::size_t>(
+          std::min<Eigen::Index>(v.sample, static_cast<Eigen::Index>(f.move_of.size()) - 1))])];
+      throw core::Error(core::located(
+          path.source_path, mv.source_line,
+          fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > {:.6g}) following the feed "
+                      "profile after {} passes; is the profile within the machine's limits?",
+                      axis_names[v.axis],
+                      v.order == 1   ? "velocity"
+                      : v.order == 2 ? "acceleration"
+                                     : "jerk",
+                      std::abs(v.value), v.limit, kMaxFollowPasses)));
+    }
+    result.stats.repair_passes = f.passes;
+    write_samples(f.smp.s, f.xp, f.move_of);
+    result.stats.cycle_time_s = out.duration_s();
+    check_travel(out, machine, path);
     return result;
   }
 
@@ -812,17 +977,9 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
 
     // Setpoints in path space.
     const Eigen::Index ns = static_cast<Eigen::Index>(smp.s.size());
-    Eigen::MatrixXd xp(ns, 6);
-    std::vector<int> move_of(ns);
-    SmoothPath::Cursor cursor;
-    for (Eigen::Index k = 0; k < ns; ++k) {
-      const double sk = smp.s[k];
-      xp.row(k) = sp.point(sk, cursor).transpose();
-      const PathPiece& pc = sp.pieces[sp.piece_at(sk, cursor.piece)];
-      move_of[k] = (pc.move_index == pc.move_index_next || sk < pc.s_begin + 0.5 * pc.length) ? pc.move_index
-                                                                                              : pc.move_index_next;
-    }
-    xp.row(ns - 1) = sp.end.transpose();
+    Eigen::MatrixXd xp;
+    std::vector<int> move_of;
+    path_points(sp, smp.s, xp, move_of);
 
     const std::vector<Violation> bad = check_limits(xp, te, lim, 100000);
     if (bad.empty()) {
@@ -863,23 +1020,7 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
 
   result.stats.cycle_time_s = out.duration_s();
 
-  // Travel limits of the machine.
-  for (std::size_t a = 0; a < machine.axes.size(); ++a) {
-    const core::MachineAxis& ax = machine.axes[a];
-    if (ax.continuous) continue;
-    const auto col = out.position.col(static_cast<Eigen::Index>(a));
-    for (Eigen::Index k = 0; k < col.size(); ++k) {
-      if (col[k] < ax.travel_min - 1e-9 || col[k] > ax.travel_max + 1e-9) {
-        const double f = ax.kind == core::AxisKind::Rotary ? core::units::kRadToDeg : 1.0;
-        const char* unit = ax.kind == core::AxisKind::Rotary ? "deg" : "mm";
-        const core::Move& mv = path.moves[static_cast<std::size_t>(std::max(0, out.move_index[k]))];
-        throw core::Error(core::located(
-            path.source_path, mv.source_line,
-            fmt::format("axis {} reaches {:.4f} {}, outside its travel [{:g}, {:g}] {} ({})", ax.name, col[k] * f, unit,
-                        ax.travel_min * f, ax.travel_max * f, unit, machine.source_file)));
-      }
-    }
-  }
+  check_travel(out, machine, path);
   return result;
 }
 

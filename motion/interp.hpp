@@ -12,18 +12,32 @@
 
 namespace vmsim::motion {
 
-// A ceiling on the feed along the path, e.g. Chen et al.'s contour-error-constrained feed plan (drives/feedplan): at
+// A ceiling on the feed along the path, e.g. Chen et al.'s contour-error-constrained feed plan (methods/feedplan): at
 // arc length s of the smoothed path the interpolator follows (smooth_path_for), the speed of the programmed point
 // (X Y Z, mm/s; the path speed for moves of the rotary axes alone) is at most ceiling(s). The squared ceiling is
 // linear in s between the points, as the plan's squared feed is (Chen et al. 2016 eq. 21), and constant beyond the
-// ends. s_mm strictly increasing, feeds > 0 (the interpolator starts and stops at rest by itself).
+// ends. s_mm strictly increasing, feeds > 0 (the interpolator starts and stops at rest by itself; a followed profile's
+// first and last feed are 0, and so may be any single point between, as at a cusp).
 struct FeedCeiling {
   std::vector<double> s_mm, feed_mm_per_s;
+  // A ceiling that is already a feed profile within the machine's limits (e.g. a plan made with the axes' own
+  // velocity, acceleration and jerk limits, methods::plan_feed): the interpolator follows it as given, from rest at
+  // the path's start (the first point: s 0, feed 0) to rest at its end (the last: the path's length, feed 0), instead
+  // of planning its own jerk-limited profile under it (the programmed feed does not apply: the profile replaces it).
+  // Only the moving average of the interpolator's jerk model (T = A / J) smooths it, and it is lowered locally where
+  // a finite difference of the setpoints would still exceed a limit. Paths with exact stops inside are refused.
+  bool follow = false;
   bool empty() const { return s_mm.empty(); }
   double at(double s) const;
   double min_over(double s0, double s1) const;  // smallest value on [s0, s1]
   void check() const;                           // throws core::Error for a malformed ceiling
 };
+
+// The shares of each axis' acceleration and jerk limits the interpolator's own plans use (the rest absorbs what the
+// continuous model misses in the sampled setpoints' finite differences); a profile made to be followed
+// (FeedCeiling::follow) keeps the same shares.
+inline constexpr double kPlanAccelShare = 0.97;
+inline constexpr double kPlanJerkShare = 0.97;
 
 struct InterpOptions {
   double period_s = 1e-3;       // Te

@@ -109,7 +109,9 @@ void fill_report(const core::FeedPlanSpec& spec, const nlohmann::json& path_json
                {"solves", st.lp_solves},
                {"jerk_linearisations_max", st.jerk_iterations_max},
                {"lp_seconds", st.lp_seconds},
-               {"plan_seconds", st.total_seconds}};
+               {"plan_seconds", st.total_seconds},
+               {"axis_acceleration_share", r.played_as_profile ? motion::kPlanAccelShare : 1.0},
+               {"axis_jerk_share", r.played_as_profile ? motion::kPlanJerkShare : 1.0}};
   nlohmann::json runs;
   runs["no_plan"] = run_json(r.no_plan);
   nlohmann::json& free = runs["plan_without_contour_error"] = run_json(r.free_played);
@@ -119,8 +121,10 @@ void fill_report(const core::FeedPlanSpec& spec, const nlohmann::json& path_json
   const methods::VerifiedPlan& ver = r.verified;
   nlohmann::json& p = runs["plan"] = run_json(ver.played);
   p["plan_time_s"] = plan.time_s;
-  // The interpolator plays a plan more slowly than its own time (parts/feedplan/README.md says where and why).
+  // A plan followed as a profile plays in its own time plus the interpolator's filter; as a ceiling, more slowly
+  // (parts/feedplan/README.md says where and why).
   p["played_over_planned"] = ver.played.interp.stats.cycle_time_s / plan.time_s;
+  p["played_as"] = r.played_as_profile ? "profile" : "ceiling";
   p["model_contour_error_max_um"] = r.model_peak_mm * 1e3;
   p["check"] = check_json(r.check);
   p["verification_rounds"] = ver.rounds;
@@ -159,8 +163,12 @@ PlanFeedResult plan_feed(const core::Job& job, core::Progress& progress) {
   player.machine = &machine;
   player.interp = chain.interp_options();
   player.settle_s = copt.settle_s;
+  // The plan is followed as a profile when it keeps the axes' jerk limits (the interpolator's model) and the path has
+  // no exact stop inside; otherwise it is a ceiling the interpolator plans under (slower than the plan's own time).
+  player.follow = spec.jerk && r.path.exact_stops == 0;
   player.interpolate = [&](const motion::FeedCeiling& c) { return chain.interpolate(r.workpiece, c); };
   player.simulate = [&](const core::Setpoints& sp) { return chain.simulate(sp).position; };
+  r.played_as_profile = player.follow;
   progress.done();
   r.timings["path"] = seconds_since(t_start);
 
@@ -174,6 +182,11 @@ PlanFeedResult plan_feed(const core::Job& job, core::Progress& progress) {
   r.limits = methods::feed_plan_limits(spec, machine, te, r.max_feed_mm_per_s, r.moving);
   methods::FeedPlanOptions opt;
   opt.limits = r.limits;
+  if (player.follow) {
+    // A followed plan keeps the interpolator's own shares of the limits (what it leaves for the sampled setpoints).
+    opt.limits.axis_acceleration *= motion::kPlanAccelShare;
+    opt.limits.axis_jerk *= motion::kPlanJerkShare;
+  }
   opt.contour_model = &model;
   opt.window_samples = spec.window_samples;
   methods::FeedPlanOptions opt_free = opt;  // the same plan without the contour-error constraint
@@ -195,10 +208,12 @@ PlanFeedResult plan_feed(const core::Job& job, core::Progress& progress) {
   r.timings["plans_and_simulations"] = seconds_since(t0);
   const methods::FeedPlan& plan = r.verified.plan;
   r.check = methods::check_feed_plan(r.samples, plan.feed, r.limits, &model);
-  r.check_free = methods::check_feed_plan(r.samples, r.free_plan.feed, opt_free.limits, &model);
+  methods::FeedPlanLimits free_limits = r.limits;  // checked against the machine's limits, as the plan
+  free_limits.contour_error_mm = 0.0;
+  r.check_free = methods::check_feed_plan(r.samples, r.free_plan.feed, free_limits, &model);
   r.model_peak_free_mm = methods::model_contour_peak(r.samples, r.free_plan.feed, model);
   r.model_peak_mm = methods::model_contour_peak(r.samples, plan.feed, model);
-  r.ceiling = methods::feed_ceiling(plan, player.to_path_s);
+  r.ceiling = r.verified.played.ceiling;  // the plan as it was played: a profile or a ceiling
   const core::Setpoints& sp = r.verified.played.interp.setpoints;
   r.played_sample_s.resize(sp.samples());
   for (Index k = 0; k < sp.samples(); ++k)

@@ -35,7 +35,8 @@ struct PlanFeedResult {
   methods::VerifiedPlan verified;            // the plan with it, verified by simulation (its last play: .played)
   methods::FeedPlanCheck check, check_free;  // every constraint at every sample, recomputed from the feeds
   double model_peak_mm = 0, model_peak_free_mm = 0;  // eq. 7's estimate of the plans' contour error
-  motion::FeedCeiling ceiling;     // the verified plan as the interpolator's feed ceiling (feed_plan.csv)
+  bool played_as_profile = false;  // the plans were followed as profiles (methods::PlanPlayer::follow)
+  motion::FeedCeiling ceiling;     // the verified plan as the interpolator was given it (feed_plan.csv)
   Eigen::ArrayXd played_sample_s;  // per setpoint of the verified play: its plan arc length
   // report.json's figures: path, servo, limits, lp, runs, cycle_time_cost_of_contour_constraint; and the time spent
   // (path, plans_and_simulations).

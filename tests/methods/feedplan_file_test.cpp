@@ -98,6 +98,43 @@ TEST(FeedPlanFile, RoundTripIsExactAndThePointsLieOnThePath) {
   EXPECT_NEAR(path.length, 2 * M_PI * 20.0, 1e-4);  // the circumference: the path is the circle's
 }
 
+// A profile to be followed (motion::FeedCeiling::follow) keeps its mark and its zero feeds (the ends at rest, one
+// cusp between) through the file, bit for bit; a ceiling's file has no follow line, and a zero feed without the mark
+// is refused naming the file and the line.
+TEST(FeedPlanFile, AFollowedProfileKeepsItsMarkAndItsZeroFeeds) {
+  TempDir tmp;
+  const motion::SmoothPath path = circle_path(20.0);
+  motion::FeedCeiling c = ceiling_along(path);
+  c.s_mm.front() = 0.0;
+  c.s_mm.back() = path.length;
+  c.feed_mm_per_s.front() = c.feed_mm_per_s.back() = c.feed_mm_per_s[c.s_mm.size() / 2] = 0.0;
+  c.follow = true;
+  const fs::path f = tmp.path() / "profile.csv";
+  methods::write_feed_plan(f, c, path, 0.004, "circle");
+  EXPECT_NE(slurp(f).find("\n# follow=1\n"), std::string::npos);
+  const motion::FeedCeiling back = methods::read_feed_plan(f, path, 0.004);
+  EXPECT_TRUE(back.follow);
+  ASSERT_EQ(back.s_mm.size(), c.s_mm.size());
+  for (std::size_t i = 0; i < c.s_mm.size(); ++i) {
+    EXPECT_EQ(back.s_mm[i], c.s_mm[i]) << i;
+    EXPECT_EQ(back.feed_mm_per_s[i], c.feed_mm_per_s[i]) << i;
+  }
+  const fs::path g = tmp.path() / "ceiling.csv";
+  methods::write_feed_plan(g, ceiling_along(path), path, 0.004, "circle");
+  EXPECT_EQ(slurp(g).find("# follow="), std::string::npos);
+  std::string text = slurp(f);
+  text.replace(text.find("# follow=1\n"), 11, "");
+  std::ofstream(tmp.path() / "unmarked.csv") << text;
+  try {
+    methods::read_feed_plan(tmp.path() / "unmarked.csv", path, 0.004);
+    FAIL() << "a zero feed without the follow mark was taken";
+  } catch (const core::Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("unmarked.csv"), std::string::npos) << m;
+    EXPECT_NE(m.find("expected > 0"), std::string::npos) << m;
+  }
+}
+
 TEST(FeedPlanFile, APlanForAnotherPathOrPeriodIsRefusedNamingTheFile) {
   TempDir tmp;
   const motion::SmoothPath path = circle_path(20.0);

@@ -435,3 +435,72 @@ TEST(Interp, TinyMoveIsMergedWithoutACornerOrTime) {
   EXPECT_LE(max_deviation(r.setpoints, with), opt.tolerance_mm);
   EXPECT_LE(limit_ratio(r.setpoints, mc).worst_ratio, 1.0 + 1e-6) << limit_ratio(r.setpoints, mc).where;
 }
+
+// A feed profile followed as given (FeedCeiling::follow) on a straight line, checked by hand. The profile (v^2 linear
+// in s between its points, so constant acceleration between them): from rest to 30 mm/s at 150 mm/s^2 (0 .. 3 mm),
+// 30 mm/s to 40 mm, a step down to 15 mm/s at -150 mm/s^2 (40 .. 42.25 mm), 15 mm/s to 99.25 mm, to rest at 100 mm.
+// Its own time: 0.2 + 37/30 + 0.1 + 57/15 + 0.1 = 5.4333 s. The machine (Chen et al.'s table, A 200 mm/s^2, J 5000
+// mm/s^3) has the filter T = A / J = 40 ms = 10 periods of 4 ms; each acceleration step (150 mm/s^2) spread over T
+// is 3750 mm/s^3 of jerk, within J: the profile is jerk-feasible as given, so the interpolator must play it without
+// a repair, in its own time plus the filter's (m - 1) Te, and reach the step's midpoint (22.5 mm/s, at 1.4833 s)
+// T / 2 later, each within one period.
+TEST(Interp, FollowedProfileIsPlayedAsGivenWithinOnePeriod) {
+  const Machine mc = load_machine(std::string(VMSIM_SOURCE_DIR) + "/parts/feedplan/chen2016_machine.toml");
+  ToolPath tp;
+  tp.initial_position = xyz(0, 0, 0);
+  tp.moves.push_back(line(xyz(0, 0, 0), xyz(100, 0, 0), 3000.0));  // 50 mm/s programmed: the profile is lower
+  InterpOptions opt;
+  opt.period_s = 0.004;
+  opt.feed_ceiling.follow = true;
+  opt.feed_ceiling.s_mm = {0.0, 3.0, 40.0, 42.25, 99.25, 100.0};
+  opt.feed_ceiling.feed_mm_per_s = {0.0, 30.0, 30.0, 15.0, 15.0, 0.0};
+  const InterpResult r = interpolate(tp, mc, opt);
+  const Setpoints& sp = r.setpoints;
+  const double te = opt.period_s, filter = 10 * te;
+  const double own_time = 0.2 + 37.0 / 30.0 + 0.1 + 57.0 / 15.0 + 0.1;
+  EXPECT_EQ(r.stats.repair_passes, 0);
+  EXPECT_NEAR(r.stats.cycle_time_s, own_time + filter - te, te) << r.stats.cycle_time_s;
+  EXPECT_EQ(sp.position(sp.samples() - 1, 0), 100.0);
+  // Speeds from the setpoints (backward differences): the plateaus exactly where the filter window lies on them.
+  const double t_mid = 0.2 + 37.0 / 30.0 + 7.5 / 150.0;  // raw profile at 22.5 mm/s
+  double t_cross = -1;
+  for (Eigen::Index k = 1; k < sp.samples(); ++k) {
+    const double v = (sp.position(k, 0) - sp.position(k - 1, 0)) / te, t = k * te;
+    if (t_cross < 0 && t > 1.0 && v <= 22.5) t_cross = t;
+    if (t - filter > 0.2 + te && t < 0.2 + 37.0 / 30.0 - te) {
+      EXPECT_NEAR(v, 30.0, 1e-9) << t;
+    }
+    if (t - filter > 1.5333 + te && t < 1.5333 + 3.8 - te) {
+      EXPECT_NEAR(v, 15.0, 1e-9) << t;
+    }
+    EXPECT_LE(v, 30.0 + 1e-9) << t;
+  }
+  EXPECT_NEAR(t_cross, t_mid + filter / 2, te);
+  EXPECT_LE(limit_ratio(sp, mc).worst_ratio, 1.0 + 1e-6) << limit_ratio(sp, mc).where;
+}
+
+// A profile that is not within the limits as given (a step from 30 to 15 mm/s within 0.2 mm: 1700 mm/s^2) is lowered
+// where the setpoints would exceed a limit: every finite difference within the machine's limits, never faster than
+// the profile's highest feed; a profile that does not start at rest is refused with a message saying so.
+TEST(Interp, FollowedProfileBeyondTheLimitsIsLoweredLocally) {
+  const Machine mc = load_machine(std::string(VMSIM_SOURCE_DIR) + "/parts/feedplan/chen2016_machine.toml");
+  ToolPath tp;
+  tp.initial_position = xyz(0, 0, 0);
+  tp.moves.push_back(line(xyz(0, 0, 0), xyz(0, 60, 0), 3000.0));
+  InterpOptions opt;
+  opt.period_s = 0.004;
+  opt.feed_ceiling.follow = true;
+  opt.feed_ceiling.s_mm = {0.0, 3.0, 30.0, 30.2, 59.25, 60.0};
+  opt.feed_ceiling.feed_mm_per_s = {0.0, 30.0, 30.0, 15.0, 15.0, 0.0};
+  const InterpResult r = interpolate(tp, mc, opt);
+  EXPECT_GT(r.stats.repair_passes, 0);
+  EXPECT_LE(limit_ratio(r.setpoints, mc).worst_ratio, 1.0 + 1e-6) << limit_ratio(r.setpoints, mc).where;
+  EXPECT_LE(r.setpoints.path_speed_mm_per_s.maxCoeff(), 30.0 + 1e-9);
+  opt.feed_ceiling.feed_mm_per_s.front() = 5.0;
+  try {
+    interpolate(tp, mc, opt);
+    FAIL() << "a followed profile that does not start at rest was taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("start at rest"), std::string::npos) << e.what();
+  }
+}

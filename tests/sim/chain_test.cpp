@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -70,6 +71,38 @@ TEST(ChainFeedPlan, RunsWhatPlanFeedPlayed) {
   no.ignore_feed_plan = true;
   const sim::Chain free(planned, no);
   EXPECT_EQ(free.interpolate(sim::read_job_program(planned)).stats.cycle_time_s, r.no_plan.interp.stats.cycle_time_s);
+}
+
+// Issue 23 section 3: Chen et al.'s butterfly (parts/feedplan/job_butterfly.toml), its plan followed as a profile, is
+// played within 5 % of the plan's own time (the plan's time: its samples' arc lengths over the mean of their feeds,
+// methods::plan_feed), with the simulated contour error within the job's 20 um and every axis within the machine
+// file's limits. The limits are recomputed here from the played setpoints by backward differences (velocity
+// (x_k - x_{k-1}) / Te, acceleration and jerk the second and third differences over Te^2, Te^3, the axes at rest
+// before the first and after the last setpoint), each within its limit to 1e-9 relative (round-off).
+TEST(ChainFeedPlan, ButterflyPlanIsPlayedWithinFivePercentOfItsOwnTime) {
+  const core::Job job = core::load_job(kParts + "feedplan/job_butterfly.toml");
+  const sim::PlanFeedResult r = sim::plan_feed(job);
+  ASSERT_TRUE(r.played_as_profile);
+  const methods::PlayedPlan& played = r.verified.played;
+  const double ratio = played.interp.stats.cycle_time_s / r.verified.plan.time_s;
+  EXPECT_LE(ratio, 1.05) << played.interp.stats.cycle_time_s << " s played, " << r.verified.plan.time_s << " s planned";
+  EXPECT_GE(ratio, 0.999);
+  EXPECT_TRUE(r.verified.holds);
+  EXPECT_LE(played.max_abs_mm, 0.020);
+  const core::Setpoints& sp = played.interp.setpoints;
+  const Eigen::Index n = sp.samples();
+  const double te = sp.period_s;
+  double worst = 0.0;
+  for (std::size_t a = 0; a < job.machine.axes.size(); ++a) {
+    const core::MachineAxis& ax = job.machine.axes[a];
+    auto x = [&](Eigen::Index k) { return sp.position(std::clamp<Eigen::Index>(k, 0, n - 1), (Eigen::Index)a); };
+    for (Eigen::Index k = 1; k < n + 3; ++k) {
+      worst = std::max(worst, std::abs(x(k) - x(k - 1)) / te / ax.max_velocity);
+      worst = std::max(worst, std::abs(x(k) - 2 * x(k - 1) + x(k - 2)) / (te * te) / ax.max_acceleration);
+      worst = std::max(worst, std::abs(x(k) - 3 * x(k - 1) + 3 * x(k - 2) - x(k - 3)) / (te * te * te) / ax.max_jerk);
+    }
+  }
+  EXPECT_LE(worst, 1.0 + 1e-9);
 }
 
 TEST(ChainFeedPlan, TheCeilingCapsTheFeedAndAPlanForAnotherPathIsRefused) {
