@@ -86,6 +86,11 @@ void add_contour_error(Motion& motion, const core::Job& job) {
 }
 
 double tlo_at(const Motion& m, Eigen::Index k) {
+  if (m.tool_length_offset_mm.size() == 0) {  // a streamed motion: from the move indices, as tool_length_offsets
+    const Eigen::ArrayXi& mi = m.interp.setpoints.move_index;
+    const int i = mi[std::min(k, mi.size() - 1)];
+    return i >= 0 ? m.program.moves[static_cast<std::size_t>(i)].tool_length_offset_mm : 0.0;
+  }
   return m.tool_length_offset_mm[std::min(k, m.tool_length_offset_mm.size() - 1)];
 }
 
