@@ -125,17 +125,16 @@ double surface_nodes(const FieldShape& s, int rows) {
 struct MotionCounts {
   double samples = 0, sweeps = 0;
   bool turning = false;
-  bool streamed = false;  // the actual motion of the run itself (sim/motion_stream.hpp)
+  bool streamed = false;  // an actual motion (sim/motion_stream.hpp)
 };
 
 double motion_bytes(const MotionCounts& c, int axes) {
   return c.samples * (c.streamed ? streamed_motion_bytes_per_setpoint(axes, c.turning)
                                  : motion_bytes_per_setpoint(axes, c.turning));
 }
-// `streamed`: the run's own actual motion, which the run streams (and so does the plan: its drives' response is never
-// held whole here either).
+// An actual motion is streamed, by the run and here (its drives' response is never held whole).
 MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind,
-                           core::Progress& progress, bool streamed = false) {
+                           core::Progress& progress) {
   ChainOptions copt;
   copt.feed_scale = feed_scale;
   copt.ignore_gain_schedule = feed_scale != 1.0;  // a reference at other feeds (the run itself refuses it)
@@ -151,7 +150,7 @@ MotionCounts motion_counts(const core::Job& job, double feed_scale, core::Remova
     track = track_of(m, job, kind);
   }
   MotionCounts c;
-  c.streamed = streamed && kind == core::RemovalSpec::Motion::Actual;
+  c.streamed = kind == core::RemovalSpec::Motion::Actual;
   c.samples =
       kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());
   c.sweeps = double(sweeps_of(job, track).sweeps.size());
@@ -168,7 +167,7 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
   const double feed_scale = options.feed_scale;
 
   // The motion and the reference: exact sample and sweep counts.
-  const MotionCounts own = motion_counts(job, feed_scale, job.removal.motion, progress, true);
+  const MotionCounts own = motion_counts(job, feed_scale, job.removal.motion, progress);
   MotionCounts refm;
   std::optional<FieldShape> ref_shape;
   switch (job.reference.kind) {
@@ -322,7 +321,8 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
   plan["assumptions"] = {
       "field: 8 bytes per ray and 56 per row before cuts split rays (split rays add their intervals)",
       "copies: the field, the stock it starts from, and the reference field are held together",
-      "motion, the run's actual motion (streamed in blocks): per setpoint the largest of 8 a + 20 (setpoints) + 95 "
+      "motion, an actual motion (streamed in blocks; the job's, a feed reference's, a stock or reference job's): per "
+      "setpoint the largest of 8 a + 20 (setpoints) + 95 "
       "(the interpolator's arrays), 8 a + 20 + 72 (track and commanded tip, while the drives run in blocks) and 136 "
       "(the contour error's), plus 24 for a turning tool axis",
       "motion, other (setpoints, the programmed path, a reference job's or feed reference's actual motion): per "

@@ -59,6 +59,9 @@ double track_tolerance(const core::Job& job, bool tool_turns);
 // Whether a track's tool axis turns anywhere (a 5-axis track).
 bool track_turns(const removal::PoseTrack& track);
 removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind);
+// The track of the chain's motion of `kind` alone (a stock job's, a feed reference's): the actual motion streamed
+// (sim/motion_stream.hpp), the same track as track_of(simulate_motion(...)) without holding the drives' response.
+removal::PoseTrack motion_track(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress);
 // The track as the tool's swept volumes, within the job's track tolerance.
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& track);
 
