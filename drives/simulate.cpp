@@ -22,13 +22,18 @@ namespace {
 
 using Index = Eigen::Index;
 
-// Everything one axis needs, prepared before the parallel region (nothing in it allocates or throws).
+// Everything one axis needs, prepared before the parallel region (nothing in it allocates or throws), and the
+// state it carries from one block of rows to the next (BlockSimulation).
 struct AxisJob {
   std::optional<CascadeAxis> model;  // empty: an axis without a drive that never moves (it holds its position)
   std::unique_ptr<AxisModel> other;  // instead of the cascade: SimulateOptions::axis_models
   const double* kv = nullptr;        // this axis' column of the gain schedule (setpoint rows), or null
   const double* kf = nullptr;
   std::vector<InnerSample> inner;  // one Te of current-loop samples, for the full-rate trace
+  AxisSample s;                    // the state at the next row's instant
+  double prev_x = 0.0, prev_v = 0.0;  // the NC's previous setpoint and velocity (at rest before the first one)
+  double prev_acc = 0.0;              // the previous row's acceleration (the jerk's backward difference)
+  bool started = false;
 };
 
 // One axis from its setpoint column to its response columns. Row k of the response is the axis at t = k*Te, the
@@ -48,8 +53,10 @@ struct Stop {
 };
 constexpr Index kPollRows = 256;  // ~ a few ms of one axis: Ctrl-C is seen within ~0.1 s
 
-void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double te, Index rows, AxisResponse& out,
-              FullRateTrace* trace, Stop& stop) {
+// Rows [k0, k1) of `rows` into out's rows [0, k1 - k0); the trace (whole run) at its absolute samples. The state
+// carried in `job` makes consecutive calls the same, bit for bit, as one call over all rows.
+void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double te, Index k0, Index k1, Index rows,
+              AxisResponse& out, FullRateTrace* trace, Stop& stop) {
   const Index n_set = setpoints.rows();
   const double x0 = setpoints(0, axis);
   if (!job.model && !job.other) {
@@ -61,60 +68,64 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
   std::vector<InnerSample>& inner = job.inner;
   const Index nin = job.model ? job.model->inner_steps() : 0;
 
-  AxisSample s;
-  if (job.model) {
-    s = job.model->sample();
-  } else {
-    s.position = x0;
+  AxisSample& s = job.s;
+  if (!job.started) {
+    if (job.model) {
+      s = job.model->sample();
+    } else {
+      s.position = x0;
+    }
+    job.prev_x = x0, job.prev_v = 0.0, job.prev_acc = 0.0;
+    job.started = true;
   }
-  double prev_x = x0, prev_v = 0.0;  // the NC's previous setpoint and velocity (at rest before the first one)
-  for (Index k = 0; k < rows; ++k) {
-    if (k % kPollRows == 0 && !stop.go()) return;
-    out.position(k, axis) = s.position;
-    out.velocity(k, axis) = s.velocity;
-    out.acceleration(k, axis) = s.acceleration;
-    out.current_A(k, axis) = s.current_A;
-    out.current_mean_A(k, axis) = s.current_mean_A;
-    out.current_peak_A(k, axis) = s.current_peak_A;
-    out.current_setpoint_A(k, axis) = s.current_setpoint_A;
+  for (Index k = k0; k < k1; ++k) {
+    if ((k - k0) % kPollRows == 0 && !stop.go()) return;
+    const Index r = k - k0;
+    out.position(r, axis) = s.position;
+    out.velocity(r, axis) = s.velocity;
+    out.acceleration(r, axis) = s.acceleration;
+    out.current_A(r, axis) = s.current_A;
+    out.current_mean_A(r, axis) = s.current_mean_A;
+    out.current_peak_A(r, axis) = s.current_peak_A;
+    out.current_setpoint_A(r, axis) = s.current_setpoint_A;
+    // Jerk: backward difference of the accelerations (at rest before row 0).
+    out.jerk(r, axis) = (s.acceleration - job.prev_acc) / te;
+    job.prev_acc = s.acceleration;
     if (k + 1 == rows) break;
     const Index ks = k < n_set ? k : n_set - 1;
     AxisCommand c;
     c.position = setpoints(ks, axis);
     // The NC's feedforward set points: backward differences of the position setpoints.
-    c.velocity = (c.position - prev_x) / te;
-    c.acceleration = (c.velocity - prev_v) / te;
-    prev_x = c.position;
-    prev_v = c.velocity;
+    c.velocity = (c.position - job.prev_x) / te;
+    c.acceleration = (c.velocity - job.prev_v) / te;
+    job.prev_x = c.position;
+    job.prev_v = c.velocity;
     if (job.kv) c.kv_per_s = job.kv[ks];
     if (job.kf) c.kf = job.kf[ks];
     if (trace) {
       s = job.model->step(c, inner.data());
       for (Index n = 0; n < nin; ++n) {
         const InnerSample& q = inner[static_cast<std::size_t>(n)];
-        const Index r = k * nin + n;
-        trace->position[r] = q.position;
-        trace->velocity[r] = q.velocity;
-        trace->current_A[r] = q.current_A;
-        trace->current_setpoint_A[r] = q.current_setpoint_A;
-        trace->voltage_V[r] = q.voltage_V;
+        const Index t = k * nin + n;
+        trace->position[t] = q.position;
+        trace->velocity[t] = q.velocity;
+        trace->current_A[t] = q.current_A;
+        trace->current_setpoint_A[t] = q.current_setpoint_A;
+        trace->voltage_V[t] = q.voltage_V;
       }
     } else {
       s = m.step(c);
     }
   }
-  if (trace) {  // the last row's instant closes the trace
+  if (trace && k1 == rows) {  // the last row's instant closes the trace
     const InnerSample q = job.model->inner_sample();
-    const Index r = (rows - 1) * nin;
-    trace->position[r] = q.position;
-    trace->velocity[r] = q.velocity;
-    trace->current_A[r] = q.current_A;
-    trace->current_setpoint_A[r] = q.current_setpoint_A;
-    trace->voltage_V[r] = q.voltage_V;
+    const Index t = (rows - 1) * nin;
+    trace->position[t] = q.position;
+    trace->velocity[t] = q.velocity;
+    trace->current_A[t] = q.current_A;
+    trace->current_setpoint_A[t] = q.current_setpoint_A;
+    trace->voltage_V[t] = q.voltage_V;
   }
-  // Jerk: backward difference of the accelerations (at rest before row 0).
-  for (Index k = 0; k < rows; ++k)
-    out.jerk(k, axis) = (out.acceleration(k, axis) - (k > 0 ? out.acceleration(k - 1, axis) : 0.0)) / te;
 }
 
 }  // namespace
@@ -136,8 +147,23 @@ Eigen::VectorXd simulate_axis(AxisModel& m, const Eigen::VectorXd& setpoints, do
   return y;
 }
 
-AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine& machine,
-                           const SimulateOptions& options) {
+struct BlockSimulation::Impl {
+  const core::Setpoints* setpoints = nullptr;
+  double te = 1e-3;
+  Index rows = 0, next = 0;
+  std::vector<std::string> axis_names;
+  std::vector<AxisJob> jobs;
+  bool full_rate_trace = false;
+  std::vector<FullRateTrace> trace;  // whole run, per axis, when full_rate_trace
+
+  Impl(const core::Setpoints& setpoints, const core::Machine& machine, const SimulateOptions& options);
+  // Rows [next, k1) into `out` (sized for them), then next = k1.
+  void run(Index k1, AxisResponse& out);
+};
+
+BlockSimulation::Impl::Impl(const core::Setpoints& setpoints, const core::Machine& machine,
+                            const SimulateOptions& options)
+    : setpoints(&setpoints) {
   const std::string& file = machine.source_file;
   const Index n_axes = static_cast<Index>(machine.axes.size());
   const double te = setpoints.period_s;
@@ -158,7 +184,8 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
     throw core::Error(fmt::format("settle_s must be >= 0, found {}", options.settle_s));
 
   const Index n_set = setpoints.samples();
-  const Index rows = n_set + static_cast<Index>(std::llround(options.settle_s / te));
+  rows = n_set + static_cast<Index>(std::llround(options.settle_s / te));
+  this->te = te;
 
   const GainSchedule* g = options.gains;
   const auto check_schedule = [&](const Eigen::MatrixXd& m, const char* what) {
@@ -182,15 +209,10 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
   const bool have_kf = g && check_schedule(g->kf, "kf");
   if (have_kv && (g->kv_per_s.array() == 0.0).any()) throw core::Error("gain schedule kv_per_s: Kv must be > 0");
 
-  AxisResponse out;
-  out.period_s = te;
-  for (const auto& ax : machine.axes) out.axis_names.push_back(ax.name);
-  for (Eigen::MatrixXd* m : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
-                             &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
-    m->setZero(rows, n_axes);
-
-  std::vector<AxisJob> jobs(static_cast<std::size_t>(n_axes));
-  if (options.full_rate_trace) out.trace.resize(static_cast<std::size_t>(n_axes));
+  for (const auto& ax : machine.axes) axis_names.push_back(ax.name);
+  jobs.resize(static_cast<std::size_t>(n_axes));
+  full_rate_trace = options.full_rate_trace;
+  if (options.full_rate_trace) trace.resize(static_cast<std::size_t>(n_axes));
   for (Index a = 0; a < n_axes; ++a) {
     const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(a)];
     AxisJob& job = jobs[static_cast<std::size_t>(a)];
@@ -223,7 +245,7 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
     if (have_kv) job.kv = g->kv_per_s.col(a).data();
     if (have_kf) job.kf = g->kf.col(a).data();
     if (options.full_rate_trace) {
-      FullRateTrace& t = out.trace[static_cast<std::size_t>(a)];
+      FullRateTrace& t = trace[static_cast<std::size_t>(a)];
       t.period_s = ax.drive->current_period_s;
       job.inner.resize(static_cast<std::size_t>(job.model->inner_steps()));
       const Index n = (rows - 1) * job.model->inner_steps() + 1;
@@ -231,7 +253,16 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
         v->setZero(n);
     }
   }
+}
 
+void BlockSimulation::Impl::run(Index k1, AxisResponse& out) {
+  const Index k0 = next;
+  const Index n_axes = static_cast<Index>(jobs.size());
+  out.period_s = te;
+  out.axis_names = axis_names;
+  for (Eigen::MatrixXd* m : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
+                             &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
+    m->setZero(k1 - k0, n_axes);
   // Axes are independent (no coupling in the model, the feed-drive simulation paper section 2.2): each thread runs
   // whole axes, writing only its own columns, so the results do not depend on the thread count or the schedule.
   const int n = static_cast<int>(n_axes);
@@ -244,10 +275,10 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
     // Each thread takes the next axis until none is left (as schedule(dynamic, 1) would).
     for (int a = next_axis++; a < n; a = next_axis++) {
       FullRateTrace* t =
-          options.full_rate_trace && jobs[static_cast<std::size_t>(a)].model && !jobs[static_cast<std::size_t>(a)].other
-              ? &out.trace[static_cast<std::size_t>(a)]
+          full_rate_trace && jobs[static_cast<std::size_t>(a)].model && !jobs[static_cast<std::size_t>(a)].other
+              ? &trace[static_cast<std::size_t>(a)]
               : nullptr;
-      run_axis(jobs[static_cast<std::size_t>(a)], setpoints.position, a, te, rows, out, t, stop);
+      run_axis(jobs[static_cast<std::size_t>(a)], setpoints->position, a, te, k0, k1, rows, out, t, stop);
       ++axes_done;
     }
     // The calling thread, out of axes, keeps asking its caller while the others finish theirs.
@@ -260,6 +291,35 @@ AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine
   // Stopped by the caller: its progress throws (the response is incomplete and is not returned).
   if (stop.requested) stop.progress->update(0);
   if (stop.requested) throw core::Error("the drives' simulation was stopped by its caller");
+  next = k1;
+}
+
+BlockSimulation::BlockSimulation(const core::Setpoints& setpoints, const core::Machine& machine,
+                                 const SimulateOptions& options)
+    : impl_(std::make_unique<Impl>(setpoints, machine, options)) {
+  if (options.full_rate_trace)
+    throw core::Error("the drives' simulation in blocks keeps no full-rate trace (simulate_axes does)");
+}
+BlockSimulation::~BlockSimulation() = default;
+BlockSimulation::BlockSimulation(BlockSimulation&&) noexcept = default;
+BlockSimulation& BlockSimulation::operator=(BlockSimulation&&) noexcept = default;
+
+Eigen::Index BlockSimulation::rows() const { return impl_->rows; }
+Eigen::Index BlockSimulation::next_row() const { return impl_->next; }
+
+AxisResponse BlockSimulation::next(Eigen::Index block_rows) {
+  if (block_rows < 1) throw core::Error(fmt::format("drives: a block of {} rows (expected >= 1)", block_rows));
+  AxisResponse out;
+  impl_->run(std::min(impl_->rows, impl_->next + block_rows), out);
+  return out;
+}
+
+AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine& machine,
+                           const SimulateOptions& options) {
+  BlockSimulation::Impl sim(setpoints, machine, options);
+  AxisResponse out;
+  sim.run(sim.rows, out);
+  out.trace = std::move(sim.trace);
   return out;
 }
 

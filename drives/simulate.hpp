@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -55,5 +56,29 @@ Eigen::VectorXd simulate_axis(AxisModel& model, const Eigen::VectorXd& setpoints
 // Throws core::Error naming the machine file when an axis the setpoints move has no [axes.drive].
 AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine& machine,
                            const SimulateOptions& options = {});
+
+// The same simulation in blocks of rows, so that a long program's response need not be held whole (issue 21): each
+// next() returns the following rows (setpoint rows, then the settling rows) as an AxisResponse of those rows, every
+// drive's state carried from one block to the next, so that the blocks put together are simulate_axes' response
+// bit for bit. `setpoints` (and the gain schedule) must outlive the simulation. Throws as simulate_axes does, and
+// for a full-rate trace (only simulate_axes keeps one).
+class BlockSimulation {
+ public:
+  BlockSimulation(const core::Setpoints& setpoints, const core::Machine& machine, const SimulateOptions& options = {});
+  ~BlockSimulation();
+  BlockSimulation(BlockSimulation&&) noexcept;
+  BlockSimulation& operator=(BlockSimulation&&) noexcept;
+
+  Eigen::Index rows() const;      // all rows: setpoints, then settle_s / Te settling rows
+  Eigen::Index next_row() const;  // the first row the next block holds
+  bool done() const { return next_row() >= rows(); }
+  // Rows [next_row(), next_row() + min(block_rows, rows() - next_row())). Throws for block_rows < 1.
+  AxisResponse next(Eigen::Index block_rows);
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace vmsim::drives

@@ -132,14 +132,11 @@ std::vector<bool> Chain::cascade_axes() const {
   return out;
 }
 
-drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace,
-                                     DriveChecks* checks) const {
-  const std::vector<bool> cascade = cascade_axes();
-  DriveChecks before = check_drives_before(job_->machine, setpoints, cascade);  // throws for an unstable loop
+drives::SimulateOptions Chain::simulate_options(const core::Setpoints& setpoints, bool full_rate_trace,
+                                                drives::GainSchedule& schedule) const {
   drives::SimulateOptions sopt;
   sopt.settle_s = options_.settle_s;
   sopt.full_rate_trace = full_rate_trace;
-  drives::GainSchedule schedule;
   if (gain_schedule_file_) {
     schedule = methods::read_gain_schedule(*gain_schedule_file_, setpoints, job_->machine);
     sopt.gains = &schedule;
@@ -158,12 +155,32 @@ drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full
   } else if (axis_models_.any()) {
     sopt.axis_models = &axis_models_.per_axis;
   }
+  return sopt;
+}
+
+drives::AxisResponse Chain::simulate(const core::Setpoints& setpoints, bool full_rate_trace,
+                                     DriveChecks* checks) const {
+  const std::vector<bool> cascade = cascade_axes();
+  DriveChecks before = check_drives_before(job_->machine, setpoints, cascade);  // throws for an unstable loop
+  drives::GainSchedule schedule;
+  const drives::SimulateOptions sopt = simulate_options(setpoints, full_rate_trace, schedule);
   drives::AxisResponse response = drives::simulate_axes(setpoints, job_->machine, sopt);
   if (checks) {
     *checks = std::move(before);
     check_drives_after(job_->machine, setpoints, response, cascade, sopt.gains, *checks);
   }
   return response;
+}
+
+DriveBlocks Chain::simulate_in_blocks(const core::Setpoints& setpoints) const {
+  DriveBlocks out;
+  const std::vector<bool> cascade = cascade_axes();
+  out.checks = check_drives_before(job_->machine, setpoints, cascade);  // throws for an unstable loop
+  out.schedule = std::make_unique<drives::GainSchedule>();
+  const drives::SimulateOptions sopt = simulate_options(setpoints, false, *out.schedule);
+  out.sim = std::make_unique<drives::BlockSimulation>(setpoints, job_->machine, sopt);
+  out.after = std::make_unique<DriveChecksAfter>(job_->machine, setpoints, cascade, sopt.gains);
+  return out;
 }
 
 Eigen::VectorXd tool_length_offsets(const core::ToolPath& program, const core::Setpoints& setpoints) {

@@ -37,6 +37,15 @@ struct ChainOptions {
   double settle_s = 0.2;
 };
 
+// The drives of Chain::simulate in blocks of rows (issue 21): the checks before the run made, the gain schedule read,
+// the simulation ready to step, and the checks after it, to be fed each block (`after->add`) and finished.
+struct DriveBlocks {
+  DriveChecks checks;                              // before the run; after->finish(checks) adds the rest
+  std::unique_ptr<drives::GainSchedule> schedule;  // read against the setpoints (empty without one)
+  std::unique_ptr<drives::BlockSimulation> sim;
+  std::unique_ptr<DriveChecksAfter> after;
+};
+
 class Chain {
  public:
   // Throws core::Error naming the job file and key for a gain schedule used with another feed, or an axis-model or
@@ -81,11 +90,15 @@ class Chain {
   // also the findings before and after the run (saturation, following error) and each checked axis's figures.
   drives::AxisResponse simulate(const core::Setpoints& setpoints, bool full_rate_trace = false,
                                 DriveChecks* checks = nullptr) const;
+  // The same in blocks of rows; `setpoints` must outlive the result. Throws as simulate does.
+  DriveBlocks simulate_in_blocks(const core::Setpoints& setpoints) const;
   // Per machine axis: whether it runs the machine's cascade ([axes.drive]) rather than an identified axis model or
   // the [feedplan] servo.
   std::vector<bool> cascade_axes() const;
 
  private:
+  drives::SimulateOptions simulate_options(const core::Setpoints& setpoints, bool full_rate_trace,
+                                           drives::GainSchedule& schedule) const;
   const core::Job* job_;
   ChainOptions options_;
   motion::InterpOptions interp_;

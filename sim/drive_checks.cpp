@@ -50,16 +50,20 @@ DriveChecks check_drives_before(const core::Machine& machine, const core::Setpoi
   return out;
 }
 
-void check_drives_after(const core::Machine& machine, const core::Setpoints& sp, const drives::AxisResponse& resp,
-                        const std::vector<bool>& cascade, const drives::GainSchedule* gains, DriveChecks& checks) {
-  const Eigen::Index ns = sp.samples(), n = resp.samples();
-  const double te = sp.period_s;
-  if (ns < 1) return;
+DriveChecksAfter::DriveChecksAfter(const core::Machine& machine, const core::Setpoints& sp,
+                                   const std::vector<bool>& cascade, const drives::GainSchedule* gains)
+    : machine_(&machine), te_(sp.period_s), ns_(sp.samples()) {
+  if (ns_ < 1) return;
+  const double te = te_;
+  const Eigen::Index ns = ns_;
   for (std::size_t i = 0; i < machine.axes.size(); ++i) {
     const core::MachineAxis& ax = machine.axes[i];
     const auto a = static_cast<Eigen::Index>(i);
-    if (!ax.drive || i >= cascade.size() || !cascade[i] || !moves(sp, a) || a >= resp.position.cols()) continue;
-    core::DriveParams p = *ax.drive;
+    if (!ax.drive || i >= cascade.size() || !cascade[i] || !moves(sp, a)) continue;
+    Axis x;
+    x.index = i;
+    x.params = *ax.drive;
+    core::DriveParams& p = x.params;
     if (gains) {
       p.kv_per_s = lowest(gains->kv_per_s, a, p.kv_per_s);
       p.kf = lowest(gains->kf, a, p.kf);
@@ -76,18 +80,39 @@ void check_drives_after(const core::Machine& machine, const core::Setpoints& sp,
     // The floor covers what the linear model leaves out and a careful drive still shows: Coulomb friction at
     // reversals, gravity, the current loop's voltage limit (a few um on the parts' machines).
     const double floor = ax.kind == core::AxisKind::Rotary ? 1e-4 : 0.01;
-    const double bound = 3.0 * (std::abs(d.lag_s) * v_max + std::abs(d.lag_s2) * a_max) + floor;
-    double e_max = 0, e_row = 0;
-    double saturated = 0, longest = 0, run = 0;
-    const double limit = p.current_limit_A;
-    for (Eigen::Index k = 0; k < n; ++k) {
-      const double e = std::abs(sp.position(std::min(k, ns - 1), a) - resp.position(k, a));
-      if (!(e <= e_max)) e_max = e, e_row = static_cast<double>(k);  // NaN counts as the largest
-      const bool sat = resp.current_setpoint_A.size() && std::abs(resp.current_setpoint_A(k, a)) >= limit * (1 - 1e-9);
-      run = sat ? run + te : 0.0;
-      saturated += sat ? te : 0.0;
-      longest = std::max(longest, run);
+    x.bound = 3.0 * (std::abs(d.lag_s) * v_max + std::abs(d.lag_s2) * a_max) + floor;
+    x.v_max = v_max, x.a_max = a_max;
+    axes_.push_back(x);
+  }
+}
+
+void DriveChecksAfter::add(Eigen::Index k0, const core::Setpoints& sp, const drives::AxisResponse& resp) {
+  const Eigen::Index m = resp.samples();
+  const double te = te_;
+  for (Axis& x : axes_) {
+    const auto a = static_cast<Eigen::Index>(x.index);
+    if (a >= resp.position.cols()) continue;
+    const double limit = x.params.current_limit_A;
+    for (Eigen::Index r = 0; r < m; ++r) {
+      const Eigen::Index k = k0 + r;
+      const double e = std::abs(sp.position(std::min(k, ns_ - 1), a) - resp.position(r, a));
+      if (!(e <= x.e_max)) x.e_max = e, x.e_row = static_cast<double>(k);  // NaN counts as the largest
+      const bool sat = resp.current_setpoint_A.size() && std::abs(resp.current_setpoint_A(r, a)) >= limit * (1 - 1e-9);
+      x.run = sat ? x.run + te : 0.0;
+      x.saturated += sat ? te : 0.0;
+      x.longest = std::max(x.longest, x.run);
     }
+  }
+}
+
+void DriveChecksAfter::finish(DriveChecks& checks) const {
+  const core::Machine& machine = *machine_;
+  const double te = te_;
+  for (const Axis& x : axes_) {
+    const core::MachineAxis& ax = machine.axes[x.index];
+    const core::DriveParams& p = x.params;
+    const double bound = x.bound, e_max = x.e_max, e_row = x.e_row, saturated = x.saturated, longest = x.longest;
+    const double v_max = x.v_max, a_max = x.a_max, limit = p.current_limit_A;
     nlohmann::json& fig = checks.axes[ax.name];
     fig["current_saturated_s"] = saturated;
     fig["current_saturated_longest_s"] = longest;
@@ -115,6 +140,13 @@ void check_drives_after(const core::Machine& machine, const core::Setpoints& sp,
       checks.warnings.push_back({"following_error_beyond_model", ax.name,
                                  fe + ": a limit of the drive (current, voltage) or its friction shapes the result"});
   }
+}
+
+void check_drives_after(const core::Machine& machine, const core::Setpoints& sp, const drives::AxisResponse& resp,
+                        const std::vector<bool>& cascade, const drives::GainSchedule* gains, DriveChecks& checks) {
+  DriveChecksAfter after(machine, sp, cascade, gains);
+  after.add(0, sp, resp);
+  after.finish(checks);
 }
 
 nlohmann::json warnings_json(const core::Warnings& warnings) {

@@ -40,6 +40,30 @@ void check_drives_after(const core::Machine& machine, const core::Setpoints& set
                         const drives::AxisResponse& response, const std::vector<bool>& cascade,
                         const drives::GainSchedule* gains, DriveChecks& checks);
 
+// The same checks after the run, fed the response in blocks of rows (issue 21: a long program's response is not held
+// whole). The setpoints' positions must stay alive until the last add(). add(0, whole response) then finish() is
+// check_drives_after.
+class DriveChecksAfter {
+ public:
+  DriveChecksAfter(const core::Machine& machine, const core::Setpoints& setpoints, const std::vector<bool>& cascade,
+                   const drives::GainSchedule* gains);
+  // Response rows [k0, k0 + block.samples()), in order.
+  void add(Eigen::Index k0, const core::Setpoints& setpoints, const drives::AxisResponse& block);
+  void finish(DriveChecks& checks) const;
+
+ private:
+  struct Axis {
+    std::size_t index = 0;
+    core::DriveParams params;
+    double bound = 0, v_max = 0, a_max = 0;
+    double e_max = 0, e_row = 0, saturated = 0, longest = 0, run = 0;
+  };
+  const core::Machine* machine_;
+  double te_;
+  Eigen::Index ns_;
+  std::vector<Axis> axes_;
+};
+
 // report.json's "warnings" (code, severity, subject, message each) and "verdict" (core::verdict).
 nlohmann::json warnings_json(const core::Warnings& warnings);
 void add_verdict(nlohmann::json& report, const core::Warnings& warnings);

@@ -1,6 +1,7 @@
 // The memory model of a run (sim/memory_plan.hpp), per process and per rank, with advice.
 #include "sim/memory_plan.hpp"
 
+#include "sim/motion_stream.hpp"
 #include "sim/pipeline.hpp"
 #include "sim/report.hpp"
 #include "core/memory.hpp"
@@ -23,6 +24,14 @@ namespace vmsim::sim {
 
 double motion_bytes_per_setpoint(int axes, bool turning) {
   return 8.0 * axes + 20 + 64.0 * axes + 60 + 48 + (turning ? 24 : 0) + 8.0 * (4 * axes + 6);
+}
+
+double streamed_motion_bytes_per_setpoint(int axes, bool turning) {
+  const double setpoints = 8.0 * axes + 20, turn = turning ? 24 : 0;
+  const double interpolation = setpoints + 95;       // and the interpolator's own arrays
+  const double blocks = setpoints + 48 + turn + 24;  // track (tip, velocity, axis) and commanded tip
+  const double contour = 4 + 24 + turn + 24 + 84;    // move index, tip, axis, command, the contour's own
+  return std::max({interpolation, blocks, contour});
 }
 
 namespace {
@@ -113,22 +122,35 @@ double surface_nodes(const FieldShape& s, int rows) {
   return double(s.grids.back().nu) * rows;
 }
 
-double motion_bytes(double samples, int axes, bool turning) {
-  return samples * motion_bytes_per_setpoint(axes, turning);
-}
-
 struct MotionCounts {
   double samples = 0, sweeps = 0;
   bool turning = false;
+  bool streamed = false;  // an actual motion (sim/motion_stream.hpp)
 };
+
+double motion_bytes(const MotionCounts& c, int axes) {
+  return c.samples * (c.streamed ? streamed_motion_bytes_per_setpoint(axes, c.turning)
+                                 : motion_bytes_per_setpoint(axes, c.turning));
+}
+// An actual motion is streamed, by the run and here (its drives' response is never held whole).
 MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind,
                            core::Progress& progress) {
   ChainOptions copt;
   copt.feed_scale = feed_scale;
   copt.ignore_gain_schedule = feed_scale != 1.0;  // a reference at other feeds (the run itself refuses it)
-  const Motion m = simulate_motion(Chain(job, copt), kind, progress);
-  const removal::PoseTrack track = track_of(m, job, kind);
+  const Chain chain(job, copt);
+  Motion m;
+  removal::PoseTrack track;
+  if (kind == core::RemovalSpec::Motion::Actual) {
+    StreamOptions so;
+    so.figures = false;
+    track = stream_actual_motion(chain, m, so, progress).track;
+  } else {
+    m = simulate_motion(chain, kind, progress);
+    track = track_of(m, job, kind);
+  }
   MotionCounts c;
+  c.streamed = kind == core::RemovalSpec::Motion::Actual;
   c.samples =
       kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());
   c.sweeps = double(sweeps_of(job, track).sweeps.size());
@@ -170,7 +192,7 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
       break;
   }
   const int axes = static_cast<int>(job.machine.axes.size());
-  const double b_motion = motion_bytes(own.samples, axes, own.turning) + motion_bytes(refm.samples, axes, refm.turning);
+  const double b_motion = motion_bytes(own, axes) + motion_bytes(refm, axes);
   const double b_sweeps = kSweepBytes * (own.sweeps + refm.sweeps);
 
   // Outputs of the whole part (one process, or rank 0 when gathered).
@@ -299,7 +321,13 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
   plan["assumptions"] = {
       "field: 8 bytes per ray and 56 per row before cuts split rays (split rays add their intervals)",
       "copies: the field, the stock it starts from, and the reference field are held together",
-      "motion: per setpoint 8 a + 20 (setpoints) + 64 a (drives) + 60 (contour) + 48 (track) + 8 (4 a + 6) (signals)",
+      "motion, an actual motion (streamed in blocks; the job's, a feed reference's, a stock or reference job's): per "
+      "setpoint the largest of 8 a + 20 (setpoints) + 95 "
+      "(the interpolator's arrays), 8 a + 20 + 72 (track and commanded tip, while the drives run in blocks) and 136 "
+      "(the contour error's), plus 24 for a turning tool axis",
+      "motion, other (setpoints, the programmed path, a reference job's or feed reference's actual motion): per "
+      "setpoint "
+      "8 a + 20 (setpoints) + 64 a (drives) + 60 (contour) + 48 (track) + 8 (4 a + 6) (signals)",
       "sweeps: 96 bytes each; the job's and the reference's",
       "outputs: 136 bytes per height-grid node (z-map); tri-dexel and vdb: OpenVDB level set and mesh estimates",
       "base: 70 MB per process (code and libraries)"};

@@ -8,8 +8,10 @@
 //   field      8 R + 56 per row (removal::IntervalStore::initial_bytes: before cuts split rays), times the copies a
 //              run holds: the field, the stock it started from (kept for reference "stock"), and the reference
 //              field (kinds feed, program, stock, job);
-//   motion     S (8 a + 20 setpoints + 64 a drives + 60 contour error + 48 pose track (+24 turning axis) +
-//              8 (4 a + 6) signals), for the job's motion and the reference's;
+//   motion     an actual motion is streamed (sim/motion_stream.hpp): S max(8 a + 20 + 95 interpolation,
+//              8 a + 20 + 72 drives in blocks, 136 contour error) (+24 turning axis); other motions (setpoints,
+//              program) S (8 a + 20 setpoints + 64 a drives + 60 contour error + 48 pose track
+//              (+24 turning axis) + 8 (4 a + 6) signals);
 //   sweeps     96 W (removal::SweptTool);
 //   gather     rank 0 of a gathered run: the whole field and reference, plus 12 B per ray of the largest grid
 //              (interval counts and ends in flight);
@@ -41,6 +43,10 @@ struct MemoryPlanOptions {
 // The motion's bytes per setpoint sample in the model above (setpoints, drives, contour error, track, signals), for
 // a machine of `axes` axes; `turning`: the track holds a tool axis too.
 double motion_bytes_per_setpoint(int axes, bool turning);
+// The same for the run's own actual motion, streamed (sim/motion_stream.hpp): the largest of its stages -- the
+// interpolation (setpoints and the interpolator's arrays), the drives in blocks (setpoints, the track, the commanded
+// tip) and the contour error (its inputs and its own arrays).
+double streamed_motion_bytes_per_setpoint(int axes, bool turning);
 
 nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& options = {},
                            core::Progress& progress = core::no_progress());

@@ -3,6 +3,7 @@
 #include "sim/pipeline.hpp"
 #include "core/timing.hpp"
 #include "sim/cut_progress.hpp"
+#include "sim/motion_stream.hpp"
 
 #include "sim/job_program.hpp"
 #include "sim/tool_poses.hpp"
@@ -87,6 +88,11 @@ void add_contour_error(Motion& motion, const core::Job& job) {
 }
 
 double tlo_at(const Motion& m, Eigen::Index k) {
+  if (m.tool_length_offset_mm.size() == 0) {  // a streamed motion: from the move indices, as tool_length_offsets
+    const Eigen::ArrayXi& mi = m.interp.setpoints.move_index;
+    const int i = mi[std::min(k, mi.size() - 1)];
+    return i >= 0 ? m.program.moves[static_cast<std::size_t>(i)].tool_length_offset_mm : 0.0;
+  }
   return m.tool_length_offset_mm[std::min(k, m.tool_length_offset_mm.size() - 1)];
 }
 
@@ -363,11 +369,23 @@ removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& t
   return removal::sweeps_from_track(cutting_tools(job), tr, topt);
 }
 
+removal::PoseTrack motion_track(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress) {
+  if (kind == core::RemovalSpec::Motion::Actual) {
+    // Streamed (sim/motion_stream.hpp): the drives' response is never held whole; the track is the same.
+    Motion m;
+    StreamOptions so;
+    so.figures = false;
+    return stream_actual_motion(chain, m, so, progress).track;
+  }
+  const Motion m = simulate_motion(chain, kind, progress);
+  return track_of(m, chain.job(), kind);
+}
+
 Field final_field(const core::Job& job, core::Progress& progress, std::set<std::string>& chain, const Tile& tile) {
   Field f = initial_field(job, progress, chain, tile);
-  const Motion m = simulate_motion(Chain(job), job.removal.motion, progress);
+  const removal::PoseTrack track = motion_track(Chain(job), job.removal.motion, progress);
   progress.stage(job.name + ": material removal");
-  cut_field(f, sweeps_of(job, track_of(m, job, job.removal.motion)).sweeps);
+  cut_field(f, sweeps_of(job, track).sweeps);
   progress.done();
   return f;
 }
@@ -518,9 +536,9 @@ Reference reference_field(const core::Job& job, const Field& start, double feed_
     ChainOptions copt;
     copt.feed_scale = feed_scale * job.reference.feed_scale;
     copt.ignore_gain_schedule = copt.feed_scale != 1.0;  // the schedule's gains are for the job's own feeds
-    const Motion rm = simulate_motion(Chain(job, copt), job.removal.motion, progress);
+    const removal::PoseTrack track = motion_track(Chain(job, copt), job.removal.motion, progress);
     progress.stage(job.name + ": reference (feeds x " + fmt::format("{:g}", job.reference.feed_scale) + ")");
-    cut_field(*ref, sweeps_of(job, track_of(rm, job, job.removal.motion)).sweeps);
+    cut_field(*ref, sweeps_of(job, track).sweeps);
     progress.done();
     ref_name =
         fmt::format("feed: the same program through the same chain at {:g} x its feeds", job.reference.feed_scale);

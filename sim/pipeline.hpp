@@ -13,6 +13,7 @@
 #include "removal/track.hpp"
 #include "removal/vdb_part.hpp"
 #include "sim/chain.hpp"
+#include "sim/signals.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -34,6 +35,12 @@ struct Motion {
   Eigen::VectorXd tool_length_offset_mm;  // per setpoint (sim::tool_length_offsets)
   DriveChecks drive_checks;               // the drives' findings, when they ran (sim/drive_checks.hpp)
   nlohmann::json timings = nlohmann::json::object();
+  // A streamed motion (sim/motion_stream.hpp): the response and the setpoints' positions were consumed block by
+  // block and released (response has no rows, setpoints.position no columns, tool_length_offset_mm is empty); the
+  // figures taken from them on the way are here.
+  bool streamed = false;
+  std::optional<BinnedSignals> signals;                      // streamed: the signals (signals.csv)
+  nlohmann::json axis_following = nlohmann::json::object();  // streamed: as sim/axis_following.hpp gives it
 };
 
 // Program -> interpolator -> drives of the chain, as far as `kind` needs (program: read only; setpoints:
@@ -52,6 +59,9 @@ double track_tolerance(const core::Job& job, bool tool_turns);
 // Whether a track's tool axis turns anywhere (a 5-axis track).
 bool track_turns(const removal::PoseTrack& track);
 removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::RemovalSpec::Motion kind);
+// The track of the chain's motion of `kind` alone (a stock job's, a feed reference's): the actual motion streamed
+// (sim/motion_stream.hpp), the same track as track_of(simulate_motion(...)) without holding the drives' response.
+removal::PoseTrack motion_track(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress);
 // The track as the tool's swept volumes, within the job's track tolerance.
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& track);
 

@@ -8,6 +8,7 @@
 #include "removal/surface.hpp"
 #include "sim/axis_following.hpp"
 #include "sim/contour_stats.hpp"
+#include "sim/motion_stream.hpp"
 #include "sim/report.hpp"
 #include "sim/tools.hpp"
 
@@ -204,23 +205,50 @@ Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& pro
   c.timings["stock"] = seconds_since(t0);
   const Field start = c.field;  // the stock this job starts from (reference "stock")
 
-  c.motion = simulate_motion(chain, job.removal.motion, progress);
-  add_contour_error(c.motion, job);
-  for (const auto& [k, v] : c.motion.timings.items()) c.timings[k] = v;
+  if (job.removal.motion == core::RemovalSpec::Motion::Actual) {
+    // The actual motion streamed (sim/motion_stream.hpp): the drives' response is consumed block by block; the
+    // track's tip velocity is released once the sweeps are made, before the contour error needs its memory.
+    StreamOptions so;
+    so.feed_scale = options.feed_scale;
+    MotionStream stream = stream_actual_motion(chain, c.motion, so, progress);
+    t0 = Clock::now();
+    double cpu0 = process_cpu_s();
+    progress.stage(job.name + ": material removal");
+    c.track = std::move(stream.track);
+    c.track_tolerance_mm = track_tolerance(job, track_turns(c.track));
+    c.sweeps = sweeps_of(job, c.track);
+    double removal_s = seconds_since(t0), removal_cpu = process_cpu_s() - cpu0;
+    c.track.tip_velocity_mm_per_s.resize(0, 3);
+    finish_streamed_motion(c.motion, stream, c.track.tip_mm);
+    c.track.tip_mm.resize(0, 3);  // the report needs only whether the tool axis turns
+    for (const auto& [k, v] : c.motion.timings.items()) c.timings[k] = v;
+    t0 = Clock::now();
+    cpu0 = process_cpu_s();
+    progress.stage(job.name + ": material removal",
+                   static_cast<double>(c.sweeps.sweeps.size() * std::max<std::size_t>(1, c.field.grids().size())));
+    c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps, &progress);
+    progress.done();
+    c.timings["removal"] = removal_s + seconds_since(t0);
+    c.timings["removal_cpu"] = removal_cpu + process_cpu_s() - cpu0;  // every thread's CPU time
+  } else {
+    c.motion = simulate_motion(chain, job.removal.motion, progress);
+    add_contour_error(c.motion, job);
+    for (const auto& [k, v] : c.motion.timings.items()) c.timings[k] = v;
 
-  t0 = Clock::now();
-  const double cpu0 = process_cpu_s();
-  progress.stage(job.name + ": material removal");
-  c.track = track_of(c.motion, job, job.removal.motion);
-  c.track_tolerance_mm = track_tolerance(job, track_turns(c.track));
-  c.sweeps = sweeps_of(job, c.track);
-  // The sweeps times the grids: cut_field reports them done, and the terminal turns that into the time left.
-  progress.stage(job.name + ": material removal",
-                 static_cast<double>(c.sweeps.sweeps.size() * std::max<std::size_t>(1, c.field.grids().size())));
-  c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps, &progress);
-  progress.done();
-  c.timings["removal"] = seconds_since(t0);
-  c.timings["removal_cpu"] = process_cpu_s() - cpu0;  // every thread's CPU time
+    t0 = Clock::now();
+    const double cpu0 = process_cpu_s();
+    progress.stage(job.name + ": material removal");
+    c.track = track_of(c.motion, job, job.removal.motion);
+    c.track_tolerance_mm = track_tolerance(job, track_turns(c.track));
+    c.sweeps = sweeps_of(job, c.track);
+    // The sweeps times the grids: cut_field reports them done, and the terminal turns that into the time left.
+    progress.stage(job.name + ": material removal",
+                   static_cast<double>(c.sweeps.sweeps.size() * std::max<std::size_t>(1, c.field.grids().size())));
+    c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps, &progress);
+    progress.done();
+    c.timings["removal"] = seconds_since(t0);
+    c.timings["removal_cpu"] = process_cpu_s() - cpu0;  // every thread's CPU time
+  }
 
   t0 = Clock::now();
   c.reference = reference_field(job, start, options.feed_scale, progress);
@@ -240,7 +268,9 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
     read_back_grids(job, r, surface_json, warnings);
   else
     read_back_needles(job, r, surface_json);
-  if (c.motion.response && c.motion.contour)
+  if (c.motion.signals)
+    r.signals = c.motion.signals;
+  else if (c.motion.response && c.motion.contour)
     r.signals = motion_signals(job, c.motion.program, c.motion.interp.setpoints, *c.motion.response, *c.motion.contour,
                                options.feed_scale);
   progress.done();
@@ -287,8 +317,9 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
     // and of the tool axis.
     const auto kin = motion::make_kinematics(job.machine);
     report["axis_following_error"] =
-        axis_following_json(job.machine, motion.interp.setpoints, motion.response->position, kin.get(),
-                            [&](Eigen::Index k) { return tlo_at(motion, k); });
+        motion.streamed ? motion.axis_following
+                        : axis_following_json(job.machine, motion.interp.setpoints, motion.response->position,
+                                              kin.get(), [&](Eigen::Index k) { return tlo_at(motion, k); });
   }
   if (motion.contour)
     report["contour_error"] =

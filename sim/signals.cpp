@@ -18,48 +18,6 @@ namespace {
 
 using core::units::kNaN;
 
-// Folds one signal at a time into per-bin minima and maxima; `value(k)` is called for k = 0, 1, ... in order, so
-// it may carry state from one sample to the next (differences, running sums).
-class Binner {
- public:
-  Binner(Eigen::Index samples, Eigen::Index max_bins) : n_(samples) {
-    bs_ = std::max<Eigen::Index>(1, (samples + max_bins - 1) / std::max<Eigen::Index>(1, max_bins));
-    bins_ = (samples + bs_ - 1) / bs_;
-  }
-  template <class F>
-  void add(const std::string& name, F&& value) {
-    Eigen::ArrayXd lo = Eigen::ArrayXd::Constant(bins_, kNaN), hi = lo;
-    for (Eigen::Index k = 0; k < n_; ++k) {
-      const double v = value(k);
-      if (!std::isfinite(v)) continue;
-      const Eigen::Index b = k / bs_;
-      if (std::isnan(lo[b]))
-        lo[b] = hi[b] = v;
-      else
-        lo[b] = std::min(lo[b], v), hi[b] = std::max(hi[b], v);
-    }
-    names_.push_back(name);
-    lo_.push_back(std::move(lo));
-    hi_.push_back(std::move(hi));
-  }
-  void finish(BinnedSignals& out) const {
-    out.samples = n_;
-    out.bin_samples = bs_;
-    out.names = names_;
-    out.min.resize(bins_, static_cast<Eigen::Index>(names_.size()));
-    out.max.resize(bins_, static_cast<Eigen::Index>(names_.size()));
-    for (std::size_t c = 0; c < names_.size(); ++c) {
-      out.min.col(static_cast<Eigen::Index>(c)) = lo_[c];
-      out.max.col(static_cast<Eigen::Index>(c)) = hi_[c];
-    }
-  }
-
- private:
-  Eigen::Index n_, bs_ = 1, bins_ = 0;
-  std::vector<std::string> names_;
-  std::vector<Eigen::ArrayXd> lo_, hi_;
-};
-
 std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.7g}", v) : "nan"; }
 
 }  // namespace
@@ -76,96 +34,163 @@ std::optional<double> BinnedSignals::limit(const std::string& name) const {
   return it->second;
 }
 
-BinnedSignals motion_signals(const core::Job& job, const core::ToolPath& program, const core::Setpoints& sp,
-                             const drives::AxisResponse& resp, const motion::ContourError& ce, double feed_scale,
-                             Eigen::Index max_bins) {
+SignalBinner::SignalBinner(const core::Job& job, const core::ToolPath& program, const core::Setpoints& sp,
+                           Eigen::Index rows, double feed_scale, Eigen::Index max_bins)
+    : job_(&job), program_(&program), sp_(&sp), n_(rows), ns_(sp.samples()), feed_scale_(feed_scale) {
+  if (n_ == 0 || ns_ == 0) throw core::Error("signals: the run has no samples");
+  te_ = sp.period_s;
+  bs_ = std::max<Eigen::Index>(1, (n_ + max_bins - 1) / std::max<Eigen::Index>(1, max_bins));
+  bins_ = (n_ + bs_ - 1) / bs_;
+  kin_ = motion::make_kinematics(job.machine);
+  out_.job = job.name;
+  out_.period_s = te_;
   const core::Machine& machine = job.machine;
-  const Eigen::Index n = resp.samples(), ns = sp.samples();
-  if (n == 0 || ns == 0) throw core::Error("signals: the run has no samples");
-  if (ce.signed_mm.size() != n)
-    throw core::Error(fmt::format("signals: {} contour-error samples for {} drive samples", ce.signed_mm.size(), n));
-  const double te = sp.period_s;
-  BinnedSignals out;
-  out.job = job.name;
-  out.period_s = te;
-  Binner bin(n, max_bins);
-
-  auto move_of = [&](Eigen::Index k) { return sp.move_index[std::min(k, ns - 1)]; };
-  auto cutting = [&](Eigen::Index k) {
-    const int mi = move_of(k);
-    return mi >= 0 && !program.moves[static_cast<std::size_t>(mi)].rapid;
-  };
-  auto tlo = [&](Eigen::Index k) {
-    const int mi = move_of(k);
-    return mi >= 0 ? program.moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
-  };
-
-  bin.add("t_s", [&](Eigen::Index k) { return static_cast<double>(k) * te; });
+  // The columns in the file's order: t_s, each moving axis's eleven, then the path's.
+  column("t_s");
   for (std::size_t a = 0; a < machine.axes.size(); ++a) {
     const core::MachineAxis& ax = machine.axes[a];
     const auto ai = static_cast<Eigen::Index>(a);
     const bool moves = sp.position.col(ai).maxCoeff() - sp.position.col(ai).minCoeff() > 1e-9;
     if (!moves) {
-      out.held_axes.push_back(ax.name);
+      out_.held_axes.push_back(ax.name);
       continue;
     }
     const bool rotary = ax.kind == core::AxisKind::Rotary;
     const double f = rotary ? core::units::kRadToDeg : 1.0;
     const std::string u = rotary ? "deg" : "mm", A = ax.name;
-    out.axes.emplace_back(A, u);
-    // Setpoints as the drives receive them: held at the last one while the axes settle, at rest before the first.
-    auto x = [&, ai](Eigen::Index k) { return sp.position(std::clamp<Eigen::Index>(k, 0, ns - 1), ai); };
-    bin.add(A + "_setpoint_" + u, [&, f](Eigen::Index k) { return x(k) * f; });
-    bin.add(A + "_actual_" + u, [&, f, ai](Eigen::Index k) { return resp.position(k, ai) * f; });
-    bin.add(A + "_tracking_error_" + u, [&, f, ai](Eigen::Index k) { return (x(k) - resp.position(k, ai)) * f; });
-    bin.add(A + "_velocity_setpoint_" + u + "_per_s", [&, f](Eigen::Index k) { return (x(k) - x(k - 1)) / te * f; });
-    bin.add(A + "_velocity_actual_" + u + "_per_s", [&, f, ai](Eigen::Index k) { return resp.velocity(k, ai) * f; });
-    bin.add(A + "_acceleration_setpoint_" + u + "_per_s2",
-            [&, f](Eigen::Index k) { return (x(k) - 2 * x(k - 1) + x(k - 2)) / (te * te) * f; });
-    bin.add(A + "_acceleration_actual_" + u + "_per_s2",
-            [&, f, ai](Eigen::Index k) { return resp.acceleration(k, ai) * f; });
-    bin.add(A + "_jerk_setpoint_" + u + "_per_s3",
-            [&, f](Eigen::Index k) { return (x(k) - 3 * x(k - 1) + 3 * x(k - 2) - x(k - 3)) / (te * te * te) * f; });
-    bin.add(A + "_jerk_actual_" + u + "_per_s3", [&, f, ai](Eigen::Index k) { return resp.jerk(k, ai) * f; });
-    bin.add(A + "_current_A", [&, ai](Eigen::Index k) { return resp.current_mean_A(k, ai); });
-    bin.add(A + "_current_peak_A", [&, ai](Eigen::Index k) { return resp.current_peak_A(k, ai); });
-    out.limits[A + "_velocity_" + u + "_per_s"] = ax.max_velocity * f;
-    out.limits[A + "_acceleration_" + u + "_per_s2"] = ax.max_acceleration * f;
-    out.limits[A + "_jerk_" + u + "_per_s3"] = ax.max_jerk * f;
-    if (ax.drive) out.limits[A + "_current_A"] = ax.drive->current_limit_A;
+    out_.axes.emplace_back(A, u);
+    axes_.push_back({ai, f, column(A + "_setpoint_" + u)});
+    for (const std::string& name :
+         {A + "_actual_" + u, A + "_tracking_error_" + u, A + "_velocity_setpoint_" + u + "_per_s",
+          A + "_velocity_actual_" + u + "_per_s", A + "_acceleration_setpoint_" + u + "_per_s2",
+          A + "_acceleration_actual_" + u + "_per_s2", A + "_jerk_setpoint_" + u + "_per_s3",
+          A + "_jerk_actual_" + u + "_per_s3", A + "_current_A", A + "_current_peak_A"})
+      column(name);
+    out_.limits[A + "_velocity_" + u + "_per_s"] = ax.max_velocity * f;
+    out_.limits[A + "_acceleration_" + u + "_per_s2"] = ax.max_acceleration * f;
+    out_.limits[A + "_jerk_" + u + "_per_s3"] = ax.max_jerk * f;
+    if (ax.drive) out_.limits[A + "_current_A"] = ax.drive->current_limit_A;
   }
+  c_feed_ = column("feed_programmed_mm_per_min");
+  c_speed_ = column("path_speed_setpoint_mm_per_min");
+  c_speed_actual_ = column("path_speed_actual_mm_per_min");
+  c_contour_ = column("contour_error_mm");
+  c_path_ = column("cutting_path_mm");
+  c_cutting_ = column("cutting");
+}
 
-  bin.add("feed_programmed_mm_per_min", [&](Eigen::Index k) {
-    if (k >= ns || !cutting(k)) return kNaN;
-    const core::Move& mv = program.moves[static_cast<std::size_t>(move_of(k))];
-    return mv.feed_mode == core::FeedMode::UnitsPerMinute ? mv.feed_mm_per_min * feed_scale : kNaN;
-  });
-  bin.add("path_speed_setpoint_mm_per_min",
-          [&](Eigen::Index k) { return k < ns ? sp.path_speed_mm_per_s[k] * 60 : 0.0; });
-  const auto kin = motion::make_kinematics(machine);
-  {
-    Eigen::Vector3d prev = Eigen::Vector3d::Zero();
-    bin.add("path_speed_actual_mm_per_min", [&](Eigen::Index k) {
-      const Eigen::Vector3d p = kin->forward(resp.position.row(k).transpose(), tlo(k)).tip_mm;
-      const double v = k == 0 ? 0.0 : (p - prev).norm() / te * 60;
-      prev = p;
-      return v;
-    });
+SignalBinner::~SignalBinner() = default;
+
+int SignalBinner::column(const std::string& name) {
+  out_.names.push_back(name);
+  columns_.push_back({Eigen::ArrayXd::Constant(bins_, kNaN), Eigen::ArrayXd::Constant(bins_, kNaN)});
+  return static_cast<int>(columns_.size()) - 1;
+}
+
+// Each column's values fold into their bins in row order, whatever the blocks (a bin's first finite value starts it).
+inline void SignalBinner::fold(int c, Eigen::Index k, double v) {
+  if (!std::isfinite(v)) return;
+  Column& col = columns_[static_cast<std::size_t>(c)];
+  const Eigen::Index b = k / bs_;
+  if (std::isnan(col.lo[b]))
+    col.lo[b] = col.hi[b] = v;
+  else
+    col.lo[b] = std::min(col.lo[b], v), col.hi[b] = std::max(col.hi[b], v);
+}
+
+int SignalBinner::move_of(Eigen::Index k) const { return sp_->move_index[std::min(k, ns_ - 1)]; }
+bool SignalBinner::cutting(Eigen::Index k) const {
+  const int mi = move_of(k);
+  return mi >= 0 && !program_->moves[static_cast<std::size_t>(mi)].rapid;
+}
+double SignalBinner::tlo(Eigen::Index k) const {
+  const int mi = move_of(k);
+  return mi >= 0 ? program_->moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
+}
+
+void SignalBinner::add(Eigen::Index k0, const drives::AxisResponse& resp) {
+  const Eigen::Index m = resp.samples();
+  if (k0 != next_ || k0 + m > n_)
+    throw core::Error(fmt::format("signals: a block of rows [{}, {}) after row {} of {}", k0, k0 + m, next_, n_));
+  const core::Setpoints& sp = *sp_;
+  const double te = te_;
+  for (Eigen::Index r = 0; r < m; ++r) fold(0, k0 + r, static_cast<double>(k0 + r) * te);
+  for (const AxisColumns& ac : axes_) {
+    const Eigen::Index ai = ac.axis;
+    const double f = ac.scale;
+    // Setpoints as the drives receive them: held at the last one while the axes settle, at rest before the first.
+    auto x = [&](Eigen::Index k) { return sp.position(std::clamp<Eigen::Index>(k, 0, ns_ - 1), ai); };
+    const int c = ac.first;
+    for (Eigen::Index r = 0; r < m; ++r) {
+      const Eigen::Index k = k0 + r;
+      const double xk = x(k);
+      fold(c, k, xk * f);
+      fold(c + 1, k, resp.position(r, ai) * f);
+      fold(c + 2, k, (xk - resp.position(r, ai)) * f);
+      fold(c + 3, k, (xk - x(k - 1)) / te * f);
+      fold(c + 4, k, resp.velocity(r, ai) * f);
+      fold(c + 5, k, (xk - 2 * x(k - 1) + x(k - 2)) / (te * te) * f);
+      fold(c + 6, k, resp.acceleration(r, ai) * f);
+      fold(c + 7, k, (xk - 3 * x(k - 1) + 3 * x(k - 2) - x(k - 3)) / (te * te * te) * f);
+      fold(c + 8, k, resp.jerk(r, ai) * f);
+      fold(c + 9, k, resp.current_mean_A(r, ai));
+      fold(c + 10, k, resp.current_peak_A(r, ai));
+    }
   }
-  bin.add("contour_error_mm", [&](Eigen::Index k) { return cutting(k) ? ce.signed_mm[k] : kNaN; });
-  {
-    Eigen::Vector3d prev = Eigen::Vector3d::Zero();
-    double s = 0;
-    bin.add("cutting_path_mm", [&](Eigen::Index k) {
-      const Eigen::Vector3d p = kin->forward(sp.position.row(std::min(k, ns - 1)).transpose(), tlo(k)).tip_mm;
-      if (k > 0 && cutting(k)) s += (p - prev).norm();
-      prev = p;
-      return s;
-    });
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const Eigen::Index k = k0 + r;
+    const bool cut = cutting(k);
+    double feed = kNaN;
+    if (k < ns_ && cut) {
+      const core::Move& mv = program_->moves[static_cast<std::size_t>(move_of(k))];
+      feed = mv.feed_mode == core::FeedMode::UnitsPerMinute ? mv.feed_mm_per_min * feed_scale_ : kNaN;
+    }
+    fold(c_feed_, k, feed);
+    fold(c_speed_, k, k < ns_ ? sp.path_speed_mm_per_s[k] * 60 : 0.0);
+    const double l = tlo(k);
+    const Eigen::Vector3d p = kin_->forward(resp.position.row(r).transpose(), l).tip_mm;
+    fold(c_speed_actual_, k, k == 0 ? 0.0 : (p - prev_actual_).norm() / te * 60);
+    prev_actual_ = p;
+    const Eigen::Vector3d q = kin_->forward(sp.position.row(std::min(k, ns_ - 1)).transpose(), l).tip_mm;
+    if (k > 0 && cut) cutting_path_ += (q - prev_command_).norm();
+    prev_command_ = q;
+    fold(c_path_, k, cutting_path_);
+    fold(c_cutting_, k, cut ? 1.0 : 0.0);
   }
-  bin.add("cutting", [&](Eigen::Index k) { return cutting(k) ? 1.0 : 0.0; });
-  bin.finish(out);
+  next_ = k0 + m;
+}
+
+void SignalBinner::add_contour(const motion::ContourError& ce) {
+  if (ce.signed_mm.size() != n_)
+    throw core::Error(fmt::format("signals: {} contour-error samples for {} drive samples", ce.signed_mm.size(), n_));
+  for (Eigen::Index k = 0; k < n_; ++k) fold(c_contour_, k, cutting(k) ? ce.signed_mm[k] : kNaN);
+}
+
+BinnedSignals SignalBinner::finish() {
+  if (next_ != n_) throw core::Error(fmt::format("signals: {} of {} rows binned", next_, n_));
+  BinnedSignals out = std::move(out_);
+  out.samples = n_;
+  out.bin_samples = bs_;
+  out.min.resize(bins_, static_cast<Eigen::Index>(columns_.size()));
+  out.max.resize(bins_, static_cast<Eigen::Index>(columns_.size()));
+  for (std::size_t c = 0; c < columns_.size(); ++c) {
+    out.min.col(static_cast<Eigen::Index>(c)) = columns_[c].lo;
+    out.max.col(static_cast<Eigen::Index>(c)) = columns_[c].hi;
+  }
   return out;
+}
+
+BinnedSignals motion_signals(const core::Job& job, const core::ToolPath& program, const core::Setpoints& sp,
+                             const drives::AxisResponse& resp, const motion::ContourError& ce, double feed_scale,
+                             Eigen::Index max_bins) {
+  const Eigen::Index n = resp.samples();
+  if (n == 0 || sp.samples() == 0) throw core::Error("signals: the run has no samples");
+  if (ce.signed_mm.size() != n)
+    throw core::Error(fmt::format("signals: {} contour-error samples for {} drive samples", ce.signed_mm.size(), n));
+  SignalBinner bins(job, program, sp, n, feed_scale, max_bins);
+  bins.add(0, resp);
+  bins.add_contour(ce);
+  return bins.finish();
 }
 
 void write_signals(const std::filesystem::path& file, const BinnedSignals& s) {

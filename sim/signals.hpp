@@ -38,11 +38,13 @@
 #include "core/setpoints.hpp"
 #include "core/toolpath.hpp"
 #include "drives/simulate.hpp"
+#include "motion/kinematics.hpp"
 
 #include <Eigen/Core>
 
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -64,6 +66,55 @@ struct BinnedSignals {
   int find(const std::string& name) const;
   bool has(const std::string& name) const { return find(name) >= 0; }
   std::optional<double> limit(const std::string& name) const;
+};
+
+// The signals of a run through the drives binned as the drives' response comes, in blocks of rows (issue 21: a long
+// program's response need not be held whole): add() each block in order, add_contour() once the contour error is
+// known, then finish(). Each column's values fold into their bins in row order, so the bins do not depend on the
+// blocks. The setpoints (positions, path speed, move indices) must stay alive until the last add(); the program and
+// the move indices until add_contour().
+class SignalBinner {
+ public:
+  // rows: the response's rows (setpoints, then the settling rows). feed_scale: the override the setpoints were
+  // interpolated with. Throws core::Error for a run without samples.
+  SignalBinner(const core::Job& job, const core::ToolPath& program, const core::Setpoints& setpoints, Eigen::Index rows,
+               double feed_scale = 1.0, Eigen::Index max_bins = 10000);
+  ~SignalBinner();
+  SignalBinner(SignalBinner&&) noexcept = default;
+  // Response rows [k0, k0 + block.samples()); k0 must follow the previous block. Throws core::Error otherwise.
+  void add(Eigen::Index k0, const drives::AxisResponse& block);
+  // The contour error of every row. Throws core::Error when its length is not the response's.
+  void add_contour(const motion::ContourError& contour);
+  // Throws core::Error when rows are missing.
+  BinnedSignals finish();
+
+ private:
+  struct Column {
+    Eigen::ArrayXd lo, hi;
+  };
+  struct AxisColumns {
+    Eigen::Index axis;
+    double scale;
+    int first;  // its eleven columns, from the setpoint's
+  };
+  int column(const std::string& name);
+  void fold(int c, Eigen::Index k, double v);
+  int move_of(Eigen::Index k) const;
+  bool cutting(Eigen::Index k) const;
+  double tlo(Eigen::Index k) const;
+
+  const core::Job* job_;
+  const core::ToolPath* program_;
+  const core::Setpoints* sp_;
+  Eigen::Index n_, ns_, bs_ = 1, bins_ = 0, next_ = 0;
+  double te_ = 1e-3, feed_scale_ = 1.0;
+  std::unique_ptr<motion::Kinematics> kin_;
+  BinnedSignals out_;
+  std::vector<Column> columns_;
+  std::vector<AxisColumns> axes_;
+  int c_feed_ = 0, c_speed_ = 0, c_speed_actual_ = 0, c_contour_ = 0, c_path_ = 0, c_cutting_ = 0;
+  Eigen::Vector3d prev_actual_ = Eigen::Vector3d::Zero(), prev_command_ = Eigen::Vector3d::Zero();
+  double cutting_path_ = 0;
 };
 
 // The signals of one run through the drives, binned on the fly (no full-rate copy of the signals is made).

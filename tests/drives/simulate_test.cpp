@@ -102,6 +102,74 @@ TEST(SimulateAxes, GainScheduleEqualToTheDrivesOwnChangesNothing) {
   EXPECT_GT(e_slow / e_plain, 1.5);
 }
 
+// The blocks of a BlockSimulation put together, as one response.
+AxisResponse blocked(const core::Setpoints& sp, const core::Machine& m, const SimulateOptions& o, Eigen::Index block) {
+  BlockSimulation sim(sp, m, o);
+  AxisResponse whole;
+  const Eigen::Index na = static_cast<Eigen::Index>(m.axes.size());
+  std::vector<Eigen::MatrixXd*> cols = {&whole.position,       &whole.velocity,      &whole.acceleration,
+                                        &whole.jerk,           &whole.current_A,     &whole.current_setpoint_A,
+                                        &whole.current_mean_A, &whole.current_peak_A};
+  for (Eigen::MatrixXd* c : cols) c->resize(sim.rows(), na);
+  while (!sim.done()) {
+    const Eigen::Index k0 = sim.next_row();
+    const AxisResponse b = sim.next(block);
+    EXPECT_LE(b.samples(), block);
+    const std::vector<const Eigen::MatrixXd*> bc = {&b.position,       &b.velocity,      &b.acceleration,
+                                                    &b.jerk,           &b.current_A,     &b.current_setpoint_A,
+                                                    &b.current_mean_A, &b.current_peak_A};
+    for (std::size_t i = 0; i < cols.size(); ++i) cols[i]->middleRows(k0, b.samples()) = *bc[i];
+  }
+  return whole;
+}
+
+// Every column, bit for bit (exact equality; NaN would fail it too).
+void expect_same_rows(const AxisResponse& a, const AxisResponse& b) {
+  ASSERT_EQ(a.samples(), b.samples());
+  EXPECT_TRUE((a.position.array() == b.position.array()).all());
+  EXPECT_TRUE((a.velocity.array() == b.velocity.array()).all());
+  EXPECT_TRUE((a.acceleration.array() == b.acceleration.array()).all());
+  EXPECT_TRUE((a.jerk.array() == b.jerk.array()).all());
+  EXPECT_TRUE((a.current_A.array() == b.current_A.array()).all());
+  EXPECT_TRUE((a.current_setpoint_A.array() == b.current_setpoint_A.array()).all());
+  EXPECT_TRUE((a.current_mean_A.array() == b.current_mean_A.array()).all());
+  EXPECT_TRUE((a.current_peak_A.array() == b.current_peak_A.array()).all());
+}
+
+// Reference: simulate_axes over the whole run. The drives' simulation in blocks (issue 21: the response of a long
+// program streamed) carries every drive's state, the NC's previous setpoint and velocity (the feedforward's
+// differences), the previous acceleration (the jerk's) and the gain schedule's row across the blocks: at blocks of
+// 1, 7 and 65 536 rows the rows are the whole run's bit for bit, with a gain schedule that changes on every row too.
+TEST(SimulateAxes, BlocksGiveTheWholeRunBitForBit) {
+  const core::Machine m = test::mikron();
+  const core::Setpoints sp = plane_cylinder_setpoints(m);
+  ASSERT_GT(sp.samples(), 1000);
+  const AxisResponse whole = simulate_axes(sp, m);
+  for (const Eigen::Index block : {Eigen::Index{1}, Eigen::Index{7}, Eigen::Index{65536}}) {
+    SCOPED_TRACE(block);
+    expect_same_rows(whole, blocked(sp, m, {}, block));
+  }
+  // A schedule whose X gain changes every row: a block must read the schedule at its own rows.
+  GainSchedule g;
+  const Eigen::Index n = sp.samples(), na = static_cast<Eigen::Index>(m.axes.size());
+  g.kv_per_s.setConstant(n, na, std::numeric_limits<double>::quiet_NaN());
+  for (Eigen::Index k = 0; k < n; ++k) g.kv_per_s(k, 0) = m.axes[0].drive->kv_per_s * (0.6 + 0.4 * ((k / 37) % 2));
+  SimulateOptions o;
+  o.gains = &g;
+  const AxisResponse sched = simulate_axes(sp, m, o);
+  EXPECT_FALSE((sched.position.col(0).array() == whole.position.col(0).array()).all());
+  expect_same_rows(sched, blocked(sp, m, o, 7));
+  // The last block ends with the settling rows; a block past the end is empty.
+  BlockSimulation sim(sp, m);
+  EXPECT_EQ(sim.rows(), whole.samples());
+  while (!sim.done()) sim.next(100000);
+  EXPECT_EQ(sim.next(10).samples(), 0);
+  EXPECT_THROW(sim.next(0), core::Error);
+  o.gains = nullptr;
+  o.full_rate_trace = true;
+  EXPECT_THROW(BlockSimulation(sp, m, o), core::Error);
+}
+
 // Reference: the response's time base (simulate.hpp): row k is the axis at t = k Te; row 0 the resting state at
 // the first setpoint; settle_s more rows with the last setpoint held; v_d, a_d by backward differences; jerk the
 // backward difference of the accelerations; the trace's sample n at t = n Tc, its every Te-th sample equal to the
