@@ -1,6 +1,7 @@
 #include "removal/surface.hpp"
 
 #include <cmath>
+#include <utility>
 #include <vector>
 
 namespace vmsim::removal {
@@ -8,7 +9,6 @@ namespace vmsim::removal {
 core::TriangleMesh heightfield_mesh(const core::HeightGrid& g, double bottom, const core::HeightGrid* dev) {
   const Eigen::Index nx = g.nx(), ny = g.ny();
   const bool closed = g.z_mm.allFinite() && nx >= 2 && ny >= 2;
-  core::TriangleMesh m;
   std::vector<Eigen::Vector3d> v;
   std::vector<double> d;
   std::vector<Eigen::Vector3i> t;
@@ -28,6 +28,15 @@ core::TriangleMesh heightfield_mesh(const core::HeightGrid& g, double bottom, co
       if (a >= 0 && b >= 0 && c >= 0) t.emplace_back(a, b, c);
       if (a >= 0 && c >= 0 && e >= 0) t.emplace_back(a, c, e);
     }
+  return close_heightfield_top(g, bottom, id, std::move(v), std::move(d), std::move(t), closed, dev != nullptr);
+}
+
+core::TriangleMesh close_heightfield_top(const core::HeightGrid& g, double bottom, const std::vector<int>& id,
+                                         std::vector<Eigen::Vector3d> v, std::vector<double> d,
+                                         std::vector<Eigen::Vector3i> t, bool closed, bool dev) {
+  const Eigen::Index nx = g.nx(), ny = g.ny();
+  auto at = [&](Eigen::Index j, Eigen::Index i) { return id[static_cast<std::size_t>(j * nx + i)]; };
+  core::TriangleMesh m;
   if (closed) {
     // The bottom: only the boundary nodes (no T-junctions with the walls), in a fan about the bottom's centre,
     // which keeps every triangle proper and the mesh small (the top carries the detail).

@@ -1,10 +1,12 @@
 #include "sim/part_mesh.hpp"
 
 #include "core/error.hpp"
+#include "removal/surface.hpp"
 
 #include <fmt/format.h>
 
 #include <cmath>
+#include <utility>
 #include <vector>
 
 namespace vmsim::sim {
@@ -94,40 +96,8 @@ SimplifiedMesh simplified_heightfield_mesh(const core::HeightGrid& g, double bot
       const int centre = at(j0 + B / 2, i0 + B / 2);
       for (std::size_t k = 0; k < ring.size(); ++k) t.emplace_back(centre, ring[k], ring[(k + 1) % ring.size()]);
     }
-  if (closed) {
-    // Walls and bottom as removal::heightfield_mesh: the boundary nodes, a bottom fanned about an off-node centre.
-    std::vector<std::pair<Eigen::Index, Eigen::Index>> ring;
-    for (Eigen::Index i = 0; i < nx; ++i) ring.emplace_back(0, i);
-    for (Eigen::Index j = 1; j < ny; ++j) ring.emplace_back(j, nx - 1);
-    for (Eigen::Index i = nx - 2; i >= 0; --i) ring.emplace_back(ny - 1, i);
-    for (Eigen::Index j = ny - 2; j >= 1; --j) ring.emplace_back(j, 0);
-    const int base = static_cast<int>(v.size());
-    for (const auto& [j, i] : ring) {
-      v.emplace_back(g.x(i), g.y(j), bottom);
-      d.push_back(0.0);
-    }
-    const int centre = static_cast<int>(v.size());
-    v.emplace_back(g.x((nx - 1) / 2) + 0.3183098861837907 * g.dx_mm, g.y((ny - 1) / 2) + 0.2718281828459045 * g.dy_mm,
-                   bottom);
-    d.push_back(0.0);
-    const int nr = static_cast<int>(ring.size());
-    for (int k = 0; k < nr; ++k) {
-      const int a = base + k, b = base + (k + 1) % nr;
-      t.emplace_back(centre, b, a);
-      const auto& [ja, ia] = ring[static_cast<std::size_t>(k)];
-      const auto& [jb, ib] = ring[static_cast<std::size_t>((k + 1) % nr)];
-      t.emplace_back(at(ja, ia), a, b);
-      t.emplace_back(at(ja, ia), b, at(jb, ib));
-    }
-  }
-  core::TriangleMesh& m = out.mesh;
-  m.vertices_mm.resize(static_cast<Eigen::Index>(v.size()), 3);
-  for (std::size_t k = 0; k < v.size(); ++k) m.vertices_mm.row(static_cast<Eigen::Index>(k)) = v[k].transpose();
-  m.triangles.resize(static_cast<Eigen::Index>(t.size()), 3);
-  for (std::size_t k = 0; k < t.size(); ++k) m.triangles.row(static_cast<Eigen::Index>(k)) = t[k].transpose();
-  if (dev)
-    m.point_data.emplace_back("deviation_mm",
-                              Eigen::Map<Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size())));
+  // Walls and bottom as removal::heightfield_mesh makes them.
+  out.mesh = removal::close_heightfield_top(g, bottom, id, std::move(v), std::move(d), std::move(t), closed, dev != nullptr);
   return out;
 }
 
