@@ -13,6 +13,7 @@
 #include "core/output_dir.hpp"
 #include "core/stl.hpp"
 #include "core/timing.hpp"
+#include "core/units.hpp"
 #include "render/mesh_io.hpp"
 #include "sim/contour_stats.hpp"
 #include "sim/job_program.hpp"
@@ -169,7 +170,7 @@ void print_results(const core::Job& job, const sim::RunResult& r) {
     const std::string vertical =
         std::isfinite(m.depth_vertical_mm) && std::abs(m.depth_vertical_mm - m.depth_mm) > 5e-6
             ? fmt::format(" along the normal ({:.2f} um vertically, on a {:.0f} deg slope{})",
-                          m.depth_vertical_mm * 1e3, m.slope_rad * 180.0 / M_PI, m.steep_wall ? ", a steep wall" : "")
+                          m.depth_vertical_mm * 1e3, m.slope_rad * 180.0 / core::units::kPi, m.steep_wall ? ", a steep wall" : "")
             : "";
     std::printf("mark %zu: %s %.2f um%s at x %.3f y %.3f, %.3f x %.3f mm\n", k + 1, m.overcut ? "overcut " : "undercut",
                 m.depth_mm * 1e3, vertical.c_str(), m.x_mm, m.y_mm, m.x_extent_mm, m.y_extent_mm);
@@ -261,7 +262,7 @@ int run_run(const RunArgs& args) {
     if (out) out->commit();  // --tiles-out: every rank's tile is written (gather_tiles ends in a barrier)
     return 0;
   }
-  const sim::RunResult result = sim::finish_run(job, std::move(cut), options, progress);
+  const sim::RunResult result = sim::finish_run(job, std::move(cut), progress);
 
   auto t0 = Clock::now();
   create_out_dir(dir);

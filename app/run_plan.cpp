@@ -86,8 +86,10 @@ int run_plan(const core::Job& job, const RunArgs& args) {
   options.feed_scale = args.feed_scale.value_or(1.0);
   options.ranks = args.ranks.value_or(mpi_size());
   if (args.memory_per_rank_gb) options.memory_per_rank_bytes = *args.memory_per_rank_gb * 1e9;
-  nlohmann::json plan = sim::plan_memory(job, options, progress);
-  plan["time"] = sim::plan_time(job, options.feed_scale, progress);  // sim/time_plan.hpp
+  // The run's motions are computed once, for both models (sim/plan_motion.hpp).
+  sim::PlannedMotions motions;
+  nlohmann::json plan = sim::plan_memory(job, options, progress, &motions);
+  plan["time"] = sim::plan_time(job, motions, progress);  // sim/time_plan.hpp
   print_plan(job, plan);
   if (args.out_dir) {
     std::error_code ec;

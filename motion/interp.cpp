@@ -473,6 +473,24 @@ struct Violation {
   double value, limit;
 };
 
+// The path-space axes by index, as messages name them.
+constexpr const char* kPathAxisNames[] = {"X", "Y", "Z", "A", "B", "C"};
+
+// The error for a limit the interpolator's passes could not keep: the first violation, at its move's line.
+core::Error limit_error(const core::ToolPath& path, const std::vector<int>& move_of, const Violation& v,
+                        const std::string& after) {
+  const core::Move& mv = path.moves[static_cast<std::size_t>(
+      move_of[static_cast<std::size_t>(std::min<Eigen::Index>(v.sample, static_cast<Eigen::Index>(move_of.size()) - 1))])];
+  return core::Error(core::located(path.source_path, mv.source_line,
+                                   fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > "
+                                               "{:.6g}) {}",
+                                               kPathAxisNames[v.axis],
+                                               v.order == 1   ? "velocity"
+                                               : v.order == 2 ? "acceleration"
+                                                              : "jerk",
+                                               std::abs(v.value), v.limit, after)));
+}
+
 // Finite differences of the path-space positions (rest before the first and after the last sample).
 std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const Limits6& lim, std::size_t max_report) {
   std::vector<Violation> out;
@@ -752,14 +770,13 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
   // Axis limits in path space (rotary axes in degrees); axes the machine lacks must not move.
   Limits6 lim = path_limits(machine);
   if (!options.feed_ceiling.empty()) lim.ceiling = &options.feed_ceiling;
-  static const char* axis_names[] = {"X", "Y", "Z", "A", "B", "C"};
   for (const core::Move& m : path.moves) {
     for (int i = 0; i < 6; ++i) {
       if (machine.axis_index(i) < 0 && std::abs(m.end[i] - m.start[i]) > 1e-12)
         throw core::Error(
             core::located(path.source_path, m.source_line,
                           fmt::format("the program moves axis {}, which machine \"{}\" ({}) does not have",
-                                      axis_names[i], machine.name, machine.source_file)));
+                                      kPathAxisNames[i], machine.name, machine.source_file)));
     }
     for (const auto* axis : {&m.tool_axis_start, &m.tool_axis_end}) {
       if (*axis && machine.kinematics == "xyz" && ((**axis) - Eigen::Vector3d::UnitZ()).norm() > 1e-9)
@@ -830,18 +847,10 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
     constexpr int kMaxFollowPasses = 60;
     Followed f = follow_profile(sp, *lim.ceiling, lim, te, kMaxFollowPasses);
     if (!f.bad.empty()) {
-      const Violation& v = f.bad.front();
-      const core::Move& mv = path.moves[static_cast<std::size_t>(f.move_of[static_cast<std::size_t>(
-          std::min<Eigen::Index>(v.sample, static_cast<Eigen::Index>(f.move_of.size()) - 1))])];
-      throw core::Error(core::located(
-          path.source_path, mv.source_line,
-          fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > {:.6g}) following the feed "
-                      "profile after {} passes; is the profile within the machine's limits?",
-                      axis_names[v.axis],
-                      v.order == 1   ? "velocity"
-                      : v.order == 2 ? "acceleration"
-                                     : "jerk",
-                      std::abs(v.value), v.limit, kMaxFollowPasses)));
+      throw limit_error(path, f.move_of, f.bad.front(),
+                        fmt::format("following the feed profile after {} passes; is the profile within the "
+                                    "machine's limits?",
+                                    kMaxFollowPasses));
     }
     result.stats.repair_passes = f.passes;
     write_samples(f.smp.s, f.xp, f.move_of);
@@ -988,17 +997,8 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
       break;
     }
     if (pass + 1 >= kMaxPasses) {
-      const Violation& v = bad.front();
-      const core::Move& mv = path.moves[static_cast<std::size_t>(move_of[std::min<Eigen::Index>(v.sample, ns - 1)])];
-      throw core::Error(
-          core::located(path.source_path, mv.source_line,
-                        fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > {:.6g}) "
-                                    "after {} passes; please report this program",
-                                    axis_names[v.axis],
-                                    v.order == 1   ? "velocity"
-                                    : v.order == 2 ? "acceleration"
-                                                   : "jerk",
-                                    std::abs(v.value), v.limit, kMaxPasses)));
+      throw limit_error(path, move_of, bad.front(),
+                        fmt::format("after {} passes; please report this program", kMaxPasses));
     }
     // Lower the limits on the nodes that fed the offending samples (the filter window and the differences).
     std::vector<char> touched(nn, 0);

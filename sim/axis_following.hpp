@@ -10,13 +10,57 @@
 #include <nlohmann/json.hpp>
 
 #include <functional>
+#include <vector>
 
 namespace vmsim::sim {
 
+// The sum of a sequence of numbers in the order Eigen 3.4's vectorised reduction adds them (ArrayXd::sum(): lanes of
+// SIMD packets, two packets at a time, then the lanes, then the scalar tail), so that a figure summed block by block
+// equals the one the whole array gave, bit for bit. tests/sim/motion_stream_test.cpp compares it with Eigen.
+class EigenOrderSum {
+ public:
+  void add(double v);
+  double sum() const;  // 0 for no values
+  Eigen::Index count() const { return n_; }
+
+ private:
+  static constexpr int kMaxLanes = 16;
+  double r0_[kMaxLanes / 2] = {}, r1_[kMaxLanes / 2] = {};  // the two packet accumulators, once a group is complete
+  double pending_[kMaxLanes] = {};                          // the values of the group being filled
+  int pending_n_ = 0;
+  Eigen::Index n_ = 0, groups_ = 0;
+};
+
+// The figures below taken block by block (a streamed motion, sim/motion_stream.hpp): add() the actual axis positions
+// of rows [k0, k0 + rows) in order, then json(). Any split into blocks gives the same figures, bit for bit.
+class AxisFollowing {
+ public:
+  // samples: the rows counted (the setpoints' samples, or fewer when the response is shorter). kin (may be null:
+  // no "tool_axis") and tool_length_offset must outlive the object.
+  AxisFollowing(const core::Machine& machine, Eigen::Index samples, const motion::Kinematics* kin,
+                std::function<double(Eigen::Index)> tool_length_offset);
+  void add(Eigen::Index k0, const core::Setpoints& setpoints, const Eigen::MatrixXd& actual_rows);
+  nlohmann::json json(double period_s) const;
+
+ private:
+  struct Axis {
+    double max = 0;
+    Eigen::Index at = 0;
+    EigenOrderSum sum2;
+  };
+  const core::Machine* machine_;
+  Eigen::Index n_;
+  const motion::Kinematics* kin_;
+  std::function<double(Eigen::Index)> tlo_;
+  std::vector<Axis> axes_;
+  double tool_max_ = 0, tool_ss_ = 0;
+};
+
 // Per machine axis over the setpoint samples (row k of `actual` is the axis when setpoint k is sent): largest |e|
-// and RMS of e = setpoint - actual, in mm (linear axes) or degrees (rotary axes, keys *_deg), and the sample time of
-// the largest. With `kin`, also "tool_axis": the largest and RMS angle (degrees) between the tool axis of the
-// commanded and of the actual axis positions, in the workpiece frame.
+// (its first sample on a tie) and RMS of e = setpoint - actual, in mm (linear axes) or degrees (rotary axes, keys
+// *_deg), and the sample time of the largest. With `kin`, also "tool_axis": the largest and RMS angle (degrees)
+// between the tool axis of the commanded and of the actual axis positions, in the workpiece frame. AxisFollowing
+// over one block.
 nlohmann::json axis_following_json(const core::Machine& machine, const core::Setpoints& setpoints,
                                    const Eigen::MatrixXd& actual, const motion::Kinematics* kin,
                                    const std::function<double(Eigen::Index)>& tool_length_offset);

@@ -1,8 +1,6 @@
 // The memory model of a run (sim/memory_plan.hpp), per process and per rank, with advice.
 #include "sim/memory_plan.hpp"
 
-#include "sim/motion_stream.hpp"
-#include "sim/pipeline.hpp"
 #include "sim/report.hpp"
 #include "core/memory.hpp"
 #include "core/csv.hpp"
@@ -122,78 +120,43 @@ double surface_nodes(const FieldShape& s, int rows) {
   return double(s.grids.back().nu) * rows;
 }
 
-struct MotionCounts {
-  double samples = 0, sweeps = 0;
-  bool turning = false;
-  bool streamed = false;  // an actual motion (sim/motion_stream.hpp)
-};
-
-double motion_bytes(const MotionCounts& c, int axes) {
-  return c.samples * (c.streamed ? streamed_motion_bytes_per_setpoint(axes, c.turning)
-                                 : motion_bytes_per_setpoint(axes, c.turning));
+double motion_bytes(const PlannedMotion* m, int axes) {
+  if (!m) return 0;
+  return m->samples * (m->streamed ? streamed_motion_bytes_per_setpoint(axes, m->turning)
+                                   : motion_bytes_per_setpoint(axes, m->turning));
 }
-// An actual motion is streamed, by the run and here (its drives' response is never held whole).
-MotionCounts motion_counts(const core::Job& job, double feed_scale, core::RemovalSpec::Motion kind,
-                           core::Progress& progress) {
-  ChainOptions copt;
-  copt.feed_scale = feed_scale;
-  copt.ignore_gain_schedule = feed_scale != 1.0;  // a reference at other feeds (the run itself refuses it)
-  const Chain chain(job, copt);
-  Motion m;
-  removal::PoseTrack track;
-  if (kind == core::RemovalSpec::Motion::Actual) {
-    StreamOptions so;
-    so.figures = false;
-    track = stream_actual_motion(chain, m, so, progress).track;
-  } else {
-    m = simulate_motion(chain, kind, progress);
-    track = track_of(m, job, kind);
-  }
-  MotionCounts c;
-  c.streamed = kind == core::RemovalSpec::Motion::Actual;
-  c.samples =
-      kind == core::RemovalSpec::Motion::Program ? double(track.tip_mm.rows()) : double(m.interp.setpoints.samples());
-  c.sweeps = double(sweeps_of(job, track).sweeps.size());
-  c.turning = track.axis_per_sample.rows() > 0;
-  return c;
-}
+double sweep_count(const PlannedMotion* m) { return m ? double(m->sweeps.size()) : 0.0; }
 
 }  // namespace
 
-nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& options, core::Progress& progress) {
+nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& options, core::Progress& progress,
+                           PlannedMotions* motions_out) {
   const int ranks = options.ranks;
   if (ranks < 1) throw core::Error("--ranks: expected a whole number >= 1");
   const FieldShape shape = shape_of(job);
-  const double feed_scale = options.feed_scale;
 
-  // The motion and the reference: exact sample and sweep counts.
-  const MotionCounts own = motion_counts(job, feed_scale, job.removal.motion, progress);
-  MotionCounts refm;
+  // The motion and the reference (sim/plan_motion.hpp): exact sample and sweep counts.
+  PlannedMotions local;
+  PlannedMotions& motions = motions_out ? *motions_out : local;
+  motions = plan_motions(job, options.feed_scale, progress);
+  const PlannedMotion* own = &motions.own;
+  const PlannedMotion* refm = motions.reference ? &*motions.reference : nullptr;
   std::optional<FieldShape> ref_shape;
   switch (job.reference.kind) {
     case core::ReferenceSpec::Kind::Feed:
-      refm = motion_counts(job, feed_scale * job.reference.feed_scale, job.removal.motion, progress);
-      ref_shape = shape;
-      break;
     case core::ReferenceSpec::Kind::Program:
-      refm = motion_counts(job, feed_scale, core::RemovalSpec::Motion::Program, progress);
-      ref_shape = shape;
-      break;
     case core::ReferenceSpec::Kind::Stock:
       ref_shape = shape;
       break;
-    case core::ReferenceSpec::Kind::Job: {
-      const core::Job rj = core::load_job(job.reference.job_file);
-      refm = motion_counts(rj, 1.0, rj.removal.motion, progress);
-      ref_shape = shape_of(rj);
+    case core::ReferenceSpec::Kind::Job:
+      ref_shape = shape_of(core::load_job(job.reference.job_file));
       break;
-    }
     case core::ReferenceSpec::Kind::None:
       break;
   }
   const int axes = static_cast<int>(job.machine.axes.size());
   const double b_motion = motion_bytes(own, axes) + motion_bytes(refm, axes);
-  const double b_sweeps = kSweepBytes * (own.sweeps + refm.sweeps);
+  const double b_sweeps = kSweepBytes * (sweep_count(own) + sweep_count(refm));
 
   // Outputs of the whole part (one process, or rank 0 when gathered).
   double b_outputs_whole = 0;
@@ -225,11 +188,11 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
                    {"rays", whole.rays},
                    {"bytes", whole.bytes}};
   if (ref_shape) plan["reference_field"] = {{"rays", ref_whole.rays}, {"bytes", ref_whole.bytes}};
-  plan["motion"] = {{"samples", own.samples},
-                    {"sweeps", own.sweeps},
+  plan["motion"] = {{"samples", own->samples},
+                    {"sweeps", sweep_count(own)},
                     {"axes", axes},
-                    {"reference_samples", refm.samples},
-                    {"reference_sweeps", refm.sweeps},
+                    {"reference_samples", refm ? refm->samples : 0.0},
+                    {"reference_sweeps", sweep_count(refm)},
                     {"bytes", b_motion},
                     {"sweep_bytes", b_sweeps}};
 

@@ -23,7 +23,7 @@
 // Not modelled: rays a cut splits (their extra intervals; the report's memory_bytes shows them), the pictures'
 // renderer, the allocator's slack. bench/README.md compares the model with measured peak RSS.
 #include "core/job.hpp"
-#include "core/progress.hpp"
+#include "sim/plan_motion.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -48,7 +48,9 @@ double motion_bytes_per_setpoint(int axes, bool turning);
 // tip) and the contour error (its inputs and its own arrays).
 double streamed_motion_bytes_per_setpoint(int axes, bool turning);
 
+// Computes the run's motions (sim/plan_motion.hpp) once the options and the field are checked, and hands them to
+// `motions` when given (sim/time_plan.hpp's plan_time takes them).
 nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& options = {},
-                           core::Progress& progress = core::no_progress());
+                           core::Progress& progress = core::no_progress(), PlannedMotions* motions = nullptr);
 
 }  // namespace vmsim::sim

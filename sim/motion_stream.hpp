@@ -19,23 +19,6 @@
 
 namespace vmsim::sim {
 
-// The sum of a sequence of numbers in the order Eigen 3.4's vectorised reduction adds them (ArrayXd::sum(): lanes of
-// SIMD packets, two packets at a time, then the lanes, then the scalar tail), so that a figure summed block by block
-// equals the one the whole array gave, bit for bit. tests/sim/motion_stream_test.cpp compares it with Eigen.
-class EigenOrderSum {
- public:
-  void add(double v);
-  double sum() const;  // 0 for no values
-  Eigen::Index count() const { return n_; }
-
- private:
-  static constexpr int kMaxLanes = 16;
-  double r0_[kMaxLanes / 2] = {}, r1_[kMaxLanes / 2] = {};  // the two packet accumulators, once a group is complete
-  double pending_[kMaxLanes] = {};                          // the values of the group being filled
-  int pending_n_ = 0;
-  Eigen::Index n_ = 0, groups_ = 0;
-};
-
 struct StreamOptions {
   Eigen::Index block_rows = 65536;  // drive rows per block
   // Also the run's figures: the signal bins, the following error per axis, the drives' checks after the run and the

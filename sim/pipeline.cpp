@@ -48,22 +48,28 @@ const char* motion_name(core::RemovalSpec::Motion m) {
   return "?";
 }
 
-Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress) {
+void read_and_interpolate(const Chain& chain, core::RemovalSpec::Motion kind, Motion& m, core::Progress& progress) {
   const core::Job& job = chain.job();
-  Motion m;
   auto t0 = Clock::now();
   m.program = read_job_program(job);
   (void)move_tools(job, m.program);  // a tool the job does not describe fails here, before any motion is computed
   m.timings["read_program"] = seconds_since(t0);
-  if (kind == core::RemovalSpec::Motion::Program) return m;
+  if (kind == core::RemovalSpec::Motion::Program) return;
   t0 = Clock::now();
   progress.stage(job.name + ": interpolation");
   m.interp = chain.interpolate(m.program);
-  m.tool_length_offset_mm = tool_length_offsets(m.program, m.interp.setpoints);
   progress.done();
   m.timings["interpolate"] = seconds_since(t0);
+}
+
+Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress) {
+  const core::Job& job = chain.job();
+  Motion m;
+  read_and_interpolate(chain, kind, m, progress);
+  if (kind == core::RemovalSpec::Motion::Program) return m;
+  m.tool_length_offset_mm = tool_length_offsets(m.program, m.interp.setpoints);
   if (kind == core::RemovalSpec::Motion::Actual) {
-    t0 = Clock::now();
+    const auto t0 = Clock::now();
     progress.stage(job.name + ": servo drives");
     m.response = chain.simulate(m.interp.setpoints, false, &m.drive_checks);
     progress.done();

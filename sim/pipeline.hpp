@@ -43,6 +43,10 @@ struct Motion {
   nlohmann::json axis_following = nlohmann::json::object();  // streamed: as sim/axis_following.hpp gives it
 };
 
+// The first stages of every motion, into m: the program read (a tool the job does not describe fails here, before any
+// motion is computed) and, but for motion = "program", interpolated (m.timings: read_program, interpolate).
+void read_and_interpolate(const Chain& chain, core::RemovalSpec::Motion kind, Motion& m, core::Progress& progress);
+
 // Program -> interpolator -> drives of the chain, as far as `kind` needs (program: read only; setpoints:
 // interpolated; actual: through the drives).
 Motion simulate_motion(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress);

@@ -3,10 +3,10 @@
 
 #include "core/error.hpp"
 #include "core/timing.hpp"
+#include "core/units.hpp"
 #include "metrology/grid_io.hpp"
 #include "motion/kinematics.hpp"
 #include "removal/surface.hpp"
-#include "sim/axis_following.hpp"
 #include "sim/contour_stats.hpp"
 #include "sim/motion_stream.hpp"
 #include "sim/report.hpp"
@@ -231,8 +231,8 @@ Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& pro
     c.timings["removal"] = removal_s + seconds_since(t0);
     c.timings["removal_cpu"] = removal_cpu + process_cpu_s() - cpu0;  // every thread's CPU time
   } else {
+    // Setpoints or the programmed path: no drives, so no contour error, signals or following error.
     c.motion = simulate_motion(chain, job.removal.motion, progress);
-    add_contour_error(c.motion, job);
     for (const auto& [k, v] : c.motion.timings.items()) c.timings[k] = v;
 
     t0 = Clock::now();
@@ -256,7 +256,7 @@ Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& pro
   return c;
 }
 
-RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, core::Progress& progress) {
+RunResult finish_run(const core::Job& job, Cut cut, core::Progress& progress) {
   RunResult r;
   r.cut = std::move(cut);
   const Cut& c = r.cut;
@@ -268,11 +268,7 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
     read_back_grids(job, r, surface_json, warnings);
   else
     read_back_needles(job, r, surface_json);
-  if (c.motion.signals)
-    r.signals = c.motion.signals;
-  else if (c.motion.response && c.motion.contour)
-    r.signals = motion_signals(job, c.motion.program, c.motion.interp.setpoints, *c.motion.response, *c.motion.contour,
-                               options.feed_scale);
+  r.signals = c.motion.signals;  // an actual motion's, binned while it streamed (sim/motion_stream.hpp)
   progress.done();
 
   nlohmann::json& report = r.report;
@@ -300,7 +296,7 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
     if (std::isfinite(m.depth_vertical_mm)) {
       // depth_mm is along the reference's normal; the vertical figure and the slope where the mark is deepest.
       marks_json.back()["depth_vertical_mm"] = m.depth_vertical_mm;
-      marks_json.back()["slope_deg"] = m.slope_rad * 180.0 / 3.14159265358979323846;
+      marks_json.back()["slope_deg"] = m.slope_rad * 180.0 / core::units::kPi;
       marks_json.back()["steep_wall"] = m.steep_wall;
     }
     if (mark_tool[k] >= 0) marks_json.back()["tool"] = tool_label(job, mark_tool[k]);
@@ -312,15 +308,9 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
     report["interpolation"] = {{"cycle_time_s", motion.interp.stats.cycle_time_s},
                                {"setpoints", motion.interp.setpoints.samples()},
                                {"period_s", motion.interp.setpoints.period_s}};
-  if (motion.response) {
-    // Follow-up error of every axis (the feed-drive simulation paper section 4 reports the rotary axes' in degrees)
-    // and of the tool axis.
-    const auto kin = motion::make_kinematics(job.machine);
-    report["axis_following_error"] =
-        motion.streamed ? motion.axis_following
-                        : axis_following_json(job.machine, motion.interp.setpoints, motion.response->position,
-                                              kin.get(), [&](Eigen::Index k) { return tlo_at(motion, k); });
-  }
+  // Follow-up error of every axis (the feed-drive simulation paper section 4 reports the rotary axes' in degrees) and
+  // of the tool axis, taken while the actual motion streamed.
+  if (motion.response) report["axis_following_error"] = motion.axis_following;
   if (motion.contour)
     report["contour_error"] =
         contour_json(*motion.contour, cutting_contour_stats(*motion.contour, motion.interp.setpoints, motion.program));
@@ -332,7 +322,7 @@ RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options, c
 }
 
 RunResult run_job(const core::Job& job, const RunOptions& options, core::Progress& progress) {
-  return finish_run(job, cut_job(job, options, progress), options, progress);
+  return finish_run(job, cut_job(job, options, progress), progress);
 }
 
 }  // namespace vmsim::sim

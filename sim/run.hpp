@@ -70,8 +70,8 @@ struct RunResult {
   nlohmann::json report;
 };
 
-RunResult finish_run(const core::Job& job, Cut cut, const RunOptions& options = {},
-                     core::Progress& progress = core::no_progress());
+// The surfaces, marks and report of a cut (the run's options are in it already: the feeds, the tile).
+RunResult finish_run(const core::Job& job, Cut cut, core::Progress& progress = core::no_progress());
 
 // cut_job then finish_run, on one process.
 RunResult run_job(const core::Job& job, const RunOptions& options = {}, core::Progress& progress = core::no_progress());

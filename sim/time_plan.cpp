@@ -1,9 +1,6 @@
 #include "sim/time_plan.hpp"
 
 #include "core/stl.hpp"
-#include "core/timing.hpp"
-#include "sim/chain.hpp"
-#include "sim/pipeline.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -85,25 +82,11 @@ TimePrediction predict_time(const RemovalWork& work, double motion_cpu_s) {
 
 namespace {
 
-// One motion's share: its CPU while planning (computed as the run computes it) and its sweeps' shadow counts.
+// One motion's share: its sweeps' shadow counts and the CPU computing it took.
 struct MotionWork {
   RemovalWork work;
   double motion_cpu_s = 0;
 };
-MotionWork motion_work(const core::Job& job, const removal::Box& stock, double feed_scale,
-                       core::RemovalSpec::Motion kind, core::Progress& progress) {
-  const double cpu0 = core::process_cpu_s();
-  ChainOptions copt;
-  copt.feed_scale = feed_scale;
-  copt.ignore_gain_schedule = feed_scale != 1.0;  // as sim/memory_plan.cpp's reference at other feeds
-  const Motion m = simulate_motion(Chain(job, copt), kind, progress);
-  const std::vector<removal::SweptTool> sweeps = sweeps_of(job, track_of(m, job, kind)).sweeps;
-  MotionWork w;
-  w.motion_cpu_s = core::process_cpu_s() - cpu0;
-  w.work = count_removal_work(stock, job.removal.spacing_mm, job.removal.field == core::RemovalSpec::Field::TriDexel,
-                              sweeps);
-  return w;
-}
 
 nlohmann::json counts_json(const RemovalWork& w) {
   return {{"sweeps", w.sweeps},
@@ -114,7 +97,7 @@ nlohmann::json counts_json(const RemovalWork& w) {
 
 }  // namespace
 
-nlohmann::json plan_time(const core::Job& job, double feed_scale, core::Progress& progress) {
+nlohmann::json plan_time(const core::Job& job, const PlannedMotions& motions, core::Progress& progress) {
   auto not_predicted = [](const std::string& why) {
     return nlohmann::json{{"removal_cpu_s", nullptr}, {"run_cpu_s", nullptr}, {"not_predicted", why}};
   };
@@ -131,27 +114,21 @@ nlohmann::json plan_time(const core::Job& job, double feed_scale, core::Progress
   } else {
     return not_predicted("a stock that another job leaves is not modelled");
   }
-  const MotionWork own = motion_work(job, stock, feed_scale, job.removal.motion, progress);
+  const bool tridexel = job.removal.field == core::RemovalSpec::Field::TriDexel;
+  const MotionWork own{count_removal_work(stock, job.removal.spacing_mm, tridexel, motions.own.sweeps),
+                       motions.own.cpu_s};
   // The reference a run computes beside (sim/run.cpp): the same program at other feeds or along its programmed path,
-  // cut into a field of the same shape; a stock reference is a copy.
+  // cut into a field of the same shape; a stock reference is a copy; a reference job is a run of its own.
   std::optional<MotionWork> ref;
   double ref_run_cpu = 0;
-  switch (job.reference.kind) {
-    case core::ReferenceSpec::Kind::Feed:
-      ref = motion_work(job, stock, feed_scale * job.reference.feed_scale, job.removal.motion, progress);
-      break;
-    case core::ReferenceSpec::Kind::Program:
-      ref = motion_work(job, stock, feed_scale, core::RemovalSpec::Motion::Program, progress);
-      break;
-    case core::ReferenceSpec::Kind::Job: {
-      const nlohmann::json r = plan_time(core::load_job(job.reference.job_file), 1.0, progress);
-      if (r["run_cpu_s"].is_null()) return not_predicted("the reference job: " + r["not_predicted"].get<std::string>());
-      ref_run_cpu = r["run_cpu_s"].get<double>();
-      break;
-    }
-    case core::ReferenceSpec::Kind::Stock:
-    case core::ReferenceSpec::Kind::None:
-      break;
+  if (job.reference.kind == core::ReferenceSpec::Kind::Job) {
+    const core::Job rj = core::load_job(job.reference.job_file);
+    const nlohmann::json r = plan_time(rj, plan_motions(rj, 1.0, progress, motions.reference), progress);
+    if (r["run_cpu_s"].is_null()) return not_predicted("the reference job: " + r["not_predicted"].get<std::string>());
+    ref_run_cpu = r["run_cpu_s"].get<double>();
+  } else if (motions.reference) {
+    ref = MotionWork{count_removal_work(stock, job.removal.spacing_mm, tridexel, motions.reference->sweeps),
+                     motions.reference->cpu_s};
   }
   const TimePrediction p = predict_time(own.work, own.motion_cpu_s);
   double run = p.run_cpu_s + ref_run_cpu;

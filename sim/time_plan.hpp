@@ -14,6 +14,7 @@
 #include "core/progress.hpp"
 #include "removal/fields.hpp"
 #include "removal/swept_tool.hpp"
+#include "sim/plan_motion.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -42,7 +43,9 @@ TimePrediction predict_time(const RemovalWork& work, double motion_cpu_s);
 
 // The prediction for a job, as plan.json's "time" holds it: the counts, the costs, removal_cpu_s and run_cpu_s
 // (null, with a reason, for what the model does not cover: the vdb method, an N-buffer field, a stock that is not a
-// box or mesh). Computes the job's motion and sweeps (as a run would).
-nlohmann::json plan_time(const core::Job& job, double feed_scale = 1.0, core::Progress& progress = core::no_progress());
+// box or mesh). motions: the run's (sim/plan_motion.hpp, at the feeds the run will use); a reference job's plan
+// computes that job's own reference motion.
+nlohmann::json plan_time(const core::Job& job, const PlannedMotions& motions,
+                         core::Progress& progress = core::no_progress());
 
 }  // namespace vmsim::sim

@@ -28,7 +28,7 @@ bool same_bits(const A& a, const A& b) {
          std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
 }
 
-// Reference: Eigen's ArrayXd::sum() (the reduction axis_following_json's RMS uses), for every length up to 70 (every
+// Reference: Eigen's ArrayXd::sum() (the reduction a whole array's RMS would use), for every length up to 70 (every
 // remainder of the packets' groups) and a long one, on positive values (squares) and signed ones.
 TEST(EigenOrderSum, EqualsEigensSumBitForBit) {
   std::mt19937_64 rng(21);
