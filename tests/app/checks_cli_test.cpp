@@ -14,6 +14,7 @@
 #include <string>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 namespace {
 
@@ -25,11 +26,11 @@ using vmsim_test::TempDir;
 using vmsim_test::write_file;
 namespace fs = std::filesystem;
 
-const std::string kSource = VMSIM_SOURCE_DIR;
+using vmsim::test::kSourceDir;
 
 // The Mikron machine file with the first occurrence of `key = ...` (the X axis' drive) replaced.
 fs::path machine_with(const TempDir& tmp, const std::string& key, const std::string& value) {
-  std::string text = slurp(kSource + "/parts/machines/mikron_ucp710.toml");
+  std::string text = slurp(kSourceDir + "/parts/machines/mikron_ucp710.toml");
   const std::regex re("\n" + key + " = [^\n#]*");
   const std::string changed =
       std::regex_replace(text, re, "\n" + key + " = " + value, std::regex_constants::format_first_only);
@@ -82,7 +83,7 @@ TEST(ChecksCli, AnAxisThatCannotFollowIsInvalid) {
 // The same job on the unchanged machine: no finding, exit 0.
 TEST(ChecksCli, AHealthyJobIsOk) {
   TempDir tmp;
-  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  const fs::path job = job_on(tmp, kSourceDir + "/parts/machines/mikron_ucp710.toml");
   const CliRun m = run_vmsim("motion '" + job.string() + "' --out '" + (tmp.path() / "m").string() + "'", tmp);
   EXPECT_EQ(m.code, 0) << m.err;
   const nlohmann::json rm = read_json(tmp.path() / "m" / "report.json");
@@ -114,7 +115,8 @@ TEST(ChecksCli, AnUnstableDriveIsRefused) {
 // interpolator allocated them and died with "internal error: std::bad_alloc", in `vmsim run --plan` too.
 TEST(ChecksCli, ATinyFeedIsRefusedBeforeInterpolating) {
   TempDir tmp;
-  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml", "G21 G90 G94\nG1 X60 F0.01\nM2\n");
+  const fs::path job =
+      job_on(tmp, kSourceDir + "/parts/machines/mikron_ucp710.toml", "G21 G90 G94\nG1 X60 F0.01\nM2\n");
   for (const std::string cmd : {"interp", "motion", "run --plan"}) {
     const CliRun r = run_vmsim(cmd + " '" + job.string() + "' --out '" + (tmp.path() / "o").string() + "'", tmp);
     EXPECT_EQ(r.code, 2) << cmd << ": " << r.err;
@@ -134,7 +136,7 @@ TEST(ChecksCli, ATinyFeedIsRefusedBeforeInterpolating) {
 // not after minutes of interpolating millions of setpoints.
 TEST(ChecksCli, AMicrosecondPeriodIsRefusedBeforeInterpolating) {
   TempDir tmp;
-  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  const fs::path job = job_on(tmp, kSourceDir + "/parts/machines/mikron_ucp710.toml");
   write_file(job, slurp(job) + "[interpolation]\nperiod_ms = 0.001\n");
   for (const std::string cmd : {"interp", "motion"}) {
     const CliRun r =
@@ -161,7 +163,7 @@ double mem_available_bytes() {
 TEST(ChecksCli, AFieldBeyondTheAvailableMemoryIsRefused) {
   if (mem_available_bytes() > 50e9) GTEST_SKIP() << "this machine has more than 50 GB available";
   TempDir tmp;
-  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  const fs::path job = job_on(tmp, kSourceDir + "/parts/machines/mikron_ucp710.toml");
   std::string text = slurp(job);
   text = std::regex_replace(text, std::regex("max_mm = \\[65.0, 10.0, 0.0\\]"), "max_mm = [185.0, 190.0, 0.0]");
   text = std::regex_replace(text, std::regex("spacing_mm = 0.2"), "spacing_mm = 0.01");
@@ -179,7 +181,7 @@ TEST(ChecksCli, AFieldBeyondTheAvailableMemoryIsRefused) {
 // file nor the cause. All three are refused naming the file and the cause.
 TEST(ChecksCli, StlStocksWithoutTrianglesAreRefused) {
   TempDir tmp;
-  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  const fs::path job = job_on(tmp, kSourceDir + "/parts/machines/mikron_ucp710.toml");
   std::string text = slurp(job);
   text = std::regex_replace(text, std::regex("type = \"box\"\nmin_mm = [^\n]*\nmax_mm = [^\n]*"),
                             "type = \"stl\"\nfile = \"stock.stl\"");
@@ -216,7 +218,7 @@ TEST(ChecksCli, AFifoIsRefusedNotReadForever) {
 // --plan holds its memory model against this machine's available memory (core/memory.hpp): a small job fits.
 TEST(ChecksCli, ThePlanComparesWithTheAvailableMemory) {
   TempDir tmp;
-  const fs::path job = job_on(tmp, kSource + "/parts/machines/mikron_ucp710.toml");
+  const fs::path job = job_on(tmp, kSourceDir + "/parts/machines/mikron_ucp710.toml");
   const CliRun r = run_vmsim("run '" + job.string() + "' --plan --out '" + (tmp.path() / "p").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("available on this machine"), std::string::npos) << r.out;

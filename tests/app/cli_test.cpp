@@ -15,8 +15,10 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
+using vmsim_test::json_number_after;
 using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
@@ -34,7 +36,7 @@ std::vector<double> row(const std::string& line) {
   return v;
 }
 
-const std::string kSource = VMSIM_SOURCE_DIR;
+using vmsim::test::kSourceDir;
 
 }  // namespace
 
@@ -55,7 +57,7 @@ TEST(Cli, VersionAndHelp) {
 
 TEST(Cli, InterpWritesSetpointsFromStartToProgramEnd) {
   TempDir tmp;
-  const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
+  const std::string job = kSourceDir + "/parts/plane_cylinder/job_fast.toml";
   CliRun r = run_vmsim("interp '" + job + "' --out '" + (tmp.path() / "out").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("cycle time:"), std::string::npos);
@@ -90,7 +92,7 @@ TEST(Cli, UnknownJobKeyIsAnErrorNamingFileLineAndKey) {
   const fs::path job = tmp.path() / "job.toml";
   write_file(
       job,
-      "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"" + kSource +
+      "[job]\nmachine = \"" + kSourceDir + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"" + kSourceDir +
           "/parts/plane_cylinder/plane_cylinder_fast.ngc\"\n[interpolation]\nperiod_ms = 1\ntolerence_mm = 0.01\n");
   CliRun r = run_vmsim("interp '" + job.string() + "' --summary-only", tmp);
   EXPECT_EQ(r.code, 2);
@@ -103,7 +105,7 @@ TEST(Cli, ProgramErrorNamesTheLineAndWritesNothing) {
   const fs::path prog = tmp.path() / "bad.ngc";
   write_file(prog, "G21 G90\nG1 X10 F100\nG1 X20 Q7 F100\nM2\n");  // Q is not a word of G1
   const fs::path job = tmp.path() / "job.toml";
-  write_file(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"bad.ngc\"\n");
+  write_file(job, "[job]\nmachine = \"" + kSourceDir + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"bad.ngc\"\n");
   const fs::path out = tmp.path() / "out";
   CliRun r = run_vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
   EXPECT_EQ(r.code, 2);
@@ -116,7 +118,7 @@ TEST(Cli, TravelErrorLeavesNoOutputFile) {
   const fs::path prog = tmp.path() / "far.ngc";
   write_file(prog, "G21 G90\nG1 X100 F1000\nG1 X500\nM2\n");  // X travel of the Mikron is +-355 mm
   const fs::path job = tmp.path() / "job.toml";
-  write_file(job, "[job]\nmachine = \"" + kSource + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"far.ngc\"\n");
+  write_file(job, "[job]\nmachine = \"" + kSourceDir + "/parts/machines/mikron_ucp710.toml\"\nprogram = \"far.ngc\"\n");
   const fs::path out = tmp.path() / "out";
   fs::create_directories(out);
   CliRun r = run_vmsim("interp '" + job.string() + "' --out '" + out.string() + "'", tmp);
@@ -139,21 +141,12 @@ TEST(Cli, CanonPrintsLinuxCncCalls) {
       << r.out;
 }
 
-namespace {
-double json_number_after(const std::string& text, const std::string& key, std::size_t from = 0) {
-  const auto k = text.find("\"" + key + "\"", from);
-  if (k == std::string::npos) return NAN;
-  const auto colon = text.find(':', k);
-  return std::stod(text.substr(colon + 1));
-}
-}  // namespace
-
 // The whole chain on the plane-cylinder part (the feed-drive simulation paper section 4, Fig. 6), the figure the seed
 // reports: at 10 m/min the pass leaves a mark of about 0.02 mm at the fillet against the same pass at 0.1 m/min. The
 // issue asks for the order of magnitude with the one machine file: 0.01 to 0.04 mm.
 TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
   TempDir tmp;
-  const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
+  const std::string job = kSourceDir + "/parts/plane_cylinder/job_fast.toml";
   CliRun r = run_vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string rep = slurp(tmp.path() / "out" / "report.json");
@@ -170,7 +163,7 @@ TEST(Cli, RunPlaneCylinderFastPassLeavesAMarkOfTheSeedsOrder) {
 // simulation paper: negligible).
 TEST(Cli, RunPlaneCylinderLowFeedMarksAreNegligible) {
   TempDir tmp;
-  const std::string job = kSource + "/parts/plane_cylinder/job_reference.toml";
+  const std::string job = kSourceDir + "/parts/plane_cylinder/job_reference.toml";
   CliRun r = run_vmsim("run '" + job + "' --quiet --out '" + (tmp.path() / "out").string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string rep = slurp(tmp.path() / "out" / "report.json");

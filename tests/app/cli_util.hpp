@@ -56,6 +56,22 @@ inline nlohmann::json read_json(const std::filesystem::path& p) {
   return nlohmann::json::parse(in);
 }
 
+// A path as one shell word, in single quotes (the tests' paths hold no quote).
+inline std::string quoted_arg(const std::filesystem::path& p) {
+  std::string s(1, '\'');  // appended, not "'" + ...: GCC 12 warns falsely (-Wrestrict) on that operator+
+  s += p.string();
+  s += '\'';
+  return s;
+}
+
+// The number after "key": in a JSON text (from offset `from`), NaN when the key is absent.
+inline double json_number_after(const std::string& text, const std::string& key, std::size_t from = 0) {
+  const auto k = text.find("\"" + key + "\"", from);
+  if (k == std::string::npos) return NAN;
+  const auto colon = text.find(':', k);
+  return std::stod(text.substr(colon + 1));
+}
+
 struct CliRun {
   int code = -1;  // the exit status; -1 when vmsim did not exit normally (a signal)
   std::string out, err;

@@ -18,6 +18,7 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::json_number_after;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
 
@@ -33,13 +34,6 @@ int run_job(const std::string& job, const fs::path& out, const TempDir& tmp, std
   const int status = std::system(cmd.c_str());
   err = slurp(log);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-double json_number_after(const std::string& text, const std::string& key, std::size_t from = 0) {
-  const auto k = text.find("\"" + key + "\"", from);
-  if (k == std::string::npos) return NAN;
-  const auto colon = text.find(':', k);
-  return std::stod(text.substr(colon + 1));
 }
 
 struct Needle {

@@ -32,6 +32,8 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
+#include "core/units.hpp"
 
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
@@ -40,11 +42,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 constexpr double kRs = 30.0, kR = 5.0;  // sphere and ball radii (parts/five_axis/generate.py)
-const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
 
-int run_job(const fs::path& job, const fs::path& out, std::string& err) {
+int run_five_axis_job(const fs::path& job, const fs::path& out, std::string& err) {
   const fs::path log = job.parent_path() / "stderr.txt";
   const std::string cmd = std::string("'") + VMSIM_EXE + "' run '" + job.string() + "' --quiet --no-render --out '" +
                           out.string() + "' >/dev/null 2>'" + log.string() + "'";
@@ -83,9 +85,9 @@ void write_cl(const fs::path& file, const std::vector<ClPoint>& pts) {
   out << "FINI\n";
 }
 
-void write_job(const fs::path& file, const std::string& motion, const std::string& reference) {
+void write_five_axis_job(const fs::path& file, const std::string& motion, const std::string& reference) {
   std::ofstream out(file);
-  out << "[job]\nname = \"five_axis_test\"\nmachine = \"" << kMachine << "\"\nprogram = \"spiral.cl\"\n"
+  out << "[job]\nname = \"five_axis_test\"\nmachine = \"" << kMikronMachine << "\"\nprogram = \"spiral.cl\"\n"
       << "[tool]\ntype = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 6.0\nlength_mm = 6.0\n"
       << "[stock]\ntype = \"box\"\nmin_mm = [-15.0, -15.0, 24.0]\nmax_mm = [15.0, 15.0, 30.05]\n"
       << "[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n"
@@ -131,9 +133,9 @@ TEST(FiveAxisPart, ProgramMotionCutsTheUnionOfBallsAndTheSphere) {
   TempDir tmp;
   const std::vector<ClPoint> pts = spiral();
   write_cl(tmp.path() / "spiral.cl", pts);
-  write_job(tmp.path() / "job.toml", "program", "kind = \"none\"\n");
+  write_five_axis_job(tmp.path() / "job.toml", "program", "kind = \"none\"\n");
   std::string err;
-  ASSERT_EQ(run_job(tmp.path() / "job.toml", tmp.path() / "out", err), 0) << err;
+  ASSERT_EQ(run_five_axis_job(tmp.path() / "job.toml", tmp.path() / "out", err), 0) << err;
   const nlohmann::json rep = nlohmann::json::parse(slurp(tmp.path() / "out" / "report.json"));
   const auto& rm = rep.at("removal");
   EXPECT_TRUE(rm.at("tool_axis_turns").get<bool>());
@@ -213,10 +215,10 @@ TEST(FiveAxisPart, ProgramMotionCutsTheUnionOfBallsAndTheSphere) {
 TEST(FiveAxisPart, RotaryFollowUpAndTheSurfaceDeviationItLeaves) {
   TempDir tmp;
   write_cl(tmp.path() / "spiral.cl", spiral());
-  write_job(tmp.path() / "setpoints.toml", "setpoints", "kind = \"none\"\n");
-  write_job(tmp.path() / "job.toml", "actual", "kind = \"job\"\njob = \"setpoints.toml\"\n");
+  write_five_axis_job(tmp.path() / "setpoints.toml", "setpoints", "kind = \"none\"\n");
+  write_five_axis_job(tmp.path() / "job.toml", "actual", "kind = \"job\"\njob = \"setpoints.toml\"\n");
   std::string err;
-  ASSERT_EQ(run_job(tmp.path() / "job.toml", tmp.path() / "out", err), 0) << err;
+  ASSERT_EQ(run_five_axis_job(tmp.path() / "job.toml", tmp.path() / "out", err), 0) << err;
   const nlohmann::json rep = nlohmann::json::parse(slurp(tmp.path() / "out" / "report.json"));
   const auto& fe = rep.at("axis_following_error");
   const double a = fe.at("A").at("max_abs_deg").get<double>(), c = fe.at("C").at("max_abs_deg").get<double>();
@@ -233,7 +235,7 @@ TEST(FiveAxisPart, RotaryFollowUpAndTheSurfaceDeviationItLeaves) {
   // loop with gain Kv, velocity feedforward KF and a dead time of d Te in the position path lags a ramp of slope w by
   // w ((1 - KF) / Kv + d Te) once settled (type-1 loop; the velocity loop's PI leaves no steady velocity error). The
   // machine file's own C drive, read here, gives the expected lag; the largest lag is that plateau's.
-  const vmsim::core::Machine m = vmsim::core::load_machine(kMachine);
+  const vmsim::core::Machine m = vmsim::core::load_machine(kMikronMachine);
   const vmsim::core::MachineAxis& cax = m.axes[static_cast<std::size_t>(m.axis_index(vmsim::core::kC))];
   ASSERT_TRUE(cax.drive.has_value());
   const vmsim::core::DriveParams& dc = *cax.drive;
@@ -266,7 +268,7 @@ TEST(FiveAxisPart, SlowRotaryArcLagsThePapersThousandthOfADegree) {
                           (tmp.path() / "out").string() + "' >/dev/null 2>'" + (tmp.path() / "err.txt").string() + "'";
   const int status = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(tmp.path() / "err.txt");
-  const vmsim::core::Machine m = vmsim::core::load_machine(kMachine);
+  const vmsim::core::Machine m = vmsim::core::load_machine(kMikronMachine);
   const vmsim::core::DriveParams& dc = *m.axes[static_cast<std::size_t>(m.axis_index(vmsim::core::kC))].drive;
   const double w_deg_per_s = 2.0 / 60 / (kRs * std::sin(40 * kPi / 180)) * 180 / kPi;  // F 2 mm/min at 19.3 mm
   const double expected = w_deg_per_s * ((1 - dc.kf) / dc.kv_per_s + dc.position_delay_samples * 1e-3);

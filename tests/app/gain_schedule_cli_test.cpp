@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
 using vmsim_test::Csv;
@@ -35,8 +36,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kSource = VMSIM_SOURCE_DIR;
-const std::string kMachine = kSource + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
+using vmsim::test::kSourceDir;
 
 // A short XZ profile at 3 m/min (1.1 s): 8 mm straight, concave R30 over 35 deg, convex R20 over 70 deg (Z reverses),
 // 6 mm straight; `feed` in mm/min.
@@ -46,8 +47,8 @@ void write_short_job(const fs::path& dir, const std::string& name, int feed = 30
                                         "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
                                         "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
                                         "G1 X33.065263 Z1.983980\nM30\n");
-  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" +
-                                         name + ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
+  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMikronMachine +
+                                         "\"\nprogram = \"" + name + ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
                                          "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n" + tables);
 }
 
@@ -88,7 +89,7 @@ TEST(GainScheduleCli, GainScheduleKeyAppliesItsGainsToMotionAndRun) {
       run_vmsim("motion '" + (d / "plain.toml").string() + "' --out '" + (d / "plain").string() + "'", tmp);
   ASSERT_EQ(plain.code, 0) << plain.err;
 
-  const vmsim::core::Machine m = vmsim::core::load_machine(kMachine);
+  const vmsim::core::Machine m = vmsim::core::load_machine(kMikronMachine);
   const auto& dx = *m.axes[static_cast<std::size_t>(m.axis_index(0))].drive;
   const auto& dz = *m.axes[static_cast<std::size_t>(m.axis_index(2))].drive;
   const double kv_x = dx.kv_per_s * 60.0 / 1000.0, kv_z = dz.kv_per_s * 60.0 / 1000.0;

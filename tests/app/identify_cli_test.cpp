@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
 using vmsim_test::run_vmsim;
@@ -30,13 +31,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
 
 // The X drive through +-1, 4, 10, 20 m/min moves (smooth ramps at 2 m/s^2, 0.4 s cruise), sampled every 125 us
 // (the velocity-loop period, as a drive's servo trace), current with 0.05 A of Gaussian noise, position to 0.1 um.
 vmsim::core::DriveParams write_trace(const fs::path& file) {
   using namespace vmsim;
-  const core::Machine m = core::load_machine(kMachine);
+  const core::Machine m = core::load_machine(kMikronMachine);
   const core::MachineAxis& ax = m.axes[0];
   const double te = 1e-3, pi = 3.14159265358979323846;
   std::vector<double> xd{-150.0};
@@ -109,7 +110,7 @@ TEST(IdentifyCli, RecoversTheSimulatedDriveAndWritesItsKeys) {
   const fs::path trace = d.path() / "x_trace.csv";
   const vmsim::core::DriveParams p = write_trace(trace);
   for (const std::string& motor :
-       std::vector<std::string>{"--torque-constant 1.5 --lead-mm 20", "--machine '" + kMachine + "' --axis X"}) {
+       std::vector<std::string>{"--torque-constant 1.5 --lead-mm 20", "--machine '" + kMikronMachine + "' --axis X"}) {
     const fs::path out = d.path() / "out";
     fs::remove_all(out);
     const CliRun r =
@@ -162,10 +163,10 @@ TEST(IdentifyCli, ErrorsNameFileLineAndColumn) {
   r = run_vmsim("identify-friction '" + trace.string() + "' --lead-mm 20", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("torque constant is needed"), std::string::npos) << r.err;
-  r = run_vmsim("identify-friction '" + trace.string() + "' --machine '" + kMachine + "' --axis Q", d);
+  r = run_vmsim("identify-friction '" + trace.string() + "' --machine '" + kMikronMachine + "' --axis Q", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("no axis 'Q' (the machine has X, Y, Z, A, C)"), std::string::npos) << r.err;
-  r = run_vmsim("identify-friction '" + trace.string() + "' --machine '" + kMachine + "' --axis A", d);
+  r = run_vmsim("identify-friction '" + trace.string() + "' --machine '" + kMikronMachine + "' --axis A", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("axis A is rotary but the trace"), std::string::npos) << r.err;
   r = run_vmsim("identify-friction '" + trace.string() + "' --torque-constant 1.5 --gear-deg-per-rev 4", d);

@@ -20,6 +20,7 @@
 #include <string>
 
 #include "tests/app/cli_util.hpp"
+#include "core/units.hpp"
 
 using vmsim_test::CliRun;
 using vmsim_test::run_vmsim;
@@ -31,7 +32,7 @@ using namespace vmsim;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
 // A predicted surface: scallops of a 0.25 mm stepover along x, a wave along x, and an 8 um overcut mark.
 core::HeightGrid predicted(bool with_mark) {

@@ -14,10 +14,10 @@ using vmsim_test::run_vmsim;
 using vmsim_test::TempDir;
 using vmsim_test::write_file;
 
-fs::path data_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "nx_clsf_haas_umc750"; }
+fs::path nx_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "nx_clsf_haas_umc750"; }
 
 TEST(NxClsfCli, InterpRunsTheVariableAxisFileOnTheHaas) {
-  if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)";
+  if (!fs::exists(nx_dir())) GTEST_SKIP() << nx_dir() << " is absent (the real CAM programs of ../shared)";
   TempDir tmp;
   const fs::path job = fs::path(VMSIM_SOURCE_DIR) / "parts" / "haas_umc750" / "variable_axis.toml";
   const auto r = run_vmsim("interp '" + job.string() + "' --summary-only", tmp);
@@ -25,19 +25,19 @@ TEST(NxClsfCli, InterpRunsTheVariableAxisFileOnTheHaas) {
   EXPECT_NE(r.out.find("job haas_variable_axis: 347 moves"), std::string::npos) << r.out;
   EXPECT_TRUE(r.err.find("warning") == std::string::npos) << r.err;
   // canon is for G-code and 840D programs: it says so for a CLSF (found by content, though it is a .txt).
-  const auto c = run_vmsim("canon '" + (data_dir() / "APT_code.txt").string() + "'", tmp);
+  const auto c = run_vmsim("canon '" + (nx_dir() / "APT_code.txt").string() + "'", tmp);
   EXPECT_NE(c.code, 0);
   EXPECT_NE(c.err.find("not APT CL files"), std::string::npos) << c.err;
 }
 
 TEST(NxClsfCli, RunWarnsOfMissingUnitsAndSaysWhichToolCuts) {
-  if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)";
+  if (!fs::exists(nx_dir())) GTEST_SKIP() << nx_dir() << " is absent (the real CAM programs of ../shared)";
   TempDir tmp;
   // No program_units and no [tool]: the file is read as mm (a warning), its TLDATA/ ball cuts (said on stderr).
   const fs::path job = tmp.path() / "bare.toml";
   write_file(job,
              "[job]\nmachine = '" + (fs::path(VMSIM_SOURCE_DIR) / "parts" / "machines" / "haas_umc750.toml").string() +
-                 "'\nprogram = '" + (data_dir() / "APT_Variable_Axis.txt").string() +
+                 "'\nprogram = '" + (nx_dir() / "APT_Variable_Axis.txt").string() +
                  "'\n[stock]\ntype = \"box\"\nmin_mm = [-5.0, -4.0, 0.0]\nmax_mm = [4.0, 4.0, 1.25]\n"
                  "[removal]\nfield = \"zmap\"\nspacing_mm = 0.25\nmotion = \"program\"\ntrack_tolerance_mm = 0.01\n"
                  "[reference]\nkind = \"none\"\n");

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
 using vmsim_test::Csv;
@@ -33,18 +34,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kSource = VMSIM_SOURCE_DIR;
-const std::string kMachine = kSource + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
+using vmsim::test::kSourceDir;
 
 // A short XZ profile at 3 m/min (1.1 s): 8 mm straight, concave R30 over 35 deg, convex R20 over 70 deg (Z reverses),
 // 6 mm straight; `feed` in mm/min.
-void write_short_job(const fs::path& dir, const std::string& name, int feed = 3000, const std::string& extra = "") {
+void write_oga_job(const fs::path& dir, const std::string& name, int feed = 3000, const std::string& extra = "") {
   write_file(dir / (name + ".ngc"), "G21 G90 G94 G18\nG1 X-12.000000 Z0.000000 F" + std::to_string(feed) +
                                         "\nG2 X5.207293 Z5.425439 I0.000000 K30.000000\n"
                                         "G3 X28.150351 Z5.425439 I11.471529 K-16.383041\n"
                                         "G1 X33.065263 Z1.983980\nM30\n");
-  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" +
-                                         name + ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
+  write_file(dir / (name + ".toml"), "[job]\nname = \"" + name + "\"\nmachine = \"" + kMikronMachine +
+                                         "\"\nprogram = \"" + name + ".ngc\"\nstart_mm = [-20.0, 0.0, 0.0]\n" + extra +
                                          "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n");
 }
 
@@ -55,7 +56,7 @@ void write_short_job(const fs::path& dir, const std::string& name, int feed = 30
 TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMotion) {
   TempDir tmp;
   const fs::path d = tmp.path();
-  write_short_job(d, "short");
+  write_oga_job(d, "short");
   const std::string common = "oga '" + (d / "short.toml").string() + "' --kp-grid 4:2:8 --kf-grid 0:0.5:1 --dk 0.25";
   const CliRun r = run_vmsim(common + " --out '" + (d / "two").string() + "' --threads 2 --image-size 800x600", tmp);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
@@ -110,7 +111,7 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
   // Usable by vmsim motion: the MSE(CE) on the feed moves is the report's, for C2 and for C1.
   for (const auto& [file, expect] :
        {std::pair<std::string, double>{"gain_schedule.csv", c2}, {"gain_schedule_c1.csv", c1}}) {
-    write_short_job(d, "use", 3000, "gain_schedule = \"" + (d / "two" / file).string() + "\"");
+    write_oga_job(d, "use", 3000, "gain_schedule = \"" + (d / "two" / file).string() + "\"");
     const CliRun m = run_vmsim("motion '" + (d / "use.toml").string() + "' --out '" + (d / "use").string() + "'", tmp);
     ASSERT_EQ(m.code, 0) << m.err;
     const double mse = read_json(d / "use" / "report.json")["contour_error"]["cutting_moves"]["mse_um2"];
@@ -128,7 +129,7 @@ TEST(OgaCli, ShortProfileScheduleIsNeverWorseKeepsRangeAndContinuityAndRunsInMot
 TEST(OgaCli, ErrorsNameTheOptionOrFileAndExit2) {
   TempDir tmp;
   const fs::path d = tmp.path();
-  write_short_job(d, "short");
+  write_oga_job(d, "short");
   const std::string job = "oga '" + (d / "short.toml").string() + "' --no-render --out '" + (d / "o").string() + "' ";
   struct Case {
     std::string args, expect;
@@ -152,7 +153,7 @@ TEST(OgaCli, ErrorsNameTheOptionOrFileAndExit2) {
   }
   // Three moving axes: not Duong et al.'s biaxial profile.
   write_file(d / "xyz.ngc", "G21 G90 G94\nG1 X5 Y3 Z-1 F3000\nG1 X10 Y0 Z0\nM30\n");
-  write_file(d / "xyz.toml", "[job]\nname = \"xyz\"\nmachine = \"" + kMachine +
+  write_file(d / "xyz.toml", "[job]\nname = \"xyz\"\nmachine = \"" + kMikronMachine +
                                  "\"\nprogram = \"xyz.ngc\"\nstart_mm = [0.0, 0.0, 0.0]\n");
   const CliRun r =
       run_vmsim("oga '" + (d / "xyz.toml").string() + "' --no-render --out '" + (d / "o").string() + "'", tmp);
@@ -168,7 +169,7 @@ TEST(OgaCli, ErrorsNameTheOptionOrFileAndExit2) {
 TEST(OgaCli, EachLimitAloneIsCountedAndLimitsJudgesWithThoseAlone) {
   TempDir tmp;
   const fs::path d = tmp.path();
-  write_short_job(d, "short");
+  write_oga_job(d, "short");
   const std::string common = "oga '" + (d / "short.toml").string() +
                              "' --kp-grid 1:2:9 --kf-grid 0:0.4:1.2 --dk 0.25 " + "--no-render --threads 2";
   struct Limits {

@@ -27,8 +27,10 @@
 
 #include "core/output_dir.hpp"
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
+using vmsim_test::quoted_arg;
 using vmsim_test::read_json;
 using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
@@ -41,21 +43,22 @@ extern char** environ;
 
 namespace {
 
-const fs::path kParts = fs::path(VMSIM_SOURCE_DIR) / "parts";
+using vmsim::test::kPartsPath;
 
 // The plane-cylinder fast pass (parts/plane_cylinder), with its paths made absolute so the job can live in TMP:
 // job A as the part has it (a reference at 1/100 of the feed, so deviation grids and marks), job B at another
 // spacing with no reference (other grid sizes, no deviation files).
 fs::path write_job(const TempDir& tmp, const std::string& name, bool reference, double spacing_mm,
                    const fs::path& dir = {}) {
-  const fs::path pc = kParts / "plane_cylinder";
+  const fs::path pc = kPartsPath / "plane_cylinder";
   std::string text = slurp(pc / "job_fast.toml");
   auto replace = [&](const std::string& from, const std::string& to) {
     const auto k = text.find(from);
     if (k == std::string::npos) throw std::runtime_error("job_fast.toml: no " + from);
     text.replace(k, from.size(), to);
   };
-  replace("\"../machines/mikron_ucp710.toml\"", "\"" + (kParts / "machines" / "mikron_ucp710.toml").string() + "\"");
+  replace("\"../machines/mikron_ucp710.toml\"",
+          "\"" + (kPartsPath / "machines" / "mikron_ucp710.toml").string() + "\"");
   replace("\"plane_cylinder_fast.ngc\"", "\"" + (pc / "plane_cylinder_fast.ngc").string() + "\"");
   replace("\"tools.tbl\"", "\"" + (pc / "tools.tbl").string() + "\"");
   replace("\"plane_cylinder_stock.stl\"", "\"" + (pc / "plane_cylinder_stock.stl").string() + "\"");
@@ -71,8 +74,6 @@ fs::path write_job(const TempDir& tmp, const std::string& name, bool reference, 
   write_file(file, text);
   return file;
 }
-
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 
 // Every regular file under DIR (relative names) with its size.
 std::map<std::string, std::uintmax_t> files_of(const fs::path& dir) {
@@ -148,10 +149,10 @@ TEST(OutDirCli, RerunLeavesNoStaleFileAndRenderDrawsTheNewRun) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const fs::path a = write_job(tmp, "with_reference", true, 0.1), b = write_job(tmp, "no_reference", false, 0.2);
-  CliRun r = run_vmsim("run " + q(a) + " --quiet --no-render --out " + q(out), tmp);
+  CliRun r = run_vmsim("run " + quoted_arg(a) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   ASSERT_TRUE(fs::exists(out / "deviation.csv"));
-  r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  r = run_vmsim("run " + quoted_arg(b) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   expect_whole(out, "after the rerun");
   for (const char* stale : {"deviation.csv", "deviation.npy", "deviation.x3p", "reference.csv", "reference.x3p"})
@@ -159,7 +160,7 @@ TEST(OutDirCli, RerunLeavesNoStaleFileAndRenderDrawsTheNewRun) {
   EXPECT_EQ(read_json(out / "report.json").at("job").get<std::string>(), "no_reference");
   EXPECT_TRUE(leftovers(out).empty());
 
-  const CliRun d = run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY ");
+  const CliRun d = run_vmsim("render " + quoted_arg(out) + " --size 480x320", tmp, "env -u DISPLAY ");
   ASSERT_EQ(d.code, 0) << d.err;
   EXPECT_NE(d.out.find("part.png"), std::string::npos) << d.out;
   EXPECT_EQ(d.out.find("deviation"), std::string::npos) << "render drew a deviation map of the earlier run:\n" << d.out;
@@ -171,24 +172,24 @@ TEST(OutDirCli, RenderAndCompareRefuseIncompleteOrUnlistedResults) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const fs::path b = write_job(tmp, "no_reference", false, 0.2);
-  CliRun r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  CliRun r = run_vmsim("run " + quoted_arg(b) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   // A stale file beside the listed ones is not read by compare.
   fs::copy_file(out / "surface.x3p", out / "old_surface.x3p");
-  CliRun c = run_vmsim("compare -m " + q(out / "surface.x3p") + " -p " + q(out / "old_surface.x3p") +
-                           " --no-render --out " + q(tmp.path() / "cmp"),
+  CliRun c = run_vmsim("compare -m " + quoted_arg(out / "surface.x3p") + " -p " + quoted_arg(out / "old_surface.x3p") +
+                           " --no-render --out " + quoted_arg(tmp.path() / "cmp"),
                        tmp);
   EXPECT_EQ(c.code, 2);
   EXPECT_NE(c.err.find("old_surface.x3p: not listed in"), std::string::npos) << c.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "cmp"));
   // A listed file missing.
   fs::remove(out / "surface.csv");
-  CliRun d = run_vmsim("render " + q(out), tmp, "env -u DISPLAY ");
+  CliRun d = run_vmsim("render " + quoted_arg(out), tmp, "env -u DISPLAY ");
   EXPECT_EQ(d.code, 2);
   EXPECT_NE(d.err.find("lists surface.csv, which is missing"), std::string::npos) << d.err;
   // No report.json.
   fs::remove(out / "report.json");
-  d = run_vmsim("render " + q(out), tmp, "env -u DISPLAY ");
+  d = run_vmsim("render " + quoted_arg(out), tmp, "env -u DISPLAY ");
   EXPECT_EQ(d.code, 2);
   EXPECT_NE(d.err.find("no report.json"), std::string::npos) << d.err;
 }
@@ -209,7 +210,7 @@ TEST(OutDirCli, ASecondRunIntoTheSameDirectoryIsRefused) {
     if (!staging) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   ASSERT_TRUE(staging) << "the first run never started writing";
-  const CliRun second = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  const CliRun second = run_vmsim("run " + quoted_arg(b) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   int status = 0;
   ASSERT_EQ(waitpid(first, &status, 0), first);
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(tmp.path() / "first.err");
@@ -235,13 +236,13 @@ TEST(OutDirCli, KilledRunsLeaveThePreviousResultOrTheNewOne) {
   for (int j = 0; j < 2; ++j) {
     const fs::path ref = tmp.path() / ("ref" + std::to_string(j));
     const auto t0 = std::chrono::steady_clock::now();
-    const CliRun r = run_vmsim("run " + q(jobs[j]) + " --quiet --no-render --out " + q(ref), tmp);
+    const CliRun r = run_vmsim("run " + quoted_arg(jobs[j]) + " --quiet --no-render --out " + quoted_arg(ref), tmp);
     seconds[j] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ(r.code, 0) << r.err;
     snapshot[j] = files_of(ref);
   }
   ASSERT_NE(snapshot[0].size(), snapshot[1].size());
-  CliRun r = run_vmsim("run " + q(jobs[0]) + " --quiet --no-render --out " + q(out), tmp);
+  CliRun r = run_vmsim("run " + quoted_arg(jobs[0]) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   int holds = 0;  // which job's result OUT holds
   std::mt19937 rng(20261126);
@@ -276,7 +277,7 @@ TEST(OutDirCli, KilledRunsLeaveThePreviousResultOrTheNewOne) {
     }
   }
   // The next run removes what the killed ones left.
-  r = run_vmsim("run " + q(jobs[1 - holds]) + " --quiet --no-render --out " + q(out), tmp);
+  r = run_vmsim("run " + quoted_arg(jobs[1 - holds]) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(same_files(files_of(out), snapshot[1 - holds]));
   const auto left = leftovers(out);
@@ -292,7 +293,7 @@ TEST(OutDirCli, PicturesThrowingBadAllocStillLeaveTheReport) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const fs::path b = write_job(tmp, "no_reference", false, 0.2);
-  const CliRun r = run_vmsim("run " + q(b) + " --quiet --image-size 480x320 --out " + q(out), tmp,
+  const CliRun r = run_vmsim("run " + quoted_arg(b) + " --quiet --image-size 480x320 --out " + quoted_arg(out), tmp,
                              "env -u DISPLAY VMSIM_TEST_PICTURES_THROW=bad_alloc ");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.err.find("out of memory while drawing"), std::string::npos) << r.err;
@@ -310,22 +311,25 @@ TEST(OutDirCli, APathThatIsNotUtf8IsRefusedBeforeTheRun) {
   const fs::path dir = tmp.path() / "caf\xe9";
   const fs::path job = write_job(tmp, "no_reference", false, 0.1, dir);
   const fs::path out = tmp.path() / "out";
-  const CliRun r = run_vmsim("run " + q(job) + " --quiet --no-render --out " + q(out), tmp);
+  const CliRun r = run_vmsim("run " + quoted_arg(job) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.err.find("not valid UTF-8"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("caf\\xe9"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
   // The output directory likewise.
   const fs::path job_ok = write_job(tmp, "plain", false, 0.2);
-  const CliRun o = run_vmsim("run " + q(job_ok) + " --quiet --no-render --out " + q(tmp.path() / "out\xff"), tmp);
+  const CliRun o =
+      run_vmsim("run " + quoted_arg(job_ok) + " --quiet --no-render --out " + quoted_arg(tmp.path() / "out\xff"), tmp);
   EXPECT_EQ(o.code, 2) << o.out;
   EXPECT_NE(o.err.find("not valid UTF-8"), std::string::npos) << o.err;
   // An input of vmsim compare likewise (it goes into report.json's inputs).
-  const CliRun ok = run_vmsim("run " + q(job_ok) + " --quiet --no-render --out " + q(tmp.path() / "ok"), tmp);
+  const CliRun ok =
+      run_vmsim("run " + quoted_arg(job_ok) + " --quiet --no-render --out " + quoted_arg(tmp.path() / "ok"), tmp);
   ASSERT_EQ(ok.code, 0) << ok.err;
   fs::copy_file(tmp.path() / "ok" / "surface.x3p", tmp.path() / "scan\xe9.x3p");
-  const CliRun c = run_vmsim("compare -m " + q(tmp.path() / "scan\xe9.x3p") + " -p " +
-                                 q(tmp.path() / "ok" / "surface.x3p") + " --no-render --out " + q(tmp.path() / "cmp"),
+  const CliRun c = run_vmsim("compare -m " + quoted_arg(tmp.path() / "scan\xe9.x3p") + " -p " +
+                                 quoted_arg(tmp.path() / "ok" / "surface.x3p") + " --no-render --out " +
+                                 quoted_arg(tmp.path() / "cmp"),
                              tmp);
   EXPECT_EQ(c.code, 2) << c.out;
   EXPECT_NE(c.err.find("--measured is not valid UTF-8"), std::string::npos) << c.err;
@@ -337,16 +341,16 @@ TEST(OutDirCli, APathThatIsNotUtf8IsRefusedBeforeTheRun) {
 TEST(OutDirCli, WithoutOutACommandWritesNameCommandHere) {
   TempDir tmp;
   const fs::path job = write_job(tmp, "plain", false, 0.2);
-  CliRun r = run_vmsim("run " + q(job) + " --quiet --no-render", tmp, "cd " + q(tmp.path()) + " && ");
+  CliRun r = run_vmsim("run " + quoted_arg(job) + " --quiet --no-render", tmp, "cd " + quoted_arg(tmp.path()) + " && ");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(tmp.path() / "plain_run" / "report.json"));
   EXPECT_NE(r.out.find("plain_run"), std::string::npos) << r.out;
-  r = run_vmsim("interp " + q(job) + " --summary-only", tmp, "cd " + q(tmp.path()) + " && ");
+  r = run_vmsim("interp " + quoted_arg(job) + " --summary-only", tmp, "cd " + quoted_arg(tmp.path()) + " && ");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "plain_interp"));  // --summary-only writes nothing
   fs::copy_file(tmp.path() / "plain_run" / "surface.x3p", tmp.path() / "scan.x3p");
-  r = run_vmsim("compare -m scan.x3p -p " + q(tmp.path() / "plain_run" / "surface.x3p") + " --no-render", tmp,
-                "cd " + q(tmp.path()) + " && ");
+  r = run_vmsim("compare -m scan.x3p -p " + quoted_arg(tmp.path() / "plain_run" / "surface.x3p") + " --no-render", tmp,
+                "cd " + quoted_arg(tmp.path()) + " && ");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(tmp.path() / "scan_compare" / "report.json"));
   EXPECT_TRUE(fs::exists(tmp.path() / "plain_run" / "report.json"));  // the run's result is untouched
@@ -359,22 +363,22 @@ TEST(OutDirCli, RenderIsRefusedWhileAnotherProcessHoldsTheDirectory) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const fs::path b = write_job(tmp, "no_reference", false, 0.2);
-  CliRun r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  CliRun r = run_vmsim("run " + quoted_arg(b) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   {
     const vmsim::core::OutputLock held(out, "a test holding the lock");
-    const CliRun d = run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY ");
+    const CliRun d = run_vmsim("render " + quoted_arg(out) + " --size 480x320", tmp, "env -u DISPLAY ");
     EXPECT_EQ(d.code, 2) << d.out;
     EXPECT_NE(d.err.find(out.string()), std::string::npos) << d.err;
     EXPECT_NE(d.err.find("another process is writing"), std::string::npos) << d.err;
     EXPECT_NE(d.err.find("a test holding the lock (pid " + std::to_string(::getpid())), std::string::npos) << d.err;
     EXPECT_FALSE(fs::exists(out / "images"));
     // And a run into it is refused the same way.
-    r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+    r = run_vmsim("run " + quoted_arg(b) + " --quiet --no-render --out " + quoted_arg(out), tmp);
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find("a test holding the lock"), std::string::npos) << r.err;
   }
-  const CliRun d = run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY ");
+  const CliRun d = run_vmsim("render " + quoted_arg(out) + " --size 480x320", tmp, "env -u DISPLAY ");
   EXPECT_EQ(d.code, 0) << d.err;
   EXPECT_TRUE(fs::exists(out / "images" / "part.png")) << d.out;
 }
@@ -388,13 +392,14 @@ TEST(OutDirCli, LargeScansAndPicturesAreRefusedAgainstTheAvailableMemory) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const fs::path b = write_job(tmp, "no_reference", false, 0.2);
-  CliRun r = run_vmsim("run " + q(b) + " --quiet --no-render --out " + q(out), tmp);
+  CliRun r = run_vmsim("run " + quoted_arg(b) + " --quiet --no-render --out " + quoted_arg(out), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
 
   // The run's surface X3P read by compare with 100 kB available.
   const std::string scan = (out / "surface.x3p").string();
-  r = run_vmsim("compare -m " + q(scan) + " -p " + q(scan) + " --no-render --out " + q(tmp.path() / "cmp"), tmp,
-                "env VMSIM_TEST_AVAILABLE_BYTES=100000 ");
+  r = run_vmsim("compare -m " + quoted_arg(scan) + " -p " + quoted_arg(scan) + " --no-render --out " +
+                    quoted_arg(tmp.path() / "cmp"),
+                tmp, "env VMSIM_TEST_AVAILABLE_BYTES=100000 ");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.err.find(scan), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("points need about"), std::string::npos) << r.err;
@@ -402,19 +407,21 @@ TEST(OutDirCli, LargeScansAndPicturesAreRefusedAgainstTheAvailableMemory) {
   EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(tmp.path() / "cmp"));
   // With the machine's own figure it is read.
-  r = run_vmsim("compare -m " + q(scan) + " -p " + q(scan) + " --no-render --out " + q(tmp.path() / "cmp"), tmp);
+  r = run_vmsim("compare -m " + quoted_arg(scan) + " -p " + quoted_arg(scan) + " --no-render --out " +
+                    quoted_arg(tmp.path() / "cmp"),
+                tmp);
   EXPECT_EQ(r.code, 0) << r.err;
 
   // A 4000 x 4000 picture needs 17 B x 16e6 = 272 MB; 200 MB available.
-  const CliRun d =
-      run_vmsim("render " + q(out) + " --size 4000x4000", tmp, "env -u DISPLAY VMSIM_TEST_AVAILABLE_BYTES=200000000 ");
+  const CliRun d = run_vmsim("render " + quoted_arg(out) + " --size 4000x4000", tmp,
+                             "env -u DISPLAY VMSIM_TEST_AVAILABLE_BYTES=200000000 ");
   EXPECT_EQ(d.code, 2) << d.out;
   EXPECT_NE(d.err.find("4000x4000 picture needs about 272 MB while 200 MB is available"), std::string::npos) << d.err;
   EXPECT_NE(d.err.find("--size"), std::string::npos) << d.err;
   EXPECT_EQ(d.err.find("internal error"), std::string::npos) << d.err;
   // And the hook refuses what is not a number of bytes.
-  const CliRun bad =
-      run_vmsim("render " + q(out) + " --size 480x320", tmp, "env -u DISPLAY VMSIM_TEST_AVAILABLE_BYTES=lots ");
+  const CliRun bad = run_vmsim("render " + quoted_arg(out) + " --size 480x320", tmp,
+                               "env -u DISPLAY VMSIM_TEST_AVAILABLE_BYTES=lots ");
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("VMSIM_TEST_AVAILABLE_BYTES: expected a number of bytes"), std::string::npos) << bad.err;
 }

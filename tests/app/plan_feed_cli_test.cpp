@@ -26,7 +26,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path kPart = fs::path(VMSIM_SOURCE_DIR) / "parts" / "feedplan";
+const fs::path kFeedplanPart = fs::path(VMSIM_SOURCE_DIR) / "parts" / "feedplan";
 
 std::string replace(std::string s, const std::string& a, const std::string& b) {
   const auto i = s.find(a);
@@ -37,11 +37,11 @@ std::string replace(std::string s, const std::string& a, const std::string& b) {
 std::string quoted(const fs::path& p) { return fmt::format("\"{}\"", p.string()); }
 
 // The butterfly job with absolute paths, its control points from `points` (default: the part's own).
-std::string butterfly_job(const fs::path& points = kPart / "butterfly_nurbs_control_points.csv") {
-  std::string text = slurp(kPart / "job_butterfly.toml");
+std::string butterfly_job(const fs::path& points = kFeedplanPart / "butterfly_nurbs_control_points.csv") {
+  std::string text = slurp(kFeedplanPart / "job_butterfly.toml");
   text = replace(text, "\"butterfly_nurbs_control_points.csv\"", quoted(points));
-  text = replace(text, "\"butterfly_nurbs_knots.csv\"", quoted(kPart / "butterfly_nurbs_knots.csv"));
-  return replace(text, "\"chen2016_machine.toml\"", quoted(kPart / "chen2016_machine.toml"));
+  text = replace(text, "\"butterfly_nurbs_knots.csv\"", quoted(kFeedplanPart / "butterfly_nurbs_knots.csv"));
+  return replace(text, "\"chen2016_machine.toml\"", quoted(kFeedplanPart / "chen2016_machine.toml"));
 }
 
 // [job] feed_plan: `vmsim run` of the butterfly job (a stock added to cut) with the plan plan-feed wrote in `out`
@@ -55,8 +55,8 @@ void expect_run_follows_the_plan(const TempDir& tmp, const fs::path& out, const 
       "\n[stock]\ntype = \"box\"\nmin_mm = [0.0, 0.0, -5.0]\nmax_mm = [110.0, 110.0, 1.0]\n"
       "\n[removal]\nspacing_mm = 0.5\n\n[reference]\nkind = \"none\"\n";
   const std::string with_plan =
-      "machine = \"" + (kPart / "chen2016_machine.toml").string() + "\"\nfeed_plan = \"" + plan.string() + "\"";
-  const std::string machine_line = "machine = \"" + (kPart / "chen2016_machine.toml").string() + "\"";
+      "machine = \"" + (kFeedplanPart / "chen2016_machine.toml").string() + "\"\nfeed_plan = \"" + plan.string() + "\"";
+  const std::string machine_line = "machine = \"" + (kFeedplanPart / "chen2016_machine.toml").string() + "\"";
   const fs::path job = tmp.path() / "run_with_plan.toml";
   std::ofstream(job) << replace(butterfly_job(), machine_line, with_plan) << cut;
   const CliRun r =
@@ -71,7 +71,7 @@ void expect_run_follows_the_plan(const TempDir& tmp, const fs::path& out, const 
   EXPECT_EQ(run.at("inputs").at("feed_plan").at("sha256").get<std::string>().size(), 64u);
 
   // The same curve 1 mm further along X: the same length, another path.
-  std::string points = slurp(kPart / "butterfly_nurbs_control_points.csv"), moved;
+  std::string points = slurp(kFeedplanPart / "butterfly_nurbs_control_points.csv"), moved;
   std::istringstream in(points);
   for (std::string line; std::getline(in, line);) {
     if (!line.empty() && std::isdigit(static_cast<unsigned char>(line[0]))) {
@@ -99,7 +99,8 @@ TEST(PlanFeedCli, ButterflyCaseOfChen2016) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
   const CliRun r = run_vmsim(
-      "plan-feed '" + (kPart / "job_butterfly.toml").string() + "' --out '" + out.string() + "' --no-render", tmp);
+      "plan-feed '" + (kFeedplanPart / "job_butterfly.toml").string() + "' --out '" + out.string() + "' --no-render",
+      tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* f : {"report.json", "feed_plan.csv", "feed_profile.csv", "motion.csv"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
@@ -128,10 +129,10 @@ TEST(PlanFeedCli, BadInputNamesTheKey) {
   TempDir tmp;
   const fs::path job = tmp.path() / "job.toml";
   // A NURBS path without f_max, and a servo = "pid" without its axes: errors naming the key, exit 2, no report.
-  std::string text = slurp(kPart / "job_butterfly.toml");
-  const std::string cp = (kPart / "butterfly_nurbs_control_points.csv").string();
-  const std::string kn = (kPart / "butterfly_nurbs_knots.csv").string();
-  const std::string mach = (kPart / "chen2016_machine.toml").string();
+  std::string text = slurp(kFeedplanPart / "job_butterfly.toml");
+  const std::string cp = (kFeedplanPart / "butterfly_nurbs_control_points.csv").string();
+  const std::string kn = (kFeedplanPart / "butterfly_nurbs_knots.csv").string();
+  const std::string mach = (kFeedplanPart / "chen2016_machine.toml").string();
   auto replace = [](std::string s, const std::string& a, const std::string& b) {
     const auto i = s.find(a);
     if (i != std::string::npos) s.replace(i, a.size(), b);

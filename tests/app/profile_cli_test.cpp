@@ -19,8 +19,10 @@
 #include <string>
 
 #include "tests/app/cli_util.hpp"
+#include "core/units.hpp"
 
 using vmsim_test::CliRun;
+using vmsim_test::quoted_arg;
 using vmsim_test::run_vmsim;
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
@@ -31,7 +33,7 @@ using namespace vmsim;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
 fs::path real() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "scans"; }
 
@@ -47,13 +49,6 @@ std::string dektak_csv(double dx_um, int n, const std::function<double(double)>&
   return t + "\r\r\n";
 }
 
-std::string q(const fs::path& p) {
-  std::string s = "'";
-  s += p.string();
-  s += '\'';
-  return s;
-}
-
 }  // namespace
 
 TEST(ProfileCli, StatsOfASineProfileInClosedForm) {
@@ -61,7 +56,7 @@ TEST(ProfileCli, StatsOfASineProfileInClosedForm) {
   const double A = 1.0, lambda = 50.0;  // um
   write_file(tmp.path() / "sine.csv",
              dektak_csv(0.25, 8000, [&](double x) { return A * std::sin(2 * kPi * x / lambda); }));
-  const CliRun r = run_vmsim("stats --level none " + q(tmp.path() / "sine.csv"), tmp);
+  const CliRun r = run_vmsim("stats --level none " + quoted_arg(tmp.path() / "sine.csv"), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["file"]["format"], "dektak");
@@ -78,17 +73,17 @@ TEST(ProfileCli, StatsOfASineProfileInClosedForm) {
   EXPECT_NEAR(p["Rz_mm"].get<double>(), 2 * A * 1e-3, 1e-8);
   EXPECT_EQ(p["sections"], 5);
   // With an L-filter (lambda_c 0.25 mm, five times the sine's wavelength): the sine passes, the ends are dropped.
-  const CliRun f = run_vmsim("stats --filter L:0.25mm " + q(tmp.path() / "sine.csv"), tmp);
+  const CliRun f = run_vmsim("stats --filter L:0.25mm " + quoted_arg(tmp.path() / "sine.csv"), tmp);
   ASSERT_EQ(f.code, 0) << f.err;
   const auto pf = nlohmann::json::parse(f.out)["profile_parameters"];
   EXPECT_NEAR(pf["x_from_mm"].get<double>(), 0.125, 1e-6);
   EXPECT_NEAR(pf["section_length_mm"].get<double>(), 0.25, 1e-6);
   EXPECT_NEAR(pf["Rq_mm"].get<double>(), A / std::sqrt(2.0) * 1e-3, 0.01e-3);
   // --range cuts the trace; --outliers is for surfaces.
-  const CliRun g = run_vmsim("stats --range 100um,300um " + q(tmp.path() / "sine.csv"), tmp);
+  const CliRun g = run_vmsim("stats --range 100um,300um " + quoted_arg(tmp.path() / "sine.csv"), tmp);
   ASSERT_EQ(g.code, 0) << g.err;
   EXPECT_NEAR(nlohmann::json::parse(g.out)["profile_parameters"]["evaluation_length_mm"].get<double>(), 0.2, 0.001);
-  EXPECT_NE(run_vmsim("stats --outliers 6 " + q(tmp.path() / "sine.csv"), tmp).code, 0);
+  EXPECT_NE(run_vmsim("stats --outliers 6 " + quoted_arg(tmp.path() / "sine.csv"), tmp).code, 0);
 }
 
 // The Dektak export's own analytical results between its cursors (468 and 733 um; --range takes the samples nearest
@@ -98,7 +93,7 @@ TEST(ProfileCli, StatsOfTheRealDektakExport) {
   if (!fs::exists(real() / "SurfaceTopography/dektak-1.csv"))
     GTEST_SKIP() << real() << " is absent; the real Dektak file is not checked";
   TempDir tmp;
-  const CliRun r = run_vmsim("stats --range 468um,733um " + q(real() / "SurfaceTopography/dektak-1.csv"), tmp);
+  const CliRun r = run_vmsim("stats --range 468um,733um " + quoted_arg(real() / "SurfaceTopography/dektak-1.csv"), tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto p = nlohmann::json::parse(r.out)["profile_parameters"];
   EXPECT_EQ(p["form_removed"], "least-squares line");
@@ -128,9 +123,10 @@ TEST(ProfileCli, CompareAProfileAlongALine) {
                return (surf(s) + 0.0005 * 1.0 + 0.020 + 1e-4 * s) * 1e3;
              }));
   const fs::path out = tmp.path() / "cmp";
-  const CliRun r = run_vmsim("compare -m " + q(tmp.path() / "trace.csv") + " -p " + q(tmp.path() / "pred.x3p") +
-                                 " --profile-line 0,1,4,1 --no-render --out " + q(out),
-                             tmp);
+  const CliRun r =
+      run_vmsim("compare -m " + quoted_arg(tmp.path() / "trace.csv") + " -p " + quoted_arg(tmp.path() / "pred.x3p") +
+                    " --profile-line 0,1,4,1 --no-render --out " + quoted_arg(out),
+                tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "report.json"));
   EXPECT_EQ(j["mode"], "profile along a line");
@@ -143,8 +139,8 @@ TEST(ProfileCli, CompareAProfileAlongALine) {
   EXPECT_TRUE(fs::exists(out / "profile_compare.csv"));
   EXPECT_NE(r.out.find("registration along the line"), std::string::npos) << r.out;
   // A profile without its line is an error that says what to give.
-  const CliRun e = run_vmsim("compare -m " + q(tmp.path() / "trace.csv") + " -p " + q(tmp.path() / "pred.x3p") +
-                                 " --no-render --out " + q(out),
+  const CliRun e = run_vmsim("compare -m " + quoted_arg(tmp.path() / "trace.csv") + " -p " +
+                                 quoted_arg(tmp.path() / "pred.x3p") + " --no-render --out " + quoted_arg(out),
                              tmp);
   EXPECT_NE(e.code, 0);
   EXPECT_NE(e.err.find("--profile-line"), std::string::npos) << e.err;
@@ -165,9 +161,9 @@ TEST(ProfileCli, CompareTheRealDektakTraceEndToEnd) {
   metrology::write_x3p(tmp.path() / "pred.x3p", g);
   const fs::path out = tmp.path() / "cmp";
   const double x1 = g.x(g.nx() - 1);
-  const CliRun r = run_vmsim("compare -m " + q(real() / "SurfaceTopography/dektak-1.csv") + " -p " +
-                                 q(tmp.path() / "pred.x3p") + " --profile-line " + std::to_string(g.x0_mm) + ",0.01," +
-                                 std::to_string(x1) + ",0.01 --out " + q(out),
+  const CliRun r = run_vmsim("compare -m " + quoted_arg(real() / "SurfaceTopography/dektak-1.csv") + " -p " +
+                                 quoted_arg(tmp.path() / "pred.x3p") + " --profile-line " + std::to_string(g.x0_mm) +
+                                 ",0.01," + std::to_string(x1) + ",0.01 --out " + quoted_arg(out),
                              tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "report.json"));
@@ -206,7 +202,7 @@ TEST(ProfileCli, StatsAndCompareOnEveryRealSurface) {
     ++ran;
     SCOPED_TRACE(c.file);
     TempDir tmp;
-    const CliRun s = run_vmsim("stats --level none " + q(file), tmp);
+    const CliRun s = run_vmsim("stats --level none " + quoted_arg(file), tmp);
     ASSERT_EQ(s.code, 0) << s.err;
     const auto j = nlohmann::json::parse(s.out);
     EXPECT_EQ(j["grid"]["nx"], c.nx);
@@ -216,8 +212,8 @@ TEST(ProfileCli, StatsAndCompareOnEveryRealSurface) {
     }
     const std::size_t valid = j["grid"]["points"].get<std::size_t>() - j["grid"]["invalid_points"].get<std::size_t>();
     metrology::write_x3p(tmp.path() / "self.x3p", metrology::read_surface(file));
-    const CliRun cmp = run_vmsim("compare -m " + q(file) + " -p " + q(tmp.path() / "self.x3p") +
-                                     " --align none --outliers 0 --no-render --out " + q(tmp.path() / "cmp"),
+    const CliRun cmp = run_vmsim("compare -m " + quoted_arg(file) + " -p " + quoted_arg(tmp.path() / "self.x3p") +
+                                     " --align none --outliers 0 --no-render --out " + quoted_arg(tmp.path() / "cmp"),
                                  tmp);
     ASSERT_EQ(cmp.code, 0) << cmp.err;
     const auto r = nlohmann::json::parse(slurp(tmp.path() / "cmp" / "report.json"));
@@ -226,8 +222,8 @@ TEST(ProfileCli, StatsAndCompareOnEveryRealSurface) {
     EXPECT_LT(r["deviation"]["rms_mm"].get<double>(), 1e-12);
     EXPECT_LT(std::max(-r["deviation"]["min_mm"].get<double>(), r["deviation"]["max_mm"].get<double>()), 1e-12);
     if (std::string(c.file) == "SurfaceTopography/matrix-4.txt.gz") {
-      const CliRun a = run_vmsim("compare -m " + q(file) + " -p " + q(tmp.path() / "self.x3p") + " --no-render --out " +
-                                     q(tmp.path() / "auto"),
+      const CliRun a = run_vmsim("compare -m " + quoted_arg(file) + " -p " + quoted_arg(tmp.path() / "self.x3p") +
+                                     " --no-render --out " + quoted_arg(tmp.path() / "auto"),
                                  tmp);
       ASSERT_EQ(a.code, 0) << a.err;
       const auto ra = nlohmann::json::parse(slurp(tmp.path() / "auto" / "report.json"));

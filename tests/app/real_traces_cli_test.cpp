@@ -20,6 +20,7 @@
 
 #include "tests/app/cli_util.hpp"
 
+using vmsim_test::quoted_arg;
 using vmsim_test::run_vmsim;
 using vmsim_test::TempDir;
 
@@ -32,20 +33,14 @@ fs::path traces() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "trace
 #define REQUIRE_REAL(path) \
   if (!fs::exists(path)) GTEST_SKIP() << (path).string() << " is absent: the real traces of ../shared are not here"
 
-std::string q(const fs::path& p) {
-  std::string s(1, '\'');  // appended, not "'" + ...: GCC 12 warns falsely (-Wrestrict) on that operator+
-  s += p.string();
-  s += '\'';
-  return s;
-}
-
 TEST(RealTracesCli, IdentifyReadsHalscopeLogsAndValidatesOnTheOtherCaptures) {
   const fs::path dir = traces() / "linuxcnc_halscope";
   REQUIRE_REAL(dir);
   TempDir tmp;
-  const auto r = run_vmsim("identify --trace " + q(dir / "halscope.log") + " --validate " + q(dir / "halscope3.log") +
-                               " --orders auto --out " + q(tmp.path() / "out"),
-                           tmp);
+  const auto r =
+      run_vmsim("identify --trace " + quoted_arg(dir / "halscope.log") + " --validate " +
+                    quoted_arg(dir / "halscope3.log") + " --orders auto --out " + quoted_arg(tmp.path() / "out"),
+                tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto rep = vmsim_test::read_json(tmp.path() / "out" / "report.json");
   EXPECT_EQ(rep["inputs"]["traces"][0]["format"], "halscope");
@@ -65,9 +60,10 @@ TEST(RealTracesCli, IdentifyReadsHalscopeLogsAndValidatesOnTheOtherCaptures) {
     }
 
   // Channels by pin name; a pin the log does not have is named with the pins it has.
-  const auto c = run_vmsim("identify --trace " + q(dir / "halscope.log") +
-                               " --channel X=joint.0.motor-pos-cmd,joint.0.motor-pos-fb --out " + q(tmp.path() / "c"),
-                           tmp);
+  const auto c =
+      run_vmsim("identify --trace " + quoted_arg(dir / "halscope.log") +
+                    " --channel X=joint.0.motor-pos-cmd,joint.0.motor-pos-fb --out " + quoted_arg(tmp.path() / "c"),
+                tmp);
   EXPECT_NE(c.code, 0);
   EXPECT_NE(c.err.find("halscope.log:3: no pin 'joint.0.motor-pos-fb' (pins present: joint.0.f-error, "
                        "hm2_7i76e.0.encoder.02.position, joint.0.vel-cmd"),
@@ -81,8 +77,9 @@ TEST(RealTracesCli, IdentifyReadsEmpsMatFilesStartingMidMotion) {
   REQUIRE_REAL(dir);
   TempDir tmp;
   const auto r =
-      run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --validate " + q(dir / "DATA_EMPS_PULSES.mat") +
-                    " --mat t=t,command=qg,actual=qm --trace-unit m --orders 2,2 --out " + q(tmp.path() / "o"),
+      run_vmsim("identify --trace " + quoted_arg(dir / "DATA_EMPS.mat") + " --validate " +
+                    quoted_arg(dir / "DATA_EMPS_PULSES.mat") +
+                    " --mat t=t,command=qg,actual=qm --trace-unit m --orders 2,2 --out " + quoted_arg(tmp.path() / "o"),
                 tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("time stamps jitter by up to"), std::string::npos) << r.err;
@@ -99,25 +96,26 @@ TEST(RealTracesCli, IdentifyReadsEmpsMatFilesStartingMidMotion) {
     EXPECT_EQ(m["marginal"], false) << name;
   }
   // The rest offset given (mm), and a malformed one.
-  const auto g = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") +
+  const auto g = run_vmsim("identify --trace " + quoted_arg(dir / "DATA_EMPS.mat") +
                                " --mat t=t,command=qg,actual=qm "
                                "--trace-unit m --structure arx --rest-offset X=0.015 --out " +
-                               q(tmp.path() / "g"),
+                               quoted_arg(tmp.path() / "g"),
                            tmp);
   ASSERT_EQ(g.code, 0) << g.err;
   const auto rg = vmsim_test::read_json(tmp.path() / "g" / "report.json");
   EXPECT_EQ(rg["axes"]["X"]["rest_offset"]["from"], "--rest-offset");
   EXPECT_DOUBLE_EQ(rg["axes"]["X"]["rest_offset"]["value"].get<double>(), 0.015);
-  const auto b = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") +
+  const auto b = run_vmsim("identify --trace " + quoted_arg(dir / "DATA_EMPS.mat") +
                                " --mat t=t,command=qg,actual=qm "
                                "--trace-unit m --rest-offset X:0.015 --out " +
-                               q(tmp.path() / "b"),
+                               quoted_arg(tmp.path() / "b"),
                            tmp);
   EXPECT_NE(b.code, 0);
   EXPECT_NE(b.err.find("--rest-offset 'X:0.015': expected AXIS=VALUE"), std::string::npos) << b.err;
 
   // Without --mat the command says which variables the file has.
-  const auto e = run_vmsim("identify --trace " + q(dir / "DATA_EMPS.mat") + " --out " + q(tmp.path() / "e"), tmp);
+  const auto e = run_vmsim(
+      "identify --trace " + quoted_arg(dir / "DATA_EMPS.mat") + " --out " + quoted_arg(tmp.path() / "e"), tmp);
   EXPECT_NE(e.code, 0);
   EXPECT_NE(e.err.find("a .mat trace needs --mat t=VAR,command=VAR,actual=VAR (the file has: gtau, kp, kv, qg, qm, t, "
                        "vir)"),
@@ -129,10 +127,10 @@ TEST(RealTracesCli, IdentifyFrictionTakesTheControlSignalWithAGain) {
   const fs::path dir = traces() / "emps";
   REQUIRE_REAL(dir);
   TempDir tmp;
-  const auto r = run_vmsim("identify-friction " + q(dir / "DATA_EMPS.mat") +
+  const auto r = run_vmsim("identify-friction " + quoted_arg(dir / "DATA_EMPS.mat") +
                                " --mat t=t,position=qm,control=vir --trace-unit m --control-gain 35.15065188 "
                                "--gravity constant --out " +
-                               q(tmp.path() / "f"),
+                               quoted_arg(tmp.path() / "f"),
                            tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto rep = vmsim_test::read_json(tmp.path() / "f" / "report.json");
@@ -148,7 +146,7 @@ TEST(RealTracesCli, IdentifyFrictionTakesTheControlSignalWithAGain) {
       l["mass_kg"].get<double>(), l["viscous_N_s_per_m"].get<double>(), l["coulomb_N"].get<double>(),
       l["offset_N"].get<double>());
   // The gain replaces the motor data; giving both is an error.
-  const auto e = run_vmsim("identify-friction " + q(dir / "DATA_EMPS.mat") +
+  const auto e = run_vmsim("identify-friction " + quoted_arg(dir / "DATA_EMPS.mat") +
                                " --mat t=t,position=qm,control=vir --trace-unit m --control-gain 35 --lead-mm 5",
                            tmp);
   EXPECT_NE(e.code, 0);

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
 using vmsim_test::run_vmsim;
@@ -50,14 +51,14 @@ std::size_t count_pixels(const Image& img, int x_end, bool (*pred)(int, int, int
 bool deep_red(int r, int g, int b) { return r > 110 && g < 60 && b < 70; }
 bool deep_blue(int r, int g, int b) { return b > 110 && r < 60 && g < 120; }
 
-const std::string kSource = VMSIM_SOURCE_DIR;
+using vmsim::test::kSourceDir;
 
 }  // namespace
 
 TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
   TempDir tmp;
   const fs::path out = tmp.path() / "out";
-  const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
+  const std::string job = kSourceDir + "/parts/plane_cylinder/job_fast.toml";
   CliRun r = run_headless("run '" + job + "' --quiet --image-size 800x600 --out '" + out.string() + "'", tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("images: "), std::string::npos) << r.out;
@@ -126,7 +127,7 @@ TEST(RenderCli, RunDrawsThePicturesAndRenderRedrawsThem) {
 TEST(RenderCli, MotionWritesSignalsAndRenderDrawsItsCharts) {
   TempDir tmp;
   const fs::path out = tmp.path() / "motion";
-  const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
+  const std::string job = kSourceDir + "/parts/plane_cylinder/job_fast.toml";
   CliRun m = run_headless("motion '" + job + "' --out '" + out.string() + "'", tmp);
   ASSERT_EQ(m.code, 0) << m.err;
   ASSERT_TRUE(fs::exists(out / "signals.csv"));
@@ -145,7 +146,7 @@ TEST(RenderCli, ErrorsAreMessagesNotAborts) {
   EXPECT_EQ(e.code, 2);
   EXPECT_NE(e.err.find("no report.json"), std::string::npos) << e.err;
   // A bad size is found before the simulation runs: no output at all.
-  const std::string job = kSource + "/parts/plane_cylinder/job_fast.toml";
+  const std::string job = kSourceDir + "/parts/plane_cylinder/job_fast.toml";
   CliRun s =
       run_headless("run '" + job + "' --quiet --image-size 10x10 --out '" + (tmp.path() / "bad").string() + "'", tmp);
   EXPECT_EQ(s.code, 2);

@@ -13,7 +13,7 @@ namespace fs = std::filesystem;
 using vmsim_test::run_vmsim;
 using vmsim_test::TempDir;
 
-fs::path data_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "spinner_u5-620_840d"; }
+fs::path spinner_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "spinner_u5-620_840d"; }
 
 int count_lines(const std::string& s, const std::string& what = "") {
   int n = 0;
@@ -29,9 +29,9 @@ int count_lines(const std::string& s, const std::string& what = "") {
 }
 
 TEST(SinumerikCli, CanonReadsTheRealProgramsAndNamesWhatItDoesNotKnow) {
-  if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)";
+  if (!fs::exists(spinner_dir())) GTEST_SKIP() << spinner_dir() << " is absent (the real CAM programs of ../shared)";
   TempDir tmp;
-  const std::string keychain = "'" + (data_dir() / "Keychain_Schluesselanhaenger.mpf").string() + "'";
+  const std::string keychain = "'" + (spinner_dir() / "Keychain_Schluesselanhaenger.mpf").string() + "'";
   // Strict: the first machine-maker M function stops it, named with file, line and word, and nothing is printed.
   auto r = run_vmsim("canon " + keychain, tmp);
   EXPECT_NE(r.code, 0);
@@ -52,7 +52,7 @@ TEST(SinumerikCli, CanonReadsTheRealProgramsAndNamesWhatItDoesNotKnow) {
   EXPECT_EQ(named.out, r.out);
 
   // The .txt program: its content says 840D. Read as RS274/NGC it stops at line 3, as it did before this reader.
-  const std::string bottle = "'" + (data_dir() / "Bottle_opener_Flaschenoeffner.txt").string() + "'";
+  const std::string bottle = "'" + (spinner_dir() / "Bottle_opener_Flaschenoeffner.txt").string() + "'";
   r = run_vmsim("canon --no-motion-m 27,29,50,51,65 " + bottle, tmp);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(count_lines(r.out, "ARC_FEED("), 1553);
@@ -62,7 +62,7 @@ TEST(SinumerikCli, CanonReadsTheRealProgramsAndNamesWhatItDoesNotKnow) {
 }
 
 TEST(SinumerikCli, InterpRunsTheThreePlusTwoProgram) {
-  if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)";
+  if (!fs::exists(spinner_dir())) GTEST_SKIP() << spinner_dir() << " is absent (the real CAM programs of ../shared)";
   TempDir tmp;
   const fs::path job = fs::path(VMSIM_SOURCE_DIR) / "parts" / "spinner_u5_620" / "achskreuz.toml";
   const auto r = run_vmsim("interp '" + job.string() + "' --summary-only", tmp);

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
 using vmsim_test::read_json;
@@ -36,7 +37,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // `prefix` goes before the vmsim executable (mpirun and its options); the command runs in `cwd`.
-CliRun cli(const std::string& prefix, const std::string& args, const fs::path& cwd, const TempDir& tmp) {
+CliRun study_cli(const std::string& prefix, const std::string& args, const fs::path& cwd, const TempDir& tmp) {
   return vmsim_test::run_vmsim(args, tmp, "cd '" + cwd.string() + "' && " + prefix + " ");
 }
 
@@ -101,7 +102,7 @@ double num(const std::string& s) {
   return std::strtod(s.c_str(), nullptr);
 }
 
-const fs::path kParts = fs::path(VMSIM_SOURCE_DIR) / "parts";
+using vmsim::test::kPartsPath;
 
 const char* kBaseJob = R"([job]
 name = "study_base"
@@ -138,10 +139,10 @@ kind = "program"
 void make_layout(const fs::path& root) {
   fs::create_directories(root / "part");
   fs::create_directories(root / "machines");
-  fs::copy_file(kParts / "plane_cylinder" / "plane_cylinder_fast.ngc", root / "part" / "pass.ngc");
-  fs::copy_file(kParts / "plane_cylinder" / "tools.tbl", root / "part" / "tools.tbl");
-  fs::copy_file(kParts / "plane_cylinder" / "plane_cylinder_stock.stl", root / "part" / "stock.stl");
-  fs::copy_file(kParts / "machines" / "mikron_ucp710.toml", root / "machines" / "mikron.toml");
+  fs::copy_file(kPartsPath / "plane_cylinder" / "plane_cylinder_fast.ngc", root / "part" / "pass.ngc");
+  fs::copy_file(kPartsPath / "plane_cylinder" / "tools.tbl", root / "part" / "tools.tbl");
+  fs::copy_file(kPartsPath / "plane_cylinder" / "plane_cylinder_stock.stl", root / "part" / "stock.stl");
+  fs::copy_file(kPartsPath / "machines" / "mikron_ucp710.toml", root / "machines" / "mikron.toml");
   write(root / "part" / "job.toml", kBaseJob);
 }
 
@@ -238,9 +239,9 @@ interpolation.tolerance_mm = [0.005, 0.02]
         std::string job = replace_line(kBaseJob, "[interpolation]", "tolerance_mm", tol);
         job = replace_line(job, "[job]", "machine", "\"../ref/" + tag + "/machine.toml\"");
         write(root / "part" / ("ref_" + tag + ".toml"), job);
-        const CliRun r =
-            cli("", "run part/ref_" + tag + ".toml --out ref/" + tag + "/out --feed-scale " + fs_ + " --no-render -q",
-                root, tmp);
+        const CliRun r = study_cli(
+            "", "run part/ref_" + tag + ".toml --out ref/" + tag + "/out --feed-scale " + fs_ + " --no-render -q", root,
+            tmp);
         ASSERT_EQ(r.code, 0) << r.err;
         ref.push_back(figures_of(read_json(root / "ref" / tag / "out" / "report.json")));
         values.push_back({fs_, kv, tol});
@@ -253,7 +254,8 @@ interpolation.tolerance_mm = [0.005, 0.02]
   std::vector<Table> tables;
   for (int np : {1, 2, 3}) {
     const std::string out = "out" + std::to_string(np);
-    const CliRun r = cli(np == 1 ? std::string() : fmt_mpirun(np), "study studies/grid.toml --out " + out, root, tmp);
+    const CliRun r =
+        study_cli(np == 1 ? std::string() : fmt_mpirun(np), "study studies/grid.toml --out " + out, root, tmp);
     ASSERT_EQ(r.code, 0) << "np " << np << ": " << r.out << r.err;
     EXPECT_NE(r.out.find("8 ok, 0 failed"), std::string::npos) << r.out;
     const Table t = read_table(root / out / "results.csv");
@@ -307,7 +309,7 @@ machine.axes.W.drive.kf = 0.5
 name = "slow"
 feed_scale = 0.5
 )");
-  const CliRun r = cli(fmt_mpirun(2), "study studies/bad.toml --out out --keep summary", root, tmp);
+  const CliRun r = study_cli(fmt_mpirun(2), "study studies/bad.toml --out out --keep summary", root, tmp);
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("2 ok, 3 failed"), std::string::npos) << r.out;
   const Table t = read_table(root / "out" / "results.csv");
@@ -369,7 +371,7 @@ feed_scale = 0.5
   for (int np : {1, 2}) {
     const std::string out = "out" + std::to_string(np);
     const std::string prefix = "env VMSIM_TEST_SEGFAULT_JOB=crash_me " + (np == 1 ? std::string() : fmt_mpirun(np));
-    const CliRun r = cli(prefix, "study studies/crash.toml --out " + out, root, tmp);
+    const CliRun r = study_cli(prefix, "study studies/crash.toml --out " + out, root, tmp);
     ASSERT_EQ(r.code, 0) << np << " ranks\n" << r.out << r.err;
     EXPECT_NE(r.out.find("2 ok, 1 failed"), std::string::npos) << r.out;
     const Table t = read_table(root / out / "results.csv");
@@ -413,7 +415,7 @@ TEST(StudyCli, BadStudyFilesNameTheFileAndTheKey) {
   };
   for (const Case& c : cases) {
     write(root / "studies" / "bad.toml", c.text);
-    const CliRun r = cli("", "study studies/bad.toml --out out", root, tmp);
+    const CliRun r = study_cli("", "study studies/bad.toml --out out", root, tmp);
     EXPECT_EQ(r.code, 2) << c.text << r.err;
     EXPECT_NE(r.err.find("bad.toml"), std::string::npos) << c.text << r.err;
     EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.text << r.err;
@@ -421,7 +423,7 @@ TEST(StudyCli, BadStudyFilesNameTheFileAndTheKey) {
   }
   // Under mpirun the error ends every rank (no rank left waiting for work).
   write(root / "studies" / "bad.toml", cases[3].text);
-  const CliRun r = cli(fmt_mpirun(2), "study studies/bad.toml --out out", root, tmp);
+  const CliRun r = study_cli(fmt_mpirun(2), "study studies/bad.toml --out out", root, tmp);
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.err.find("key 'grid.feed_scale'"), std::string::npos) << r.err;
 }
@@ -493,8 +495,8 @@ name = "base"
 name = "slow"
 feed_scale = 0.5
 )");
-  const CliRun r = cli("env VMSIM_TEST_STOP_RANK=1 timeout 300 " + fmt_mpirun(2),
-                       "study studies/two.toml --out out --watchdog-s 3", root, tmp);
+  const CliRun r = study_cli("env VMSIM_TEST_STOP_RANK=1 timeout 300 " + fmt_mpirun(2),
+                             "study studies/two.toml --out out --watchdog-s 3", root, tmp);
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.code, 124) << "timed out: the study hung";
   EXPECT_NE(r.err.find("rank 1 did not reach study: the first request for a variation within 3 s"), std::string::npos)

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::CliRun;
 using vmsim_test::run_vmsim;
@@ -31,7 +32,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
 
 // One column of a CSV with a header row ('#' lines skipped).
 std::vector<double> csv_column(const fs::path& p, const std::string& name) {
@@ -72,7 +73,7 @@ double fit_percent(const std::vector<double>& y, const std::vector<double>& yhat
 
 std::string job_toml(const std::string& name, const std::string& program, const std::string& start,
                      const std::string& extra = "") {
-  return "[job]\nname = \"" + name + "\"\nmachine = \"" + kMachine + "\"\nprogram = \"" + program +
+  return "[job]\nname = \"" + name + "\"\nmachine = \"" + kMikronMachine + "\"\nprogram = \"" + program +
          "\"\nstart_mm = " + start + "\n" + extra + "\n[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n";
 }
 
@@ -80,7 +81,7 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
   TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
   // 1. The excitation program for X (Td from a 40 Hz bandwidth: 10 ms; 7 bits; 4 periods on 1.2 m/min).
-  CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "excite_x.ngc").string() +
+  CliRun r = run_vmsim("excite X --machine '" + kMikronMachine + "' --out '" + (p / "excite_x.ngc").string() +
                            "' --bandwidth-hz 40 --bits 7 --amplitude 0.05 --feed 1200 --periods 4",
                        d);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -155,7 +156,7 @@ TEST(SysidCli, ExciteOnTheMachineIdentifyAndRunAnotherJobOnTheIdentifiedAxis) {
 TEST(SysidCli, ExciteCsvAndSimulatedTraceIdentifyOnTheirOwn) {
   TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
-  CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / "x.csv").string() +
+  CliRun r = run_vmsim("excite X --machine '" + kMikronMachine + "' --out '" + (p / "x.csv").string() +
                            "' --bits 6 --td-ms 5 --periods 4 --simulate '" + (p / "trace.csv").string() + "'",
                        d);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -182,8 +183,8 @@ TEST(SysidCli, TwoTracesIdentifyAtLeastAsWellAsOneOnAThirdTrace) {
   TempDir d("vmsim_sysid_cli_");
   const fs::path p = d.path();
   auto excite = [&](const std::string& name, const std::string& opts) {
-    const CliRun r = run_vmsim("excite X --machine '" + kMachine + "' --out '" + (p / (name + ".csv")).string() + "' " +
-                                   opts + " --simulate '" + (p / (name + "_trace.csv")).string() + "'",
+    const CliRun r = run_vmsim("excite X --machine '" + kMikronMachine + "' --out '" + (p / (name + ".csv")).string() +
+                                   "' " + opts + " --simulate '" + (p / (name + "_trace.csv")).string() + "'",
                                d);
     ASSERT_EQ(r.code, 0) << r.err;
   };
@@ -233,13 +234,14 @@ TEST(SysidCli, BadInputIsAnErrorNamingWhatToFix) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--orders '5'"), std::string::npos) << r.err;
 
-  r = run_vmsim("excite Q --machine '" + kMachine + "' --out '" + (p / "q.ngc").string() + "'", d);
+  r = run_vmsim("excite Q --machine '" + kMikronMachine + "' --out '" + (p / "q.ngc").string() + "'", d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("no axis Q"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(p / "q.ngc"));
   // An excitation that leaves the travel says so and writes nothing.
   r = run_vmsim(
-      "excite X --machine '" + kMachine + "' --out '" + (p / "x.ngc").string() + "' --feed 30000 --periods 50", d);
+      "excite X --machine '" + kMikronMachine + "' --out '" + (p / "x.ngc").string() + "' --feed 30000 --periods 50",
+      d);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("outside axis X's travel"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(p / "x.ngc"));

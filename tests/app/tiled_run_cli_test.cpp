@@ -31,7 +31,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts";
+const std::string kPartsRoot = std::string(VMSIM_SOURCE_DIR) + "/parts";
 
 // Runs vmsim with `args` as one process (ranks 0) or under mpirun; returns the exit code, stderr in `err`. A time
 // limit turns a hang into a failure.
@@ -54,11 +54,11 @@ nlohmann::json report(const fs::path& dir) { return nlohmann::json::parse(slurp(
 fs::path plane_cylinder_job(const fs::path& dir) {
   const fs::path job = dir / "pc.toml";
   std::ofstream out(job);
-  out << "[job]\nname = \"pc_coarse\"\nmachine = \"" << kParts << "/machines/mikron_ucp710.toml\"\n"
-      << "program = \"" << kParts << "/plane_cylinder/plane_cylinder_fast.ngc\"\ntool_table = \"" << kParts
+  out << "[job]\nname = \"pc_coarse\"\nmachine = \"" << kPartsRoot << "/machines/mikron_ucp710.toml\"\n"
+      << "program = \"" << kPartsRoot << "/plane_cylinder/plane_cylinder_fast.ngc\"\ntool_table = \"" << kPartsRoot
       << "/plane_cylinder/tools.tbl\"\nstart_mm = [-8.0, 5.0, 40.0]\n"
       << "[tool]\ntype = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 25.0\nlength_mm = 50.0\n"
-      << "[stock]\ntype = \"stl\"\nfile = \"" << kParts << "/plane_cylinder/plane_cylinder_stock.stl\"\n"
+      << "[stock]\ntype = \"stl\"\nfile = \"" << kPartsRoot << "/plane_cylinder/plane_cylinder_stock.stl\"\n"
       << "[interpolation]\nperiod_ms = 1.0\ntolerance_mm = 0.020\n"
       << "[removal]\nfield = \"zmap\"\nspacing_mm = 0.2\nmotion = \"actual\"\n"
       << "[reference]\nkind = \"feed\"\nfeed_scale = 0.01\n";
@@ -88,7 +88,7 @@ fs::path five_axis_job(const fs::path& dir) {
   }
   const fs::path job = dir / "five.toml";
   std::ofstream out(job);
-  out << "[job]\nname = \"five_axis_tiled\"\nmachine = \"" << kParts << "/machines/mikron_ucp710.toml\"\n"
+  out << "[job]\nname = \"five_axis_tiled\"\nmachine = \"" << kPartsRoot << "/machines/mikron_ucp710.toml\"\n"
       << "program = \"spiral.cl\"\n"
       << "[tool]\ntype = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 6.0\nlength_mm = 6.0\n"
       << "[stock]\ntype = \"box\"\nmin_mm = [-15.0, -15.0, 24.0]\nmax_mm = [15.0, 15.0, 30.05]\n"
@@ -157,7 +157,7 @@ TEST(TiledRunCli, FiveAxisTridexelTilesGiveTheOneProcessResult) {
 // part's fast pass (parts/corner) as it is.
 TEST(TiledRunCli, CornerNeedleTilesGiveTheOneProcessResult) {
   TempDir tmp("vmsim_tiled_");
-  expect_tiled_equals_one_process(kParts + "/corner/job_fast.toml", tmp.path(), {"needles.csv"});
+  expect_tiled_equals_one_process(kPartsRoot + "/corner/job_fast.toml", tmp.path(), {"needles.csv"});
 }
 
 TEST(TiledRunCli, TilesOutStitchToTheOneProcessGrid) {

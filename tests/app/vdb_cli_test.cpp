@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_paths.hpp"
 
 using vmsim_test::slurp;
 using vmsim_test::TempDir;
@@ -35,7 +36,7 @@ using vmsim::removal::VdbPart;
 
 namespace {
 
-const std::string kSource = VMSIM_SOURCE_DIR;
+using vmsim::test::kSourceDir;
 
 int run(const std::string& args, const TempDir& tmp, std::string& out, std::string& err) {
   const fs::path o = tmp.path() / "stdout.txt", e = tmp.path() / "stderr.txt";
@@ -47,13 +48,13 @@ int run(const std::string& args, const TempDir& tmp, std::string& out, std::stri
 }
 
 // A job of a part with absolute paths, cut along its programmed path, no reference, and the given [removal] lines.
-fs::path write_job(const TempDir& tmp, const std::string& name, const std::string& part, const std::string& program,
-                   const std::string& tool, const std::string& stock_stl, const std::string& start,
-                   const std::string& removal) {
-  const std::string dir = kSource + "/parts/" + part + "/";
+fs::path write_vdb_job(const TempDir& tmp, const std::string& name, const std::string& part, const std::string& program,
+                       const std::string& tool, const std::string& stock_stl, const std::string& start,
+                       const std::string& removal) {
+  const std::string dir = kSourceDir + "/parts/" + part + "/";
   const fs::path p = tmp.path() / (name + ".toml");
   std::ofstream f(p);
-  f << "[job]\nname = \"" << name << "\"\nmachine = \"" << kSource << "/parts/machines/mikron_ucp710.toml\"\n"
+  f << "[job]\nname = \"" << name << "\"\nmachine = \"" << kSourceDir << "/parts/machines/mikron_ucp710.toml\"\n"
     << "program = \"" << dir << program << "\"\ntool_table = \"" << dir << "tools.tbl\"\nstart_mm = " << start << "\n"
     << "[tool]\n"
     << tool << "\n[stock]\ntype = \"stl\"\nfile = \"" << dir << stock_stl << "\"\n"
@@ -62,16 +63,16 @@ fs::path write_job(const TempDir& tmp, const std::string& name, const std::strin
   return p;
 }
 
-struct Needle {
+struct NormalNeedle {
   Eigen::Vector3d p, n;
   double offset;
 };
 
-std::vector<Needle> read_needles(const fs::path& p) {
+std::vector<NormalNeedle> read_normal_needles(const fs::path& p) {
   std::ifstream in(p);
   std::string line;
   std::getline(in, line);
-  std::vector<Needle> v;
+  std::vector<NormalNeedle> v;
   while (std::getline(in, line)) {
     std::vector<double> c;
     std::stringstream ss(line);
@@ -89,11 +90,12 @@ TEST(VdbCli, PlaneCylinderKernelsAgree) {
   TempDir tmp;
   const std::string tool = "type = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 25.0\nlength_mm = 50.0";
   const double s = 0.2, h = 0.2;
-  const fs::path jd = write_job(tmp, "pc_dexel", "plane_cylinder", "plane_cylinder_reference.ngc", tool,
-                                "plane_cylinder_stock.stl", "[-8.0, 0.0, 40.0]", "field = \"zmap\"\nspacing_mm = 0.2");
+  const fs::path jd =
+      write_vdb_job(tmp, "pc_dexel", "plane_cylinder", "plane_cylinder_reference.ngc", tool, "plane_cylinder_stock.stl",
+                    "[-8.0, 0.0, 40.0]", "field = \"zmap\"\nspacing_mm = 0.2");
   const fs::path jv =
-      write_job(tmp, "pc_vdb", "plane_cylinder", "plane_cylinder_reference.ngc", tool, "plane_cylinder_stock.stl",
-                "[-8.0, 0.0, 40.0]", "method = \"vdb\"\nfield = \"zmap\"\nspacing_mm = 0.2\nvoxel_mm = 0.2");
+      write_vdb_job(tmp, "pc_vdb", "plane_cylinder", "plane_cylinder_reference.ngc", tool, "plane_cylinder_stock.stl",
+                    "[-8.0, 0.0, 40.0]", "method = \"vdb\"\nfield = \"zmap\"\nspacing_mm = 0.2\nvoxel_mm = 0.2");
   std::string out, err;
   ASSERT_EQ(
       run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err),
@@ -151,13 +153,13 @@ TEST(VdbCli, PlaneCylinderKernelsAgree) {
 TEST(VdbCli, CornerKernelsAgree) {
   TempDir tmp;
   const std::string tool = "type = \"flat\"\ndiameter_mm = 10.0\nflute_length_mm = 25.0\nlength_mm = 50.0";
-  const std::string needles = "field = \"nbuffer\"\nneedles_file = \"" + kSource +
+  const std::string needles = "field = \"nbuffer\"\nneedles_file = \"" + kSourceDir +
                               "/parts/corner/corner_needles.csv\"\nneedle_half_length_mm = 0.5\n";
   const double h = 0.2;
-  const fs::path jd = write_job(tmp, "c_dexel", "corner", "corner_reference.ngc", tool, "corner_stock.stl",
-                                "[5.0, -75.0, 20.0]", needles);
-  const fs::path jv = write_job(tmp, "c_vdb", "corner", "corner_reference.ngc", tool, "corner_stock.stl",
-                                "[5.0, -75.0, 20.0]", needles + "method = \"vdb\"\nvoxel_mm = 0.2");
+  const fs::path jd = write_vdb_job(tmp, "c_dexel", "corner", "corner_reference.ngc", tool, "corner_stock.stl",
+                                    "[5.0, -75.0, 20.0]", needles);
+  const fs::path jv = write_vdb_job(tmp, "c_vdb", "corner", "corner_reference.ngc", tool, "corner_stock.stl",
+                                    "[5.0, -75.0, 20.0]", needles + "method = \"vdb\"\nvoxel_mm = 0.2");
   std::string out, err;
   ASSERT_EQ(
       run("run '" + jd.string() + "' --quiet --no-render --out '" + (tmp.path() / "d").string() + "'", tmp, out, err),
@@ -171,8 +173,8 @@ TEST(VdbCli, CornerKernelsAgree) {
   const auto rv = nlohmann::json::parse(slurp(tmp.path() / "v" / "report.json"));
   const double bound =
       h / 2 + rd["removal"]["track_error_bound_mm"].get<double>() + rv["removal"]["track_error_bound_mm"].get<double>();
-  const std::vector<Needle> nd = read_needles(tmp.path() / "d" / "needles.csv");
-  const std::vector<Needle> nv = read_needles(tmp.path() / "v" / "needles.csv");
+  const std::vector<NormalNeedle> nd = read_normal_needles(tmp.path() / "d" / "needles.csv");
+  const std::vector<NormalNeedle> nv = read_normal_needles(tmp.path() / "v" / "needles.csv");
   ASSERT_EQ(nd.size(), nv.size());
   ASSERT_GT(nd.size(), 10000u);
   const VdbPart part = VdbPart::read_vdb(tmp.path() / "v" / "part.vdb");
@@ -226,7 +228,7 @@ TEST(VdbCli, CornerKernelsAgree) {
 // difference on a surface sloping by theta is the normal distance over cos theta).
 TEST(VdbCli, FiveAxisKernelsAgree) {
   TempDir tmp;
-  const std::string dir = kSource + "/parts/five_axis/";
+  const std::string dir = kSourceDir + "/parts/five_axis/";
   // The trimmed program: header up to FEDRAT, the first 721 feed GOTOs (two turns at 1 deg of azimuth), a retract.
   {
     std::ifstream in(dir + "dome_spiral.cl");
@@ -251,7 +253,7 @@ TEST(VdbCli, FiveAxisKernelsAgree) {
   auto job = [&](const std::string& name, const std::string& removal) {
     const fs::path p = tmp.path() / (name + ".toml");
     std::ofstream f(p);
-    f << "[job]\nname = \"" << name << "\"\nmachine = \"" << kSource << "/parts/machines/mikron_ucp710.toml\"\n"
+    f << "[job]\nname = \"" << name << "\"\nmachine = \"" << kSourceDir << "/parts/machines/mikron_ucp710.toml\"\n"
       << "program = \"" << (tmp.path() / "spiral.cl").string() << "\"\n"
       << "[tool]\ntype = \"ball\"\ndiameter_mm = 10.0\nflute_length_mm = 6.0\nlength_mm = 6.0\n"
       << "[stock]\ntype = \"stl\"\nfile = \"" << dir << "dome_stock.stl\"\n"
@@ -332,8 +334,8 @@ TEST(VdbCli, BadRemovalKeysAreErrors) {
                                                        {"method = \"vdb\"\nvoxel_mm = 0.0001", "voxel_mm"}};
   int n = 0;
   for (const auto& [removal, key] : cases) {
-    const fs::path j = write_job(tmp, "bad" + std::to_string(n++), "plane_cylinder", "plane_cylinder_fast.ngc", tool,
-                                 "plane_cylinder_stock.stl", "[-8.0, 0.0, 40.0]", removal);
+    const fs::path j = write_vdb_job(tmp, "bad" + std::to_string(n++), "plane_cylinder", "plane_cylinder_fast.ngc",
+                                     tool, "plane_cylinder_stock.stl", "[-8.0, 0.0, 40.0]", removal);
     std::string out, err;
     EXPECT_EQ(
         run("run '" + j.string() + "' --quiet --no-render --out '" + (tmp.path() / "o").string() + "'", tmp, out, err),

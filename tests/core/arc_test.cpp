@@ -6,6 +6,7 @@
 #include "core/arc.hpp"
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -24,7 +25,7 @@ using vmsim::core::MotionKind;
 using vmsim::core::Move;
 using vmsim::core::Vec6;
 
-constexpr double kPi = std::numbers::pi;
+using vmsim::core::units::kPi;
 
 Vec6 v6(double x, double y, double z, double a = 0, double b = 0, double c = 0) {
   Vec6 v;

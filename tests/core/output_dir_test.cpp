@@ -55,7 +55,7 @@ std::set<std::string> names(const fs::path& dir) {
 
 // An error's message, or "" when F does not throw core::Error.
 template <class F>
-std::string error_of(F&& f) {
+std::string output_dir_error_of(F&& f) {
   try {
     f();
   } catch (const Error& e) {
@@ -127,12 +127,12 @@ TEST(OutputDir, ASecondWriterIsRefusedNamingTheDirectoryAndTheHolder) {
   Scratch s;
   const fs::path out = s.dir / "out";
   OutputDir first(out, "vmsim run");
-  const std::string msg = error_of([&] { OutputDir second(out, "vmsim run"); });
+  const std::string msg = output_dir_error_of([&] { OutputDir second(out, "vmsim run"); });
   EXPECT_NE(msg.find(out.string()), std::string::npos) << msg;
   EXPECT_NE(msg.find("another process is writing"), std::string::npos) << msg;
   EXPECT_NE(msg.find("pid " + std::to_string(::getpid())), std::string::npos) << msg;
   // The same path spelled otherwise is the same directory.
-  EXPECT_NE(error_of([&] { OutputDir third(s.dir / "." / "out/", "vmsim run"); }), "");
+  EXPECT_NE(output_dir_error_of([&] { OutputDir third(s.dir / "." / "out/", "vmsim run"); }), "");
   // Once the first is gone, the directory is free again.
   first.commit();
 }
@@ -160,36 +160,36 @@ TEST(OutputDir, RefusesDirectoriesItWouldDestroy) {
   // A directory of the user's (no report.json, no marker): replacing it would delete their files.
   fs::create_directories(s.dir / "mine");
   put(s.dir / "mine" / "job.toml", "x");
-  std::string msg = error_of([&] { OutputDir o(s.dir / "mine", "test"); });
+  std::string msg = output_dir_error_of([&] { OutputDir o(s.dir / "mine", "test"); });
   EXPECT_NE(msg.find("vmsim did not write"), std::string::npos) << msg;
   EXPECT_NE(msg.find("job.toml"), std::string::npos) << msg;
   EXPECT_EQ(slurp(s.dir / "mine" / "job.toml"), "x");
   // A file.
   put(s.dir / "file", "x");
-  msg = error_of([&] { OutputDir o(s.dir / "file", "test"); });
+  msg = output_dir_error_of([&] { OutputDir o(s.dir / "file", "test"); });
   EXPECT_NE(msg.find("not a directory"), std::string::npos) << msg;
   // The current directory (the default --out), or one holding it.
   const fs::path cwd = fs::current_path();
   fs::create_directories(s.dir / "here" / "deeper");
   fs::current_path(s.dir / "here" / "deeper");
-  msg = error_of([&] { OutputDir o(".", "test"); });
-  const std::string msg_up = error_of([&] { OutputDir o(s.dir / "here", "test"); });
+  msg = output_dir_error_of([&] { OutputDir o(".", "test"); });
+  const std::string msg_up = output_dir_error_of([&] { OutputDir o(s.dir / "here", "test"); });
   fs::current_path(cwd);
   EXPECT_NE(msg.find("current directory"), std::string::npos) << msg;
   EXPECT_NE(msg_up.find("current directory"), std::string::npos) << msg_up;
   // An empty directory and an earlier result of an older vmsim (report.json, no marker) are replaced.
   fs::create_directories(s.dir / "empty");
-  EXPECT_EQ(error_of([&] { OutputDir(s.dir / "empty", "test").commit(); }), "");
+  EXPECT_EQ(output_dir_error_of([&] { OutputDir(s.dir / "empty", "test").commit(); }), "");
   fs::create_directories(s.dir / "older");
   put(s.dir / "older" / "report.json", "{}");
   put(s.dir / "older" / "deviation.csv", "stale");
-  EXPECT_EQ(error_of([&] { OutputDir(s.dir / "older", "test").commit(); }), "");
+  EXPECT_EQ(output_dir_error_of([&] { OutputDir(s.dir / "older", "test").commit(); }), "");
   EXPECT_FALSE(fs::exists(s.dir / "older" / "deviation.csv"));
 }
 
 TEST(OutputDir, RefusesAPathThatIsNotUtf8) {
   Scratch s;
-  const std::string msg = error_of([&] { OutputDir o(s.dir / "out\xff", "test"); });
+  const std::string msg = output_dir_error_of([&] { OutputDir o(s.dir / "out\xff", "test"); });
   EXPECT_NE(msg.find("not valid UTF-8"), std::string::npos) << msg;
   EXPECT_NE(msg.find("out\\xff"), std::string::npos) << msg;
   EXPECT_FALSE(fs::exists(s.dir / "out\xff"));

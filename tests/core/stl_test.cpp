@@ -55,7 +55,7 @@ void expect_same_triangles(const TriangleMesh& a, const TriangleMesh& b) {
         EXPECT_EQ(a.vertices_mm(a.triangles(t, c), x), b.vertices_mm(b.triangles(t, c), x)) << "triangle " << t;
 }
 
-std::string error_of(const std::function<void()>& f) {
+std::string stl_error_of(const std::function<void()>& f) {
   try {
     f();
   } catch (const Error& e) {
@@ -139,7 +139,7 @@ TEST(Stl, WeldTolerance) {
   const fs::path p = work() / "sloppy.stl";
   vmsim::core::write_stl_ascii(p, unwelded);
   const TriangleMesh exact = vmsim::core::read_stl(p);
-  const std::string e = error_of([&] { vmsim::core::check_closed(exact, p.string()); });
+  const std::string e = stl_error_of([&] { vmsim::core::check_closed(exact, p.string()); });
   EXPECT_EQ(e.rfind(p.string() + ": the mesh is not closed", 0), 0u) << e;
   vmsim::core::StlReadOptions o;
   o.weld_tolerance_mm = 1e-5;
@@ -147,7 +147,7 @@ TEST(Stl, WeldTolerance) {
   EXPECT_EQ(welded.vertices_mm.rows(), 8);
   EXPECT_NO_THROW(vmsim::core::check_closed(welded, p.string()));
   o.weld_tolerance_mm = -1;
-  EXPECT_NE(error_of([&] { (void)vmsim::core::read_stl(p, o); }).find("weld tolerance"), std::string::npos);
+  EXPECT_NE(stl_error_of([&] { (void)vmsim::core::read_stl(p, o); }).find("weld tolerance"), std::string::npos);
 }
 
 TEST(Stl, ClosednessProblemsNameTheFileAndTheFacet) {
@@ -157,13 +157,13 @@ TEST(Stl, ClosednessProblemsNameTheFileAndTheFacet) {
 
   TriangleMesh hole = good;  // last facet removed
   hole.triangles.conservativeResize(11, 3);
-  std::string e = error_of([&] { vmsim::core::check_closed(hole, p.string()); });
+  std::string e = stl_error_of([&] { vmsim::core::check_closed(hole, p.string()); });
   EXPECT_EQ(e.rfind(p.string() + ": the mesh is not closed", 0), 0u) << e;
   EXPECT_NE(e.find("facet #"), std::string::npos) << e;
 
   TriangleMesh flipped = good;  // facet #6 reversed
   std::swap(flipped.triangles(5, 1), flipped.triangles(5, 2));
-  e = error_of([&] { vmsim::core::check_closed(flipped, p.string()); });
+  e = stl_error_of([&] { vmsim::core::check_closed(flipped, p.string()); });
   EXPECT_EQ(e.rfind(p.string() + ": inconsistent orientation", 0), 0u) << e;
   EXPECT_NE(e.find("#6"), std::string::npos) << e;
 
@@ -172,7 +172,7 @@ TEST(Stl, ClosednessProblemsNameTheFileAndTheFacet) {
   fin.vertices_mm.row(8) << 0.5, -1, -1;
   fin.triangles.conservativeResize(13, 3);
   fin.triangles.row(12) << 0, 1, 8;
-  e = error_of([&] { vmsim::core::check_closed(fin, p.string()); });
+  e = stl_error_of([&] { vmsim::core::check_closed(fin, p.string()); });
   EXPECT_EQ(e.rfind(p.string() + ": the mesh is not manifold", 0), 0u) << e;
   EXPECT_NE(e.find("3 facets"), std::string::npos) << e;
 
@@ -183,21 +183,23 @@ TEST(Stl, ClosednessProblemsNameTheFileAndTheFacet) {
   EXPECT_FALSE(vmsim::core::closed_mesh_problem(sliver));
   // ... but mentioned when the mesh is open anyway.
   sliver.triangles.row(11) = sliver.triangles.row(12);
-  e = error_of([&] { vmsim::core::check_closed(sliver, p.string()); });
+  e = stl_error_of([&] { vmsim::core::check_closed(sliver, p.string()); });
   EXPECT_NE(e.find("repeated vertex"), std::string::npos) << e;
 
   TriangleMesh empty;
-  EXPECT_NE(error_of([&] { vmsim::core::check_closed(empty, p.string()); }).find("no triangles"), std::string::npos);
+  EXPECT_NE(stl_error_of([&] { vmsim::core::check_closed(empty, p.string()); }).find("no triangles"),
+            std::string::npos);
   TriangleMesh bad_index = good;
   bad_index.triangles(3, 2) = 99;
-  EXPECT_NE(error_of([&] { vmsim::core::check_closed(bad_index, p.string()); }).find("index 99"), std::string::npos);
+  EXPECT_NE(stl_error_of([&] { vmsim::core::check_closed(bad_index, p.string()); }).find("index 99"),
+            std::string::npos);
 }
 
 TEST(Stl, BrokenAndHostileFilesGiveErrorsNamingTheFile) {
   const fs::path p = work() / "bad.stl";
   const auto err = [&](const std::string& bytes) {
     write_bytes(p, bytes);
-    return error_of([&] { (void)vmsim::core::read_stl(p); });
+    return stl_error_of([&] { (void)vmsim::core::read_stl(p); });
   };
   const std::string name = p.string() + ":";
 
@@ -255,9 +257,9 @@ TEST(Stl, BrokenAndHostileFilesGiveErrorsNamingTheFile) {
   e = err("solid t\nfacet\n");
   EXPECT_EQ(e.rfind(name + "3: expected \"normal\", found \"end of file\"", 0), 0u) << e;
 
-  e = error_of([&] { (void)vmsim::core::read_stl(work() / "does-not-exist.stl"); });
+  e = stl_error_of([&] { (void)vmsim::core::read_stl(work() / "does-not-exist.stl"); });
   EXPECT_EQ(e.rfind((work() / "does-not-exist.stl").string() + ":", 0), 0u) << e;
-  e = error_of([&] { (void)vmsim::core::read_stl(work()); });
+  e = stl_error_of([&] { (void)vmsim::core::read_stl(work()); });
   EXPECT_NE(e.find("not a regular file"), std::string::npos) << e;
 }
 
@@ -265,7 +267,7 @@ TEST(Stl, WriterRefusesWhatItCannotWrite) {
   TriangleMesh m = box({0, 0, 0}, {1, 1, 1});
   m.vertices_mm(3, 1) = std::numeric_limits<double>::infinity();
   const fs::path p = work() / "refused.stl";
-  const std::string e = error_of([&] { vmsim::core::write_stl_binary(p, m); });
+  const std::string e = stl_error_of([&] { vmsim::core::write_stl_binary(p, m); });
   EXPECT_EQ(e.rfind(p.string() + ":", 0), 0u) << e;
   EXPECT_FALSE(fs::exists(p));
 }

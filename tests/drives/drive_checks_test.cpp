@@ -15,7 +15,7 @@
 namespace vmsim::drives {
 namespace {
 
-core::DriveParams mikron_x() { return *test::mikron().axes[0].drive; }
+using test::mikron_x;
 
 bool has_code(const core::Warnings& w, const std::string& code) {
   for (const auto& x : w)

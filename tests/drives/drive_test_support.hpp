@@ -19,6 +19,9 @@ inline core::Machine mikron() {
 }
 
 // The machine restricted to the named axes (in the machine file's order), e.g. {"X", "Y"} for a circle.
+// The Mikron X axis's drive.
+inline core::DriveParams mikron_x() { return *mikron().axes[0].drive; }
+
 inline core::Machine only_axes(const core::Machine& m, const std::vector<std::string>& names) {
   core::Machine out = m;
   out.axes.clear();

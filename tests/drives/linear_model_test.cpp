@@ -3,6 +3,7 @@
 
 #include "core/error.hpp"
 #include "tests/drives/drive_test_support.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,12 +16,9 @@ namespace vmsim::drives {
 namespace {
 
 using cd = std::complex<double>;
-constexpr double kPi = std::numbers::pi;
+using vmsim::core::units::kPi;
 
-core::DriveParams mikron_x() {
-  const core::Machine m = test::mikron();
-  return *m.axes[0].drive;
-}
+using test::mikron_x;
 
 // Reference: with near-ideal inner loops the cascade reduces to the sampled P loop of Duong et al. Fig. 6,
 // x[k+1] = x[k] + Te (Kv (x_d[k - d] - x[k]) + KF v_d[k - d]) (the velocity command held over Te is integrated

@@ -7,6 +7,7 @@
 #include "motion/kinematics.hpp"
 #include "program/program.hpp"
 #include "tests/drives/drive_test_support.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -17,15 +18,15 @@
 namespace vmsim::drives {
 namespace {
 
-const std::filesystem::path kParts = std::filesystem::path(VMSIM_SOURCE_DIR) / "parts";
+using vmsim::test::kPartsPath;
 
 // A realistic setpoint stream: the plane-cylinder part's 10 m/min pass interpolated for the Mikron (X, Y, Z move;
 // A and C have drives and hold their position; Z holds its head against gravity).
 core::Setpoints plane_cylinder_setpoints(const core::Machine& m) {
   program::ProgramOptions po;
-  po.tool_table = kParts / "plane_cylinder/tools.tbl";
-  const core::ToolPath tp =
-      motion::toolpath_in_axis_space(program::read_program(kParts / "plane_cylinder/plane_cylinder_fast.ngc", po), m);
+  po.tool_table = kPartsPath / "plane_cylinder/tools.tbl";
+  const core::ToolPath tp = motion::toolpath_in_axis_space(
+      program::read_program(kPartsPath / "plane_cylinder/plane_cylinder_fast.ngc", po), m);
   return motion::interpolate(tp, m, motion::InterpOptions{}).setpoints;
 }
 

@@ -6,6 +6,7 @@
 #include "drives/simulate.hpp"
 
 #include "tests/drives/drive_test_support.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -16,7 +17,7 @@
 namespace vmsim::methods {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+using vmsim::core::units::kPi;
 constexpr double kTe = 1e-3;
 
 struct Circle {

@@ -7,6 +7,7 @@
 #include "core/job.hpp"
 #include "core/machine.hpp"
 #include "methods/feedplan_job.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -18,7 +19,7 @@ using namespace vmsim;
 
 namespace {
 
-const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts/";
+using vmsim::test::kPartsDir;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 core::FeedPlanSpec::Axis pid_axis(const std::string& name, const methods::PidServoParams& p) {
@@ -62,7 +63,7 @@ motion::NurbsCurve circle(double r) {
 }  // namespace
 
 TEST(FeedPlanJob, LimitsAreTheMachineFilesInMillimetresPerSecond) {
-  const core::Machine m = core::load_machine(kParts + "feedplan/chen2016_machine.toml");
+  const core::Machine m = core::load_machine(kPartsDir + "feedplan/chen2016_machine.toml");
   core::FeedPlanSpec spec = chen_spec();
   spec.chord_error_mm = 0.0005;
   spec.contour_error_mm = 0.02;
@@ -80,7 +81,7 @@ TEST(FeedPlanJob, LimitsAreTheMachineFilesInMillimetresPerSecond) {
   spec.jerk = false;
   EXPECT_EQ(methods::feed_plan_limits(spec, m, 0.004, 50.0, xy).axis_jerk[0], kInf);
   // The Mikron UCP 710 (Duong et al. Table I): X 30 m/min, 2.5 m/s^2, 10 m/s^3; Z 30 m/min, 2.1 m/s^2, 100 m/s^3.
-  const core::Machine mikron = core::load_machine(kParts + "machines/mikron_ucp710.toml");
+  const core::Machine mikron = core::load_machine(kPartsDir + "machines/mikron_ucp710.toml");
   const methods::FeedPlanLimits mk = methods::feed_plan_limits(chen_spec(), mikron, 0.001, 80.0, xy);
   EXPECT_NEAR(mk.axis_velocity[0], 500.0, 1e-9);
   EXPECT_NEAR(mk.axis_acceleration[0], 2500.0, 1e-9);
@@ -90,7 +91,7 @@ TEST(FeedPlanJob, LimitsAreTheMachineFilesInMillimetresPerSecond) {
 }
 
 TEST(FeedPlanJob, AnAxisTheMachineLacksHasNoLimitUnlessThePathMovesIt) {
-  core::Machine m = core::load_machine(kParts + "feedplan/chen2016_machine.toml");
+  core::Machine m = core::load_machine(kPartsDir + "feedplan/chen2016_machine.toml");
   m.axes.pop_back();  // no Z
   const methods::FeedPlanLimits lim = methods::feed_plan_limits(chen_spec(), m, 0.004, 50.0, Eigen::Vector3d(1, 1, 0));
   EXPECT_EQ(lim.axis_velocity[2], kInf);
@@ -101,7 +102,7 @@ TEST(FeedPlanJob, AnAxisTheMachineLacksHasNoLimitUnlessThePathMovesIt) {
 }
 
 TEST(FeedPlanJob, ServoChoice) {
-  const core::Machine chen = core::load_machine(kParts + "feedplan/chen2016_machine.toml");
+  const core::Machine chen = core::load_machine(kPartsDir + "feedplan/chen2016_machine.toml");
   const Eigen::Vector3d xy(1, 1, 0);
   // pid: Chen et al.'s eq. 2 per named axis, an ideal axis for Z; the model's responses are the moving axes'.
   const methods::FeedPlanServo s = methods::feed_plan_servo(chen_spec(), chen, 0.004, xy, "job.toml");
@@ -128,7 +129,7 @@ TEST(FeedPlanJob, ServoChoice) {
   EXPECT_NE(e.find("chen2016_machine.toml"), std::string::npos) << e;
   EXPECT_NE(e.find("[axes.drive]"), std::string::npos) << e;
   // ... and on the Mikron, whose axes have cascades: their linearised responses, nothing to simulate but the cascades.
-  const core::Machine mikron = core::load_machine(kParts + "machines/mikron_ucp710.toml");
+  const core::Machine mikron = core::load_machine(kPartsDir + "machines/mikron_ucp710.toml");
   const methods::FeedPlanServo ms = methods::feed_plan_servo(machine, mikron, 0.001, xy, "job.toml");
   EXPECT_EQ(ms.responses.size(), 2u);
   EXPECT_TRUE(ms.simulate.empty());

@@ -11,6 +11,7 @@
 #include "methods/feedplan_play.hpp"
 #include "methods/feedplan_servo.hpp"
 #include "drives/linear_model.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -22,14 +23,15 @@ using methods::FeedPlanOptions;
 
 namespace {
 
-const double kPi = 3.14159265358979323846;
-const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts/feedplan/";
+using vmsim::core::units::kPi;
+const std::string kFeedplanDir = std::string(VMSIM_SOURCE_DIR) + "/parts/feedplan/";
 
 motion::NurbsCurve curve(const std::string& name) {
-  return motion::read_nurbs_csv(kParts + name + "_nurbs_control_points.csv", kParts + name + "_nurbs_knots.csv", 3);
+  return motion::read_nurbs_csv(kFeedplanDir + name + "_nurbs_control_points.csv",
+                                kFeedplanDir + name + "_nurbs_knots.csv", 3);
 }
 
-motion::NurbsCurve circle(double r) {
+motion::NurbsCurve unit_circle_nurbs(double r) {
   motion::NurbsCurve n;
   n.degree = 2;
   const double w = std::sqrt(0.5);
@@ -141,7 +143,7 @@ TEST(FeedPlanServo, ContourErrorModelSolvesEq11) {
 }
 
 TEST(FeedPlan, CircleFeedIsTheClosedFormOfEq11To13And15) {
-  const motion::NurbsCurve c5 = circle(5.0);
+  const motion::NurbsCurve c5 = unit_circle_nurbs(5.0);
   const methods::TransferFunction g = pid_x();
   const methods::ContourErrorModel m({methods::frequency_response(g), methods::frequency_response(g)});
   // Contour error binds: 1 + kappa eps0 = |G(j w0)|, f = w0 rho (the chord allows 35 mm/s, the centripetal
@@ -161,7 +163,7 @@ TEST(FeedPlan, CircleFeedIsTheClosedFormOfEq11To13And15) {
   }
   // Chord error binds (no contour constraint, a stiffer machine): f = 2 sqrt(rho^2 - (rho - delta)^2) / T.
   {
-    const motion::NurbsCurve c1 = circle(1.0);
+    const motion::NurbsCurve c1 = unit_circle_nurbs(1.0);
     const methods::PathSamples ps = methods::sample_nurbs(c1, 0.005);
     FeedPlanOptions o = case_options(&m);
     o.limits.contour_error_mm = 0;
@@ -198,7 +200,7 @@ TEST(FeedPlan, EveryConstraintHoldsAtEverySample) {
     core::Move d = a;
     d.start = v(0, 10), d.end = v(0, 30);
     tp.moves = {a, b, c, d};
-    const core::Machine mach = core::load_machine(kParts + "chen2016_machine.toml");
+    const core::Machine mach = core::load_machine(kFeedplanDir + "chen2016_machine.toml");
     motion::InterpOptions io;
     io.period_s = 0.004;
     paths.push_back(methods::sample_path(motion::smooth_path_for(tp, mach, io), 0.05));
@@ -254,7 +256,7 @@ TEST(FeedPlan, SimulatedContourErrorExceedsWithoutTheConstraintAndHoldsWithIt) {
   // Chen et al. 2016 section 4's case on the butterfly: T = 4 ms, chord 0.5 um, contour 20 um, 50 mm/s, 200 mm/s^2, its
   // PID servo (Table 1, X and Y), played by the interpolator and simulated.
   const motion::NurbsCurve c = curve("butterfly");
-  const core::Machine mach = core::load_machine(kParts + "chen2016_machine.toml");
+  const core::Machine mach = core::load_machine(kFeedplanDir + "chen2016_machine.toml");
   motion::NurbsPathOptions no;
   no.feed_mm_per_min = 3000;
   const motion::NurbsPath np = motion::nurbs_to_path(c, no);
@@ -296,7 +298,7 @@ TEST(FeedPlan, SimulatedContourErrorExceedsWithoutTheConstraintAndHoldsWithIt) {
 }
 
 TEST(FeedPlan, BadInputIsAnError) {
-  const methods::PathSamples ps = methods::sample_nurbs(circle(5), 0.1);
+  const methods::PathSamples ps = methods::sample_nurbs(unit_circle_nurbs(5), 0.1);
   FeedPlanOptions o = case_options(nullptr);
   EXPECT_THROW(methods::plan_feed(ps, o), core::Error);  // a contour tolerance without a servo model
   o.limits.contour_error_mm = 0;
@@ -306,7 +308,7 @@ TEST(FeedPlan, BadInputIsAnError) {
   o = case_options(&m);
   o.contour_scale = Eigen::ArrayXd::Constant(ps.size() - 1, 0.5);
   EXPECT_THROW(methods::plan_feed(ps, o), core::Error);
-  EXPECT_THROW(methods::sample_nurbs(circle(5), 0.0), core::Error);
+  EXPECT_THROW(methods::sample_nurbs(unit_circle_nurbs(5), 0.0), core::Error);
   EXPECT_THROW(methods::ContourErrorModel({methods::frequency_response(methods::TransferFunction{{2.0}, {1.0, 1.0}})}),
                core::Error);  // G(0) = 2 is not a position servo
 }

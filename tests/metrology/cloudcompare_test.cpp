@@ -3,6 +3,7 @@
 // Skips when CloudCompare is not installed: it is a peer, not a dependency.
 #include "core/stl.hpp"
 #include "metrology/mesh_distance.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,7 +21,7 @@ using namespace vmsim;
 namespace fs = std::filesystem;
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 double part(double x, double y) {  // a machined-looking top: waves, a ball-end groove along y, a tilt
   const double r = 1.5, gx = 6.0, depth = 0.4;
   double z = 5.0 + 0.05 * std::sin(2 * kPi * x / 2.0) * std::cos(2 * kPi * y / 3.0) + 0.002 * x;

@@ -8,6 +8,7 @@
 #include "metrology/mesh_distance.hpp"
 #include "metrology/processing.hpp"
 #include "metrology/scan_plan.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -19,11 +20,11 @@ using namespace vmsim;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 constexpr double kDentX = 2.2, kDentY = 1.4, kDentDepth = 0.010;  // mm, in the part's frame
 
 // Cusps of a raster along x (the lay: 0 rad), bumps that pin x and y, a tilt.
-double part(double x, double y) {
+double compared_part(double x, double y) {
   return 0.004 * std::sin(2 * kPi * y / 0.25) + 0.01 * std::sin(2 * kPi * x / 1.7) * std::cos(2 * kPi * y / 2.3) +
          0.002 * x - 0.001 * y;
 }
@@ -56,7 +57,7 @@ core::HeightGrid make_scan(const metrology::RigidTransform& T, double noise, std
       const double xs = s.x(i), ys = s.y(j);
       Eigen::Vector3d P = T.apply(Eigen::Vector3d(xs, ys, 0));
       for (int it = 0; it < 50; ++it) {
-        P.z() = part(P.x(), P.y()) + dent(P.x(), P.y());
+        P.z() = compared_part(P.x(), P.y()) + dent(P.x(), P.y());
         const Eigen::Vector3d p = inv.apply(P);
         const Eigen::Vector2d e(xs - p.x(), ys - p.y());
         if (e.norm() < 1e-13) break;
@@ -81,7 +82,7 @@ void expect_transform(const metrology::RigidTransform& a, const metrology::Rigid
 }
 
 TEST(CompareSurfaces, RecoversThePlacementTheDentAndTheSpikes) {
-  const metrology::Prediction pred{sample(0, 0, 0.01, 401, 301, part), std::nullopt};
+  const metrology::Prediction pred{sample(0, 0, 0.01, 401, 301, compared_part), std::nullopt};
   std::set<std::pair<int, int>> spikes;
   const core::HeightGrid scan = make_scan(kPlacement, 5e-5, spikes);
   metrology::SurfaceCompareOptions o;
@@ -135,7 +136,7 @@ TEST(CompareSurfaces, RecoversThePlacementTheDentAndTheSpikes) {
 }
 
 TEST(CompareSurfaces, AgainstAMeshTheMarksComeBackInThePartFrame) {
-  const core::HeightGrid grid = sample(0, 0, 0.01, 401, 301, part);
+  const core::HeightGrid grid = sample(0, 0, 0.01, 401, 301, compared_part);
   const metrology::Prediction pred = metrology::prediction_of_mesh(metrology::grid_surface_mesh(grid), 0.01);
   ASSERT_TRUE(pred.mesh);
   EXPECT_NEAR(pred.grid.dx_mm, 0.01, 1e-12);
@@ -155,8 +156,8 @@ TEST(CompareSurfaces, AgainstAMeshTheMarksComeBackInThePartFrame) {
 }
 
 TEST(CompareSurfaces, NoOverlapIsAnError) {
-  const metrology::Prediction pred{sample(0, 0, 0.01, 101, 101, part), std::nullopt};
-  core::HeightGrid far = sample(50, 50, 0.01, 51, 51, part);
+  const metrology::Prediction pred{sample(0, 0, 0.01, 101, 101, compared_part), std::nullopt};
+  core::HeightGrid far = sample(50, 50, 0.01, 51, 51, compared_part);
   metrology::SurfaceCompareOptions o;
   o.align = false;
   o.outlier_sigma = 0;

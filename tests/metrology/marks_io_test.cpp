@@ -20,7 +20,7 @@ core::HeightGrid grid(int nx, int ny, double h) {
   g.z_mm = core::HeightArray::Zero(ny, nx);
   return g;
 }
-std::filesystem::path tmp(const std::string& name) {
+std::filesystem::path marks_tmp(const std::string& name) {
   std::random_device rd;
   return std::filesystem::temp_directory_path() / (std::to_string(rd()) + "_" + name);
 }
@@ -57,7 +57,7 @@ TEST(GridIo, CsvRoundTripKeepsValuesAndInvalidPoints) {
   for (int j = 0; j < 7; ++j)
     for (int i = 0; i < 13; ++i) g.z_mm(j, i) = std::round((0.1 * i - 0.07 * j) * 1e7) / 1e7;
   g.z_mm(3, 4) = NAN;
-  const auto p = tmp("g.csv");
+  const auto p = marks_tmp("g.csv");
   metrology::write_height_csv(p, g);
   const core::HeightGrid r = metrology::read_height_csv(p);
   std::filesystem::remove(p);
@@ -76,7 +76,7 @@ TEST(GridIo, CsvRoundTripKeepsValuesAndInvalidPoints) {
 TEST(GridIo, NpyHasNumpysHeaderAndTheData) {
   core::HeightGrid g = grid(5, 3, 1.0);
   g.z_mm(2, 4) = 7.5;
-  const auto p = tmp("g.npy");
+  const auto p = marks_tmp("g.npy");
   metrology::write_height_npy(p, g);
   std::ifstream in(p, std::ios::binary);
   std::string all((std::istreambuf_iterator<char>(in)), {});
@@ -93,7 +93,7 @@ TEST(GridIo, NpyHasNumpysHeaderAndTheData) {
 }
 
 TEST(GridIo, BadCsvNamesTheLine) {
-  const auto p = tmp("bad.csv");
+  const auto p = marks_tmp("bad.csv");
   {
     std::ofstream f(p);
     f << "# x0_mm=0 y0_mm=0 dx_mm=1 dy_mm=1 nx=2 ny=2\n1,2\n3,x\n";

@@ -5,6 +5,7 @@
 #include "metrology/marks.hpp"
 #include "metrology/mesh_distance.hpp"
 #include "metrology/sensor.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,8 +14,8 @@
 using namespace vmsim;
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-core::HeightGrid grid(int nx, int ny, double h) {
+using vmsim::core::units::kPi;
+core::HeightGrid sensor_grid(int nx, int ny, double h) {
   core::HeightGrid g;
   g.dx_mm = g.dy_mm = h;
   g.z_mm = core::HeightArray::Zero(ny, nx);
@@ -25,7 +26,7 @@ core::HeightGrid grid(int nx, int ny, double h) {
 // A dip elongated along a path at 30 degrees: sigma 1 mm along, 0.1 mm across; the half-depth region spans the
 // full widths at half depth, 2 sigma sqrt(2 ln 2).
 TEST(Marks, AlongAndAcrossTheGivenPathDirection) {
-  core::HeightGrid dev = grid(801, 601, 0.01);
+  core::HeightGrid dev = sensor_grid(801, 601, 0.01);
   const double th = kPi / 6, c = std::cos(th), s = std::sin(th);
   for (int j = 0; j < 601; ++j)
     for (int i = 0; i < 801; ++i) {
@@ -48,7 +49,7 @@ TEST(Marks, AlongAndAcrossTheGivenPathDirection) {
 
 TEST(Lay, ScallopRidgesRunAlongTheFeed) {
   for (const double th : {0.0, 0.4, -1.2, kPi / 2}) {
-    core::HeightGrid g = grid(300, 300, 0.01);
+    core::HeightGrid g = sensor_grid(300, 300, 0.01);
     for (int j = 0; j < 300; ++j)
       for (int i = 0; i < 300; ++i) {
         const double across = -std::sin(th) * g.x(i) + std::cos(th) * g.y(j);
@@ -64,7 +65,7 @@ TEST(Sensor, SpotHalvesItsHalfAmplitudeWavelength) {
   metrology::SensorOptions o;
   o.step_mm = 0.002, o.spot_mm = 0.02, o.noise_mm = 0, o.max_slope_deg = 89;
   metrology::SensorReport r;
-  core::HeightGrid pred = grid(2001, 5, 0.001);
+  core::HeightGrid pred = sensor_grid(2001, 5, 0.001);
   (void)metrology::simulate_scan(pred, o, &r);  // for the report's wavelength
   const double L = r.half_amplitude_wavelength_mm;
   EXPECT_NEAR(L, 0.04532, 1e-5);  // pi sigma sqrt(2 / ln 2), sigma = 0.02 / 2.355
@@ -77,7 +78,7 @@ TEST(Sensor, SpotHalvesItsHalfAmplitudeWavelength) {
 }
 
 TEST(Sensor, NoiseDropoutsOnSteepFlanksAndRepeatability) {
-  core::HeightGrid pred = grid(1001, 201, 0.002);
+  core::HeightGrid pred = sensor_grid(1001, 201, 0.002);
   // A V-groove with 45 degree flanks in a flat face.
   for (int j = 0; j < 201; ++j)
     for (int i = 0; i < 1001; ++i) pred.z_mm(j, i) = -std::max(0.0, 0.1 - std::abs(pred.x(i) - 1.0));
@@ -99,7 +100,7 @@ TEST(Sensor, NoiseDropoutsOnSteepFlanksAndRepeatability) {
 }
 
 TEST(MeshDistance, RasterizedTopOfAGridMeshIsTheGrid) {
-  core::HeightGrid g = grid(41, 31, 0.05);
+  core::HeightGrid g = sensor_grid(41, 31, 0.05);
   for (int j = 0; j < 31; ++j)
     for (int i = 0; i < 41; ++i) g.z_mm(j, i) = 0.1 * std::sin(g.x(i)) + 0.05 * g.y(j);
   const auto r = metrology::rasterize_top(metrology::grid_surface_mesh(g), 0.05);

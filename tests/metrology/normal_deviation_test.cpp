@@ -3,6 +3,7 @@
 // the vertical figure keeps its meaning (the height difference); marks carry both and the slope.
 #include "core/error.hpp"
 #include "metrology/marks.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,9 +13,9 @@
 using namespace vmsim;
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
-core::HeightGrid sample(int nx, int ny, double h, const std::function<double(double, double)>& z) {
+core::HeightGrid normal_sample(int nx, int ny, double h, const std::function<double(double, double)>& z) {
   core::HeightGrid g;
   g.dx_mm = g.dy_mm = h;
   g.z_mm = core::HeightArray::Zero(ny, nx);
@@ -32,8 +33,8 @@ TEST(NormalDeviation, TiltedPlaneOffsetAlongItsNormalIsTheOffsetWhateverTheSlope
   for (const double deg : {0.0, 30.0, 60.0, 80.0}) {
     const double t = std::tan(deg * kPi / 180), c = std::cos(deg * kPi / 180);
     auto plane = [&](double x, double y) { return t * (std::cos(az) * x + std::sin(az) * y); };
-    const core::HeightGrid ref = sample(41, 31, h, plane);
-    const core::HeightGrid surf = sample(41, 31, h, [&](double x, double y) { return plane(x, y) - d / c; });
+    const core::HeightGrid ref = normal_sample(41, 31, h, plane);
+    const core::HeightGrid surf = normal_sample(41, 31, h, [&](double x, double y) { return plane(x, y) - d / c; });
     const core::HeightGrid vert = metrology::deviation(surf, ref);
     const metrology::Slope slope = metrology::slope_of(ref);
     const core::HeightGrid normal = metrology::normal_deviation(vert, slope);
@@ -60,8 +61,9 @@ TEST(NormalDeviation, TiltedPlaneOffsetAlongItsNormalIsTheOffsetWhateverTheSlope
 
 // On a flat reference the normal deviation is the vertical one, bit for bit (every flat part's outputs unchanged).
 TEST(NormalDeviation, FlatReferenceLeavesTheVerticalDeviationBitIdentical) {
-  const core::HeightGrid ref = sample(30, 20, 0.1, [](double, double) { return 2.5; });
-  const core::HeightGrid surf = sample(30, 20, 0.1, [](double x, double y) { return 2.5 - 0.003 * std::sin(x * y); });
+  const core::HeightGrid ref = normal_sample(30, 20, 0.1, [](double, double) { return 2.5; });
+  const core::HeightGrid surf =
+      normal_sample(30, 20, 0.1, [](double x, double y) { return 2.5 - 0.003 * std::sin(x * y); });
   const core::HeightGrid vert = metrology::deviation(surf, ref);
   const core::HeightGrid normal = metrology::normal_deviation(vert, metrology::slope_of(ref));
   for (Eigen::Index k = 0; k < vert.z_mm.size(); ++k) EXPECT_EQ(normal.z_mm.data()[k], vert.z_mm.data()[k]);
@@ -76,8 +78,8 @@ TEST(NormalDeviation, CylinderWallCutDeeperByAKnownOffsetGivesTheOffsetUpTo80Deg
   const double R = 10, d = 0.01, h = 0.02;
   const int nx = static_cast<int>(std::floor(R / h));  // x from 0 to just under R: slope 0 .. 88.9 deg
   auto cyl = [](double r) { return [r](double x, double) { return x < r ? std::sqrt(r * r - x * x) : NAN; }; };
-  const core::HeightGrid ref = sample(nx, 3, h, cyl(R));
-  const core::HeightGrid surf = sample(nx, 3, h, cyl(R - d));
+  const core::HeightGrid ref = normal_sample(nx, 3, h, cyl(R));
+  const core::HeightGrid surf = normal_sample(nx, 3, h, cyl(R - d));
   const core::HeightGrid vert = metrology::deviation(surf, ref);
   const metrology::Slope slope = metrology::slope_of(ref);
   const core::HeightGrid normal = metrology::normal_deviation(vert, slope);
@@ -107,8 +109,8 @@ TEST(NormalDeviation, CylinderWallCutDeeperByAKnownOffsetGivesTheOffsetUpTo80Deg
 TEST(NormalDeviation, UnresolvedWallIsBoundedByTheSpacing) {
   const double H = 2, h = 0.05, e = 0.01;
   const double wall = 1.0 + 0.5 * e;  // node x = 1.0 lies between the two walls
-  const core::HeightGrid ref = sample(41, 3, h, [&](double x, double) { return x < wall ? H : 0.0; });
-  const core::HeightGrid surf = sample(41, 3, h, [&](double x, double) { return x < wall - e ? H : 0.0; });
+  const core::HeightGrid ref = normal_sample(41, 3, h, [&](double x, double) { return x < wall ? H : 0.0; });
+  const core::HeightGrid surf = normal_sample(41, 3, h, [&](double x, double) { return x < wall - e ? H : 0.0; });
   const core::HeightGrid vert = metrology::deviation(surf, ref);
   const metrology::Slope slope = metrology::slope_of(ref);
   const core::HeightGrid normal = metrology::normal_deviation(vert, slope);
@@ -120,11 +122,11 @@ TEST(NormalDeviation, UnresolvedWallIsBoundedByTheSpacing) {
   EXPECT_GT(slope.slope_rad.z_mm(1, i), 85 * kPi / 180);
   // The part mesh's bound between nodes on this wall is the step itself.
   EXPECT_DOUBLE_EQ(metrology::wall_step_max_mm(surf), H);
-  EXPECT_EQ(metrology::wall_step_max_mm(sample(41, 3, h, [](double x, double) { return 0.5 * x; })), 0.0);
+  EXPECT_EQ(metrology::wall_step_max_mm(normal_sample(41, 3, h, [](double x, double) { return 0.5 * x; })), 0.0);
 }
 
 TEST(NormalDeviation, RefusesGridsThatDiffer) {
-  const core::HeightGrid a = sample(10, 10, 0.1, [](double, double) { return 0.0; });
-  const core::HeightGrid b = sample(11, 10, 0.1, [](double, double) { return 0.0; });
+  const core::HeightGrid a = normal_sample(10, 10, 0.1, [](double, double) { return 0.0; });
+  const core::HeightGrid b = normal_sample(11, 10, 0.1, [](double, double) { return 0.0; });
   EXPECT_THROW(metrology::normal_deviation(a, metrology::slope_of(b)), core::Error);
 }

@@ -5,6 +5,7 @@
 #include "metrology/areal.hpp"
 #include "metrology/filter.hpp"
 #include "metrology/form.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,9 +15,9 @@
 using namespace vmsim;
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
-core::HeightGrid grid(int nx, int ny, double dx, double dy, double x0 = 0, double y0 = 0) {
+core::HeightGrid processing_grid(int nx, int ny, double dx, double dy, double x0 = 0, double y0 = 0) {
   core::HeightGrid g;
   g.x0_mm = x0, g.y0_mm = y0, g.dx_mm = dx, g.dy_mm = dy;
   g.z_mm = core::HeightArray::Zero(ny, nx);
@@ -27,7 +28,7 @@ core::HeightGrid grid(int nx, int ny, double dx, double dy, double x0 = 0, doubl
 // z = A sin(2 pi x / L), two whole periods, 1000 nodes per period (so the peaks are nodes).
 TEST(Areal, SinusoidAlongXEqualsClosedForms) {
   const double A = 0.004, L = 0.2;
-  core::HeightGrid g = grid(2000, 9, L / 1000, 0.01);
+  core::HeightGrid g = processing_grid(2000, 9, L / 1000, 0.01);
   for (int j = 0; j < 9; ++j)
     for (int i = 0; i < 2000; ++i) g.z_mm(j, i) = A * std::sin(2 * kPi * g.x(i) / L);
   const auto p = metrology::areal_parameters(g);
@@ -61,7 +62,7 @@ TEST(Areal, SinusoidAlongXEqualsClosedForms) {
 // z = A sin(kx x) sin(ky y): Sa = 4A/pi^2, Sq = A/2, Sku = 9/4, Sdq = A sqrt(kx^2 + ky^2) / 2.
 TEST(Areal, EggCrateEqualsClosedForms) {
   const double A = 0.002, Lx = 0.1, Ly = 0.05;
-  core::HeightGrid g = grid(1000, 1000, Lx / 500, Ly / 500);
+  core::HeightGrid g = processing_grid(1000, 1000, Lx / 500, Ly / 500);
   for (int j = 0; j < 1000; ++j)
     for (int i = 0; i < 1000; ++i) g.z_mm(j, i) = A * std::sin(2 * kPi * g.x(i) / Lx) * std::sin(2 * kPi * g.y(j) / Ly);
   const auto p = metrology::areal_parameters(g);
@@ -80,7 +81,7 @@ TEST(Areal, EggCrateEqualsClosedForms) {
 // A flat plate with a rectangular groove of depth d over a fraction p of the nodes: heights 0 (1 - p) and -d (p).
 TEST(Areal, RectangularGrooveEqualsClosedForms) {
   const double d = 0.02;
-  core::HeightGrid g = grid(200, 50, 0.01, 0.01);
+  core::HeightGrid g = processing_grid(200, 50, 0.01, 0.01);
   for (int j = 0; j < 50; ++j)
     for (int i = 60; i < 90; ++i) g.z_mm(j, i) = -d;
   const double p = 30.0 / 200.0;
@@ -99,7 +100,7 @@ TEST(Areal, RectangularGrooveEqualsClosedForms) {
 }
 
 TEST(Areal, InvalidPointsTakeNoPart) {
-  core::HeightGrid g = grid(10, 10, 1, 1);
+  core::HeightGrid g = processing_grid(10, 10, 1, 1);
   g.z_mm.setConstant(1.0);
   g.z_mm(3, 3) = NAN;
   g.z_mm(4, 4) = NAN;
@@ -112,7 +113,7 @@ TEST(Areal, InvalidPointsTakeNoPart) {
 }
 
 TEST(Form, PlaneIsRecoveredAndRemoved) {
-  core::HeightGrid g = grid(300, 200, 0.01, 0.02, -1.0, 2.0);
+  core::HeightGrid g = processing_grid(300, 200, 0.01, 0.02, -1.0, 2.0);
   for (int j = 0; j < 200; ++j)
     for (int i = 0; i < 300; ++i) g.z_mm(j, i) = 0.3 + 0.002 * g.x(i) - 0.0015 * g.y(j);
   g.z_mm(5, 7) = NAN;
@@ -127,7 +128,7 @@ TEST(Form, PlaneIsRecoveredAndRemoved) {
 }
 
 TEST(Form, CubicPolynomialIsRemovedExactly) {
-  core::HeightGrid g = grid(120, 90, 0.05, 0.05, 3.0, -1.0);
+  core::HeightGrid g = processing_grid(120, 90, 0.05, 0.05, 3.0, -1.0);
   const auto poly = [](double x, double y) {
     return 0.1 - 0.02 * x + 0.03 * y + 0.004 * x * x - 0.001 * x * y + 0.0005 * x * x * y - 0.0002 * y * y * y;
   };
@@ -143,7 +144,7 @@ TEST(Form, CubicPolynomialIsRemovedExactly) {
 }
 
 TEST(Form, TooFewPointsIsAClearError) {
-  core::HeightGrid g = grid(5, 5, 1, 1);
+  core::HeightGrid g = processing_grid(5, 5, 1, 1);
   g.z_mm.setConstant(NAN);
   g.z_mm(0, 0) = 1, g.z_mm(1, 1) = 2;
   EXPECT_THROW(metrology::remove_form(g, 1), core::Error);
@@ -156,7 +157,7 @@ TEST(Form, TooFewPointsIsAClearError) {
 TEST(GaussianFilter, TransmissionAtTheCutoff) {
   const double lc = 0.8, h = 0.005;
   for (const double L : {lc, lc / 2, 4 * lc}) {
-    core::HeightGrid g = grid(2001, 3, h, h);
+    core::HeightGrid g = processing_grid(2001, 3, h, h);
     for (int j = 0; j < 3; ++j)
       for (int i = 0; i < 2001; ++i) g.z_mm(j, i) = std::sin(2 * kPi * g.x(i) / L);
     const auto m = metrology::gaussian_mean_surface(g, lc);
@@ -170,7 +171,7 @@ TEST(GaussianFilter, TransmissionAtTheCutoff) {
 }
 
 TEST(GaussianFilter, ConstantStaysConstantUpToEdgesAndHoles) {
-  core::HeightGrid g = grid(300, 200, 0.01, 0.01);
+  core::HeightGrid g = processing_grid(300, 200, 0.01, 0.01);
   g.z_mm.setConstant(0.25);
   for (int j = 50; j < 70; ++j)
     for (int i = 100; i < 130; ++i) g.z_mm(j, i) = NAN;
@@ -183,7 +184,7 @@ TEST(GaussianFilter, ConstantStaysConstantUpToEdgesAndHoles) {
 }
 
 TEST(Outliers, SpikesAreMaskedAndCounted) {
-  core::HeightGrid g = grid(200, 150, 0.005, 0.005);
+  core::HeightGrid g = processing_grid(200, 150, 0.005, 0.005);
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0, 1e-4);
   for (int j = 0; j < 150; ++j)

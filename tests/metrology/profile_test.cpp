@@ -3,6 +3,7 @@
 // across a surface against the shift, offset and tilt it was made with.
 #include "core/error.hpp"
 #include "metrology/profile.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +14,7 @@ using namespace vmsim;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
 metrology::LineScan sine(double amplitude, double wavelength, double dx, int n, double phase = 0.0) {
   metrology::LineScan p;

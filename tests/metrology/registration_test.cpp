@@ -4,6 +4,7 @@
 // resampled scan lies on the prediction to the noise.
 #include "core/error.hpp"
 #include "metrology/register.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +14,7 @@
 using namespace vmsim;
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
 // Bumps in x and y, a diagonal wave, a groove along y and a tilt: every rigid motion changes the picture.
 double surface(double x, double y) {
@@ -22,7 +23,7 @@ double surface(double x, double y) {
          0.0005 * y;
 }
 
-core::HeightGrid sample(double x0, double y0, double h, int nx, int ny, double (*f)(double, double)) {
+core::HeightGrid sampled_part(double x0, double y0, double h, int nx, int ny, double (*f)(double, double)) {
   core::HeightGrid g;
   g.x0_mm = x0, g.y0_mm = y0, g.dx_mm = h, g.dy_mm = h;
   g.z_mm.resize(ny, nx);
@@ -33,9 +34,9 @@ core::HeightGrid sample(double x0, double y0, double h, int nx, int ny, double (
 
 // The scan in its own frame: at each scan node (x, y), the height of the surface point P with T^-1(P) above it,
 // where T (scan -> part) is the true placement. Newton on the analytic surface, then noise, spikes and dropouts.
-core::HeightGrid make_scan(const metrology::RigidTransform& T, double x0, double y0, double h, int nx, int ny,
-                           double noise, unsigned seed, double (*f)(double, double),
-                           double (*extra)(double, double) = nullptr) {
+core::HeightGrid registration_scan(const metrology::RigidTransform& T, double x0, double y0, double h, int nx, int ny,
+                                   double noise, unsigned seed, double (*f)(double, double),
+                                   double (*extra)(double, double) = nullptr) {
   const metrology::RigidTransform inv = T.inverse();
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n(0, noise);
@@ -79,9 +80,9 @@ void expect_close(const metrology::RigidTransform& a, const metrology::RigidTran
 }  // namespace
 
 TEST(Registration, KnownTransformIsRecoveredWithin1umAnd1e4rad) {
-  const core::HeightGrid pred = sample(-5, -5, 0.01, 1001, 1001, surface);
+  const core::HeightGrid pred = sampled_part(-5, -5, 0.01, 1001, 1001, surface);
   const auto truth = metrology::RigidTransform::from_xyz_rxyz(0.12, -0.08, 0.3, 2e-3, -1.5e-3, 4e-3);
-  const core::HeightGrid scan = make_scan(truth, -4, -4, 0.02, 401, 401, 0.001, 11, surface);
+  const core::HeightGrid scan = registration_scan(truth, -4, -4, 0.02, 401, 401, 0.001, 11, surface);
   const auto r = metrology::register_scan(scan, pred);
   EXPECT_TRUE(r.converged);
   EXPECT_TRUE(r.weak_directions.empty());
@@ -118,9 +119,9 @@ double machined_pit(double x, double y) {  // a broad overcut over most of the s
 }
 
 TEST(Registration, RegionsAlignOnTheReferenceFacesOnly) {
-  const core::HeightGrid pred = sample(-5, -5, 0.01, 1001, 1001, surface);
+  const core::HeightGrid pred = sampled_part(-5, -5, 0.01, 1001, 1001, surface);
   const auto truth = metrology::RigidTransform::from_xyz_rxyz(-0.05, 0.04, -0.2, -1e-3, 2e-3, -3e-3);
-  const core::HeightGrid scan = make_scan(truth, -4.5, -4, 0.02, 426, 401, 0.001, 12, surface, machined_pit);
+  const core::HeightGrid scan = registration_scan(truth, -4.5, -4, 0.02, 426, 401, 0.001, 12, surface, machined_pit);
   metrology::RegistrationOptions o;
   o.regions.push_back({-5, -2.2, -5, 5});  // the unmachined strip
   const auto r = metrology::register_scan(scan, pred, o);
@@ -138,9 +139,9 @@ TEST(Registration, RegionsAlignOnTheReferenceFacesOnly) {
 double flat(double x, double y) { return 0.3 + 0.002 * x - 0.001 * y; }
 
 TEST(Registration, FlatFaceReportsTheFreeDirections) {
-  const core::HeightGrid pred = sample(-2, -2, 0.02, 201, 201, flat);
+  const core::HeightGrid pred = sampled_part(-2, -2, 0.02, 201, 201, flat);
   const auto truth = metrology::RigidTransform::from_xyz_rxyz(0, 0, 0.05, 1e-3, 1e-3, 0);
-  const core::HeightGrid scan = make_scan(truth, -1.5, -1.5, 0.02, 151, 151, 0.0005, 13, flat);
+  const core::HeightGrid scan = registration_scan(truth, -1.5, -1.5, 0.02, 151, 151, 0.0005, 13, flat);
   const auto r = metrology::register_scan(scan, pred);
   ASSERT_EQ(r.weak_directions.size(), 3u);
   EXPECT_NE(std::find(r.weak_directions.begin(), r.weak_directions.end(), "rotation z"), r.weak_directions.end());
@@ -150,7 +151,7 @@ TEST(Registration, FlatFaceReportsTheFreeDirections) {
 }
 
 TEST(Registration, NoOverlapIsAClearError) {
-  const core::HeightGrid pred = sample(0, 0, 0.1, 11, 11, flat);
+  const core::HeightGrid pred = sampled_part(0, 0, 0.1, 11, 11, flat);
   metrology::RegistrationOptions o;
   o.initial = metrology::RigidTransform::from_xyz_rxyz(100, 100, 0, 0, 0, 0);
   EXPECT_THROW(metrology::register_scan(pred, pred, o), core::Error);
@@ -160,9 +161,9 @@ TEST(Registration, NoOverlapIsAClearError) {
 
 // DESIGN: results must not depend on the thread count. Same bits with 1 and 3 threads.
 TEST(Registration, ResultDoesNotDependOnTheThreadCount) {
-  const core::HeightGrid pred = sample(-3, -3, 0.02, 301, 301, surface);
+  const core::HeightGrid pred = sampled_part(-3, -3, 0.02, 301, 301, surface);
   const auto truth = metrology::RigidTransform::from_xyz_rxyz(0.02, 0.01, 0.1, 1e-3, 0, 2e-3);
-  const core::HeightGrid scan = make_scan(truth, -2, -2, 0.03, 134, 134, 0.001, 21, surface);
+  const core::HeightGrid scan = registration_scan(truth, -2, -2, 0.03, 134, 134, 0.001, 21, surface);
   const int saved = omp_get_max_threads();
   omp_set_num_threads(1);
   const auto a = metrology::register_scan(scan, pred);

@@ -35,7 +35,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-fs::path tmp(const std::string& name) {
+fs::path scan_tmp(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("vmsim_scan_formats_" + std::to_string(::getpid()));
   fs::create_directories(d);
   return d / name;
@@ -134,7 +134,7 @@ void expect_like_gwyddion(const fs::path& p, const core::HeightGrid& g, bool abo
     return;
   }
   std::string why;
-  const auto gw = vmsim_test::gwyddion_read(p, tmp("gwy"), &why);
+  const auto gw = vmsim_test::gwyddion_read(p, scan_tmp("gwy"), &why);
   ASSERT_TRUE(gw) << why;
   ASSERT_EQ(gw->xres, g.nx());
   ASSERT_EQ(gw->yres, g.ny());
@@ -162,7 +162,7 @@ TEST(SurFields, StepUnitNotLengthUnitAndRatio) {
   // sur-3.sur's layout: step unit nm, length unit um, ratio 1000. The spacing is 0.5 nm, not 0.5 um or 500 um.
   SurSpec s = base_spec();
   s.xstep = "nm", s.xlen = "\xb5m", s.rx = s.ry = 1000;
-  const fs::path p = tmp("ratio.sur");
+  const fs::path p = scan_tmp("ratio.sur");
   write_bytes(p, sur_object(s));
   const auto d = metrology::read_sur_data(p);
   EXPECT_DOUBLE_EQ(d.grid.dx_mm, 0.5e-6);
@@ -180,7 +180,7 @@ TEST(SurFields, StepUnitNotLengthUnitAndRatio) {
 TEST(SurFields, HeightsArePointTimesZSpacingPlusOffsetInTheZStepUnit) {
   SurSpec s = base_spec();
   s.zstep = "nm", s.zlen = "um", s.rz = 1000, s.zoff = 2.0f, s.zmin = 100;  // Zmin is not subtracted
-  const fs::path p = tmp("z.sur");
+  const fs::path p = scan_tmp("z.sur");
   write_bytes(p, sur_object(s));
   const auto d = metrology::read_sur_data(p);
   // Z spacing and offset are float32 in the header: the expected heights use the same floats.
@@ -194,7 +194,7 @@ TEST(SurFields, Int16IsSigned) {
   s.bits = 16;
   s.points = {-300, -2, -1, 0, 1, 2, 3, 4, 5, 6, 7, 32000};
   s.zmin = -300;
-  const fs::path p = tmp("i16.sur");
+  const fs::path p = scan_tmp("i16.sur");
   write_bytes(p, sur_object(s));
   const auto d = metrology::read_sur_data(p);
   constexpr double dz = static_cast<double>(1e-3f) * 1e-3;  // float32 Z spacing in um, in mm
@@ -208,7 +208,7 @@ TEST(SurFields, NonMeasuredOnlyWhereTheHeaderDeclaresThem) {
   s.points = {10, 8, 12, 13, 14, 15, 16, 17, 18, 19, 20, 8};
   s.zmin = 10;  // 8 = Zmin - 2
   s.special = 1;
-  const fs::path p = tmp("special.sur");
+  const fs::path p = scan_tmp("special.sur");
   write_bytes(p, sur_object(s));
   auto d = metrology::read_sur_data(p);
   EXPECT_TRUE(std::isnan(d.grid.z_mm(0, 1)));
@@ -227,7 +227,7 @@ TEST(SurFields, InversionNegatesAndMirrors) {
   for (int inv : {1, 2, 3}) {
     SurSpec s = base_spec();
     s.inversion = inv;
-    const fs::path p = tmp("inv" + std::to_string(inv) + ".sur");
+    const fs::path p = scan_tmp("inv" + std::to_string(inv) + ".sur");
     write_bytes(p, sur_object(s));
     const auto d = metrology::read_sur_data(p);
     for (int j = 0; j < 3; ++j)
@@ -247,7 +247,7 @@ TEST(SurFields, CompressedReadsAsUncompressed) {
   s.points.clear();
   for (int k = 0; k < 1200; ++k) s.points.push_back((k * 7919) % 100003 - 50000);
   s.zmin = -50000;
-  const fs::path a = tmp("plain.sur"), b = tmp("zipped.sur");
+  const fs::path a = scan_tmp("plain.sur"), b = scan_tmp("zipped.sur");
   write_bytes(a, sur_object(s));
   s.compressed = true;
   write_bytes(b, sur_object(s));
@@ -266,7 +266,7 @@ TEST(SurFields, MultiObjectFileReadsTheFirstAndSaysSo) {
   t.objects = 2;
   for (auto& v : t.points) v += 1000;
   bytes += sur_object(t);
-  const fs::path p = tmp("multi.sur");
+  const fs::path p = scan_tmp("multi.sur");
   write_bytes(p, bytes);
   const auto d = metrology::read_surface_file(p);
   EXPECT_DOUBLE_EQ(d.grid.z_mm(0, 0), 5 * static_cast<double>(1e-3f) * 1e-3);  // the first object's, not 1005
@@ -276,7 +276,7 @@ TEST(SurFields, MultiObjectFileReadsTheFirstAndSaysSo) {
 TEST(SurFields, ProfileObjectIsAProfile) {
   SurSpec s = base_spec();
   s.type = 1, s.nx = 12, s.ny = 1;
-  const fs::path p = tmp("profile.sur");
+  const fs::path p = scan_tmp("profile.sur");
   write_bytes(p, sur_object(s));
   const auto f = metrology::read_surface_file(p);
   ASSERT_TRUE(f.profile);
@@ -292,7 +292,7 @@ TEST(SurFields, WriterAndReaderAgreeOnTheNewRules) {
   for (Eigen::Index k = 0; k < g.z_mm.size(); ++k)
     g.z_mm.data()[k] = 0.01 * std::sin(0.37 * static_cast<double>(k)) - 3.0;
   g.z_mm(3, 4) = NAN;
-  const fs::path p = tmp("vmsim.sur");
+  const fs::path p = scan_tmp("vmsim.sur");
   metrology::write_sur(p, g);
   const auto r = metrology::read_sur_data(p);
   EXPECT_TRUE(std::isnan(r.grid.z_mm(3, 4)));
@@ -337,7 +337,7 @@ TEST(BcrAscii, Int16WithScaleUnitsOffsetsAndVoidPoints) {
   std::vector<double> v;
   for (int k = 1; k <= 11; ++k) v.push_back(k);
   v.push_back(32767);  // the bcrstm void value
-  const fs::path p = tmp("stm.bcr");
+  const fs::path p = scan_tmp("stm.bcr");
   write_bytes(p, bcr_file("bcrstm", 4, 3, v,
                           {"xlength = 400", "ylength = 600", "xunit = nm", "yunit = nm", "zunit = um", "bit2nm = 2",
                            "voidpixels = 1", "xoffset = 1000", "yoffset = 2000"}));
@@ -359,7 +359,7 @@ TEST(BcrAscii, Float32AndBigEndian) {
   std::vector<double> v;
   for (int k = 1; k <= 11; ++k) v.push_back(0.5 * k);
   v.push_back(3.402823e38);
-  const fs::path p = tmp("f.bcrf");
+  const fs::path p = scan_tmp("f.bcrf");
   write_bytes(p, bcr_file("bcrf", 4, 3, v,
                           {"xlength = 4", "ylength = 6", "xunit = um", "yunit = um", "zunit = nm", "voidpixels = 1"}));
   const auto g = metrology::read_surface(p);
@@ -367,7 +367,7 @@ TEST(BcrAscii, Float32AndBigEndian) {
   EXPECT_DOUBLE_EQ(g.z_mm(0, 1), 1e-6);
   EXPECT_TRUE(std::isnan(g.z_mm(2, 3)));
   expect_like_gwyddion(p, g);
-  const fs::path q = tmp("big.bcr");
+  const fs::path q = scan_tmp("big.bcr");
   std::vector<double> w = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
   write_bytes(q, bcr_file("bcrstm", 4, 3, w, {"xlength = 400", "ylength = 600", "bit2nm = 1"}, true));
   const auto b = metrology::read_surface(q);
@@ -375,7 +375,7 @@ TEST(BcrAscii, Float32AndBigEndian) {
 }
 
 TEST(BcrAscii, ShortFileIsAClearError) {
-  const fs::path p = tmp("short.bcr");
+  const fs::path p = scan_tmp("short.bcr");
   std::string b = bcr_file("bcrstm", 4, 3, {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12}, {"xlength = 400", "ylength = 600"});
   b.resize(b.size() - 4);
   write_bytes(p, b);
@@ -434,12 +434,12 @@ core::HeightGrid small_grid() {
 
 TEST(X3pOtherTools, MainXmlUnderAFolderNextToMacJunk) {
   const core::HeightGrid g = small_grid();
-  const fs::path std_file = tmp("std.x3p");
+  const fs::path std_file = scan_tmp("std.x3p");
   metrology::write_x3p(std_file, g);
   std::vector<std::pair<std::string, std::string>> e = {{"__MACOSX/._scan", "junk"}, {"scan/.DS_Store", "junk"}};
   for (const auto& [n, d] : zip_entries(std_file))
     if (n.back() != '/') e.emplace_back("scan/" + n, d);
-  const fs::path p = tmp("folder.x3p");
+  const fs::path p = scan_tmp("folder.x3p");
   write_zip(p, e);
   const auto f = metrology::read_surface_file(p);
   EXPECT_TRUE(((f.grid.z_mm == g.z_mm) || (f.grid.z_mm.isNaN() && g.z_mm.isNaN())).all());
@@ -450,12 +450,12 @@ TEST(X3pOtherTools, MainXmlUnderAFolderNextToMacJunk) {
 }
 
 TEST(X3pOtherTools, TwoMainXmlAreAnErrorNamingBoth) {
-  const fs::path std_file = tmp("std2.x3p");
+  const fs::path std_file = scan_tmp("std2.x3p");
   metrology::write_x3p(std_file, small_grid());
   std::vector<std::pair<std::string, std::string>> e;
   for (const auto& [n, d] : zip_entries(std_file))
     if (n.back() != '/') e.emplace_back("a/" + n, d), e.emplace_back("b/" + n, d);
-  const fs::path p = tmp("two.x3p");
+  const fs::path p = scan_tmp("two.x3p");
   write_zip(p, e);
   try {
     metrology::read_surface_file(p);
@@ -472,7 +472,7 @@ TEST(X3pOtherTools, TwoMainXmlAreAnErrorNamingBoth) {
 TEST(GzipText, MatrixReadsAsTheUncompressedFile) {
   const std::string text =
       "h=2 w=3\npixel size=2 um\ndata unit=rad\nheight conversion factor (-> nm)=10\n1 2 3\n4 nan 6\n";
-  const fs::path plain = tmp("m.txt"), zipped = tmp("m.txt.gz");
+  const fs::path plain = scan_tmp("m.txt"), zipped = scan_tmp("m.txt.gz");
   write_bytes(plain, text);
   gzFile z = gzopen(zipped.string().c_str(), "wb");
   gzwrite(z, text.data(), static_cast<unsigned>(text.size()));
@@ -500,7 +500,7 @@ TEST(GzipText, MatrixReadsAsTheUncompressedFile) {
 }
 
 TEST(MatrixHeader, CountsAndUnitsAreChecked) {
-  const fs::path p = tmp("bad.txt");
+  const fs::path p = scan_tmp("bad.txt");
   write_bytes(p, "h=3 w=3\npixel size=2 um\n1 2 3\n4 5 6\n");
   EXPECT_THROW(metrology::read_surface(p), core::Error);  // h=3 rows declared, 2 present
   write_bytes(p, "pixel size=2 um\ndata unit=rad\n1 2 3\n4 5 6\n");
@@ -534,7 +534,7 @@ std::string dektak_text(const std::vector<double>& x_um, const std::vector<doubl
 TEST(DektakCsv, RoundedLateralValuesAreTheUniformGrid) {
   std::vector<double> x, z;
   for (int i = 0; i < 640; ++i) x.push_back(0.15625 * i), z.push_back(0.002 * std::sin(0.05 * i));
-  const fs::path p = tmp("dektak.csv");
+  const fs::path p = scan_tmp("dektak.csv");
   write_bytes(p, dektak_text(x, z));
   const auto f = metrology::read_surface_file(p);
   EXPECT_EQ(f.format, "dektak");
@@ -548,7 +548,7 @@ TEST(DektakCsv, RoundedLateralValuesAreTheUniformGrid) {
 TEST(DektakCsv, IrregularLateralValuesAreResampledAndSaid) {
   std::vector<double> x, z;
   for (int i = 0; i < 200; ++i) x.push_back(i + (i % 2 ? 0.4 : 0.0)), z.push_back(0.01 * i);
-  const fs::path p = tmp("irregular.csv");
+  const fs::path p = scan_tmp("irregular.csv");
   write_bytes(p, dektak_text(x, z));
   const auto f = metrology::read_surface_file(p);
   ASSERT_TRUE(f.profile);
@@ -560,7 +560,7 @@ TEST(DektakCsv, IrregularLateralValuesAreResampledAndSaid) {
 }
 
 TEST(DektakCsv, DecreasingLateralIsAnErrorWithTheLine) {
-  const fs::path p = tmp("bad.csv");
+  const fs::path p = scan_tmp("bad.csv");
   write_bytes(p, dektak_text({0.0, 0.2, 0.1}, {1, 2, 3}));
   try {
     metrology::read_surface_file(p);

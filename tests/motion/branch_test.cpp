@@ -23,7 +23,7 @@ namespace vmsim::motion {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = core::units::kDegToRad;
+using vmsim::core::units::kDegToRad;
 
 core::Machine haas() {
   return core::load_machine(fs::path(VMSIM_SOURCE_DIR) / "parts" / "machines" / "haas_umc750.toml");
@@ -33,8 +33,8 @@ core::Machine haas() {
 std::string go(double x, double y, double z, double tilt_deg, double az_deg) {
   char b[200];
   std::snprintf(b, sizeof b, "GOTO/%.6f,%.6f,%.6f,%.9f,%.9f,%.9f\n", x, y, z,
-                std::sin(tilt_deg * kDeg) * std::cos(az_deg * kDeg),
-                std::sin(tilt_deg * kDeg) * std::sin(az_deg * kDeg), std::cos(tilt_deg * kDeg));
+                std::sin(tilt_deg * kDegToRad) * std::cos(az_deg * kDegToRad),
+                std::sin(tilt_deg * kDegToRad) * std::sin(az_deg * kDegToRad), std::cos(tilt_deg * kDegToRad));
   return b;
 }
 
@@ -80,13 +80,13 @@ TEST(BranchChoice, RapidSwitchesToTheBranchWithinTravel) {
   const core::ToolPath axes = toolpath_in_axis_space(prog, m);
   expect_follows(prog, axes, m);
   const int ib = 4, ic = 5;  // program axes B and C
-  EXPECT_NEAR(axes.moves[0].end[ib], -20 * kDeg, 1e-9);
+  EXPECT_NEAR(axes.moves[0].end[ib], -20 * kDegToRad, 1e-9);
   EXPECT_NEAR(std::remainder(axes.moves[0].end[ic], 2 * core::units::kPi), 0.0, 1e-9);
   ASSERT_TRUE(axes.moves[1].rapid);
-  EXPECT_NEAR(axes.moves[1].end[ib], 50 * kDeg, 1e-9);
-  EXPECT_NEAR(std::abs(std::remainder(axes.moves[1].end[ic], 2 * core::units::kPi)), 180 * kDeg, 1e-9);
+  EXPECT_NEAR(axes.moves[1].end[ib], 50 * kDegToRad, 1e-9);
+  EXPECT_NEAR(std::abs(std::remainder(axes.moves[1].end[ic], 2 * core::units::kPi)), 180 * kDegToRad, 1e-9);
   EXPECT_TRUE(axes.moves[1].via.empty()) << "the switching rapid runs straight in axis space";
-  EXPECT_NEAR(axes.moves[3].end[ib], 60 * kDeg, 1e-9);
+  EXPECT_NEAR(axes.moves[3].end[ib], 60 * kDegToRad, 1e-9);
 }
 
 // The same switch at a feed move is not allowed mid-path, but the path's start is a switch point: the whole first
@@ -98,8 +98,8 @@ TEST(BranchChoice, FirstStretchStartsOnTheBranchThatFits) {
   const core::ToolPath prog = program::read_apt_text(text, "branch.cls");
   const core::ToolPath axes = toolpath_in_axis_space(prog, m);
   expect_follows(prog, axes, m);
-  EXPECT_NEAR(axes.initial_position[4], 20 * kDeg, 1e-9);
-  EXPECT_NEAR(axes.moves.back().end[4], 60 * kDeg, 1e-9);
+  EXPECT_NEAR(axes.initial_position[4], 20 * kDegToRad, 1e-9);
+  EXPECT_NEAR(axes.moves.back().end[4], 60 * kDegToRad, 1e-9);
 }
 
 // No branch fits: a tilt of 125 deg is beyond +120 on one branch and -35 on the other. The error names the line and

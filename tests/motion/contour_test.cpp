@@ -21,7 +21,7 @@ using namespace vmsim::motion;
 namespace {
 
 constexpr double kNm = 1e-6;  // 1 nm in mm
-const double kPi = units::kPi;
+using vmsim::core::units::kPi;
 
 // Distance from p to the segment [a, b], written independently of contour.cpp (Eigen, parametric form).
 double seg_dist(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {

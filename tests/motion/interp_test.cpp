@@ -18,7 +18,7 @@ using namespace vmsim::motion;
 
 namespace {
 
-const double kPi = units::kPi;
+using vmsim::core::units::kPi;
 
 Machine mikron() { return load_machine(std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml"); }
 

@@ -29,8 +29,8 @@ namespace {
 namespace fs = std::filesystem;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
-constexpr double kPi = core::units::kPi;
-constexpr double kDeg = core::units::kDegToRad;
+using vmsim::core::units::kDegToRad;
+using vmsim::core::units::kPi;
 
 const fs::path kMachines = fs::path(VMSIM_SOURCE_DIR) / "parts" / "machines";
 const fs::path kGcodeData = fs::path(VMSIM_SHARED_DIR) / "data" / "gcode";
@@ -73,8 +73,8 @@ core::MachineAxis rotary(const char* name, double lo_deg, double hi_deg) {
   a.program_axis = 3 + static_cast<int>(std::string("ABC").find(name[0]));
   a.kind = core::AxisKind::Rotary;
   a.continuous = lo_deg > hi_deg;
-  a.travel_min = a.continuous ? -1e300 : lo_deg * kDeg;
-  a.travel_max = a.continuous ? 1e300 : hi_deg * kDeg;
+  a.travel_min = a.continuous ? -1e300 : lo_deg * kDegToRad;
+  a.travel_max = a.continuous ? 1e300 : hi_deg * kDegToRad;
   a.max_velocity = 2;
   a.max_acceleration = 5;
   a.max_jerk = 50;
@@ -160,7 +160,7 @@ core::Machine cartesian_chain() {
 }
 
 core::Machine xyzac() { return core::load_machine(kMachines / "xyzac_trt.toml"); }
-core::Machine mikron() { return core::load_machine(kMachines / "mikron_ucp710.toml"); }
+core::Machine mikron_machine() { return core::load_machine(kMachines / "mikron_ucp710.toml"); }
 
 // Random axis positions within travel (continuous axes: three turns either way).
 VectorXd random_axes(const core::Machine& m, std::mt19937_64& rng) {
@@ -188,7 +188,7 @@ bool within_travel(const core::Machine& m, const VectorXd& q) {
 // ---- Machine files --------------------------------------------------------------------------------------------
 
 TEST(KinematicsFiles, MikronAndXyzacTrtLoadWithTheirChains) {
-  const core::Machine mk = mikron();
+  const core::Machine mk = mikron_machine();
   EXPECT_EQ(mk.kinematics, "chain");
   ASSERT_TRUE(mk.chain);
   ASSERT_EQ(mk.chain->workpiece.size(), 2u);
@@ -202,8 +202,8 @@ TEST(KinematicsFiles, MikronAndXyzacTrtLoadWithTheirChains) {
   EXPECT_EQ(tr.chain->workpiece[0].point_mm, Vector3d(0, 20, 10));  // LinuxCNC sim: y-offset 20, z-offset 10
   EXPECT_EQ(make_kinematics(tr)->family(), KinematicFamily::TableTable);
   const core::MachineAxis& a = tr.axes[static_cast<std::size_t>(tr.axis_index(core::kA))];
-  EXPECT_NEAR(a.travel_min, -100 * kDeg, 1e-15);
-  EXPECT_NEAR(a.travel_max, 50 * kDeg, 1e-15);
+  EXPECT_NEAR(a.travel_min, -100 * kDegToRad, 1e-15);
+  EXPECT_NEAR(a.travel_max, 50 * kDegToRad, 1e-15);
   EXPECT_TRUE(tr.axes[static_cast<std::size_t>(tr.axis_index(core::kC))].continuous);
   for (const core::MachineAxis& ax : tr.axes) EXPECT_TRUE(ax.drive) << ax.name;
 
@@ -338,7 +338,7 @@ struct Family {
 
 std::vector<Family> families() {
   return {{"xyzac-trt", xyzac()},
-          {"mikron", mikron()},
+          {"mikron", mikron_machine()},
           {"bc-table", bc_table()},
           {"head-table", head_table()},
           {"head-head", head_head()},
@@ -415,7 +415,7 @@ TEST(Kinematics, XyzacTrtMatchesLinuxCncFormulas) {
   double worst = 0, worst_axis = 0, worst_fwd = 0;
   for (int n = 0; n < 1000; ++n) {
     const Vector3d tip(60 * u(rng), 40 * u(rng), 30 * u(rng));
-    const double a = (-25 + 75 * u(rng)) * kDeg, c = 400 * u(rng) * kDeg, t = 50 + 50 * u(rng);
+    const double a = (-25 + 75 * u(rng)) * kDegToRad, c = 400 * u(rng) * kDegToRad, t = 50 + 50 * u(rng);
     const double dy = 20, dz = 10 + t;
     const Vector3d pos = tip + Vector3d(0, 0, t);
     const double ca = std::cos(a), sa = std::sin(a), cc = std::cos(c), sc = std::sin(c);
@@ -440,7 +440,7 @@ TEST(Kinematics, XyzacTrtMatchesLinuxCncFormulas) {
 
 // With its tables at zero the Mikron is the 3-axis machine it was before its chain, bit for bit.
 TEST(Kinematics, MikronAtZeroIsTheCartesianMachine) {
-  const core::Machine chain = mikron();
+  const core::Machine chain = mikron_machine();
   core::Machine flat = chain;
   flat.kinematics = "xyz";
   flat.chain.reset();
@@ -472,16 +472,16 @@ TEST(Kinematics, MikronAtZeroIsTheCartesianMachine) {
 // The Mikron turns its tables the ISO 841 way: +C turns the table clockwise seen from above, so the tool goes
 // counter-clockwise around the workpiece (the tool, at machine +X, is over the workpiece's +Y at C = +90 deg).
 TEST(Kinematics, MikronRotaryDirections) {
-  const core::Machine m = mikron();
+  const core::Machine m = mikron_machine();
   const auto kin = make_kinematics(m);
   VectorXd q = VectorXd::Zero(5);
-  q[m.axis_index(core::kC)] = 90 * kDeg;
+  q[m.axis_index(core::kC)] = 90 * kDegToRad;
   q[m.axis_index(core::kX)] = 50;
   // The gauge at X = 50 (machine) sits over the workpiece point at +Y: the workpiece turned by -90 deg about Z.
   EXPECT_LT((kin->forward(q, 0).tip_mm - Vector3d(0, 50, 0)).norm(), 1e-12);
   // +A turns the table about -X: the tool leans towards -Y in the workpiece frame, about the pivot 100 mm down.
   q.setZero();
-  q[m.axis_index(core::kA)] = 90 * kDeg;
+  q[m.axis_index(core::kA)] = 90 * kDegToRad;
   const ToolPose p = kin->forward(q, 0);
   EXPECT_LT((p.axis - Vector3d(0, -1, 0)).norm(), 1e-12);
   EXPECT_LT((p.tip_mm - Vector3d(0, -100, -100)).norm(), 1e-12);
@@ -571,11 +571,11 @@ double max_step(const std::vector<double>& v) {
 TEST(KinematicsContinuity, ConeAroundTheSingularityTurnsCContinuously) {
   const core::Machine m = xyzac();
   std::vector<Vector3d> axes;
-  for (int k = 0; k <= 1080; ++k) axes.push_back(polar(2 * kDeg, k * kDeg));
+  for (int k = 0; k <= 1080; ++k) axes.push_back(polar(2 * kDegToRad, k * kDegToRad));
   const Track t = track(m, axes, Vector3d(10, 5, 0), VectorXd::Zero(5));
-  EXPECT_LT(max_step(t.c), 1.01 * kDeg);
+  EXPECT_LT(max_step(t.c), 1.01 * kDegToRad);
   EXPECT_NEAR(std::abs(t.c.back() - t.c.front()), 6 * kPi, 1e-9);
-  for (double a : t.a) EXPECT_NEAR(std::abs(a), 2 * kDeg, 1e-12);
+  for (double a : t.a) EXPECT_NEAR(std::abs(a), 2 * kDegToRad, 1e-12);
   for (double a : t.a) EXPECT_EQ(std::signbit(a), std::signbit(t.a.front()));
 }
 
@@ -585,18 +585,18 @@ TEST(KinematicsContinuity, CPassesHalfATurnWithoutJumping) {
   const auto kin = make_kinematics(m);
   const int ia = m.axis_index(core::kA), ic = m.axis_index(core::kC);
   VectorXd near = VectorXd::Zero(5);
-  near[ia] = -30 * kDeg;
-  near[ic] = 170 * kDeg;
+  near[ia] = -30 * kDegToRad;
+  near[ic] = 170 * kDegToRad;
   // The pose of (A -30, C 190), asked from near (A -30, C 170).
   VectorXd q = near;
-  q[ic] = 190 * kDeg;
+  q[ic] = 190 * kDegToRad;
   const ToolPose p = kin->forward(q, 0);
   const VectorXd sol = kin->inverse(p, 0, near);
-  EXPECT_NEAR(sol[ic], 190 * kDeg, 1e-12);
-  EXPECT_NEAR(sol[ia], -30 * kDeg, 1e-12);
+  EXPECT_NEAR(sol[ic], 190 * kDegToRad, 1e-12);
+  EXPECT_NEAR(sol[ia], -30 * kDegToRad, 1e-12);
   // And from C = 170 deg + 3 turns: the same turn count.
   near[ic] += 6 * kPi;
-  EXPECT_NEAR(kin->inverse(p, 0, near)[ic], 190 * kDeg + 6 * kPi, 1e-12);
+  EXPECT_NEAR(kin->inverse(p, 0, near)[ic], 190 * kDegToRad + 6 * kPi, 1e-12);
 }
 
 // Straight through the singular pose (the tool axis tilting in the YZ plane from -5 to +5 deg, exactly vertical
@@ -604,14 +604,15 @@ TEST(KinematicsContinuity, CPassesHalfATurnWithoutJumping) {
 TEST(KinematicsContinuity, ThroughTheSingularPoseCHoldsStill) {
   const core::Machine m = xyzac();
   std::vector<Vector3d> axes;
-  for (int k = -50; k <= 50; ++k) axes.push_back(Vector3d(0, std::sin(k * 0.1 * kDeg), std::cos(k * 0.1 * kDeg)));
+  for (int k = -50; k <= 50; ++k)
+    axes.push_back(Vector3d(0, std::sin(k * 0.1 * kDegToRad), std::cos(k * 0.1 * kDegToRad)));
   ASSERT_EQ(axes[50], Vector3d(0, 0, 1));
   VectorXd near = VectorXd::Zero(5);
   near[m.axis_index(core::kC)] = 0.3;  // C of the previous pose: kept through the pose where C is free
   const Track t = track(m, axes, Vector3d(-20, 15, 2), near);
   // The first pose (tilted) fixes C at 0 (of 0 and pi, the closer to near's 0.3), and C never moves after it.
   for (double c : t.c) EXPECT_EQ(c, t.c.front());
-  EXPECT_NEAR(max_step(t.a), 0.1 * kDeg, 1e-12);
+  EXPECT_NEAR(max_step(t.a), 0.1 * kDegToRad, 1e-12);
   EXPECT_EQ(t.a[50], 0.0);
   EXPECT_NE(std::signbit(t.a.front()), std::signbit(t.a.back()));
 }
@@ -651,14 +652,14 @@ TEST(KinematicsTravel, LimitsChooseTheSolutionOrReportTheAxis) {
   const int ia = m.axis_index(core::kA);
   // 60 deg tilt from near A = +40: A = +60 is out of travel, so A = -60 (with C half a turn away).
   VectorXd near = VectorXd::Zero(5);
-  near[ia] = 40 * kDeg;
-  const ToolPose p{Vector3d(5, -5, 3), polar(60 * kDeg, 0.7)};
+  near[ia] = 40 * kDegToRad;
+  const ToolPose p{Vector3d(5, -5, 3), polar(60 * kDegToRad, 0.7)};
   const VectorXd q = kin->inverse(p, 0, near);
-  EXPECT_NEAR(q[ia], -60 * kDeg, 1e-12);
+  EXPECT_NEAR(q[ia], -60 * kDegToRad, 1e-12);
   EXPECT_LT(angle(kin->forward(q, 0).axis, p.axis), 1e-12);
   // 120 deg tilt: both +-120 deg are outside -100..50.
   try {
-    kin->inverse(ToolPose{Vector3d(0, 0, 0), polar(120 * kDeg, 0.3)}, 0, VectorXd::Zero(5));
+    kin->inverse(ToolPose{Vector3d(0, 0, 0), polar(120 * kDegToRad, 0.3)}, 0, VectorXd::Zero(5));
     FAIL() << "expected an error";
   } catch (const core::Error& e) {
     const std::string msg = e.what();
@@ -677,26 +678,26 @@ TEST(KinematicsTravel, LimitsChooseTheSolutionOrReportTheAxis) {
   core::Machine lim = m;
   core::MachineAxis& c = lim.axes[static_cast<std::size_t>(lim.axis_index(core::kC))];
   c.continuous = false;
-  c.travel_min = -200 * kDeg;
-  c.travel_max = 200 * kDeg;
+  c.travel_min = -200 * kDegToRad;
+  c.travel_max = 200 * kDegToRad;
   const auto kl = make_kinematics(lim);
   VectorXd qc = VectorXd::Zero(5);
-  qc[ia] = -30 * kDeg;
-  qc[lim.axis_index(core::kC)] = -170 * kDeg;
+  qc[ia] = -30 * kDegToRad;
+  qc[lim.axis_index(core::kC)] = -170 * kDegToRad;
   VectorXd nc = qc;
-  nc[lim.axis_index(core::kC)] = 180 * kDeg;  // the closest equivalent, 190 deg, is inside
+  nc[lim.axis_index(core::kC)] = 180 * kDegToRad;  // the closest equivalent, 190 deg, is inside
   const VectorXd sc = kl->inverse(kl->forward(qc, 0), 0, nc);
-  EXPECT_NEAR(sc[lim.axis_index(core::kC)], 190 * kDeg, 1e-12);
-  nc[lim.axis_index(core::kC)] = 195 * kDeg + 2 * kPi;  // near is far out; the equivalents inside are -170 and 190
+  EXPECT_NEAR(sc[lim.axis_index(core::kC)], 190 * kDegToRad, 1e-12);
+  nc[lim.axis_index(core::kC)] = 195 * kDegToRad + 2 * kPi;  // near is far out; the equivalents inside are -170 and 190
   const VectorXd sc2 = kl->inverse(kl->forward(qc, 0), 0, nc);
-  EXPECT_NEAR(sc2[lim.axis_index(core::kC)], 190 * kDeg, 1e-12);
+  EXPECT_NEAR(sc2[lim.axis_index(core::kC)], 190 * kDegToRad, 1e-12);
 }
 
 // The nutating head cannot tilt the tool beyond 90 deg: an error that says so.
 TEST(KinematicsTravel, UnreachableOrientationIsAnError) {
   const auto kin = make_kinematics(nutating_head());
   try {
-    kin->inverse(ToolPose{Vector3d(0, 0, 0), polar(120 * kDeg, 0)}, 0, VectorXd::Zero(5));
+    kin->inverse(ToolPose{Vector3d(0, 0, 0), polar(120 * kDegToRad, 0)}, 0, VectorXd::Zero(5));
     FAIL() << "expected an error";
   } catch (const core::Error& e) {
     EXPECT_NE(std::string(e.what()).find("outside the orientations"), std::string::npos) << e.what();
@@ -821,7 +822,7 @@ TEST(KinematicsToolpath, TcpLinesAndArcs) {
   EXPECT_TRUE(ax.moves[4].via.empty());
   EXPECT_EQ(ax.moves[4].rotation, wp.moves[4].rotation);
   // The centre (25, 5) turned with the table by +35 deg about Z (LinuxCNC's direction).
-  const Vector3d c = Eigen::AngleAxisd(35 * kDeg, Vector3d::UnitZ()) * Vector3d(25, 5, 0);
+  const Vector3d c = Eigen::AngleAxisd(35 * kDegToRad, Vector3d::UnitZ()) * Vector3d(25, 5, 0);
   EXPECT_LT((Eigen::Vector2d(ax.moves[4].centre_mm) - c.head<2>()).norm(), 1e-12);
   EXPECT_EQ(ax.moves[6].kind, core::MotionKind::Line);
   EXPECT_TRUE(ax.moves[6].via.empty());
@@ -846,7 +847,7 @@ TEST(KinematicsToolpath, TcpLinesAndArcs) {
 // APT CL moves go through the inverse: the tool axis turns along its great circle while the tip moves, and the
 // rotary axes continue from the previous move.
 TEST(KinematicsToolpath, ClMovesThroughTheInverse) {
-  const core::Machine m = mikron();
+  const core::Machine m = mikron_machine();
   const fs::path p = write("five.apt",
                            "FEDRAT/1000.0\n"
                            "FROM/0.0,0.0,50.0,0.0,0.0,1.0\n"
@@ -886,7 +887,7 @@ TEST(KinematicsToolpath, ClMovesThroughTheInverse) {
   // tip and tool axis held), then A tilts.
   ASSERT_FALSE(ax.moves[1].via_s.empty());
   EXPECT_EQ(ax.moves[1].via_s.front(), 0.0);
-  EXPECT_GT(std::abs(ax.moves[1].end[core::kC]), 80 * kDeg);
+  EXPECT_GT(std::abs(ax.moves[1].end[core::kC]), 80 * kDegToRad);
   EXPECT_EQ(ax.moves[0].end[core::kA], 0.0);
   EXPECT_EQ(ax.moves[0].end[core::kC], 0.0);
 }
@@ -995,7 +996,7 @@ PoseDeviation pose_deviation(const core::Machine& m, const Kinematics& kin, cons
 }
 
 // Largest |finite difference| / limit over every axis and order (the hard requirement: <= 1).
-double limit_ratio(const core::Machine& m, const core::Setpoints& sp) {
+double kinematic_limit_ratio(const core::Machine& m, const core::Setpoints& sp) {
   const core::AxisPeaks pk = core::finite_difference_peaks(sp);
   double worst = 0;
   for (std::size_t i = 0; i < m.axes.size(); ++i) {
@@ -1036,12 +1037,12 @@ TEST(KinematicsInterp, RandomFiveAxisPathsKeepTheLimitsAndTheTolerance) {
     core::ToolPath wp;
     wp.source_path = "random.cl";
     Vector3d p0(30 * u(rng), 30 * u(rng), 10 * u(rng));
-    Vector3d a0 = polar((15 + 45 * u01(rng)) * kDeg, kPi * u(rng));
-    double ra = -60 * kDeg * u01(rng), rc = 2 * kPi * u(rng);
+    Vector3d a0 = polar((15 + 45 * u01(rng)) * kDegToRad, kPi * u(rng));
+    double ra = -60 * kDegToRad * u01(rng), rc = 2 * kPi * u(rng);
     for (int k = 0; k < 4; ++k) {
       const Vector3d p1(30 * u(rng), 30 * u(rng), 10 * u(rng));
-      const Vector3d a1 = polar((15 + 45 * u01(rng)) * kDeg, kPi * u(rng));
-      const double ra1 = -60 * kDeg * u01(rng), rc1 = rc + kPi * u(rng);
+      const Vector3d a1 = polar((15 + 45 * u01(rng)) * kDegToRad, kPi * u(rng));
+      const double ra1 = -60 * kDegToRad * u01(rng), rc1 = rc + kPi * u(rng);
       core::Move mv = cl_move(p0, p1, a0, a1, 1000, k + 1);
       if (tcp) {
         mv.tool_axis_start.reset();
@@ -1056,7 +1057,7 @@ TEST(KinematicsInterp, RandomFiveAxisPathsKeepTheLimitsAndTheTolerance) {
     const core::ToolPath ax = toolpath_in_axis_space(wp, m);
     const InterpResult r = interpolate(ax, m, io);
     // The interpolator keeps the limits in degrees; converted to rad here, the ratio may round to 1 + 1e-15.
-    EXPECT_LE(limit_ratio(m, r.setpoints), 1.0 + 1e-9);
+    EXPECT_LE(kinematic_limit_ratio(m, r.setpoints), 1.0 + 1e-9);
     const PoseDeviation d = pose_deviation(m, *kin, wp, r.setpoints);
     EXPECT_LE(d.tip_mm, io.tolerance_mm);
     EXPECT_LE(100.0 * d.axis_rad, io.tolerance_mm);
@@ -1064,7 +1065,7 @@ TEST(KinematicsInterp, RandomFiveAxisPathsKeepTheLimitsAndTheTolerance) {
     EXPECT_LT((r.setpoints.position.bottomRows(1).transpose() - to_axes(m, ax.moves.back().end)).norm(), 1e-9);
     std::printf("trial %d (%s): %.2f s, %d blends, tip %.2f um, axis %.2f urad, limits used %.4f\n", trial,
                 tcp ? "tcp" : "cl", r.stats.cycle_time_s, r.stats.blends, d.tip_mm * 1e3, d.axis_rad * 1e6,
-                limit_ratio(m, r.setpoints));
+                kinematic_limit_ratio(m, r.setpoints));
   }
 }
 
@@ -1087,7 +1088,7 @@ TEST(KinematicsInterp, InverseTimeDurationIsKept) {
     if (r.setpoints.move_index[k] == 1) t1 += r.setpoints.period_s;
   EXPECT_GT(t1, 10.0 - 1e-3);
   EXPECT_LT(t1, 10.0 + 2 * (9.0 / 300.0 + 2 * 300.0 / 3000.0));
-  EXPECT_LE(limit_ratio(m, r.setpoints), 1.0 + 1e-9);
+  EXPECT_LE(kinematic_limit_ratio(m, r.setpoints), 1.0 + 1e-9);
 }
 
 }  // namespace

@@ -18,7 +18,7 @@ using namespace vmsim::motion;
 
 namespace {
 
-const double kPi = units::kPi;
+using vmsim::core::units::kPi;
 
 // The full circle of radius r about c as a rational quadratic NURBS: 9 control points on the square around it,
 // corner weights sqrt(2)/2 (The NURBS Book, ex. 7.2).

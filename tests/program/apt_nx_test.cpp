@@ -28,12 +28,12 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kIn = core::units::kInchToMm;
 
-fs::path data_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "nx_clsf_haas_umc750"; }
+fs::path nx_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "nx_clsf_haas_umc750"; }
 
-#define SKIP_WITHOUT_DATA() \
-  if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)"
+#define SKIP_WITHOUT_NX_DATA() \
+  if (!fs::exists(nx_dir())) GTEST_SKIP() << nx_dir() << " is absent (the real CAM programs of ../shared)"
 
-std::string error_of(const std::string& text, const AptOptions& o = {}) {
+std::string nx_error_of(const std::string& text, const AptOptions& o = {}) {
   try {
     read_apt_text(text, "nx.cls", o);
   } catch (const core::Error& e) {
@@ -116,9 +116,9 @@ TEST(NxClsf, InformationListingAndRecordsOfNx) {
   EXPECT_NEAR(tp.tool_length_mm, 4.0 * kIn, 1e-12);
   EXPECT_EQ(tp.tool_line, 8);
   // A listing line elsewhere, or a misspelt one, is not skipped.
-  EXPECT_NE(error_of("UNITS/MM\nInformation listing made by\tx\nGOTO/0,0,0\n").find("nx.cls:2:"), std::string::npos);
+  EXPECT_NE(nx_error_of("UNITS/MM\nInformation listing made by\tx\nGOTO/0,0,0\n").find("nx.cls:2:"), std::string::npos);
   // Unknown records: an error naming file, line and record.
-  const std::string e = error_of("UNITS/MM\nGOTO/0,0,0\nFROBNICATE/1,2\n");
+  const std::string e = nx_error_of("UNITS/MM\nGOTO/0,0,0\nFROBNICATE/1,2\n");
   EXPECT_NE(e.find("nx.cls:3:"), std::string::npos) << e;
   EXPECT_NE(e.find("FROBNICATE"), std::string::npos) << e;
   // Not APT: G-code and 840D text.
@@ -142,7 +142,7 @@ TEST(NxClsf, LaterToolsAreWarnedNotSilentlyCut) {
 
 TEST(NxClsf, UnmodelledRecordsAreErrorsOrWarningsWhenLenient) {
   const std::string text = "UNITS/MM\nFEDRAT/MMPM,100\nGOTO/0,0,0\nDELAY/2.0\nCUTCOM/LEFT\nCUTCOM/OFF\nGOTO/1,0,0\n";
-  const std::string e = error_of(text);
+  const std::string e = nx_error_of(text);
   EXPECT_NE(e.find("nx.cls:4:"), std::string::npos) << e;
   EXPECT_NE(e.find("DELAY"), std::string::npos) << e;
   EXPECT_NE(e.find("program_lenient"), std::string::npos) << e;
@@ -168,7 +168,7 @@ TEST(NxClsf, LaterMsysFrameIsCarriedIntoTheFirst) {
   EXPECT_NEAR(tp.moves[0].end[core::kY], 19, 1e-12);
   EXPECT_NEAR(tp.moves[0].end[core::kZ], 27, 1e-12);
   EXPECT_TRUE(tp.moves[0].tool_axis_end->isApprox(Eigen::Vector3d::UnitY()));
-  EXPECT_NE(error_of("MSYS/0,0,0,1,0,0,0.5,0.5,0\n").find("right angles"), std::string::npos);
+  EXPECT_NE(nx_error_of("MSYS/0,0,0,1,0,0,0.5,0.5,0\n").find("right angles"), std::string::npos);
 }
 
 // A CIRCLE/ about a tilted axis: chords whose ends lie on the circle (radius, plane, and the height along the axis
@@ -228,7 +228,7 @@ struct Scan {
 
 // A plain scan of the file's lines, independent of the reader: record words at the start of a line, a GOTO/ whose
 // x, y, z text repeats the last GOTO/'s (and gives no new axis) counted as zero-length.
-Scan scan(const fs::path& file) {
+Scan nx_scan(const fs::path& file) {
   Scan s;
   std::ifstream in(file);
   std::string line, last_xyz, first_dr;
@@ -274,11 +274,11 @@ struct FileCase {
 class NxReal : public ::testing::TestWithParam<FileCase> {};
 
 TEST_P(NxReal, RecordCountsMatchAPlainScan) {
-  SKIP_WITHOUT_DATA();
+  SKIP_WITHOUT_NX_DATA();
   const FileCase fc = GetParam();
-  const fs::path file = data_dir() / fc.name;
+  const fs::path file = nx_dir() / fc.name;
   EXPECT_EQ(program_dialect(file), Dialect::Apt) << "a .txt NX listing is read as APT by its content";
-  const Scan s = scan(file);
+  const Scan s = nx_scan(file);
   EXPECT_EQ(s.gotos, fc.gotos);
   EXPECT_EQ(s.circles, fc.circles);
   EXPECT_EQ(s.rapids, fc.rapids);
@@ -337,8 +337,8 @@ INSTANTIATE_TEST_SUITE_P(Files, NxReal,
                          });
 
 TEST(NxReal, NoUnitsAnywhereIsAWarning) {
-  SKIP_WITHOUT_DATA();
-  const core::ToolPath tp = read_program(data_dir() / "APT_code.txt");
+  SKIP_WITHOUT_NX_DATA();
+  const core::ToolPath tp = read_program(nx_dir() / "APT_code.txt");
   EXPECT_TRUE(has_warning(tp, "no UNITS/"));
 }
 
@@ -346,8 +346,8 @@ TEST(NxReal, NoUnitsAnywhereIsAWarning) {
 // tool D0.24 in R0.12 in): the contact point lies on the ball whose centre is the tip plus R along the tool axis. The
 // axis of these GOTO/s is modal (none of them gives i,j,k): with the axis taken as +Z the invariant fails.
 TEST(NxReal, ContactPointsLieOnTheBall) {
-  SKIP_WITHOUT_DATA();
-  const fs::path file = data_dir() / "APT_Project2.txt";
+  SKIP_WITHOUT_NX_DATA();
+  const fs::path file = nx_dir() / "APT_Project2.txt";
   std::map<int, Eigen::Vector3d> contact;  // line -> CC (inch)
   {
     std::ifstream in(file);

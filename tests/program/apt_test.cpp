@@ -30,7 +30,7 @@ fs::path write_cl(const std::string& text, const std::string& name = "prog.apt")
 }
 
 // The message of the core::Error that reading `text` throws ("" when it does not throw).
-std::string error_of(const std::string& text) {
+std::string apt_error_of(const std::string& text) {
   const fs::path p = write_cl(text);
   try {
     read_apt(p);
@@ -174,7 +174,7 @@ TEST(Apt, CutterAndTldataSetTheTool) {
   const core::ToolPath nx = read_apt(write_cl("TLDATA/MILL,6.0000,1.0000,50.0000,0.0000,0.0000\nGOTO/0,0,0\n"));
   EXPECT_DOUBLE_EQ(nx.tool_diameter_mm, 6.0);
   EXPECT_DOUBLE_EQ(nx.tool_corner_radius_mm, 1.0);
-  EXPECT_NE(error_of("CUTTER/10,6\nGOTO/0,0,0\n").find("prog.apt:1: CUTTER/"), std::string::npos);
+  EXPECT_NE(apt_error_of("CUTTER/10,6\nGOTO/0,0,0\n").find("prog.apt:1: CUTTER/"), std::string::npos);
 }
 
 TEST(Apt, LoadtlSetsTheToolNumberOfLaterMoves) {
@@ -297,17 +297,17 @@ TEST(Apt, MovarcAngleCountsFullTurns) {
 TEST(Apt, ArcErrorsNameTheLine) {
   // A tilted axis is read (chords in the circle's plane, apt_nx_test.cpp); its end point must be on the circle: (0, 8,
   // 6) is 9.6 mm along the axis (0, 0.6, 0.8) and 2.8 mm from it.
-  const std::string tilted = error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0.6,0.8,10\nGOTO/0,8,6\n");
+  const std::string tilted = apt_error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0.6,0.8,10\nGOTO/0,8,6\n");
   EXPECT_NE(tilted.find("prog.apt:4: GOTO/ end point is 2.8 mm from the axis of CIRCLE/ on line 3"), std::string::npos)
       << tilted;
-  const std::string radius = error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0,1,10\nGOTO/0,12,0\n");
+  const std::string radius = apt_error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0,1,10\nGOTO/0,12,0\n");
   EXPECT_NE(radius.find("prog.apt:4: GOTO/ end point is 12 mm from the centre of CIRCLE/ on line 3"), std::string::npos)
       << radius;
-  const std::string dangling = error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0,1,10\n");
+  const std::string dangling = apt_error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0,1,10\n");
   EXPECT_NE(dangling.find("prog.apt:3: CIRCLE/ is not followed by its GOTO/"), std::string::npos) << dangling;
-  const std::string nostart = error_of("CIRCLE/0,0,0,0,0,1,10\nGOTO/0,10,0\n");
+  const std::string nostart = apt_error_of("CIRCLE/0,0,0,0,0,1,10\nGOTO/0,10,0\n");
   EXPECT_NE(nostart.find("prog.apt:1: CIRCLE/ before any FROM/ or GOTO/"), std::string::npos) << nostart;
-  const std::string zero_axis = error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0,0,10\nGOTO/0,10,0\n");
+  const std::string zero_axis = apt_error_of("FEDRAT/100\nGOTO/10,0,0\nCIRCLE/0,0,0,0,0,0,10\nGOTO/0,10,0\n");
   EXPECT_NE(zero_axis.find("prog.apt:3: CIRCLE/ axis vector (0, 0, 0) has zero length"), std::string::npos)
       << zero_axis;
 }
@@ -427,7 +427,7 @@ TEST(Apt, ErrorsNameTheFileLineAndWord) {
        "?'"},
   };
   for (const auto& c : cases) {
-    const std::string msg = error_of(c.program);
+    const std::string msg = apt_error_of(c.program);
     EXPECT_NE(msg.find(c.expected), std::string::npos) << "program:\n" << c.program << "\nmessage: " << msg;
     // Every message starts with the file's path.
     EXPECT_EQ(msg.rfind(write_cl("").string(), 0), 0u) << msg;

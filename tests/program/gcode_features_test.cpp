@@ -11,7 +11,7 @@ namespace {
 constexpr double kTol = 1e-4;  // canonical calls carry 4 decimals
 
 // Expects the XYZ of the n-th motion call.
-void expect_xyz(const std::vector<Call>& m, std::size_t i, double x, double y, double z) {
+void expect_gcode_xyz(const std::vector<Call>& m, std::size_t i, double x, double y, double z) {
   ASSERT_LT(i, m.size());
   ASSERT_GE(m[i].numbers.size(), 3u) << m[i].text;
   EXPECT_NEAR(m[i].numbers[0], x, kTol) << "motion " << i << ": " << m[i].text;
@@ -48,10 +48,10 @@ TEST(GcodeExpressions, LinuxCncPrecedenceAndLeftAssociativity) {
                   "G1 X[-10 MOD 3] Y[2 - -3] Z[-[1 + 1]]\n"                  // MOD is never negative: 2; 5; -2
                   "M2\n"));
   ASSERT_EQ(m.size(), 4u);
-  expect_xyz(m, 0, 7, 64, 4);
-  expect_xyz(m, 1, 3, 1, 6);
-  expect_xyz(m, 2, 1, 0, 0);
-  expect_xyz(m, 3, 2, 5, -2);
+  expect_gcode_xyz(m, 0, 7, 64, 4);
+  expect_gcode_xyz(m, 1, 3, 1, 6);
+  expect_gcode_xyz(m, 2, 1, 0, 0);
+  expect_gcode_xyz(m, 3, 2, 5, -2);
 }
 
 TEST(GcodeExpressions, FunctionsInDegreesRoundingAndComparisonTolerance) {
@@ -67,13 +67,13 @@ TEST(GcodeExpressions, FunctionsInDegreesRoundingAndComparisonTolerance) {
                   "g1 x [ 1 + 1 ] y-2.5 Z.5\n"                            // any case, blanks anywhere
                   "M2\n"));
   ASSERT_EQ(m.size(), 7u);
-  expect_xyz(m, 0, 0.5, 0.5, 1);
-  expect_xyz(m, 1, 90, 90, 135);
-  expect_xyz(m, 2, 4, 3, 1);
-  expect_xyz(m, 3, 2, -2, -1);
-  expect_xyz(m, 4, 3, -3, 0);
-  expect_xyz(m, 5, 1, 1, 0);
-  expect_xyz(m, 6, 2, -2.5, 0.5);
+  expect_gcode_xyz(m, 0, 0.5, 0.5, 1);
+  expect_gcode_xyz(m, 1, 90, 90, 135);
+  expect_gcode_xyz(m, 2, 4, 3, 1);
+  expect_gcode_xyz(m, 3, 2, -2, -1);
+  expect_gcode_xyz(m, 4, 3, -3, 0);
+  expect_gcode_xyz(m, 5, 1, 1, 0);
+  expect_gcode_xyz(m, 6, 2, -2.5, 0.5);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -92,9 +92,9 @@ TEST(GcodeParameters, NumberedNamedIndirectAndReadBeforeSet) {
                   "G1 X#2 Y[#<_g> * 2] Z#<A>\n"  // names are case-insensitive
                   "M2\n"));
   ASSERT_EQ(m.size(), 3u);
-  expect_xyz(m, 0, 6, 0, 6);
-  expect_xyz(m, 1, 2, 3, 7);
-  expect_xyz(m, 2, 9, 6, 2);
+  expect_gcode_xyz(m, 0, 6, 0, 6);
+  expect_gcode_xyz(m, 1, 2, 3, 7);
+  expect_gcode_xyz(m, 2, 9, 6, 2);
 }
 
 TEST(GcodeParameters, LocalNamesBelongToTheirCallGlobalsDoNot) {
@@ -110,7 +110,7 @@ TEST(GcodeParameters, LocalNamesBelongToTheirCallGlobalsDoNot) {
                   "G1 X#<loc> Y#<_glob> Z#1\n"  // the caller's #<loc> and #1 are untouched
                   "M2\n"));
   ASSERT_EQ(m.size(), 1u);
-  expect_xyz(m, 0, 5, 42, 7);
+  expect_gcode_xyz(m, 0, 5, 42, 7);
 }
 
 TEST(GcodeParameters, PredefinedParametersAndDebugMessages) {
@@ -145,7 +145,7 @@ TEST(GcodeOWords, NestedWhileLoops) {
                   "M2\n"));
   ASSERT_EQ(m.size(), 6u);
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 2; ++j) expect_xyz(m, static_cast<std::size_t>(2 * i + j), i, j, 0);
+    for (int j = 0; j < 2; ++j) expect_gcode_xyz(m, static_cast<std::size_t>(2 * i + j), i, j, 0);
 }
 
 TEST(GcodeOWords, SubroutineArgumentsReturnValuesAndRecursion) {
@@ -168,8 +168,8 @@ TEST(GcodeOWords, SubroutineArgumentsReturnValuesAndRecursion) {
                   "G1 X#<_value>\n"
                   "M2\n"));
   ASSERT_EQ(m.size(), 2u);
-  expect_xyz(m, 0, 3, 1, 11);
-  expect_xyz(m, 1, 120, 1, 11);
+  expect_gcode_xyz(m, 0, 3, 1, 11);
+  expect_gcode_xyz(m, 1, 120, 1, 11);
 }
 
 TEST(GcodeOWords, IfElseifElseRepeatDoWhileBreakContinue) {
@@ -199,12 +199,12 @@ TEST(GcodeOWords, IfElseifElseRepeatDoWhileBreakContinue) {
                   "o4 endif\n"
                   "M2\n"));
   ASSERT_EQ(m.size(), 6u);
-  expect_xyz(m, 0, 1, 0, 0);
-  expect_xyz(m, 1, 2, 0, 0);
-  expect_xyz(m, 2, 3, 0, 0);
-  expect_xyz(m, 3, 3, 1, 0);
-  expect_xyz(m, 4, 3, 3, 0);
-  expect_xyz(m, 5, 3, 3, 7);
+  expect_gcode_xyz(m, 0, 1, 0, 0);
+  expect_gcode_xyz(m, 1, 2, 0, 0);
+  expect_gcode_xyz(m, 2, 3, 0, 0);
+  expect_gcode_xyz(m, 3, 3, 1, 0);
+  expect_gcode_xyz(m, 4, 3, 3, 0);
+  expect_gcode_xyz(m, 5, 3, 3, 7);
 }
 
 TEST(GcodeOWords, SubroutineDefinedAfterTheMainProgramAndNWordsInsideIt) {
@@ -321,10 +321,10 @@ TEST(GcodeModes, IncrementalMoves) {
                   "G90 G0 X0\n"
                   "M2\n"));
   ASSERT_EQ(m.size(), 5u);
-  expect_xyz(m, 1, 2, 3, 0);
-  expect_xyz(m, 2, 1, 3, 0);
+  expect_gcode_xyz(m, 1, 2, 3, 0);
+  expect_gcode_xyz(m, 2, 1, 3, 0);
   expect_call(m[3], "ARC_FEED", {3, 3, 2, 3, -1, 0, 0, 0, 0});
-  expect_xyz(m, 4, 0, 3, 0);
+  expect_gcode_xyz(m, 4, 0, 3, 0);
 }
 
 TEST(GcodeModes, InchProgramsBecomeMillimetresInTheToolPath) {
@@ -337,7 +337,7 @@ TEST(GcodeModes, InchProgramsBecomeMillimetresInTheToolPath) {
           "G21 G1 X10\n"  // the feed stays what it physically was (10 in/min)
           "M2\n");
   const auto m = motions(r);
-  expect_xyz(m, 1, 2, 2, 0.5);  // canonical calls keep the program's units
+  expect_gcode_xyz(m, 1, 2, 2, 0.5);  // canonical calls keep the program's units
   ASSERT_EQ(r.path.moves.size(), 4u);
   expect_vec(r.path.moves[0].end, v6(25.4, 50.8, 12.7), "G0 in inches");
   expect_vec(r.path.moves[1].end, v6(50.8, 50.8, 12.7), "G1 in inches");
@@ -368,10 +368,10 @@ TEST(GcodeModes, WorkOffsetsG10L2L20G5xG92AreFoldedIntoTheToolPath) {
   const auto t = texts(r);
   const auto m = motions(r);
   ASSERT_EQ(m.size(), 6u);
-  expect_xyz(m, 0, 1, 2, 3);  // canonical calls are in the active system
-  expect_xyz(m, 1, 1, 22, 33);
-  expect_xyz(m, 2, 5, 5, 33);
-  expect_xyz(m, 3, 0, 0, 33);
+  expect_gcode_xyz(m, 0, 1, 2, 3);  // canonical calls are in the active system
+  expect_gcode_xyz(m, 1, 1, 22, 33);
+  expect_gcode_xyz(m, 2, 5, 5, 33);
+  expect_gcode_xyz(m, 3, 0, 0, 33);
   EXPECT_NE(std::find(t.begin(), t.end(), "SET_G5X_OFFSET(2, 100.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)"),
             t.end());
   EXPECT_NE(std::find(t.begin(), t.end(), "SET_G92_OFFSET(1.0000, 22.0000, 0.0000, 0.0000, 0.0000, 0.0000)"), t.end());

@@ -26,10 +26,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path data_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "spinner_u5-620_840d"; }
+fs::path spinner_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "cam" / "spinner_u5-620_840d"; }
 
-#define SKIP_WITHOUT_DATA() \
-  if (!fs::exists(data_dir())) GTEST_SKIP() << data_dir() << " is absent (the real CAM programs of ../shared)"
+#define SKIP_WITHOUT_840D_DATA() \
+  if (!fs::exists(spinner_dir())) GTEST_SKIP() << spinner_dir() << " is absent (the real CAM programs of ../shared)"
 
 const std::vector<int> kSpinnerM = {27, 29, 50, 51, 65};  // Spinner's own M functions in these files, without motion
 
@@ -37,7 +37,7 @@ SinumerikResult read(const std::string& name, bool lenient = false, std::vector<
   SinumerikOptions o;
   o.no_motion_mcodes = std::move(mcodes);
   o.lenient = lenient;
-  return interpret_sinumerik(data_dir() / name, o);
+  return interpret_sinumerik(spinner_dir() / name, o);
 }
 
 std::vector<std::string> lines_of(const fs::path& p) {
@@ -53,7 +53,7 @@ std::vector<std::string> lines_of(const fs::path& p) {
 struct ScanCounts {
   int rapid = 0, linear = 0, arcs = 0, tool_calls = 0, m6 = 0;
 };
-ScanCounts scan(const fs::path& p) {
+ScanCounts spinner_scan(const fs::path& p) {
   ScanCounts c;
   int mode = 0;
   const std::regex g(R"((?:^|\s)G0*([0-3])(?=\s|$))"), axis(R"((?:^|\s)[XYZBC](?:=|-?[0-9.]))"),
@@ -82,11 +82,11 @@ const Expected kFiles[] = {
 };
 
 TEST(SinumerikReal, CountsOfBlocksArcsAndMovesMatchTheFiles) {
-  SKIP_WITHOUT_DATA();
+  SKIP_WITHOUT_840D_DATA();
   for (const Expected& e : kFiles) {
     SCOPED_TRACE(e.file);
     const SinumerikResult r = read(e.file);
-    const ScanCounts s = scan(data_dir() / e.file);
+    const ScanCounts s = spinner_scan(spinner_dir() / e.file);
     EXPECT_EQ(r.stats.lines, e.lines);
     EXPECT_EQ(static_cast<int>(r.stats.blocks), e.lines);  // no jumps: every line runs once
     EXPECT_EQ(r.stats.rapid_blocks, s.rapid);
@@ -120,10 +120,10 @@ TEST(SinumerikReal, CountsOfBlocksArcsAndMovesMatchTheFiles) {
 }
 
 TEST(SinumerikReal, ToolCallsAreTheDataSetsTools) {
-  SKIP_WITHOUT_DATA();
+  SKIP_WITHOUT_840D_DATA();
   std::set<std::string> known;
   bool header = true;
-  for (std::string l : lines_of(data_dir() / "Tool_information.csv")) {
+  for (std::string l : lines_of(spinner_dir() / "Tool_information.csv")) {
     if (header) {
       header = false;
       continue;
@@ -153,7 +153,7 @@ TEST(SinumerikReal, ToolCallsAreTheDataSetsTools) {
 }
 
 TEST(SinumerikReal, UnknownStatementsAreNamedWithFileAndLine) {
-  SKIP_WITHOUT_DATA();
+  SKIP_WITHOUT_840D_DATA();
   for (const Expected& e : kFiles) {
     SCOPED_TRACE(e.file);
     // Without the machine's M functions the first (N80 M9 M50, line 8) stops the reading, named.
@@ -161,17 +161,17 @@ TEST(SinumerikReal, UnknownStatementsAreNamedWithFileAndLine) {
       read(e.file, false, {});
       ADD_FAILURE() << "no error";
     } catch (const core::Error& err) {
-      EXPECT_EQ(std::string(err.what()).rfind((data_dir() / e.file).string() + ":8: M50:", 0), 0u) << err.what();
+      EXPECT_EQ(std::string(err.what()).rfind((spinner_dir() / e.file).string() + ":8: M50:", 0), 0u) << err.what();
     }
     // Lenient: one warning per unknown M function, on the lines that hold them (found by a plain scan).
     const SinumerikResult r = read(e.file, true, {});
     std::vector<std::string> expected;
-    const std::vector<std::string> lines = lines_of(data_dir() / e.file);
+    const std::vector<std::string> lines = lines_of(spinner_dir() / e.file);
     const std::regex m(R"((?:^|\s)M(27|29|50|51|65)(?=\s|$))");
     for (std::size_t i = 0; i < lines.size(); ++i) {
       const std::string code = lines[i].substr(0, lines[i].find(';'));
       for (auto it = std::sregex_iterator(code.begin(), code.end(), m); it != std::sregex_iterator(); ++it)
-        expected.push_back((data_dir() / e.file).string() + ":" + std::to_string(i + 1) + ": M" + (*it)[1].str());
+        expected.push_back((spinner_dir() / e.file).string() + ":" + std::to_string(i + 1) + ": M" + (*it)[1].str());
     }
     ASSERT_EQ(r.warnings.size(), expected.size());
     for (std::size_t i = 0; i < expected.size(); ++i)
@@ -186,7 +186,7 @@ TEST(SinumerikReal, UnknownStatementsAreNamedWithFileAndLine) {
 // the blank's face in that direction (2 mm on top: two passes), and the faces pair up 48 mm apart, centred on the
 // same point, in X and in Y. A frame composed in another order or turned the other way puts a face elsewhere.
 TEST(SinumerikReal, ThreePlusTwoFacesComeOutWhereTheFramesPutThem) {
-  SKIP_WITHOUT_DATA();
+  SKIP_WITHOUT_840D_DATA();
   const SinumerikResult r = read("Coordinate_system_representation_Achskreuz.mpf");
   // Operations by their ";Operation : NAME" comments; each operation's tool axis is the frame's Z in force at its
   // first feed move (the frame comments the reader writes; TRANS X0 Y0 Z0 resets the frame at the operation's end).
@@ -282,12 +282,12 @@ TEST(SinumerikReal, ThreePlusTwoFacesComeOutWhereTheFramesPutThem) {
 }
 
 TEST(SinumerikReal, ReadProgramChoosesTheDialectOfTheTxtFile) {
-  SKIP_WITHOUT_DATA();
+  SKIP_WITHOUT_840D_DATA();
   // Bottle_opener_Flaschenoeffner.txt has the extension of G-code files: its content says 840D.
-  EXPECT_EQ(program_dialect(data_dir() / "Bottle_opener_Flaschenoeffner.txt"), Dialect::Sinumerik);
+  EXPECT_EQ(program_dialect(spinner_dir() / "Bottle_opener_Flaschenoeffner.txt"), Dialect::Sinumerik);
   ProgramOptions o;
   o.no_motion_mcodes = kSpinnerM;
-  const core::ToolPath p = read_program(data_dir() / "Bottle_opener_Flaschenoeffner.txt", o);
+  const core::ToolPath p = read_program(spinner_dir() / "Bottle_opener_Flaschenoeffner.txt", o);
   EXPECT_EQ(p.moves.size(), read("Bottle_opener_Flaschenoeffner.txt").path.moves.size());
   ASSERT_TRUE(p.program_tolerance_mm.has_value());
   EXPECT_DOUBLE_EQ(*p.program_tolerance_mm, 0.02);

@@ -41,7 +41,7 @@ std::vector<std::string> moves(const SinumerikResult& r) {
   return out;
 }
 
-std::string error_of(const std::string& text, const SinumerikOptions& options = {}) {
+std::string sinumerik_error_of(const std::string& text, const SinumerikOptions& options = {}) {
   try {
     run(text, options);
   } catch (const core::Error& e) {
@@ -158,8 +158,9 @@ TEST(Sinumerik, ArcsWithCentreRadiusAndTurns) {
   EXPECT_EQ(last.rotation, 1);
   EXPECT_DOUBLE_EQ(last.feed_mm_per_min, 500.0);
   // An end point off the circle by more than 0.01 mm is refused (840D MD21000 default).
-  EXPECT_NE(error_of("G0 X10 Y0\nG3 X0 Y10.02 I-10 J0 F100\n").find("test.mpf:2: the end point is 0.0200 mm off"),
-            std::string::npos);
+  EXPECT_NE(
+      sinumerik_error_of("G0 X10 Y0\nG3 X0 Y10.02 I-10 J0 F100\n").find("test.mpf:2: the end point is 0.0200 mm off"),
+      std::string::npos);
 }
 
 TEST(Sinumerik, AbsoluteAndIncrementalWords) {
@@ -281,7 +282,7 @@ TEST(Sinumerik, TraoriMovesAreToolCentrePointMovesInTheFrame) {
   EXPECT_NEAR((m.path.moves[2].start.head<3>() - Eigen::Vector3d(-95, 0, 0)).norm(), 0, 1e-12);
   EXPECT_NEAR((m.path.moves[2].end.head<3>() - Eigen::Vector3d(-95, 0, 610)).norm(), 0, 1e-12);
   // SUPA under TRAORI is refused.
-  EXPECT_NE(error_of("TRAORI\nSUPA G0 Z10\n").find("test.mpf:2: SUPA / G53 under TRAORI"), std::string::npos);
+  EXPECT_NE(sinumerik_error_of("TRAORI\nSUPA G0 Z10\n").find("test.mpf:2: SUPA / G53 under TRAORI"), std::string::npos);
 }
 
 TEST(Sinumerik, Cycle800SwivelsThroughTheMachine) {
@@ -290,8 +291,9 @@ TEST(Sinumerik, Cycle800SwivelsThroughTheMachine) {
       "CYCLE800(0,\"TABLE\",100000,57,0,0,0,0,90,0,0,0,0,-1,100,1)\n"  // axis by axis X Y Z: a turn of 90 about Y
       "G0 X0 Y0 Z5\n"                                                  // the swivelled plane: tip Ry(90)(0,0,5)
       "CYCLE800()\n";
-  EXPECT_NE(error_of(text).find("test.mpf:2: CYCLE800 turns the rotary axes through the machine's kinematics"),
-            std::string::npos);
+  EXPECT_NE(
+      sinumerik_error_of(text).find("test.mpf:2: CYCLE800 turns the rotary axes through the machine's kinematics"),
+      std::string::npos);
   FakeMachine fake;
   SinumerikOptions o;
   o.machine = &fake;
@@ -302,8 +304,9 @@ TEST(Sinumerik, Cycle800SwivelsThroughTheMachine) {
   EXPECT_EQ(m[2], "STRAIGHT_TRAVERSE(5.0000, 0.0000, 0.0000, 0.0000, 90.0000, 0.0000)");
   EXPECT_TRUE(r.path.moves.back().tcp);
   // The retraction _FR names positions the program does not give: refused.
-  EXPECT_NE(error_of("CYCLE800(1,\"TABLE\",100000,57,0,0,0,0,90,0,0,0,0,-1,100,1)\n", o).find("retraction _FR=1"),
-            std::string::npos);
+  EXPECT_NE(
+      sinumerik_error_of("CYCLE800(1,\"TABLE\",100000,57,0,0,0,0,90,0,0,0,0,-1,100,1)\n", o).find("retraction _FR=1"),
+      std::string::npos);
 }
 
 TEST(Sinumerik, ToolCallsSpindleCoolantAndEnd) {
@@ -396,18 +399,21 @@ TEST(Sinumerik, DrillingCyclesMakeTheirDocumentedMotion) {
 }
 
 TEST(Sinumerik, UnknownStatementsAreErrorsNamingFileLineAndWord) {
-  EXPECT_EQ(error_of("G0 X0\nN20 FOO X1\n"), "test.mpf:2: unknown word \"FOO\"");
-  EXPECT_NE(error_of("G0 X0\nM50\n").find("test.mpf:2: M50: the machine maker's M function"), std::string::npos);
-  EXPECT_NE(error_of("_X=1\n").find("test.mpf:1: _X=...: variable _X is not defined"), std::string::npos);
-  EXPECT_NE(error_of("GOTOF NOWHERE\n").find("test.mpf:1: jump target NOWHERE not found"), std::string::npos);
-  EXPECT_NE(error_of("G41 X1\n").find("test.mpf:1: G41: cutter radius compensation"), std::string::npos);
-  EXPECT_NE(error_of("L100\n").find("test.mpf:1: unknown word \"L100\""), std::string::npos);
-  EXPECT_NE(error_of("MYSUB(1)\n").find("test.mpf:1: MYSUB(): subprogram or cycle not supported"), std::string::npos);
-  EXPECT_NE(error_of("G1 X1\n").find("test.mpf:1: a feed move (G1, G2, G3) without a feed"), std::string::npos);
-  EXPECT_NE(error_of("IF R1==1\nG0 X1\n").find("test.mpf:1: IF without ENDIF"), std::string::npos);
-  EXPECT_NE(error_of("G0 X=SIN(\n").find("test.mpf:1:"), std::string::npos);
+  EXPECT_EQ(sinumerik_error_of("G0 X0\nN20 FOO X1\n"), "test.mpf:2: unknown word \"FOO\"");
+  EXPECT_NE(sinumerik_error_of("G0 X0\nM50\n").find("test.mpf:2: M50: the machine maker's M function"),
+            std::string::npos);
+  EXPECT_NE(sinumerik_error_of("_X=1\n").find("test.mpf:1: _X=...: variable _X is not defined"), std::string::npos);
+  EXPECT_NE(sinumerik_error_of("GOTOF NOWHERE\n").find("test.mpf:1: jump target NOWHERE not found"), std::string::npos);
+  EXPECT_NE(sinumerik_error_of("G41 X1\n").find("test.mpf:1: G41: cutter radius compensation"), std::string::npos);
+  EXPECT_NE(sinumerik_error_of("L100\n").find("test.mpf:1: unknown word \"L100\""), std::string::npos);
+  EXPECT_NE(sinumerik_error_of("MYSUB(1)\n").find("test.mpf:1: MYSUB(): subprogram or cycle not supported"),
+            std::string::npos);
+  EXPECT_NE(sinumerik_error_of("G1 X1\n").find("test.mpf:1: a feed move (G1, G2, G3) without a feed"),
+            std::string::npos);
+  EXPECT_NE(sinumerik_error_of("IF R1==1\nG0 X1\n").find("test.mpf:1: IF without ENDIF"), std::string::npos);
+  EXPECT_NE(sinumerik_error_of("G0 X=SIN(\n").find("test.mpf:1:"), std::string::npos);
   // A line that cannot be read is an error only when it runs (a jump over it is fine, as on the 840D).
-  EXPECT_EQ(error_of("GOTOF END\nFOO\nEND: M30\n"), "");
+  EXPECT_EQ(sinumerik_error_of("GOTOF END\nFOO\nEND: M30\n"), "");
 
   // Lenient: statements known to have no motion become warnings naming file and line; unknown words stay errors.
   SinumerikOptions lenient;
@@ -420,7 +426,7 @@ TEST(Sinumerik, UnknownStatementsAreErrorsNamingFileLineAndWord) {
   EXPECT_EQ(r.warnings[3].rfind("test.mpf:4: H2", 0), 0u);
   EXPECT_EQ(r.warnings[4].rfind("test.mpf:5: WAITM()", 0), 0u);
   EXPECT_EQ(moves(r).size(), 2u);
-  EXPECT_EQ(error_of("FOO\n", lenient), "test.mpf:1: unknown word \"FOO\"");
+  EXPECT_EQ(sinumerik_error_of("FOO\n", lenient), "test.mpf:1: unknown word \"FOO\"");
   // The machine's own M functions, named: accepted silently.
   SinumerikOptions named;
   named.no_motion_mcodes = {50};

@@ -10,6 +10,7 @@
 #include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
 #include "removal/track.hpp"
+#include "tests/removal/removal_test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -26,13 +27,7 @@ namespace {
 const Box kStock{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(30, 20, 10)};
 constexpr double kTol = 1e-5;
 
-Tool tool(double R, double rc, double L) {
-  Tool t;
-  t.radius_mm = R;
-  t.corner_radius_mm = rc;
-  t.length_mm = L;
-  return t;
-}
+using vmsim::removal::test::tool;
 
 // Straight moves through the stock's top at a constant tilted axis (up to 50 deg), short and long, some deep.
 std::vector<SweptTool> tilted_moves(const Tool& t, unsigned seed, int n) {

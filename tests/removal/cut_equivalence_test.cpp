@@ -12,6 +12,7 @@
 #include "removal/cut_internal.hpp"
 #include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
+#include "tests/removal/removal_test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -26,15 +27,9 @@ using namespace vmsim::removal;
 
 namespace {
 
-const Box kStock{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(40, 30, 12)};
+const Box kEquivalenceStock{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(40, 30, 12)};
 
-Tool tool(double R, double rc, double L = 30) {
-  Tool t;
-  t.radius_mm = R;
-  t.corner_radius_mm = rc;
-  t.length_mm = L;
-  return t;
-}
+using vmsim::removal::test::tool;
 
 SweptTool sweep(const Tool& t, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                 const Eigen::Vector3d& axis = Eigen::Vector3d::UnitZ()) {
@@ -133,9 +128,7 @@ std::vector<SweptTool> buried_and_special() {
   return s;
 }
 
-bool same_bits(const std::vector<Interval>& a, const std::vector<Interval>& b) {
-  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(Interval)) == 0);
-}
+using vmsim::removal::test::same_bits;
 
 // Every ray of two grids holds the same floats; returns the number of rays holding material and of split rays.
 std::pair<std::size_t, std::size_t> expect_same(const DexelGrid& a, const DexelGrid& b, const std::string& what) {
@@ -196,8 +189,8 @@ std::vector<Case> cases() {
 }
 
 DexelGrid zmap_with_splits(double h, unsigned seed) {
-  DexelGrid z = make_zmap(kStock, h);
-  fill_box(z, kStock);
+  DexelGrid z = make_zmap(kEquivalenceStock, h);
+  fill_box(z, kEquivalenceStock);
   add_split_rays(z, seed);
   return z;
 }
@@ -261,11 +254,11 @@ TEST(CutEquivalence, ZmapEqualsTheReferenceKernelBitForBit) {
 TEST(CutEquivalence, TridexelEqualsTheReferenceKernelBitForBit) {
   const ReferenceBullSolver solver;
   for (const Case& c : cases()) {
-    TriDexel fast = make_tridexel(kStock, 0.4), ref = make_tridexel(kStock, 0.4);
+    TriDexel fast = make_tridexel(kEquivalenceStock, 0.4), ref = make_tridexel(kEquivalenceStock, 0.4);
     DexelGrid* f[3] = {&fast.x, &fast.y, &fast.z};
     DexelGrid* r[3] = {&ref.x, &ref.y, &ref.z};
     for (int k = 0; k < 3; ++k) {
-      fill_box(*f[k], kStock), fill_box(*r[k], kStock);
+      fill_box(*f[k], kEquivalenceStock), fill_box(*r[k], kEquivalenceStock);
       cut(*f[k], c.sweeps);
       cut_reference(*r[k], c.sweeps);
       const auto [full, split] = expect_same(*r[k], *f[k], c.name + ", tri-dexel grid " + std::to_string(k));
@@ -288,10 +281,10 @@ TEST(CutEquivalence, NeedlesEqualTheReferenceKernelBitForBit) {
     o.push_back(p - 2 * n), d.push_back(n), len.push_back(4);
   }
   NeedleSet initial(o, d, len);
-  fill_box(initial, kStock);
+  fill_box(initial, kEquivalenceStock);
   for (const Case& c : cases()) {
     NeedleSet fast(o, d, len), ref(o, d, len);
-    fill_box(fast, kStock), fill_box(ref, kStock);
+    fill_box(fast, kEquivalenceStock), fill_box(ref, kEquivalenceStock);
     const CutStats sf = cut(fast, c.sweeps), sr = cut_reference(ref, c.sweeps);
     std::vector<Interval> a, b, i0;
     std::size_t changed = 0;
@@ -326,13 +319,13 @@ TEST(CutEquivalence, OneAndTwoThreadsAgreeBitForBit) {
   const int before = omp_get_max_threads();
   for (const Case& c : cases()) {
     DexelGrid a = zmap_with_splits(0.1, 31), b = zmap_with_splits(0.1, 31);
-    TriDexel ta = make_tridexel(kStock, 0.5), tb = make_tridexel(kStock, 0.5);
+    TriDexel ta = make_tridexel(kEquivalenceStock, 0.5), tb = make_tridexel(kEquivalenceStock, 0.5);
     omp_set_num_threads(1);
     cut(a, c.sweeps);
-    for (DexelGrid* g : {&ta.x, &ta.y, &ta.z}) fill_box(*g, kStock), cut(*g, c.sweeps);
+    for (DexelGrid* g : {&ta.x, &ta.y, &ta.z}) fill_box(*g, kEquivalenceStock), cut(*g, c.sweeps);
     omp_set_num_threads(2);
     cut(b, c.sweeps);
-    for (DexelGrid* g : {&tb.x, &tb.y, &tb.z}) fill_box(*g, kStock), cut(*g, c.sweeps);
+    for (DexelGrid* g : {&tb.x, &tb.y, &tb.z}) fill_box(*g, kEquivalenceStock), cut(*g, c.sweeps);
     expect_same(a, b, c.name + ": z-map, 1 vs 2 threads");
     expect_same(ta.x, tb.x, c.name + ": tri-dexel x, 1 vs 2 threads");
     expect_same(ta.y, tb.y, c.name + ": tri-dexel y, 1 vs 2 threads");
@@ -396,7 +389,9 @@ TEST(CutEquivalence, TrackSweepsEqualTheReferenceBitForBit) {
                                  ", tolerance " + std::to_string(tol);
         ASSERT_EQ(a.sweeps.size(), b.sweeps.size()) << what;
         EXPECT_GT(a.sweeps.size(), 50u) << what;
-        if (axes != 1) EXPECT_LT(a.sweeps.size(), a.points * 9 / 10) << what << ": the merge merged almost nothing";
+        if (axes != 1) {
+          EXPECT_LT(a.sweeps.size(), a.points * 9 / 10) << what << ": the merge merged almost nothing";
+        }
         for (std::size_t k = 0; k < a.sweeps.size(); ++k)
           ASSERT_TRUE(same_sweep(a.sweeps[k], b.sweeps[k])) << what << " " << k;
         EXPECT_EQ(a.points, b.points) << what;

@@ -17,6 +17,7 @@
 #include "tool_reference.hpp"
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -34,9 +35,9 @@ namespace ref = vmsim::removal::testref;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
-Tool ball(double R, double L) {
+Tool ball_tool(double R, double L) {
   Tool t;
   t.radius_mm = R;
   t.corner_radius_mm = R;
@@ -44,7 +45,7 @@ Tool ball(double R, double L) {
   return t;
 }
 
-Tool flat(double R, double L) {
+Tool flat_tool(double R, double L) {
   Tool t;
   t.radius_mm = R;
   t.corner_radius_mm = 0;
@@ -506,7 +507,7 @@ TEST(FiveAxisTrack, ThreeAxisTracksGiveTheSameSweepsAsBefore) {
     tracks.push_back(tr);
   }
   int compared = 0;
-  for (const Tool& tool : {ball(5, 30), flat(3, 20)}) {
+  for (const Tool& tool : {ball_tool(5, 30), flat_tool(3, 20)}) {
     for (double tol : {1e-4, 1e-3, 2e-3}) {
       for (std::size_t n = 0; n < tracks.size(); ++n) {
         TrackOptions opt;
@@ -558,7 +559,7 @@ TEST(FiveAxisTrack, VerticalToolTriDexelEqualsZmap) {
       tr.tip_velocity_mm_per_s.row(k) =
           Eigen::RowVector3d(-r * 5 * std::sin(w) - std::cos(w), r * 5 * std::cos(w) - std::sin(w), -0.4);
     }
-    const TrackSweeps ts = sweeps_from_track(ball(3, 30), tr);
+    const TrackSweeps ts = sweeps_from_track(ball_tool(3, 30), tr);
     EXPECT_EQ(ts.orientation_error_mm, 0.0);
     sweeps.insert(sweeps.end(), ts.sweeps.begin(), ts.sweeps.end());
   }
@@ -572,7 +573,7 @@ TEST(FiveAxisTrack, VerticalToolTriDexelEqualsZmap) {
     tr.tip_mm.resize(static_cast<Eigen::Index>(p.size()), 3);
     for (std::size_t k = 0; k < p.size(); ++k) tr.tip_mm.row(static_cast<Eigen::Index>(k)) = p[k].transpose();
     tr.axis_per_sample = Eigen::RowVector3d(0, 0, 1).replicate(tr.tip_mm.rows(), 1);
-    const TrackSweeps ts = sweeps_from_track(flat(2, 20), tr);
+    const TrackSweeps ts = sweeps_from_track(flat_tool(2, 20), tr);
     sweeps.insert(sweeps.end(), ts.sweeps.begin(), ts.sweeps.end());
   }
   DexelGrid zm = make_zmap(stock, h);
@@ -635,7 +636,7 @@ TEST(FiveAxisTrack, VerticalToolTriDexelEqualsZmap) {
 
 // A flat end (R 5, L 30) tilted 10 degrees, turning by 30 degrees while its tip moves 20 mm on a bowed path.
 TEST(FiveAxisTrack, TurningFlatEndWithinTheBoundOfTheBruteForce) {
-  const Tool tool = flat(5, 30);
+  const Tool tool = flat_tool(5, 30);
   const Eigen::Vector3d a0 =
       Eigen::AngleAxisd(10 * kPi / 180, Eigen::Vector3d(0.2, 1, 0).normalized()) * Eigen::Vector3d::UnitZ();
   const PoseTrack tr = turning_track({0, 0, 0}, {20, 4, -3}, 0.8, a0, Eigen::Vector3d(0.3, 1, 0.1), 30 * kPi / 180, 41);
@@ -654,7 +655,7 @@ TEST(FiveAxisTrack, TurningFlatEndWithinTheBoundOfTheBruteForce) {
 // far fewer sweeps, and the cut (the slab's material) stays within the bound of the brute force (same reference as
 // above: every pose of the track, dense).
 TEST(FiveAxisTrack, MaterialBoxCountsOnlyTheEngagingLength) {
-  const Tool tool = flat(5, 60);
+  const Tool tool = flat_tool(5, 60);
   const Eigen::Vector3d a0 =
       Eigen::AngleAxisd(10 * kPi / 180, Eigen::Vector3d(0.2, 1, 0).normalized()) * Eigen::Vector3d::UnitZ();
   const PoseTrack tr = turning_track({0, 0, 0}, {20, 4, -3}, 0.8, a0, Eigen::Vector3d(0.3, 1, 0.1), 30 * kPi / 180, 41);
@@ -676,7 +677,7 @@ TEST(FiveAxisTrack, MaterialBoxCountsOnlyTheEngagingLength) {
 
 // A pure rotation about the tip: a flat end turning 30 degrees from vertical over 7 samples, the tip fixed.
 TEST(FiveAxisTrack, FlatEndTurningAboutItsTipWithinTheBoundOfTheBruteForce) {
-  const Tool tool = flat(5, 30);
+  const Tool tool = flat_tool(5, 30);
   PoseTrack tr;
   tr.tip_mm = Eigen::RowVector3d(1, 2, 3).replicate(7, 1);
   tr.axis_per_sample.resize(7, 3);
@@ -692,7 +693,7 @@ TEST(FiveAxisTrack, FlatEndTurningAboutItsTipWithinTheBoundOfTheBruteForce) {
 
 // A ball end (R 4, L 30) tilted 15 degrees, turning by 30 degrees about another axis while moving 19 mm.
 TEST(FiveAxisTrack, TurningBallEndWithinTheBoundOfTheBruteForce) {
-  const Tool tool = ball(4, 30);
+  const Tool tool = ball_tool(4, 30);
   const Eigen::Vector3d a0 =
       Eigen::AngleAxisd(15 * kPi / 180, Eigen::Vector3d(1, 0.3, 0).normalized()) * Eigen::Vector3d::UnitZ();
   const PoseTrack tr =
@@ -708,7 +709,7 @@ TEST(FiveAxisTrack, TurningBallEndWithinTheBoundOfTheBruteForce) {
 // e_orient / reach of its axis, with e_tip + e_orient <= error_bound_mm; and every pose of every sweep has such a
 // pose of the track.
 TEST(FiveAxisTrack, EveryPoseIsWithinTheBoundOfASweepAndBack) {
-  const Tool tool = ball(3, 40);
+  const Tool tool = ball_tool(3, 40);
   const double reach = tool.reach();
   PoseTrack tr;
   tr.period_s = 0.01;
@@ -794,7 +795,7 @@ TEST(FiveAxisTrack, EveryPoseIsWithinTheBoundOfASweepAndBack) {
 // ---- (d) thread-count independence ----
 
 TEST(FiveAxisTrack, TurningCutDoesNotDependOnTheThreadCount) {
-  const Tool tool = flat(4, 25);
+  const Tool tool = flat_tool(4, 25);
   const PoseTrack tr =
       turning_track({2, 3, 4}, {22, 15, 2}, 1.0, Eigen::Vector3d(0.2, 0, 1), Eigen::Vector3d(0, 1, 0.2), 0.5, 30);
   TrackOptions opt;
@@ -853,10 +854,10 @@ TEST(FiveAxisTrack, TurningCutDoesNotDependOnTheThreadCount) {
 // One interval turning by Theta takes ceil(Theta / phi_max) sweeps, phi_max = 4 asin(tolerance / (4 reach)); a
 // track sampled finely (turning less than phi_max per sample) merges back to about as many; the bound holds.
 TEST(FiveAxisTrack, SubStepsFollowTheStatedBound) {
-  const Tool tool = flat(5, 50);
+  const Tool tool = flat_tool(5, 50);
   const double reach = tool.reach();
   EXPECT_NEAR(reach, std::hypot(50.0, 5.0), 1e-12);
-  EXPECT_NEAR(ball(5, 50).reach(), 50.0, 1e-12);
+  EXPECT_NEAR(ball_tool(5, 50).reach(), 50.0, 1e-12);
   for (double tol : {1e-2, 1e-3, 1e-4}) {
     const double phi_max = 4 * std::asin(tol / (4 * reach));
     // Two samples 10 degrees apart, the tip fixed.
@@ -891,7 +892,7 @@ TEST(FiveAxisTrack, SubStepsFollowTheStatedBound) {
 }
 
 TEST(FiveAxisTrack, BadTracksAreRefused) {
-  const Tool tool = flat(5, 30);
+  const Tool tool = flat_tool(5, 30);
   PoseTrack tr;
   tr.tip_mm = Eigen::MatrixXd::Zero(3, 3);
   tr.axis_per_sample = Eigen::MatrixXd::Zero(2, 3);

@@ -15,6 +15,7 @@
 #include "removal/fields.hpp"
 #include "removal/mesh_stock.hpp"
 #include "removal/surface.hpp"
+#include "tests/removal/removal_test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -100,14 +101,7 @@ TriangleMesh via_stl(const TriangleMesh& m, const std::string& name) {
   return r;
 }
 
-bool same_bits(const std::vector<Interval>& a, const std::vector<Interval>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t k = 0; k < a.size(); ++k)
-    if (std::bit_cast<std::uint32_t>(a[k].lo) != std::bit_cast<std::uint32_t>(b[k].lo) ||
-        std::bit_cast<std::uint32_t>(a[k].hi) != std::bit_cast<std::uint32_t>(b[k].hi))
-      return false;
-  return true;
-}
+using vmsim::removal::test::same_bits;
 
 std::string show(const std::vector<Interval>& iv) {
   std::string s = "{";
@@ -116,7 +110,7 @@ std::string show(const std::vector<Interval>& iv) {
 }
 
 // Every ray of two grids holds the same floats; returns the number of rays compared.
-std::size_t expect_same(const DexelGrid& a, const DexelGrid& b, const std::string& what) {
+std::size_t expect_identical(const DexelGrid& a, const DexelGrid& b, const std::string& what) {
   EXPECT_EQ(a.nu(), b.nu());
   EXPECT_EQ(a.nv(), b.nv());
   std::vector<Interval> ia, ib;
@@ -133,7 +127,7 @@ std::size_t expect_same(const DexelGrid& a, const DexelGrid& b, const std::strin
   return n;
 }
 
-void expect_same(const NeedleSet& a, const NeedleSet& b, const std::string& what) {
+void expect_identical(const NeedleSet& a, const NeedleSet& b, const std::string& what) {
   std::vector<Interval> ia, ib;
   int reported = 0;
   for (std::size_t k = 0; k < a.size(); ++k) {
@@ -296,13 +290,13 @@ TEST(MeshStock, BoxMeshEqualsFillBoxOnEveryField) {
       DexelGrid zm = make_zmap(region, 0.25), zb = make_zmap(region, 0.25);
       const MeshFillStats st = dex.fill(zm);
       fill_box(zb, stock);
-      expect_same(zm, zb, "z-map " + what);
+      expect_identical(zm, zb, "z-map " + what);
       TriDexel tm = make_tridexel(region, 0.5), tb = make_tridexel(region, 0.5);
       dex.fill(tm.x), dex.fill(tm.y), dex.fill(tm.z);
       fill_box(tb.x, stock), fill_box(tb.y, stock), fill_box(tb.z, stock);
-      expect_same(tm.x, tb.x, "tri-dexel x " + what);
-      expect_same(tm.y, tb.y, "tri-dexel y " + what);
-      expect_same(tm.z, tb.z, "tri-dexel z " + what);
+      expect_identical(tm.x, tb.x, "tri-dexel x " + what);
+      expect_identical(tm.y, tb.y, "tri-dexel y " + what);
+      expect_identical(tm.z, tb.z, "tri-dexel z " + what);
       std::printf("[ mesh     ] box %s: z-map %d x %d, %zu rays reach the mesh, %zu degenerate, %zu unresolved\n",
                   what.c_str(), zm.nu(), zm.nv(), st.rays, st.degenerate, st.unresolved);
       EXPECT_EQ(st.unresolved, 0u);
@@ -310,21 +304,21 @@ TEST(MeshStock, BoxMeshEqualsFillBoxOnEveryField) {
       // The same sweeps cut from both give the same floats again.
       const auto sweeps = some_sweeps(stock);
       cut(zm, sweeps), cut(zb, sweeps);
-      expect_same(zm, zb, "z-map after cutting, " + what);
+      expect_identical(zm, zb, "z-map after cutting, " + what);
       for (DexelGrid* g : {&tm.x, &tm.y, &tm.z}) cut(*g, sweeps);
       for (DexelGrid* g : {&tb.x, &tb.y, &tb.z}) cut(*g, sweeps);
-      expect_same(tm.x, tb.x, "tri-dexel x after cutting, " + what);
-      expect_same(tm.y, tb.y, "tri-dexel y after cutting, " + what);
-      expect_same(tm.z, tb.z, "tri-dexel z after cutting, " + what);
+      expect_identical(tm.x, tb.x, "tri-dexel x after cutting, " + what);
+      expect_identical(tm.y, tb.y, "tri-dexel y after cutting, " + what);
+      expect_identical(tm.z, tb.z, "tri-dexel z after cutting, " + what);
     }
     NeedleSet nm = needles_for(stock, 3000), nb = needles_for(stock, 3000);
     const MeshFillStats ns = dex.fill(nm);
     fill_box(nb, stock);
-    expect_same(nm, nb, "needles " + tag);
+    expect_identical(nm, nb, "needles " + tag);
     EXPECT_EQ(ns.unresolved, 0u);
     const auto sweeps = some_sweeps(stock);
     cut(nm, sweeps), cut(nb, sweeps);
-    expect_same(nm, nb, "needles after cutting " + tag);
+    expect_identical(nm, nb, "needles after cutting " + tag);
   }
 }
 
@@ -941,7 +935,7 @@ TEST(MeshStock, ResultDoesNotDependOnThreadCount) {
   DexelGrid b = make_zmap(region, 0.1);
   dex.fill(b);
   omp_set_num_threads(threads);
-  expect_same(a, b, "1 thread vs several");
+  expect_identical(a, b, "1 thread vs several");
 }
 
 TEST(MeshStock, TimingZmap1000x1000From10kTriangles) {

@@ -2,6 +2,7 @@
 // (removal::distance, golden-section on the convex distance, no shared code with the closed forms), and exact
 // envelopes worked out by hand for the simple cases.
 #include "removal/swept_tool.hpp"
+#include "tests/removal/removal_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,13 +13,7 @@ using namespace vmsim::removal;
 
 namespace {
 
-Tool tool(double R, double rc, double L) {
-  Tool t;
-  t.radius_mm = R;
-  t.corner_radius_mm = rc;
-  t.length_mm = L;
-  return t;
-}
+using vmsim::removal::test::tool;
 
 // The interval's ends lie on the volume's surface, points just inside are inside, points just outside are out.
 void check_against_distance(const SweptTool& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double tol,

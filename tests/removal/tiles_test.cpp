@@ -6,6 +6,7 @@
 #include "removal/fields.hpp"
 
 #include "core/error.hpp"
+#include "tests/removal/removal_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,13 +18,7 @@ using namespace vmsim::removal;
 
 namespace {
 
-Tool tool(double R, double rc) {
-  Tool t;
-  t.radius_mm = R;
-  t.corner_radius_mm = rc;
-  t.length_mm = 30;
-  return t;
-}
+using vmsim::removal::test::tool;
 
 // Random moves over and into a 40 x 30 x 12 box: short and long, vertical axis and tilted by up to 40 deg.
 std::vector<SweptTool> random_sweeps(unsigned seed, int n) {
@@ -49,9 +44,7 @@ std::vector<SweptTool> random_sweeps(unsigned seed, int n) {
   return s;
 }
 
-bool same_bits(const std::vector<Interval>& a, const std::vector<Interval>& b) {
-  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(Interval)) == 0);
-}
+using vmsim::removal::test::same_bits;
 
 // Every ray of `tile` against the whole grid's ray at the same lattice row.
 void expect_tile_equals_whole(const DexelGrid& whole, const DexelGrid& tile, const std::string& what) {

@@ -3,6 +3,7 @@
 // references of tool_reference.hpp: closed-form ray intervals for tools at rest, and a convex ray solver on the
 // exact signed distance for moving tools.
 #include "tool_reference.hpp"
+#include "tests/removal/removal_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -16,13 +17,7 @@ namespace ref = vmsim::removal::testref;
 
 namespace {
 
-Tool tool(double R, double rc, double L) {
-  Tool t;
-  t.radius_mm = R;
-  t.corner_radius_mm = rc;
-  t.length_mm = L;
-  return t;
-}
+using vmsim::removal::test::tool;
 
 struct Stats {
   int rays = 0, hits = 0, grazing = 0;

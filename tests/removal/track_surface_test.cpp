@@ -16,7 +16,7 @@ double dist_point_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, co
   const double t = d.squaredNorm() > 0 ? std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
   return (a + t * d - p).norm();
 }
-Tool ball() {
+Tool track_ball() {
   Tool t;
   t.radius_mm = 5;
   t.corner_radius_mm = 5;
@@ -29,7 +29,7 @@ TEST(Track, StraightSamplesMergeIntoOneSweep) {
   PoseTrack tr;
   tr.tip_mm.resize(1001, 3);
   for (int k = 0; k <= 1000; ++k) tr.tip_mm.row(k) = Eigen::RowVector3d(0.01 * k, 0.002 * k, -0.001 * k);
-  const TrackSweeps s = sweeps_from_track(ball(), tr);
+  const TrackSweeps s = sweeps_from_track(track_ball(), tr);
   ASSERT_EQ(s.sweeps.size(), 1u);
   EXPECT_NEAR((s.sweeps[0].d - Eigen::Vector3d(10, 2, -1)).norm(), 0, 1e-12);
 }
@@ -43,7 +43,7 @@ TEST(Track, CircleSamplesStayWithinTheTolerance) {
   for (int k = 0; k <= n; ++k) tr.tip_mm.row(k) = Eigen::RowVector3d(5 * std::cos(0.01 * k), 5 * std::sin(0.01 * k), 0);
   TrackOptions opt;
   opt.tolerance_mm = 1e-3;
-  const TrackSweeps s = sweeps_from_track(ball(), tr, opt);
+  const TrackSweeps s = sweeps_from_track(track_ball(), tr, opt);
   // A chord bowing by 0.5 um on r = 5 mm is 0.141 mm long: about three samples per sweep.
   EXPECT_LE(s.sweeps.size(), static_cast<std::size_t>(n / 3 + 1));
   for (int k = 0; k <= n; ++k) {
@@ -69,7 +69,7 @@ TEST(Track, HermiteSubsamplingFollowsTheCurveBetweenSamples) {
   }
   TrackOptions opt;
   opt.tolerance_mm = 2e-3;
-  const TrackSweeps s = sweeps_from_track(ball(), tr, opt);
+  const TrackSweeps s = sweeps_from_track(track_ball(), tr, opt);
   // The cubic Hermite interpolant of a circle deviates from it by O(h^4): for 0.5 rad steps about 0.4 um.
   for (int k = 0; k <= 600; ++k) {
     const double a = w * n * k / 600.0;

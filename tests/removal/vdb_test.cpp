@@ -18,6 +18,7 @@
 #include "tool_reference.hpp"
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -34,7 +35,7 @@ using vmsim::core::TriangleMesh;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using vmsim::core::units::kPi;
 
 Tool make(double R, double rc, double L = 40) {
   Tool t;
@@ -44,7 +45,8 @@ Tool make(double R, double rc, double L = 40) {
   return t;
 }
 
-SweptTool line(const Tool& t, Eigen::Vector3d a, Eigen::Vector3d b, Eigen::Vector3d axis = Eigen::Vector3d::UnitZ()) {
+SweptTool vdb_line(const Tool& t, Eigen::Vector3d a, Eigen::Vector3d b,
+                   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ()) {
   SweptTool s;
   s.tool = t;
   s.tip0 = a;
@@ -53,7 +55,7 @@ SweptTool line(const Tool& t, Eigen::Vector3d a, Eigen::Vector3d b, Eigen::Vecto
   return s;
 }
 
-Box box(double x0, double y0, double z0, double x1, double y1, double z1) {
+Box vdb_box(double x0, double y0, double z0, double x1, double y1, double z1) {
   return Box{Eigen::Vector3d(x0, y0, z0), Eigen::Vector3d(x1, y1, z1)};
 }
 
@@ -197,7 +199,7 @@ TEST(VdbSweep, SignedDistanceAgreesWithTheIndependentReference) {
   for (const Tool& t : tools)
     for (const Eigen::Vector3d& d : moves)
       for (const Eigen::Vector3d& a : axes) {
-        const SweptTool s = line(t, {1, 2, 3}, Eigen::Vector3d(1, 2, 3) + d, a);
+        const SweptTool s = vdb_line(t, {1, 2, 3}, Eigen::Vector3d(1, 2, 3) + d, a);
         const SweepDistance sd(s);
         for (int k = 0; k < 400; ++k) {
           const Eigen::Vector3d p = Eigen::Vector3d(1, 2, 3) + 0.5 * d + 0.5 * t.length_mm * a +
@@ -231,7 +233,7 @@ TEST(VdbSweep, SignedDistanceAgreesWithTheIndependentReference) {
 // A box stock: the mesh is closed and manifold, the volume that of the box, vertices on its faces.
 TEST(VdbKernel, BoxStockMeshIsClosedWithTheBoxVolume) {
   const double h = 0.25;
-  const Box b = box(0, 0, 0, 20, 10, 8);
+  const Box b = vdb_box(0, 0, 0, 20, 10, 8);
   const VdbPart part = VdbPart::box(b, voxel(h));
   const TriangleMesh m = part.mesh(0.0);
   expect_closed_manifold(m, "box");
@@ -241,7 +243,7 @@ TEST(VdbKernel, BoxStockMeshIsClosedWithTheBoxVolume) {
   EXPECT_LT(max_vertex_error(m, b, {}), kVertexTol * h);
 }
 
-struct Case {
+struct VdbCase {
   const char* name;
   Box stock;
   std::vector<SweptTool> sweeps;
@@ -249,18 +251,18 @@ struct Case {
   double edges_mm;     // total length of the part's sharp edges (for the volume tolerance)
 };
 
-std::vector<Case> analytic_cases() {
-  std::vector<Case> cases;
-  const Box stock = box(0, 0, 0, 40, 20, 10);
+std::vector<VdbCase> analytic_cases() {
+  std::vector<VdbCase> cases;
+  const Box stock = vdb_box(0, 0, 0, 40, 20, 10);
   const double stock_edges = 4 * (40 + 20 + 10);
   {  // Flat end R 3 along X, 2 mm deep, through the whole stock: a 6 x 2 rectangular slot.
     cases.push_back(
-        {"flat slot", stock, {line(make(3, 0), {-10, 10, 8}, {50, 10, 8})}, 6 * 2 * 40.0, stock_edges + 4 * 40.0});
+        {"flat slot", stock, {vdb_line(make(3, 0), {-10, 10, 8}, {50, 10, 8})}, 6 * 2 * 40.0, stock_edges + 4 * 40.0});
   }
   {  // Ball end R 3, tip 2 mm below the top: a circular segment (chord 1 mm from the centre).
     const double R = 3, dd = 1, seg = R * R * std::acos(dd / R) - dd * std::sqrt(R * R - dd * dd);
     cases.push_back(
-        {"ball slot", stock, {line(make(3, 3), {-10, 10, 8}, {50, 10, 8})}, seg * 40, stock_edges + 2 * 40.0});
+        {"ball slot", stock, {vdb_line(make(3, 3), {-10, 10, 8}, {50, 10, 8})}, seg * 40, stock_edges + 2 * 40.0});
   }
   {  // Flat end R 3, 3 mm deep: a zigzag over the rectangle [12, 28] x [7, 13] (stepover 2 < 2R) and a contour of
      // it; the pocket is the rectangle grown by R: 22 x 12 with corners of radius 3.
@@ -269,8 +271,8 @@ std::vector<Case> analytic_cases() {
     std::vector<Eigen::Vector3d> pts = {{12, 7, z},  {28, 7, z},  {28, 9, z},  {12, 9, z}, {12, 11, z},
                                         {28, 11, z}, {28, 13, z}, {12, 13, z}, {12, 7, z}};
     std::vector<SweptTool> s;
-    for (std::size_t k = 0; k + 1 < pts.size(); ++k) s.push_back(line(t, pts[k], pts[k + 1]));
-    s.push_back(line(t, {28, 7, z}, {28, 13, z}));
+    for (std::size_t k = 0; k + 1 < pts.size(); ++k) s.push_back(vdb_line(t, pts[k], pts[k + 1]));
+    s.push_back(vdb_line(t, {28, 7, z}, {28, 13, z}));
     const double area2d = 22 * 12 - (4 - kPi) * 9, perim = 2 * (16 + 6) + 2 * kPi * 3;
     cases.push_back({"flat pocket", stock, s, 3 * area2d, stock_edges + 2 * perim});
   }
@@ -280,7 +282,7 @@ std::vector<Case> analytic_cases() {
 // Slots and a pocket at two voxel sizes: closed, manifold meshes, the exact volume within the stated tolerance (mesh
 // and levelSetVolume), every vertex within h/3 of the exact surface; the volume error falls with h^2 (the bevels).
 TEST(VdbKernel, SlotsAndPocketHaveTheExactVolume) {
-  for (const Case& c : analytic_cases()) {
+  for (const VdbCase& c : analytic_cases()) {
     double err[2] = {0, 0};
     int n = 0;
     for (double h : {0.4, 0.2}) {
@@ -322,10 +324,10 @@ TEST(VdbKernel, SlotsAndPocketHaveTheExactVolume) {
 // flat top is exact. Within the rims (the CSG max of two distances) the error is bounded by the vertex tolerance.
 TEST(VdbKernel, HeightsOfABallPassFollowTheGrooveCircle) {
   const double h = 0.1, R = 3, top = 10, z_tip = 8, y0 = 10;
-  const Box stock = box(0, 0, 0, 20, 20, top);
+  const Box stock = vdb_box(0, 0, 0, 20, 20, top);
   VdbPart part = VdbPart::box(stock, voxel(h));
-  part.cut({line(make(R, R), {-10, y0, z_tip}, {30, y0, z_tip})});
-  const vmsim::core::HeightGrid g = part.height_grid(box(2, 2, 0, 18, 18, top), 0.13);
+  part.cut({vdb_line(make(R, R), {-10, y0, z_tip}, {30, y0, z_tip})});
+  const vmsim::core::HeightGrid g = part.height_grid(vdb_box(2, 2, 0, 18, 18, top), 0.13);
   const double rim = std::sqrt(R * R - (z_tip + R - top) * (z_tip + R - top));
   double worst_smooth = 0, worst_rim = 0;
   for (Eigen::Index j = 0; j < g.ny(); ++j)
@@ -346,11 +348,11 @@ TEST(VdbKernel, HeightsOfABallPassFollowTheGrooveCircle) {
 // mesh is closed and every vertex within h/2 of the exact surface (the reference's distances to the tilted sweeps).
 TEST(VdbKernel, TiltedToolsCutTheExactSweep) {
   const double h = 0.2;
-  const Box stock = box(0, 0, 0, 30, 20, 10);
+  const Box stock = vdb_box(0, 0, 0, 30, 20, 10);
   const std::vector<SweptTool> sweeps = {
-      line(make(4, 0, 30), {-5, 6, 8.5}, {35, 8, 7.0}, Eigen::Vector3d(0.4, -0.3, 1)),
-      line(make(3, 1, 30), {10, -5, 9}, {16, 25, 6.5}, Eigen::Vector3d(-0.5, 0.2, 1)),
-      line(make(3, 1, 30), {22, 10, 12}, {22, 10, 4}, Eigen::Vector3d(0.3, 0.3, 1))};  // a tilted plunge
+      vdb_line(make(4, 0, 30), {-5, 6, 8.5}, {35, 8, 7.0}, Eigen::Vector3d(0.4, -0.3, 1)),
+      vdb_line(make(3, 1, 30), {10, -5, 9}, {16, 25, 6.5}, Eigen::Vector3d(-0.5, 0.2, 1)),
+      vdb_line(make(3, 1, 30), {22, 10, 12}, {22, 10, 4}, Eigen::Vector3d(0.3, 0.3, 1))};  // a tilted plunge
   VdbPart part = VdbPart::box(stock, voxel(h));
   part.cut(sweeps);
   const TriangleMesh m = part.mesh(0.0);
@@ -363,12 +365,12 @@ TEST(VdbKernel, TiltedToolsCutTheExactSweep) {
 // The cut does not depend on the thread count: bit-identical level sets (sampled at every voxel centre of the
 // region, and the meshes) with 1 and 2 threads.
 TEST(VdbKernel, ResultDoesNotDependOnTheThreadCount) {
-  const std::vector<Case> cases = analytic_cases();
+  const std::vector<VdbCase> cases = analytic_cases();
   std::vector<TriangleMesh> meshes;
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);
     VdbPart part = VdbPart::box(cases[2].stock, voxel(0.3));
-    for (const Case& c : cases) part.cut(c.sweeps);
+    for (const VdbCase& c : cases) part.cut(c.sweeps);
     meshes.push_back(part.mesh(0.0));
   }
   omp_set_num_threads(omp_get_num_procs());
@@ -383,7 +385,7 @@ TEST(VdbKernel, ResultDoesNotDependOnTheThreadCount) {
 TEST(VdbKernel, VdbFileRoundTrip) {
   const auto dir = std::filesystem::temp_directory_path() / ("vmsim_vdb_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  VdbPart part = VdbPart::box(box(0, 0, 0, 10, 8, 5), voxel(0.25));
+  VdbPart part = VdbPart::box(vdb_box(0, 0, 0, 10, 8, 5), voxel(0.25));
   part.cut(analytic_cases()[0].sweeps);
   part.write_vdb(dir / "part.vdb");
   const VdbPart back = VdbPart::read_vdb(dir / "part.vdb");
@@ -406,7 +408,7 @@ TEST(VdbKernel, VdbFileRoundTrip) {
 // An STL stock equal to the box gives the box stock's level set (meshToLevelSet's exact distances to the triangles
 // vs createLevelSetBox's), to float round-off in the band.
 TEST(VdbKernel, MeshStockEqualsBoxStock) {
-  const Box b = box(1, 2, 3, 11, 9, 8);
+  const Box b = vdb_box(1, 2, 3, 11, 9, 8);
   TriangleMesh m;
   m.vertices_mm.resize(8, 3);
   for (int k = 0; k < 8; ++k)
@@ -449,16 +451,16 @@ TEST(VdbKernel, MeshStockEqualsBoxStock) {
 // mean, so it is checked within a factor 1.5 either way; the parts' runs (bench/README.md) compare it on real jobs.
 TEST(VdbKernel, MemoryEstimateMatchesTheGrid) {
   for (double h : {0.4, 0.2}) {
-    const Box b = box(0, 0, 0, 40, 20, 10);
+    const Box b = vdb_box(0, 0, 0, 40, 20, 10);
     VdbPart part = VdbPart::box(b, voxel(h));
     const double est0 = estimate_level_set_bytes(surface_area(b), h);
     const double got0 = static_cast<double>(part.memory_bytes());
-    for (const Case& c : analytic_cases()) part.cut(c.sweeps);
+    for (const VdbCase& c : analytic_cases()) part.cut(c.sweeps);
     const double est = estimate_level_set_bytes(surface_area(part.mesh(0.0)), h);
     const double got = static_cast<double>(part.memory_bytes());
     // A spherical cavity of radius 8 in a cube (a still ball-end tool 16 mm long, its body a ball): the cube's faces
     // and the sphere's surface in every orientation.
-    VdbPart sphere_part = VdbPart::box(box(-12, -12, -12, 12, 12, 12), voxel(h));
+    VdbPart sphere_part = VdbPart::box(vdb_box(-12, -12, -12, 12, 12, 12), voxel(h));
     SweptTool ball;
     ball.tool = make(8, 8, 16);
     ball.tip0 = Eigen::Vector3d(0, 0, -8);
@@ -485,7 +487,7 @@ TEST(VdbKernel, MemoryEstimateMatchesTheGrid) {
 // vertex lies within h/2 + the track's stated bound + 0.01 mm of the reference part.
 TEST(VdbKernel, TurningToolWithinTheTrackBoundOfTheBruteForce) {
   const double h = 0.2;
-  const Box stock = box(0, 0, 0, 20, 10, 8);
+  const Box stock = vdb_box(0, 0, 0, 20, 10, 8);
   const Tool t = make(3, 0, 30);
   const int n = 17;
   PoseTrack track;
@@ -553,15 +555,15 @@ TriDexel tridexel_part(const Box& stock, const std::vector<SweptTool>& sweeps, d
 std::vector<SweptTool> corner_sweeps(const Tool& t, double z_tip) {
   const double R = t.radius_mm;
   std::vector<SweptTool> s;
-  s.push_back(line(t, {R, -20, z_tip}, {R, 0, z_tip}));
+  s.push_back(vdb_line(t, {R, -20, z_tip}, {R, 0, z_tip}));
   const int n = 64;  // chords of the quarter circle: the flank comes R (1 - cos(pi / 128)) = 1.5 um closer to the edge
                      // (the reference below uses the same sweeps)
   for (int k = 0; k < n; ++k) {
     const double a0 = -kPi / 2 + (kPi / 2) * k / n, a1 = -kPi / 2 + (kPi / 2) * (k + 1) / n;
-    s.push_back(line(t, {R * std::cos(a0 + kPi / 2), R * std::sin(a0 + kPi / 2), z_tip},
-                     {R * std::cos(a1 + kPi / 2), R * std::sin(a1 + kPi / 2), z_tip}));
+    s.push_back(vdb_line(t, {R * std::cos(a0 + kPi / 2), R * std::sin(a0 + kPi / 2), z_tip},
+                         {R * std::cos(a1 + kPi / 2), R * std::sin(a1 + kPi / 2), z_tip}));
   }
-  s.push_back(line(t, {0, R, z_tip}, {-20, R, z_tip}));
+  s.push_back(vdb_line(t, {0, R, z_tip}, {-20, R, z_tip}));
   return s;
 }
 
@@ -574,9 +576,10 @@ std::vector<SweptTool> corner_sweeps(const Tool& t, double z_tip) {
 // vertices within kDexelVertexTol, volume within kDexelVolumePerEdge (measured 0.28-0.33 h^2 per mm of edge).
 TEST(DexelMesh, TriDexelPartsGiveClosedMeshesOfTheRightVolume) {
   const double h = 0.2;
-  std::vector<Case> cases = analytic_cases();
-  cases.insert(cases.begin(), Case{"box", box(0.13, 0.27, 0.31, 20.13, 10.27, 8.31), {}, 0.0, 4 * (20 + 10 + 8.0)});
-  for (const Case& c : cases) {
+  std::vector<VdbCase> cases = analytic_cases();
+  cases.insert(cases.begin(),
+               VdbCase{"box", vdb_box(0.13, 0.27, 0.31, 20.13, 10.27, 8.31), {}, 0.0, 4 * (20 + 10 + 8.0)});
+  for (const VdbCase& c : cases) {
     const TriDexel f = tridexel_part(c.stock, c.sweeps, h);
     const VdbPart part = VdbPart::from_tridexel(f);
     const TriangleMesh m = part.mesh(0.0);
@@ -595,7 +598,7 @@ TEST(DexelMesh, TriDexelPartsGiveClosedMeshesOfTheRightVolume) {
 // the cut's top) within that too: the edge is kept to a fraction of the cell size.
 TEST(DexelMesh, CornerEdgeStaysWithinAFractionOfTheCell) {
   const double h = 0.2;
-  const Box stock = box(-12, -12, -15, 0.2, 0.2, 0);
+  const Box stock = vdb_box(-12, -12, -15, 0.2, 0.2, 0);
   const std::vector<SweptTool> sweeps = corner_sweeps(make(5, 0, 50), -10);
   const TriDexel f = tridexel_part(stock, sweeps, h);
   const TriangleMesh m = VdbPart::from_tridexel(f).mesh(0.0);

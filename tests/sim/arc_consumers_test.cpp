@@ -18,6 +18,7 @@
 #include "motion/kinematics.hpp"
 #include "motion/smooth_path.hpp"
 #include "removal/swept_tool.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -34,7 +35,7 @@ namespace {
 
 using core::Vec6;
 using Eigen::Vector3d;
-constexpr double kPi = std::numbers::pi;
+using vmsim::core::units::kPi;
 
 // Random arcs within the readers' tolerances (and within the xyzac-trt machine's travel).
 class RandomArcs {

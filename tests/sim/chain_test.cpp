@@ -12,6 +12,7 @@
 #include "sim/chain.hpp"
 #include "sim/job_program.hpp"
 #include "sim/plan_feed.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -26,7 +27,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts/";
+using vmsim::test::kPartsDir;
 
 using vmsim_test::TempDir;  // tests/app/cli_util.hpp
 
@@ -38,7 +39,7 @@ fs::path small_job(const TempDir& tmp, const std::string& extra = "", const std:
                                          "G1 X5 Y10\nG2 X5 Y20 I0 J5\nG1 X25 Y20\nM30\n";
   std::ofstream(tmp.path() / "tools.tbl") << "T1 P1 Z50 D10\n";
   const fs::path job = tmp.path() / name;
-  std::ofstream(job) << "[job]\nname = \"small\"\nmachine = \"" << kParts << "machines/mikron_ucp710.toml\"\n"
+  std::ofstream(job) << "[job]\nname = \"small\"\nmachine = \"" << kPartsDir << "machines/mikron_ucp710.toml\"\n"
                      << "program = \"p.ngc\"\ntool_table = \"tools.tbl\"\nstart_mm = [0.0, 0.0, 0.0]\n"
                      << extra << "\n[feedplan]\ncontour_error_um = 5.0\nchord_error_um = 1.0\nservo = \"machine\"\n";
   return job;
@@ -80,7 +81,7 @@ TEST(ChainFeedPlan, RunsWhatPlanFeedPlayed) {
 // (x_k - x_{k-1}) / Te, acceleration and jerk the second and third differences over Te^2, Te^3, the axes at rest
 // before the first and after the last setpoint), each within its limit to 1e-9 relative (round-off).
 TEST(ChainFeedPlan, ButterflyPlanIsPlayedWithinFivePercentOfItsOwnTime) {
-  const core::Job job = core::load_job(kParts + "feedplan/job_butterfly.toml");
+  const core::Job job = core::load_job(kPartsDir + "feedplan/job_butterfly.toml");
   const sim::PlanFeedResult r = sim::plan_feed(job);
   ASSERT_TRUE(r.played_as_profile);
   const methods::PlayedPlan& played = r.verified.played;
@@ -152,7 +153,7 @@ TEST(ChainFeedPlan, TheCeilingCapsTheFeedAndAPlanForAnotherPathIsRefused) {
 }
 
 TEST(ChainServo, AJobsTransferFunctionServoRunsAsChenEtAlsServo) {
-  const core::Job job = core::load_job(kParts + "feedplan/job_butterfly.toml");
+  const core::Job job = core::load_job(kPartsDir + "feedplan/job_butterfly.toml");
   const sim::Chain chain(job);
   ASSERT_NE(chain.curve(), nullptr);  // the path is the job's NURBS
   EXPECT_TRUE(chain.transfer_function_servo());

@@ -7,6 +7,8 @@
 #include "core/job.hpp"
 #include "metrology/marks.hpp"
 #include "sim/run.hpp"
+#include "tests/test_paths.hpp"
+#include "core/units.hpp"
 
 #include <gtest/gtest.h>
 #include <fmt/format.h>
@@ -23,8 +25,8 @@ using namespace vmsim;
 using vmsim_test::TempDir;  // tests/app/cli_util.hpp
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts/";
+using vmsim::core::units::kPi;
+using vmsim::test::kPartsDir;
 
 // Passes up the slope (along +x) every `step` mm in y, the tool tip `lift` above the ball of radius R's.
 void write_program(const fs::path& file, double slope_rad, double R, double lift) {
@@ -42,7 +44,7 @@ void write_program(const fs::path& file, double slope_rad, double R, double lift
 
 void write_job(const fs::path& file, const std::string& name, const std::string& program, double diameter,
                const std::string& reference) {
-  std::ofstream(file) << "[job]\nname = \"" << name << "\"\nmachine = \"" << kParts
+  std::ofstream(file) << "[job]\nname = \"" << name << "\"\nmachine = \"" << kPartsDir
                       << "machines/mikron_ucp710.toml\"\nprogram = \"" << program
                       << "\"\nstart_mm = [-4.0, -0.5, 120.0]\n\n[tool]\ntype = \"ball\"\ndiameter_mm = " << diameter
                       << "\nflute_length_mm = 100.0\nlength_mm = 100.0\n\n[stock]\ntype = \"box\"\n"

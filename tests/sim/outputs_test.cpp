@@ -6,6 +6,7 @@
 #include "core/stl.hpp"
 #include "sim/run.hpp"
 #include "sim/run_outputs.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,13 +22,13 @@ using vmsim_test::TempDir;  // tests/app/cli_util.hpp
 
 namespace {
 
-const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts/";
+using vmsim::test::kPartsDir;
 
 // One pass of a ball D2 along x across a 4 x 2 mm box, z-map at 0.05 mm (81 x 41 = 3321 nodes), the program's
 // path cut exactly as the reference.
-fs::path write_job(const fs::path& dir, const std::string& outputs) {
+fs::path write_outputs_job(const fs::path& dir, const std::string& outputs) {
   std::ofstream(dir / "cut.ngc") << "G21 G90 G94 G17\nG0 X-2 Y1 Z5\nG1 Z-0.2 F600\nG1 X6\nG0 Z5\nM30\n";
-  std::ofstream(dir / "job.toml") << "[job]\nname = \"outputs\"\nmachine = \"" << kParts
+  std::ofstream(dir / "job.toml") << "[job]\nname = \"outputs\"\nmachine = \"" << kPartsDir
                                   << "machines/mikron_ucp710.toml\"\nprogram = \"cut.ngc\"\nstart_mm = [-2.0, 1.0, "
                                      "5.0]\n\n[tool]\ntype = \"ball\"\ndiameter_mm = 2.0\n\n[stock]\ntype = \"box\"\n"
                                      "min_mm = [0.0, 0.0, -1.0]\nmax_mm = [4.0, 2.0, 0.0]\n\n[removal]\nfield = "
@@ -42,7 +43,7 @@ struct Written {
   nlohmann::json report;
 };
 
-Written write(const core::Job& job, const sim::RunResult& r, const fs::path& dir) {
+Written write_outputs_file(const core::Job& job, const sim::RunResult& r, const fs::path& dir) {
   fs::create_directories(dir);
   Written w;
   const sim::VtpWriter vtp = [&](const fs::path& f, const core::TriangleMesh&, int level) {
@@ -61,7 +62,7 @@ Written write(const core::Job& job, const sim::RunResult& r, const fs::path& dir
 
 TEST(Outputs, JobOutputsTableChoosesTheFiles) {
   TempDir tmp("vmsim_outputs_");
-  const core::Job plain = core::load_job(write_job(tmp.path(), ""));
+  const core::Job plain = core::load_job(write_outputs_job(tmp.path(), ""));
   const sim::RunResult r = sim::run_job(plain);
   ASSERT_TRUE(r.surface && r.deviation && r.part_mesh);
   const std::set<std::string> grids_csv = {"surface.csv", "reference.csv", "deviation.csv"};
@@ -77,7 +78,7 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
     return s;
   };
   {  // Defaults, a small grid: everything, as before [outputs] existed; part.vtp at zlib level 1.
-    const Written w = write(plain, r, tmp.path() / "plain");
+    const Written w = write_outputs_file(plain, r, tmp.path() / "plain");
     EXPECT_EQ(w.files, all_of({grids_csv, grids_npy, grids_x3p, mesh}));
     EXPECT_EQ(w.vtp_levels, std::vector<int>{1});
     EXPECT_EQ(w.report["outputs"]["part_mesh"]["kind"], "full");
@@ -87,8 +88,8 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
     EXPECT_EQ(core::read_stl(tmp.path() / "plain" / "part.stl").triangles.rows(), r.part_mesh->triangles.rows());
   }
   {  // A "large" grid by the job's threshold: no CSV, no mesh, and notes naming the keys that write them.
-    const core::Job job = core::load_job(write_job(tmp.path(), "[outputs]\nlarge_grid_nodes = 3000\n"));
-    const Written w = write(job, r, tmp.path() / "large");
+    const core::Job job = core::load_job(write_outputs_job(tmp.path(), "[outputs]\nlarge_grid_nodes = 3000\n"));
+    const Written w = write_outputs_file(job, r, tmp.path() / "large");
     EXPECT_EQ(w.files, all_of({grids_npy, grids_x3p}));
     EXPECT_EQ(w.report["outputs"]["part_mesh"]["kind"], "none");
     EXPECT_EQ(w.report["outputs"]["csv"], false);
@@ -97,11 +98,11 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
     EXPECT_NE(notes.find("part_mesh = \\\"full\\\""), std::string::npos) << notes;
   }
   {  // Every key given: no grids at all, the simplified mesh, zlib level 7.
-    const core::Job job =
-        core::load_job(write_job(tmp.path(),
-                                 "[outputs]\npart_mesh = \"simplified\"\ncsv = \"never\"\nnpy = false\nx3p = false\n"
-                                 "mesh_tolerance_mm = 0.001\nvtp_compression_level = 7\n"));
-    const Written w = write(job, r, tmp.path() / "chosen");
+    const core::Job job = core::load_job(
+        write_outputs_job(tmp.path(),
+                          "[outputs]\npart_mesh = \"simplified\"\ncsv = \"never\"\nnpy = false\nx3p = false\n"
+                          "mesh_tolerance_mm = 0.001\nvtp_compression_level = 7\n"));
+    const Written w = write_outputs_file(job, r, tmp.path() / "chosen");
     EXPECT_EQ(w.files, all_of({mesh}));
     EXPECT_EQ(w.vtp_levels, std::vector<int>{7});
     const nlohmann::json& m = w.report["outputs"]["part_mesh"];
@@ -114,8 +115,8 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
   }
   {  // Above the threshold, but asked for: csv "always" and the full mesh are written.
     const core::Job job = core::load_job(
-        write_job(tmp.path(), "[outputs]\nlarge_grid_nodes = 10\ncsv = \"always\"\npart_mesh = \"full\"\n"));
-    const Written w = write(job, r, tmp.path() / "asked");
+        write_outputs_job(tmp.path(), "[outputs]\nlarge_grid_nodes = 10\ncsv = \"always\"\npart_mesh = \"full\"\n"));
+    const Written w = write_outputs_file(job, r, tmp.path() / "asked");
     EXPECT_EQ(w.files, all_of({grids_csv, grids_npy, grids_x3p, mesh}));
     EXPECT_FALSE(w.report["outputs"].contains("notes"));
   }

@@ -8,6 +8,7 @@
 #include "motion/setpoint_estimate.hpp"
 #include "sim/chain.hpp"
 #include "sim/job_program.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,13 +18,13 @@ using namespace vmsim;
 
 namespace {
 
-const std::string kParts = std::string(VMSIM_SOURCE_DIR) + "/parts/";
+using vmsim::test::kPartsDir;
 
 TEST(SetpointEstimate, BoundsTheInterpolatorsCountOnTheParts) {
   for (const std::string name : {"plane_cylinder/job_fast.toml", "plane_cylinder/job_reference.toml",
                                  "corner/job_fast.toml", "corner/job_reference.toml", "starfish/job.toml",
                                  "five_axis/job.toml", "oga_profile/job.toml", "boat_xyzac/job.toml"}) {
-    const core::Job job = core::load_job(kParts + name);
+    const core::Job job = core::load_job(kPartsDir + name);
     const sim::Chain chain(job);
     const core::ToolPath program = sim::read_job_program(job);
     const motion::SetpointEstimate e =
@@ -38,7 +39,7 @@ TEST(SetpointEstimate, BoundsTheInterpolatorsCountOnTheParts) {
 
 // A job's max_setpoints refuses a program whose lower bound exceeds it, before interpolating, naming the key.
 TEST(SetpointEstimate, MaxSetpointsRefusesBeforeInterpolating) {
-  core::Job job = core::load_job(kParts + "plane_cylinder/job_fast.toml");
+  core::Job job = core::load_job(kPartsDir + "plane_cylinder/job_fast.toml");
   const core::ToolPath program = sim::read_job_program(job);
   const sim::Chain free_chain(job);
   const double n = static_cast<double>(free_chain.interpolate(program).setpoints.samples());

@@ -35,7 +35,7 @@ fs::path test_dir() {
   return dir;
 }
 
-fs::path write(const std::string& name, const std::string& text) {
+fs::path write_tool_job_file(const std::string& name, const std::string& text) {
   const fs::path p = test_dir() / name;
   std::ofstream(p, std::ios::binary) << text;
   return p;
@@ -97,9 +97,9 @@ std::string job_text(const std::string& program, const std::string& tools, const
 }
 
 core::Job two_tool_job(const std::string& motion) {
-  write("machine.toml", kMachine);
-  write("two.ngc", two_tool_program());
-  return core::load_job(write("two.toml", job_text("two.ngc", std::string(kT1) + kT2, motion)));
+  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("two.ngc", two_tool_program());
+  return core::load_job(write_tool_job_file("two.toml", job_text("two.ngc", std::string(kT1) + kT2, motion)));
 }
 
 double height_at(const core::HeightGrid& s, double x, double y) {
@@ -108,7 +108,7 @@ double height_at(const core::HeightGrid& s, double x, double y) {
   return s.z_mm(j, i);
 }
 
-std::string error_of(const core::Job& job) {
+std::string tool_change_error_of(const core::Job& job) {
   try {
     (void)run_job(job);
   } catch (const core::Error& e) {
@@ -188,14 +188,14 @@ TEST(ToolChanges, EachToolCutsItsOwnShapeOnTheSetpoints) {
 // each half of the program (the programmed path, so the tracks are the same moves exactly).
 TEST(ToolChanges, TwoToolRunIsTheUnionOfSingleToolRuns) {
   const RunResult both = run_job(two_tool_job("program"));
-  write("first.ngc", std::string("G21 G90 G17\n") + kFirstHalf + "M2\n");
-  write("second.ngc", std::string("G21 G90 G17\n") + kSecondHalf + "M2\n");
+  write_tool_job_file("first.ngc", std::string("G21 G90 G17\n") + kFirstHalf + "M2\n");
+  write_tool_job_file("second.ngc", std::string("G21 G90 G17\n") + kSecondHalf + "M2\n");
   const std::string t1 = "[tool]\ntype = \"flat\"\ndiameter_mm = 6.0\nflute_length_mm = 10.0\n";
   const std::string t2 = "[tool]\ntype = \"ball\"\ndiameter_mm = 4.0\nflute_length_mm = 10.0\n";
-  const RunResult a = run_job(core::load_job(write("first.toml", job_text("first.ngc", t1, "program"))));
+  const RunResult a = run_job(core::load_job(write_tool_job_file("first.toml", job_text("first.ngc", t1, "program"))));
   // T2's run in the two-tool program starts where T1 left the tool (x 15, y -5, z 5).
-  const RunResult b =
-      run_job(core::load_job(write("second.toml", job_text("second.ngc", t2, "program", "[15.0, -5.0, 5.0]"))));
+  const RunResult b = run_job(
+      core::load_job(write_tool_job_file("second.toml", job_text("second.ngc", t2, "program", "[15.0, -5.0, 5.0]"))));
   ASSERT_TRUE(both.surface && a.surface && b.surface);
   const core::HeightArray& z = both.surface->z_mm;
   const core::HeightArray& za = a.surface->z_mm;
@@ -232,11 +232,12 @@ TEST(ToolChanges, SameResultOnOneAndTwoThreads) {
 }
 
 TEST(ToolChanges, ToolTheJobDoesNotDescribeIsAnErrorNamingFileLineAndNumber) {
-  write("machine.toml", kMachine);
+  write_tool_job_file("machine.toml", kMachine);
   // Line 9 is the first move under T3 (T3 M6 is line 8).
-  write("three.ngc", std::string("G21 G90 G17\nT1 M6\n") + kFirstHalf + "T3 M6\n" + kSecondHalf + "M2\n");
-  const core::Job job = core::load_job(write("three.toml", job_text("three.ngc", std::string(kT1) + kT2, "program")));
-  const std::string err = error_of(job);
+  write_tool_job_file("three.ngc", std::string("G21 G90 G17\nT1 M6\n") + kFirstHalf + "T3 M6\n" + kSecondHalf + "M2\n");
+  const core::Job job =
+      core::load_job(write_tool_job_file("three.toml", job_text("three.ngc", std::string(kT1) + kT2, "program")));
+  const std::string err = tool_change_error_of(job);
   EXPECT_NE(err.find("three.ngc:9:"), std::string::npos) << err;
   EXPECT_NE(err.find("T3"), std::string::npos) << err;
   EXPECT_NE(err.find("number = 3"), std::string::npos) << err;
@@ -244,38 +245,40 @@ TEST(ToolChanges, ToolTheJobDoesNotDescribeIsAnErrorNamingFileLineAndNumber) {
 }
 
 TEST(ToolChanges, OneToolMeetingSeveralNumbersNeedsAllTools) {
-  write("machine.toml", kMachine);
-  write("two.ngc", two_tool_program());
+  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("two.ngc", two_tool_program());
   const std::string one = "[tool]\ntype = \"flat\"\ndiameter_mm = 6.0\n";
-  const std::string err = error_of(core::load_job(write("one.toml", job_text("two.ngc", one, "program"))));
+  const std::string err =
+      tool_change_error_of(core::load_job(write_tool_job_file("one.toml", job_text("two.ngc", one, "program"))));
   for (const char* part : {"one.toml", "[tool] describes one tool", "T1 (line 3)", "T2 (line 9)", "all_tools = true"})
     EXPECT_NE(err.find(part), std::string::npos) << part << " not in: " << err;
   // With all_tools = true the one tool cuts everything: T2's groove is then 6 mm wide and flat.
-  const RunResult r =
-      run_job(core::load_job(write("all.toml", job_text("two.ngc", one + "all_tools = true\n", "program"))));
+  const RunResult r = run_job(
+      core::load_job(write_tool_job_file("all.toml", job_text("two.ngc", one + "all_tools = true\n", "program"))));
   EXPECT_NEAR(height_at(*r.surface, 7.5, 10.0), -2.0, 1e-5);
   EXPECT_EQ(r.report["tools"]["list"].size(), 1u);
   EXPECT_EQ(r.report["tools"]["all_tools"], true);
 }
 
 TEST(ToolChanges, ToolsWithoutAToolChangeAreAnError) {
-  write("machine.toml", kMachine);
-  write("none.ngc", std::string("G21 G90\n") + kFirstHalf + "M2\n");
-  const std::string err = error_of(core::load_job(write("none.toml", job_text("none.ngc", kT1, "program"))));
+  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("none.ngc", std::string("G21 G90\n") + kFirstHalf + "M2\n");
+  const std::string err =
+      tool_change_error_of(core::load_job(write_tool_job_file("none.toml", job_text("none.ngc", kT1, "program"))));
   EXPECT_NE(err.find("never changes tools"), std::string::npos) << err;
   EXPECT_NE(err.find("number = 0"), std::string::npos) << err;
 }
 
 // 840D programs call tools by name (T="name"); [[tools]] name maps them.
 TEST(ToolChanges, SinumerikNamesMapThroughTheJob) {
-  write("machine.toml", kMachine);
-  write("named.mpf",
-        "N10 G90\nN20 T=\"FLAT_D6\"\nN30 M6\nN40 G0 X-15 Y-5 Z5\nN50 G1 Z-1 F600\nN60 X15\nN70 G0 Z5\n"
-        "N80 T=\"BALL_D4\"\nN90 M6\nN100 G0 X5 Y-15\nN110 G1 Z-2 F600\nN120 Y15\nN130 G0 Z5\nN140 M30\n");
+  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("named.mpf",
+                      "N10 G90\nN20 T=\"FLAT_D6\"\nN30 M6\nN40 G0 X-15 Y-5 Z5\nN50 G1 Z-1 F600\nN60 X15\nN70 G0 Z5\n"
+                      "N80 T=\"BALL_D4\"\nN90 M6\nN100 G0 X5 Y-15\nN110 G1 Z-2 F600\nN120 Y15\nN130 G0 Z5\nN140 M30\n");
   const std::string by_name =
       "[[tools]]\nname = \"BALL_D4\"\ntype = \"ball\"\ndiameter_mm = 4.0\n"
       "[[tools]]\nname = \"FLAT_D6\"\ntype = \"flat\"\ndiameter_mm = 6.0\n";
-  const core::Job job = core::load_job(write("named.toml", job_text("named.mpf", by_name, "program")));
+  const core::Job job = core::load_job(write_tool_job_file("named.toml", job_text("named.mpf", by_name, "program")));
   const core::ToolPath tp = read_job_program(job);
   const std::vector<int> per_move = move_tools(job, tp);
   ASSERT_EQ(per_move.size(), tp.moves.size());
@@ -287,10 +290,10 @@ TEST(ToolChanges, SinumerikNamesMapThroughTheJob) {
   EXPECT_NEAR(height_at(*r.surface, -10.0, -7.5), -1.0, 1e-5);  // the flat's floor
   EXPECT_EQ(r.report["tools"]["list"][0]["tool"], "T=\"BALL_D4\"");
   // A name the job does not give.
-  const core::Job missing = core::load_job(
-      write("missing.toml",
-            job_text("named.mpf", "[[tools]]\nname = \"FLAT_D6\"\ntype = \"flat\"\ndiameter_mm = 6.0\n", "program")));
-  const std::string err = error_of(missing);
+  const core::Job missing = core::load_job(write_tool_job_file(
+      "missing.toml",
+      job_text("named.mpf", "[[tools]]\nname = \"FLAT_D6\"\ntype = \"flat\"\ndiameter_mm = 6.0\n", "program")));
+  const std::string err = tool_change_error_of(missing);
   EXPECT_NE(err.find("named.mpf:10:"), std::string::npos) << err;
   EXPECT_NE(err.find("T=\"BALL_D4\""), std::string::npos) << err;
   EXPECT_NE(err.find("name = \"BALL_D4\""), std::string::npos) << err;

@@ -5,6 +5,7 @@
 #include "core/error.hpp"
 #include "core/machine.hpp"
 #include "sysid/excite_axis.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +15,7 @@
 namespace vmsim::sysid {
 namespace {
 
-const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
 
 const core::MachineAxis& axis(const core::Machine& m, const std::string& name) {
   for (const auto& a : m.axes)
@@ -23,7 +24,7 @@ const core::MachineAxis& axis(const core::Machine& m, const std::string& name) {
 }
 
 TEST(ExciteAxis, TdAndRegisterLengthFollowTheBandwidthAndResolutionAndTheSignalIsCentred) {
-  const core::Machine m = core::load_machine(kMachine);
+  const core::Machine m = core::load_machine(kMikronMachine);
   const core::MachineAxis& x = axis(m, "X");
   AxisExcitationOptions o;
   o.bandwidth_hz = 40.0;
@@ -60,7 +61,7 @@ TEST(ExciteAxis, TdAndRegisterLengthFollowTheBandwidthAndResolutionAndTheSignalI
 }
 
 TEST(ExciteAxis, ASignalOutsideTheTravelIsRefused) {
-  const core::Machine m = core::load_machine(kMachine);
+  const core::Machine m = core::load_machine(kMikronMachine);
   AxisExcitationOptions o;
   o.velocity = 500.0;  // 30 m/min for 50 periods: far beyond 710 mm
   o.periods = 50;
@@ -74,14 +75,14 @@ TEST(ExciteAxis, ASignalOutsideTheTravelIsRefused) {
 }
 
 TEST(ExciteAxis, TheSimulatedTraceHoldsTheLastSetpointAndEndsAtRestOnIt) {
-  const core::Machine m = core::load_machine(kMachine);
+  const core::Machine m = core::load_machine(kMikronMachine);
   AxisExcitationOptions o;
   o.switch_samples = 5;
   o.bits = 6;
   o.velocity = 20.0;
   o.periods = 2;
   const AxisExcitation e = excitation_for_axis(axis(m, "X"), o);
-  const PositionTrace t = simulate_excitation(axis(m, "X"), e, kMachine);
+  const PositionTrace t = simulate_excitation(axis(m, "X"), e, kMikronMachine);
   const Eigen::Index n = e.setpoints.size(), rows = n + 100;  // 0.1 s past the end at Te = 1 ms
   ASSERT_EQ(t.t_s.size(), rows);
   ASSERT_EQ(t.command.rows(), rows);

@@ -6,6 +6,7 @@
 #include "core/machine.hpp"
 #include "core/units.hpp"
 #include "sysid/friction_inertia_file.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -18,9 +19,9 @@
 namespace vmsim::sysid {
 namespace {
 
-const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
 
-const core::MachineAxis& axis(const core::Machine& m, const std::string& name) {
+const core::MachineAxis& machine_axis(const core::Machine& m, const std::string& name) {
   for (const auto& a : m.axes)
     if (a.name == name) return a;
   throw core::Error("no axis " + name);
@@ -81,30 +82,30 @@ IdentifiedDrive drive(GravityModel g, double gravity_Nm, double stderr_Nm) {
 }
 
 TEST(FrictionInertiaFile, MotorDataAndGravityComeFromTheMachineAxis) {
-  const core::Machine m = core::load_machine(kMachine);
-  IdentifyOptions o = identify_options_for_axis(axis(m, "X"), kMachine, trace(false), GravityModel::Auto);
+  const core::Machine m = core::load_machine(kMikronMachine);
+  IdentifyOptions o = identify_options_for_axis(machine_axis(m, "X"), kMikronMachine, trace(false), GravityModel::Auto);
   EXPECT_EQ(o.torque_constant_Nm_per_A, 1.5);
   EXPECT_NEAR(o.axis_per_motor_rad * 2 * core::units::kPi, 20.0, 1e-12);  // the 20 mm screw
   EXPECT_EQ(o.gravity, GravityModel::None);
-  EXPECT_EQ(identify_options_for_axis(axis(m, "Z"), kMachine, trace(false), GravityModel::Auto).gravity,
+  EXPECT_EQ(identify_options_for_axis(machine_axis(m, "Z"), kMikronMachine, trace(false), GravityModel::Auto).gravity,
             GravityModel::Constant);
-  EXPECT_EQ(identify_options_for_axis(axis(m, "Z"), kMachine, trace(false), GravityModel::None).gravity,
+  EXPECT_EQ(identify_options_for_axis(machine_axis(m, "Z"), kMikronMachine, trace(false), GravityModel::None).gravity,
             GravityModel::None)
       << "a model asked for wins over the machine file's";
-  o = identify_options_for_axis(axis(m, "A"), kMachine, trace(true), GravityModel::Auto);
+  o = identify_options_for_axis(machine_axis(m, "A"), kMikronMachine, trace(true), GravityModel::Auto);
   EXPECT_NEAR(o.axis_per_motor_rad * 2 * core::units::kPi * core::units::kRadToDeg, 4.0, 1e-12);  // 4 deg per rev
   EXPECT_EQ(o.gravity, GravityModel::Tilting);
   try {
-    identify_options_for_axis(axis(m, "A"), kMachine, trace(false), GravityModel::Auto);
+    identify_options_for_axis(machine_axis(m, "A"), kMikronMachine, trace(false), GravityModel::Auto);
     ADD_FAILURE() << "a trace in mm was accepted for a rotary axis";
   } catch (const core::Error& e) {
     EXPECT_NE(std::string(e.what()).find("axis A is rotary but the trace x_trace.csv gives millimetres"),
               std::string::npos)
         << e.what();
   }
-  core::MachineAxis bare = axis(m, "X");
+  core::MachineAxis bare = machine_axis(m, "X");
   bare.drive.reset();
-  EXPECT_THROW(identify_options_for_axis(bare, kMachine, trace(false), GravityModel::Auto), core::Error);
+  EXPECT_THROW(identify_options_for_axis(bare, kMikronMachine, trace(false), GravityModel::Auto), core::Error);
 }
 
 TEST(FrictionInertiaFile, GravityIsWrittenWhenAskedForOrOutOfTheNoise) {
@@ -127,7 +128,7 @@ TEST(FrictionInertiaFile, TheWrittenKeysReadBackAsTheIdentifiedDrive) {
   const std::string at = identified_drive_toml(a, rot, true, "a_trace.csv", true);
   EXPECT_EQ(xt.rfind("# vmsim identify-friction x_trace.csv", 0), 0u) << xt;
   const core::Machine m = read_back(xt, at);
-  const core::DriveParams& dx = *axis(m, "X").drive;
+  const core::DriveParams& dx = *machine_axis(m, "X").drive;
   EXPECT_NEAR(dx.torque_constant_Nm_per_A, 1.45, 1e-12);
   EXPECT_NEAR(dx.axis_per_motor_rad, lin.axis_per_motor_rad, 1e-12);
   EXPECT_NEAR(dx.inertia_kg_m2, x.inertia_kg_m2,
@@ -136,7 +137,7 @@ TEST(FrictionInertiaFile, TheWrittenKeysReadBackAsTheIdentifiedDrive) {
   EXPECT_NEAR(dx.viscous_Nm_s_per_rad, x.viscous_Nm_s_per_rad, 5e-6 * x.viscous_Nm_s_per_rad);
   EXPECT_EQ(dx.gravity, core::DriveParams::Gravity::Constant);
   EXPECT_NEAR(dx.gravity_Nm, 2.9876, 1e-9);
-  const core::DriveParams& da = *axis(m, "A").drive;
+  const core::DriveParams& da = *machine_axis(m, "A").drive;
   EXPECT_NEAR(da.axis_per_motor_rad, rot.axis_per_motor_rad, 1e-12);
   EXPECT_EQ(da.gravity, core::DriveParams::Gravity::Tilting);
   EXPECT_NEAR(da.gravity_Nm, 1.1234, 1e-9);
@@ -145,7 +146,7 @@ TEST(FrictionInertiaFile, TheWrittenKeysReadBackAsTheIdentifiedDrive) {
   // A gravity term left out is written as none, the fitted value only in a comment.
   const std::string quiet = identified_drive_toml(x, lin, false, "x_trace.csv", false);
   EXPECT_NE(quiet.find("fitted offset 2.99 +- 0.01 N m: not significant"), std::string::npos) << quiet;
-  EXPECT_EQ(axis(read_back(quiet, at), "X").drive->gravity, core::DriveParams::Gravity::None);
+  EXPECT_EQ(machine_axis(read_back(quiet, at), "X").drive->gravity, core::DriveParams::Gravity::None);
 }
 
 TEST(FrictionInertiaFile, FrictionPointsInTheTracesUnits) {

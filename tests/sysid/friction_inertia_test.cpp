@@ -27,7 +27,7 @@ using namespace vmsim::sysid;
 
 namespace {
 
-const double kPi = core::units::kPi;
+using vmsim::core::units::kPi;
 
 core::MachineAxis mikron_axis(const std::string& name) {
   const core::Machine m = core::load_machine(std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml");

@@ -24,8 +24,8 @@ const System kA{-1.2, 0.36, 0.1, 0.06, 2};  // a double pole at 0.6, two samples
 
 // An excitation (PRBS steps, +-amplitude, switching every 4 samples) and the system's answer plus white noise: on
 // the output (an OE system), or, with `equation_error`, inside the difference equation (an ARX system).
-void simulate(const System& s, int n, double amplitude, double noise, unsigned seed, Eigen::VectorXd& u,
-              Eigen::VectorXd& y, bool equation_error = false) {
+void simulate_axis(const System& s, int n, double amplitude, double noise, unsigned seed, Eigen::VectorXd& u,
+                   Eigen::VectorXd& y, bool equation_error = false) {
   const std::vector<int> m = m_sequence(9);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> e(0.0, noise);
@@ -54,11 +54,11 @@ PositionTrace make_trace(const std::string& source, int n, double x0, unsigned s
   t.command.resize(n, static_cast<Eigen::Index>(t.axes.size()));
   t.actual.resizeLike(t.command);
   Eigen::VectorXd u, y;
-  simulate(kX, n, 1.0, 1e-4, seed, u, y, equation_error);
+  simulate_axis(kX, n, 1.0, 1e-4, seed, u, y, equation_error);
   t.command.col(0) = u.array() + x0;
   t.actual.col(0) = y.array() + x0;
   if (with_a) {
-    simulate(kA, n, 0.01, 1e-6, seed + 7, u, y);
+    simulate_axis(kA, n, 0.01, 1e-6, seed + 7, u, y);
     t.command.col(1) = u.array() + 0.5;
     t.actual.col(1) = y.array() + 0.5;
   }

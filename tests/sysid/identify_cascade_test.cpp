@@ -9,6 +9,7 @@
 #include "sysid/excite.hpp"
 #include "drives/simulate.hpp"
 #include "sysid/sysid.hpp"
+#include "tests/test_paths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -19,7 +20,7 @@
 namespace vmsim::sysid {
 namespace {
 
-const std::string kMachine = std::string(VMSIM_SOURCE_DIR) + "/parts/machines/mikron_ucp710.toml";
+using vmsim::test::kMikronMachine;
 
 IdData deviations(const Eigen::VectorXd& u, const Eigen::VectorXd& y, double te) {
   IdData d;
@@ -42,7 +43,7 @@ Eigen::VectorXd validation_trajectory(double te) {
 }
 
 TEST(IdentifyCascade, IdentifiedXReproducesTheCascadeOnAnotherTrajectory) {
-  const core::Machine m = core::load_machine(kMachine);
+  const core::Machine m = core::load_machine(kMikronMachine);
   const core::MachineAxis& ax = m.axes[0];
   const double te = 1e-3;
   ExcitationSpec spec;

@@ -29,16 +29,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path traces_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "traces"; }
+fs::path real_traces_dir() { return fs::path(VMSIM_SHARED_DIR) / "data" / "real" / "traces"; }
 
 #define REQUIRE_REAL(path) \
   if (!fs::exists(path)) GTEST_SKIP() << (path).string() << " is absent: the real traces of ../shared are not here"
 
-fs::path temp(const std::string& name) {
+fs::path trace_temp(const std::string& name) {
   return fs::temp_directory_path() / ("vmsim_tf_" + std::to_string(::getpid()) + "_" + name);
 }
 
-std::string error_of(const std::function<void()>& f) {
+std::string trace_error_of(const std::function<void()>& f) {
   try {
     f();
   } catch (const core::Error& e) {
@@ -69,10 +69,10 @@ double raw_value(const std::string& line, const std::string& pin) {
 }
 
 TEST(HalscopeLog, RealCapturesMatchTheirHeaderAndLineCount) {
-  REQUIRE_REAL(traces_dir() / "linuxcnc_halscope");
+  REQUIRE_REAL(real_traces_dir() / "linuxcnc_halscope");
   for (const char* name : {"halscope.log", "halscope2.log", "halscope3.log", "halscope4.log"}) {
     SCOPED_TRACE(name);
-    const fs::path p = traces_dir() / "linuxcnc_halscope" / name;
+    const fs::path p = real_traces_dir() / "linuxcnc_halscope" / name;
     const RawLog raw = raw_log(p);
     ASSERT_EQ(raw.period_ns, 1000000);
     const std::string cmd = "joint.0.motor-pos-cmd", enc = "hm2_7i76e.0.encoder.02.position";
@@ -116,16 +116,16 @@ TEST(HalscopeLog, RealCapturesMatchTheirHeaderAndLineCount) {
     ch.pins = {parse_pin_pair("X=" + cmd + "," + enc)};
     EXPECT_EQ(read_position_trace(p, ch).actual, t.actual);
     ch.pins = {parse_pin_pair("X=" + cmd + ",joint.0.motor-pos-fb")};
-    const std::string e = error_of([&] { read_position_trace(p, ch); });
+    const std::string e = trace_error_of([&] { read_position_trace(p, ch); });
     EXPECT_NE(e.find("no pin 'joint.0.motor-pos-fb' (pins present: joint.0.f-error, " + enc), std::string::npos) << e;
   }
 }
 
 TEST(MatTrace, EmpsFilesMatchTheBenchmarkDescription) {
-  REQUIRE_REAL(traces_dir() / "emps");
+  REQUIRE_REAL(real_traces_dir() / "emps");
   for (const char* name : {"DATA_EMPS.mat", "DATA_EMPS_PULSES.mat"}) {
     SCOPED_TRACE(name);
-    const fs::path p = traces_dir() / "emps" / name;
+    const fs::path p = real_traces_dir() / "emps" / name;
     EXPECT_EQ(detect_trace_format(p), TraceFormat::Mat);
     EXPECT_NEAR(read_mat_vector(p, "gtau").at(0), 35.15, 0.005);
     EXPECT_EQ(read_mat_vector(p, "kp").at(0), 160.18);
@@ -146,15 +146,15 @@ TEST(MatTrace, EmpsFilesMatchTheBenchmarkDescription) {
     EXPECT_DOUBLE_EQ(t.actual(100, 0), 1000.0 * read_mat_vector(p, "qm").at(100));
 
     ch.variables = parse_mat_variables("t=t,command=qg,actual=q_measured");
-    const std::string e = error_of([&] { read_position_trace(p, ch); });
+    const std::string e = trace_error_of([&] { read_position_trace(p, ch); });
     EXPECT_NE(e.find("no variable 'q_measured' (the file has: "), std::string::npos) << e;
     EXPECT_NE(e.find("qm"), std::string::npos) << e;
   }
 }
 
 TEST(MatTrace, AxisTraceForFrictionFromEmps) {
-  REQUIRE_REAL(traces_dir() / "emps");
-  const fs::path p = traces_dir() / "emps" / "DATA_EMPS.mat";
+  REQUIRE_REAL(real_traces_dir() / "emps");
+  const fs::path p = real_traces_dir() / "emps" / "DATA_EMPS.mat";
   TraceChannels ch;
   ch.variables = parse_mat_variables("t=t,position=qm,control=vir");
   ch.unit = "m";
@@ -164,7 +164,7 @@ TEST(MatTrace, AxisTraceForFrictionFromEmps) {
   EXPECT_NEAR(t.position[0], 7.45e-3, 1e-4);
   EXPECT_NEAR(t.current_A[0], 2.538628089, 1e-8);
   ch.variables = parse_mat_variables("t=t,command=qg,control=vir");
-  const std::string e = error_of([&] { read_axis_trace(p, ch); });
+  const std::string e = trace_error_of([&] { read_axis_trace(p, ch); });
   EXPECT_NE(e.find("--mat: 'command' is not a role here"), std::string::npos) << e;
 }
 
@@ -172,7 +172,7 @@ TEST(MatTrace, AxisTraceForFrictionFromEmps) {
 // variables by name, converts float to double and m to mm, and finds the format by the file's header.
 TEST(MatTrace, V5AndV73FilesWrittenByLibmatio) {
   for (const mat_ft version : {MAT_FT_MAT5, MAT_FT_MAT73}) {
-    const fs::path p = temp(version == MAT_FT_MAT5 ? "v5.mat" : "v73.mat");
+    const fs::path p = trace_temp(version == MAT_FT_MAT5 ? "v5.mat" : "v73.mat");
     mat_t* m = Mat_CreateVer(p.string().c_str(), nullptr, version);
     if (!m) GTEST_SKIP() << "this libmatio cannot write " << (version == MAT_FT_MAT73 ? "v7.3 (no HDF5)" : "v5");
     std::vector<float> t(50), c(50), a(50);
@@ -203,7 +203,7 @@ TEST(MatTrace, V5AndV73FilesWrittenByLibmatio) {
 // A small CSV trace whose time stamps step by period (1 + jitter (-1)^k): linear signals, so a resampling by linear
 // interpolation must give them exactly at the mean period.
 fs::path jittery_trace(double jitter) {
-  const fs::path p = temp("jitter.csv");
+  const fs::path p = trace_temp("jitter.csv");
   std::ofstream out(p);
   out << "t_s,X_command_mm,X_actual_mm\n";
   double t = 0.0;
@@ -241,17 +241,19 @@ TEST(TraceSampling, SmallJitterIsAcceptedLargeJitterIsResampled) {
 
 TEST(TraceFormats, OptionsAreCheckedAndMisuseIsNamed) {
   EXPECT_EQ(parse_pin_pair("Y=joint.1.motor-pos-cmd, joint.1.motor-pos-fb").actual, "joint.1.motor-pos-fb");
-  EXPECT_NE(error_of([] { parse_pin_pair("X=joint.0.motor-pos-cmd"); }).find("expected AXIS=COMMAND_PIN,ACTUAL_PIN"),
+  EXPECT_NE(
+      trace_error_of([] { parse_pin_pair("X=joint.0.motor-pos-cmd"); }).find("expected AXIS=COMMAND_PIN,ACTUAL_PIN"),
+      std::string::npos);
+  EXPECT_NE(trace_error_of([] { parse_pin_pair("Q=a,b"); }).find("axis 'Q': expected one of X Y Z A B C"),
             std::string::npos);
-  EXPECT_NE(error_of([] { parse_pin_pair("Q=a,b"); }).find("axis 'Q': expected one of X Y Z A B C"), std::string::npos);
-  EXPECT_NE(error_of([] { parse_mat_variables("t=t,command"); }).find("item 'command': expected ROLE=VARIABLE"),
+  EXPECT_NE(trace_error_of([] { parse_mat_variables("t=t,command"); }).find("item 'command': expected ROLE=VARIABLE"),
             std::string::npos);
-  EXPECT_NE(error_of([] { parse_mat_variables("t=t,t=time"); }).find("'t' is given twice"), std::string::npos);
+  EXPECT_NE(trace_error_of([] { parse_mat_variables("t=t,t=time"); }).find("'t' is given twice"), std::string::npos);
   // A halscope log with an unknown header, and one whose channels change names midway.
-  const fs::path p = temp("scope.log");
+  const fs::path p = trace_temp("scope.log");
   std::ofstream(p) << "Sampling period is 1000000 nSec\n\njoint.0.motor-pos-cmd +1.0 joint.0.motor-pos-fb +1.0\n"
                       "joint.0.motor-pos-cmd +1.0 joint.1.motor-pos-fb +1.0\n";
-  EXPECT_NE(error_of([&] { read_halscope_log(p); })
+  EXPECT_NE(trace_error_of([&] { read_halscope_log(p); })
                 .find(":4: channel 2 is 'joint.1.motor-pos-fb' here but "
                       "'joint.0.motor-pos-fb' on line 3"),
             std::string::npos);
@@ -259,7 +261,7 @@ TEST(TraceFormats, OptionsAreCheckedAndMisuseIsNamed) {
                       "joint.0.motor-pos-cmd +1.0 joint.0.motor-pos-fb +1.0\n";
   TraceChannels csv_only;
   csv_only.variables = {{"t", "t"}};
-  EXPECT_NE(error_of([&] { read_position_trace(p, csv_only); }).find("this trace is not a .mat file"),
+  EXPECT_NE(trace_error_of([&] { read_position_trace(p, csv_only); }).find("this trace is not a .mat file"),
             std::string::npos);
   const PositionTrace t = read_position_trace(p);  // joint.0.motor-pos-fb: the default actual pin
   EXPECT_EQ(t.axes, std::vector<std::string>{"X"});
