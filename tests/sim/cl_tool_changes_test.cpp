@@ -218,25 +218,25 @@ TEST(ClToolChangesJob, ToolsMapByLoadToolNumber) {
 // ---- five-axis programmed motion with tool changes ------------------------------------------------------------
 
 // On the HAAS UMC-750-like B/C table: a ball D6 tilting from 0 to 20 degrees about y along a line in y, then (TLDATA/
-// line 9) a bull-nose D8 R1 tilting from 10 to -10 degrees about x along a line in x; the stretches cut across each
+// line 10) a bull-nose D8 R1 tilting from 10 to -10 degrees about x along a line in x; the stretches cut across each
 // other. `part` 1: the first stretch alone; 2: the second alone, starting where the first left the tool; 0: both.
 std::string cltc_five_axis(int part) {
   const double s20 = std::sin(20 * M_PI / 180), c20 = std::cos(20 * M_PI / 180);
   const double s10 = std::sin(10 * M_PI / 180), c10 = std::cos(10 * M_PI / 180);
   char first[512], second[512], start2[128];
   std::snprintf(first, sizeof first,
-                "TLDATA/MILL,6.0000,3.0000,30.0000,0.0000,0.0000\n"  // 2
-                "GOTO/-5,-15,5,0,0,1\n"                              // 3: the start
-                "GOTO/-5,-15,-1.5,0,0,1\n"                           // 4
-                "GOTO/-5,15,-1.5,%.7f,0,%.7f\n"                      // 5
-                "RAPID\nGOTO/-5,15,5\n",                             // 6, 7
+                "TLDATA/MILL,6.0000,3.0000,30.0000,0.0000,0.0000\n"  // 3 (UNITS/, FEDRAT/ before it)
+                "GOTO/-5,-15,5,0,0,1\n"                              // 4: the start
+                "GOTO/-5,-15,-1.5,0,0,1\n"                           // 5
+                "GOTO/-5,15,-1.5,%.7f,0,%.7f\n"                      // 6
+                "RAPID\nGOTO/-5,15,5\n",                             // 7, 8
                 s20, c20);
   std::snprintf(second, sizeof second,
-                "TLDATA/MILL,8.0000,1.0000,30.0000,0.0000,0.0000\n"  // 9
-                "RAPID\nGOTO/-15,5,5,0,%.7f,%.7f\n"                  // 10, 11
-                "GOTO/-15,5,-1,0,%.7f,%.7f\n"                        // 12
-                "GOTO/15,5,-1,0,%.7f,%.7f\n"                         // 13
-                "RAPID\nGOTO/15,5,5\n",                              // 14, 15
+                "TLDATA/MILL,8.0000,1.0000,30.0000,0.0000,0.0000\n"  // 10 (after a comment line)
+                "RAPID\nGOTO/-15,5,5,0,%.7f,%.7f\n"                  // 11, 12
+                "GOTO/-15,5,-1,0,%.7f,%.7f\n"                        // 13
+                "GOTO/15,5,-1,0,%.7f,%.7f\n"                         // 14
+                "RAPID\nGOTO/15,5,5\n",                              // 15, 16
                 -s10, c10, -s10, c10, s10, c10);
   std::snprintf(start2, sizeof start2, "GOTO/-5,15,5,%.7f,0,%.7f\n", s20, c20);
   const std::string head = "UNITS/MM\n";
@@ -252,7 +252,7 @@ std::string cltc_five_axis_job(const std::string& program) {
          "\"\nprogram = \"" + program +
          "\"\n[stock]\ntype = \"box\"\nmin_mm = [-20.0, -20.0, -5.0]\nmax_mm = [20.0, 20.0, 0.0]\n"
          "[interpolation]\nperiod_ms = 1\ntolerance_mm = 0.005\n"
-         "[removal]\nfield = \"zmap\"\nspacing_mm = 0.1\nmotion = \"program\"\ntrack_tolerance_mm = 0.002\n"
+         "[removal]\nfield = \"zmap\"\nspacing_mm = 0.25\nmotion = \"program\"\ntrack_tolerance_mm = 0.005\n"
          "[reference]\nkind = \"none\"\n";
 }
 
@@ -289,10 +289,10 @@ TEST(ClToolChangesFiveAxis, EachStretchIsCutByItsToolOnTheProgrammedPath) {
       cut_by_b += zb(j, i) < za(j, i) ? 1 : 0;
     }
   EXPECT_EQ(differ, 0u) << "largest difference " << worst << " mm";
-  EXPECT_GT(cut_by_a, 1000u);
-  EXPECT_GT(cut_by_b, 1000u);
+  EXPECT_GT(cut_by_a, 200u);
+  EXPECT_GT(cut_by_b, 200u);
   // The bull-nose's floor under its flat bottom at the middle of its line (axis vertical there, x = 0): z = -1.
-  EXPECT_NEAR(cltc_height(*r.surface, 0.0, 5.0), -1.0, 2e-3);
+  EXPECT_NEAR(cltc_height(*r.surface, 0.0, 5.0), -1.0, 5e-3);
   std::printf(
       "[ CL TOOLS ] five-axis program motion, two tools: %zu + %zu sweeps; %zu of %lld cells differ from the union of "
       "the stretches cut alone (largest %.2e mm)\n",
