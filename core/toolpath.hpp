@@ -73,6 +73,19 @@ struct Move {
   int source_line = 0;               // 1-based line of the program that made this move
 };
 
+// A tool a CL program names (APT TLDATA/MILL, CUTTER/), as its moves' Move::tool_number refers to it.
+struct ProgramTool {
+  int number = 0;  // the tool_number of the moves it cuts
+  double diameter_mm = 0.0;
+  double corner_radius_mm = 0.0;
+  double length_mm = 0.0;  // TLDATA/MILL's length; 0 = unknown
+  int line = 0;            // the record that first gave this geometry
+  // Per stretch of consecutive moves cut by it, the line of the geometry record in force at its first move.
+  std::vector<int> stretch_lines;
+  // The number is the program's (LOAD/TOOL, LOADTL); otherwise vmsim's, in order of first appearance.
+  bool numbered_by_program = false;
+};
+
 // Consecutive moves join in machine coordinates: a move starts where the previous one ended, plus any change of
 // the tool length offset (G43/G49 moves the controlled point, not the axes). On a 3-axis machine the Z axis
 // carries tip + tool_length_offset_mm (core/kinematics).
@@ -85,6 +98,10 @@ struct ToolPath {
   double tool_corner_radius_mm = 0.0;
   double tool_length_mm = 0.0;  // APT TLDATA/MILL's length; 0 = unknown
   int tool_line = 0;            // the line the program's tool was read from (APT CUTTER/, TLDATA/); 0 = none
+  // CL programs: every tool geometry the moves are cut with, in order of first use (the first is tool_diameter_mm's).
+  // A program that names one geometry and no LOAD/TOOL keeps tool_number 0 (no tool change); several geometries
+  // without LOAD/TOOL are numbered 1, 2, ... in order of first appearance (program/apt.hpp).
+  std::vector<ProgramTool> program_tools;
   // 840D T="name": the reader numbers named tools 1, 2, ... in order of first call; tool_names[n - 1] is tool n's name.
   std::vector<std::string> tool_names;
   // The interpolation tolerance the program itself sets (Sinumerik CYCLE832: the smallest in force for a feed move);

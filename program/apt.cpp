@@ -28,9 +28,14 @@
 //                             only when it changes, and no MULTAX); under MULTAX/OFF such a GOTO takes TLAXIS's.
 //   UNITS/MM|INCHES           lengths and feeds that follow are in that unit; converted to mm here. A file without
 //                             it is in AptOptions::default_unit ([job] program_units), else mm with a warning.
-//   CUTTER/d[,r,...], TLDATA/MILL,d,r,l,...   tool diameter, corner radius (and length) (ToolPath::tool_*): the
-//                             first one; a later different tool is a warning (one tool per program, issue 24).
-//   LOADTL/n, LOAD/TOOL,n     active tool number of the moves that follow.
+//   CUTTER/d[,r,...], TLDATA/MILL,d,r,l,...   tool diameter, corner radius (and length): ToolPath::tool_* the first
+//                             one, ToolPath::program_tools every one the moves use. A record whose geometry differs
+//                             from the tool in use starts a new tool (NX changes tools by TLDATA/ alone).
+//   LOADTL/n, LOAD/TOOL,n     active tool number of the moves that follow. Numbering (Move::tool_number): the
+//                             program's LOAD/TOOL numbers when it has any (a number whose geometry changes later
+//                             gives the new geometry the next free number, with a warning); without LOAD/TOOL,
+//                             several geometries are numbered 1, 2, ... in order of first appearance, and a single
+//                             one stays tool 0 (no tool change, as G-code without T).
 //   MSYS/x,y,z,xi,xj,xk,yi,yj,yk   NX: the frame (origin, X and Y directions) the coordinates that follow are in.
 //                             The first MSYS/ frame is the workpiece frame; the data under a later, different one is
 //                             carried into it.
@@ -61,12 +66,15 @@
 
 #include <Eigen/Geometry>
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -295,6 +303,7 @@ class AptReader {
     if (!multi_axis_file_) {
       for (core::Move& m : path_.moves) m.tool_axis_start = m.tool_axis_end = std::nullopt;
     }
+    number_tools();
     return std::move(path_);
   }
 
@@ -379,7 +388,7 @@ class AptReader {
     // Zero-length moves are dropped; a move that only turns the tool axis is kept, as the five-axis machine
     // has to move its rotary axes for it.
     const bool turns = (axis - axis_).norm() > 1e-12;
-    if ((target - *position_).norm() > 1e-9 || turns) path_.moves.push_back(m);
+    if ((target - *position_).norm() > 1e-9 || turns) push_move(m);
     position_ = target;
     axis_ = axis;
   }
@@ -437,7 +446,7 @@ class AptReader {
     mv.centre_mm = c;
     mv.rotation = arc.axis[m] > 0 ? turns : -turns;
     mv.end.head<3>() = target;
-    path_.moves.push_back(mv);  // start == end is a full circle, never a zero-length move
+    push_move(mv);  // start == end is a full circle, never a zero-length move
     position_ = target;
     axis_ = axis;
   }
@@ -488,7 +497,7 @@ class AptReader {
       core::Move mv = make_move(st, false, ax);
       mv.source_line = arc.line;
       mv.end.head<3>() = p;
-      path_.moves.push_back(mv);
+      push_move(mv);
       position_ = p;
       axis_ = ax;
     }
@@ -668,6 +677,7 @@ class AptReader {
         fail(st.line,
              w + "/ tool number " + printable(st.args[i]) + " is not a whole number >= 0 (expected a tool number)");
       tool_number_ = static_cast<int>(n);
+      program_numbers_tools_ = true;
       return true;
     }
     if (w == "CYCLE") {
@@ -705,8 +715,8 @@ class AptReader {
                       "tool is never skipped, the accepted ones are listed in core/apt.cpp)");
   }
 
-  // The program's first tool; a later, different one is a warning: a ToolPath carries one tool (issue 24 adds tool
-  // changes).
+  // The tool geometry of the moves that follow (ToolPath::tool_* keeps the program's first one); the moves' tool
+  // numbers are given at the end (number_tools), when it is known whether the program numbers its tools.
   void set_tool(const Statement& st, double d, double r, double length, const char* expected) {
     if (!(d >= 0) || !std::isfinite(d) || !(r >= 0) || !std::isfinite(r) || r > d / 2 + 1e-9)
       fail(st.line,
@@ -716,12 +726,85 @@ class AptReader {
       path_.tool_corner_radius_mm = r;
       path_.tool_length_mm = length;
       path_.tool_line = st.line;
-      return;
     }
-    if (std::abs(d - path_.tool_diameter_mm) > 1e-9 || std::abs(r - path_.tool_corner_radius_mm) > 1e-9)
-      warn(st.line, st.word + "/ changes the tool to diameter " + num(d) + " mm, corner radius " + num(r) +
-                        " mm: the whole program is cut with one tool (the job's [tool], or the program's first, line " +
-                        std::to_string(path_.tool_line) + ")");
+    // Same geometry: diameter and corner radius within 1 nm, and the length where both records give one (CUTTER/ has
+    // none).
+    const auto same = [&](const core::ProgramTool& g) {
+      return std::abs(g.diameter_mm - d) <= 1e-6 && std::abs(g.corner_radius_mm - r) <= 1e-6 &&
+             (g.length_mm == 0 || length == 0 || std::abs(g.length_mm - length) <= 1e-6);
+    };
+    geometry_line_ = st.line;
+    for (std::size_t k = 0; k < geometries_.size(); ++k)
+      if (same(geometries_[k])) {
+        geometry_ = static_cast<int>(k);
+        return;
+      }
+    core::ProgramTool g;
+    g.diameter_mm = d;
+    g.corner_radius_mm = r;
+    g.length_mm = length;
+    g.line = st.line;
+    geometries_.push_back(g);
+    geometry_ = static_cast<int>(geometries_.size()) - 1;
+  }
+
+  void push_move(const core::Move& m) {
+    path_.moves.push_back(m);
+    move_geometry_.push_back(geometry_);
+    move_geometry_line_.push_back(geometry_line_);
+  }
+
+  // Each move's tool number from the LOAD/TOOL number and the geometry in force at it (the header's rules), and
+  // ToolPath::program_tools. Done at the end: NX writes TLDATA/ before the LOAD/TOOL of its operation, and whether the
+  // program numbers its tools at all is known only then.
+  void number_tools() {
+    if (geometries_.empty()) return;  // no tool geometry: the LOAD/TOOL numbers as read
+    std::vector<char> used(geometries_.size(), 0);
+    int max_number = 0;
+    for (std::size_t k = 0; k < path_.moves.size(); ++k) {
+      if (move_geometry_[k] >= 0) used[static_cast<std::size_t>(move_geometry_[k])] = 1;
+      max_number = std::max(max_number, path_.moves[k].tool_number);
+    }
+    const bool single = std::count(used.begin(), used.end(), 1) <= 1;
+    std::map<std::pair<int, int>, int> number_of;  // (LOAD/TOOL number, geometry) -> tool number
+    std::map<int, int> geometry_of;                // tool number -> geometry
+    int next = max_number + 1;
+    int previous = -1;
+    for (std::size_t k = 0; k < path_.moves.size(); ++k) {
+      core::Move& m = path_.moves[k];
+      const int g = move_geometry_[k];
+      if (g < 0) continue;  // before any tool geometry: the LOAD/TOOL number alone
+      const auto key = std::make_pair(m.tool_number, g);
+      auto it = number_of.find(key);
+      if (it == number_of.end()) {
+        int n = 0;
+        if (program_numbers_tools_) {
+          n = m.tool_number;
+          if (geometry_of.count(n)) {
+            const core::ProgramTool& was = geometries_[static_cast<std::size_t>(geometry_of[n])];
+            warn(move_geometry_line_[k],
+                 fmt::format("{}tool {} (D{} R{} mm) is now D{} R{} mm: a different tool, numbered {} here",
+                             n == 0 ? "before any LOAD/TOOL, " : "", n, num(was.diameter_mm), num(was.corner_radius_mm),
+                             num(geometries_[static_cast<std::size_t>(g)].diameter_mm),
+                             num(geometries_[static_cast<std::size_t>(g)].corner_radius_mm), next));
+            n = next++;
+          }
+        } else if (!single) {
+          n = static_cast<int>(geometry_of.size()) + 1;
+        }
+        geometry_of.emplace(n, g);
+        it = number_of.emplace(key, n).first;
+        core::ProgramTool t = geometries_[static_cast<std::size_t>(g)];
+        t.number = n;
+        t.numbered_by_program = program_numbers_tools_ && n == m.tool_number;
+        path_.program_tools.push_back(t);
+      }
+      m.tool_number = it->second;
+      if (m.tool_number != previous)
+        for (core::ProgramTool& t : path_.program_tools)
+          if (t.number == m.tool_number) t.stretch_lines.push_back(move_geometry_line_[k]);
+      previous = m.tool_number;
+    }
   }
 
   // MSYS/x,y,z,xi,xj,xk,yi,yj,yk: the frame of the data that follows, in NX's absolute frame. The first one is the
@@ -794,6 +877,10 @@ class AptReader {
   bool rapid_next_ = false;
   double feed_mm_per_min_ = 0.0;
   int tool_number_ = 0;
+  bool program_numbers_tools_ = false;                   // a LOAD/TOOL or LOADTL record
+  std::vector<core::ProgramTool> geometries_;            // distinct tool geometries, in order of their records
+  int geometry_ = -1, geometry_line_ = 0;                // the geometry in force and the record that set it
+  std::vector<int> move_geometry_, move_geometry_line_;  // per move
   std::optional<PendingArc> pending_arc_;
 };
 

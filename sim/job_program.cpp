@@ -49,6 +49,30 @@ class ChainTransform final : public program::MachineTransform {
   std::unique_ptr<motion::Kinematics> kin_;
 };
 
+// A CL tool's geometry as a job tool: ball when r = d/2, flat when r = 0, else bull-nose; flute length the program's
+// tool length, else 2 d.
+core::ToolSpec program_tool_spec(double d, double r, double length_mm) {
+  core::ToolSpec t;
+  t.diameter_mm = d;
+  if (std::abs(r - d / 2) <= 1e-9 * d) {
+    t.shape = core::ToolShape::Ball;
+    t.corner_radius_mm = d / 2;
+  } else if (r <= 1e-9 * d) {
+    t.shape = core::ToolShape::Flat;
+    t.corner_radius_mm = 0;
+  } else {
+    t.shape = core::ToolShape::BullNose;
+    t.corner_radius_mm = r;
+  }
+  t.flute_length_mm = length_mm > 0 ? length_mm : 2 * d;
+  t.length_mm = std::max(50.0, t.flute_length_mm);
+  return t;
+}
+
+const char* shape_word(core::ToolShape s) {
+  return s == core::ToolShape::Ball ? "ball" : s == core::ToolShape::Flat ? "flat" : "bull-nose";
+}
+
 }  // namespace
 
 std::optional<JobCurve> read_job_curve(const core::Job& job) {
@@ -114,27 +138,36 @@ std::optional<std::string> use_program_tool(core::Job& job) {
     return fmt::format("{}:{}: the program's tool is D{:.4g} R{:.4g} mm; the job's [tool] D{:.4g} R{:.4g} mm cuts",
                        job.program_file.string(), tp.tool_line, d, r, job.tool.diameter_mm, job.tool.corner_radius_mm);
   }
-  core::ToolSpec t;
-  t.diameter_mm = d;
-  const char* kind = "bull-nose";
-  if (std::abs(r - d / 2) <= 1e-9 * d) {
-    t.shape = core::ToolShape::Ball;
-    t.corner_radius_mm = d / 2;
-    kind = "ball";
-  } else if (r <= 1e-9 * d) {
-    t.shape = core::ToolShape::Flat;
-    t.corner_radius_mm = 0;
-    kind = "flat";
-  } else {
-    t.shape = core::ToolShape::BullNose;
-    t.corner_radius_mm = r;
+  if (tp.program_tools.size() > 1) {
+    // Tool changes (TLDATA/, CUTTER/, LOAD/TOOL): one [[tools]] per program tool, by the moves' tool numbers.
+    std::string list;
+    for (const core::ProgramTool& pt : tp.program_tools) {
+      core::ToolSpec t = program_tool_spec(pt.diameter_mm, pt.corner_radius_mm, pt.length_mm);
+      t.number = pt.number;
+      job.tools.push_back(t);
+      std::string lines;
+      for (int l : pt.stretch_lines) lines += fmt::format("{}{}", lines.empty() ? "" : ", ", l);
+      list += fmt::format("\n  T{}: {} D{:.4g} R{:.4g} mm, flute length {:.4g} mm (line{} {})", pt.number,
+                          shape_word(t.shape), t.diameter_mm, t.corner_radius_mm, t.flute_length_mm,
+                          pt.stretch_lines.size() > 1 ? "s" : "", lines);
+    }
+    job.tool = job.tools.front();
+    const bool numbered = tp.program_tools.front().numbered_by_program;
+    job.tool_from_program =
+        fmt::format("{}: {} tools{}", job.program_file.string(), tp.program_tools.size(),
+                    numbered ? " numbered by LOAD/TOOL" : " numbered in order of first appearance (no LOAD/TOOL)");
+    return fmt::format(
+        "{}: the job has no [tool]: the program changes tools; each move is cut by the tool in effect "
+        "at it ({}):{}",
+        job.program_file.string(), numbered ? "numbered by its LOAD/TOOL" : "numbered in order of first appearance",
+        list);
   }
-  t.flute_length_mm = tp.tool_length_mm > 0 ? tp.tool_length_mm : 2 * d;
-  t.length_mm = std::max(50.0, t.flute_length_mm);
+  const core::ToolSpec t = program_tool_spec(d, r, tp.tool_length_mm);
   job.tool = t;
   job.tool_from_program = fmt::format("{}:{}", job.program_file.string(), tp.tool_line);
   return fmt::format("{}:{}: the job has no [tool]: the program's {} D{:.4g} R{:.4g} mm, flute length {:.4g} mm",
-                     job.program_file.string(), tp.tool_line, kind, d, t.corner_radius_mm, t.flute_length_mm);
+                     job.program_file.string(), tp.tool_line, shape_word(t.shape), d, t.corner_radius_mm,
+                     t.flute_length_mm);
 }
 
 }  // namespace vmsim::sim

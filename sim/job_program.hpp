@@ -26,10 +26,12 @@ std::optional<JobCurve> read_job_curve(const core::Job& job);
 // (read_job_curve; the interpolator follows the chain itself through sim::Chain).
 core::ToolPath read_job_program(const core::Job& job);
 
-// A job without [tool] whose program names its tool (APT CUTTER/ or TLDATA/MILL, the first one): that tool becomes the
-// job's (ball when r = d/2, flat when r = 0, else bull-nose; flute length the program's tool length, else 2 d).
-// Returns what was chosen and from where, for the user; with a [tool] that differs from the program's, a note saying
-// so (the job's cuts); nullopt when the program names no tool or names the job's.
+// A job without [tool] or [[tools]] whose program names its tool (APT CUTTER/ or TLDATA/MILL): that tool becomes the
+// job's (ball when r = d/2, flat when r = 0, else bull-nose; flute length the program's tool length, else 2 d). A
+// program that changes tools (core::ToolPath::program_tools, more than one) gives one job.tools entry per tool,
+// numbered as its moves' tool numbers (job.tool_from_program then says so; report.json "tools" source "program ...").
+// Returns what was chosen and from where, for the user; with a [tool] that differs from the program's first, a note
+// saying so (the job's cuts); nullopt when the program names no tool or names the job's.
 std::optional<std::string> use_program_tool(core::Job& job);
 
 }  // namespace vmsim::sim

@@ -122,21 +122,10 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
     // A five-axis program: tool tip and axis along the programmed moves (app/tool_poses.hpp), sampled within a tenth
     // of the track tolerance as the arcs below are.
     const auto kin = motion::make_kinematics(job.machine);
-    // Sampled for the farthest-reaching tool; its poses carry no move index, so it is cut by one tool only.
-    const std::vector<removal::Tool> tools = cutting_tools(job);
-    const auto far = std::max_element(tools.begin(), tools.end(),
-                                      [](const auto& a, const auto& b) { return a.reach() < b.reach(); });
-    removal::PoseTrack five = program_pose_track(m.program, motion::toolpath_in_axis_space(m.program, job.machine),
-                                                 *kin, job.machine, *far, 0.1 * track_tolerance(job, true));
-    if (!job.tools.empty()) {
-      const std::vector<int> per_move = move_tools(job, m.program);
-      if (std::adjacent_find(per_move.begin(), per_move.end(), std::not_equal_to<>()) != per_move.end())
-        throw core::Error(job.file.string() +
-                          ": motion = \"program\" on a five-axis program with tool changes is not supported (the "
-                          "programmed track carries no move per pose); use motion = \"setpoints\" or \"actual\"");
-      five.tool.assign(static_cast<std::size_t>(five.tip_mm.rows()), per_move.empty() ? 0 : per_move.front());
-    }
-    return five;
+    // Each move sampled with the reach of the tool that cuts it, each pose tagged with that tool.
+    const std::vector<int> per_move = job.tools.empty() ? std::vector<int>{} : move_tools(job, m.program);
+    return program_pose_track(m.program, motion::toolpath_in_axis_space(m.program, job.machine), *kin, job.machine,
+                              cutting_tools(job), per_move, 0.1 * track_tolerance(job, true));
   }
   if (kind == core::RemovalSpec::Motion::Program) {
     // The programmed geometry itself: line ends, and arcs sampled finely enough that their chords stay within a
@@ -369,9 +358,16 @@ std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps, c
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
   removal::TrackOptions topt;
   topt.tolerance_mm = track_tolerance(job, track_turns(tr));
-  // A box stock holds all the material: a turning tool's sub-steps count only its engaging length (track.hpp).
-  if (job.stock.kind == core::StockSpec::Kind::Box)
+  // The stock's bounding box holds all the material: a turning tool's sub-steps count only its engaging length
+  // (track.hpp). A mesh stock's is its mesh's (read again here: a few ms for the parts' meshes, beside the sweeps).
+  if (job.stock.kind == core::StockSpec::Kind::Box) {
     topt.material_box = Eigen::AlignedBox3d(job.stock.min_mm, job.stock.max_mm);
+  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
+    const core::TriangleMesh mesh = core::read_stl(job.stock.mesh_file);
+    if (mesh.vertices_mm.rows() > 0)
+      topt.material_box = Eigen::AlignedBox3d(mesh.vertices_mm.colwise().minCoeff().transpose(),
+                                              mesh.vertices_mm.colwise().maxCoeff().transpose());
+  }
   return removal::sweeps_from_track(cutting_tools(job), tr, topt);
 }
 

@@ -104,15 +104,31 @@ removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const cor
 removal::PoseTrack program_pose_track(const core::ToolPath& program, const core::ToolPath& axis_space,
                                       const motion::Kinematics& kin, const core::Machine& machine,
                                       const removal::Tool& tool, double tolerance_mm) {
+  return program_pose_track(program, axis_space, kin, machine, std::vector<removal::Tool>{tool}, {}, tolerance_mm);
+}
+
+removal::PoseTrack program_pose_track(const core::ToolPath& program, const core::ToolPath& axis_space,
+                                      const motion::Kinematics& kin, const core::Machine& machine,
+                                      const std::vector<removal::Tool>& tools, const std::vector<int>& move_tool,
+                                      double tolerance_mm, std::vector<int>* pose_move) {
   if (!(tolerance_mm > 0)) throw core::Error("tool poses: the tolerance must be > 0");
   if (axis_space.moves.size() != program.moves.size())
     throw core::Error(fmt::format("tool poses: {} axis-space moves for {} program moves", axis_space.moves.size(),
                                   program.moves.size()));
-  const double reach = tool.reach();
+  if (tools.empty()) throw core::Error("tool poses: no tool");
+  if (!move_tool.empty() && move_tool.size() != program.moves.size())
+    throw core::Error(
+        fmt::format("tool poses: {} move tools for {} program moves", move_tool.size(), program.moves.size()));
+  for (int t : move_tool)
+    if (t < 0 || static_cast<std::size_t>(t) >= tools.size())
+      throw core::Error(fmt::format("tool poses: tool index {} of {} tools", t, tools.size()));
   constexpr double kMaxTurn = 5 * kPi / 180, kMaxRotary = 10 * kPi / 180;
   std::vector<Eigen::Vector3d> tips, axes;
+  std::vector<int> moves_of;
   for (std::size_t m = 0; m < program.moves.size(); ++m) {
     const core::Move& mv = program.moves[m];
+    // Each move is sampled for the tool that cuts it (the error bound counts its reach).
+    const double reach = tools[move_tool.empty() ? 0 : static_cast<std::size_t>(move_tool[m])].reach();
     const core::Move& am = axis_space.moves[m];
     const bool cl = mv.tool_axis_start.has_value() && mv.tool_axis_end.has_value();
     std::optional<core::ArcFrame> arc, aarc;
@@ -151,6 +167,7 @@ removal::PoseTrack program_pose_track(const core::ToolPath& program, const core:
     if (tips.empty()) {
       tips.push_back(first.tip_mm);
       axes.push_back(first.axis.normalized());
+      moves_of.push_back(static_cast<int>(m));
     }
     // Depth-first bisection, left piece first, so the points come out in order.
     std::vector<Piece> stack{{0, 1, first, last, r0, r1, 0}};
@@ -176,9 +193,15 @@ removal::PoseTrack program_pose_track(const core::ToolPath& program, const core:
       }
       tips.push_back(pc.p1.tip_mm);
       axes.push_back(a1);
+      moves_of.push_back(static_cast<int>(m));
     }
   }
   removal::PoseTrack tr;
+  if (!move_tool.empty()) {
+    tr.tool.reserve(moves_of.size());
+    for (int m : moves_of) tr.tool.push_back(move_tool[static_cast<std::size_t>(m)]);
+  }
+  if (pose_move) *pose_move = std::move(moves_of);
   const auto n = static_cast<Eigen::Index>(tips.size());
   tr.tip_mm.resize(n, 3);
   tr.axis_per_sample.resize(n, 3);

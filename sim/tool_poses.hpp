@@ -13,6 +13,7 @@
 
 #include <functional>
 #include <optional>
+#include <vector>
 
 namespace vmsim::sim {
 
@@ -40,6 +41,13 @@ removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const cor
 removal::PoseTrack program_pose_track(const core::ToolPath& program, const core::ToolPath& axis_space,
                                       const motion::Kinematics& kin, const core::Machine& machine,
                                       const removal::Tool& tool, double tolerance_mm);
+// The same for a program that changes tools: move m is sampled with the reach of tools[move_tool[m]] and its poses
+// carry that tool (PoseTrack::tool: the first pose, the first move's start, its tool). `pose_move`, when given,
+// receives each pose's move index. Empty `move_tool`: tools[0] cuts every move and PoseTrack::tool stays empty.
+removal::PoseTrack program_pose_track(const core::ToolPath& program, const core::ToolPath& axis_space,
+                                      const motion::Kinematics& kin, const core::Machine& machine,
+                                      const std::vector<removal::Tool>& tools, const std::vector<int>& move_tool,
+                                      double tolerance_mm, std::vector<int>* pose_move = nullptr);
 
 // True when a program needs the five-axis track: some move gives a tool axis (CL), is tool-centre-point G-code, or has
 // a rotary word other than 0. Otherwise the programmed path is a 3-axis path of the tool tip in the workpiece frame.

@@ -21,9 +21,20 @@ std::string program_tool_name(const core::ToolPath& program, int number) {
   return {};
 }
 
+const core::ProgramTool* program_tool(const core::ToolPath& program, int number) {
+  for (const core::ProgramTool& t : program.program_tools)
+    if (t.number == number) return &t;
+  return nullptr;
+}
+
+// A CL program's tools are also named by their geometry and the record that gives it (its number may be vmsim's).
 std::string program_label(const core::ToolPath& program, int number) {
   const std::string name = program_tool_name(program, number);
-  return name.empty() ? fmt::format("T{}", number) : fmt::format("T=\"{}\"", name);
+  if (!name.empty()) return fmt::format("T=\"{}\"", name);
+  if (const core::ProgramTool* t = program_tool(program, number))
+    return fmt::format("T{} (D{:.4g} R{:.4g} mm of line {}{})", number, t->diameter_mm, t->corner_radius_mm, t->line,
+                       t->numbered_by_program ? "" : ", numbered in order of appearance");
+  return fmt::format("T{}", number);
 }
 
 const char* shape_name(core::ToolShape s) {
@@ -163,14 +174,18 @@ nlohmann::json tools_json(const core::Job& job, const Cut& cut) {
     if (!job.tools.empty()) {
       if (s.number >= 0) j["number"] = s.number;
       if (!s.name.empty()) j["name"] = s.name;
+      // A CL program's tool: the records that start each stretch of moves it cuts.
+      if (const core::ProgramTool* pt = s.name.empty() ? program_tool(program, s.number) : nullptr)
+        j["program_lines"] = pt->stretch_lines;
     }
     if (timed) j["time_s"] = time_s[t];
     list.push_back(j);
   }
-  const std::string source = !job.tools.empty()               ? "job [[tools]]"
-                             : job.tool_given                 ? "job [tool]"
-                             : !job.tool_from_program.empty() ? "program " + job.tool_from_program
-                                                              : "default (no [tool] in the job)";
+  // The program's tools (sim::use_program_tool) fill job.tools too: tool_from_program says they are its.
+  const std::string source = !job.tool_from_program.empty() ? "program " + job.tool_from_program
+                             : !job.tools.empty()           ? "job [[tools]]"
+                             : job.tool_given               ? "job [tool]"
+                                                            : "default (no [tool] in the job)";
   nlohmann::json out = {{"source", source}, {"list", list}};
   if (job.tools.empty() && job.tool_all_numbers) out["all_tools"] = true;
   return out;

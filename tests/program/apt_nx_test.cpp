@@ -127,17 +127,23 @@ TEST(NxClsf, InformationListingAndRecordsOfNx) {
   EXPECT_FALSE(looks_like_apt("/G0 X0\n"));
 }
 
-TEST(NxClsf, LaterToolsAreWarnedNotSilentlyCut) {
+// A later, different TLDATA/ starts a new tool (issue 24: every move is cut by the tool in effect at it; more in
+// apt_tool_changes_test.cpp), never silently the first.
+TEST(NxClsf, LaterToolsStartNewTools) {
   const core::ToolPath tp = read_apt_text(
       "UNITS/MM\nTLDATA/MILL,10,5,50,0,0\nFEDRAT/MMPM,100\nGOTO/0,0,0\nGOTO/1,0,0\n"
-      "TLDATA/MILL,10,5,50,0,0\n"  // 6: the same tool: silent
+      "TLDATA/MILL,10,5,50,0,0\n"  // 6: the same tool
       "TLDATA/MILL,6,0,30,0,0\n"   // 7: another
       "GOTO/2,0,0\n",
       "nx.cls");
   EXPECT_EQ(tp.tool_diameter_mm, 10.0);
   EXPECT_EQ(tp.tool_line, 2);
-  ASSERT_EQ(tp.warnings.size(), 1u);
-  EXPECT_NE(tp.warnings[0].find("nx.cls:7:"), std::string::npos) << tp.warnings[0];
+  ASSERT_EQ(tp.moves.size(), 2u);
+  EXPECT_EQ(tp.moves[0].tool_number, 1);
+  EXPECT_EQ(tp.moves[1].tool_number, 2);
+  ASSERT_EQ(tp.program_tools.size(), 2u);
+  EXPECT_EQ(tp.program_tools[1].line, 7);
+  EXPECT_TRUE(tp.warnings.empty());
 }
 
 TEST(NxClsf, UnmodelledRecordsAreErrorsOrWarningsWhenLenient) {
@@ -316,11 +322,10 @@ TEST_P(NxReal, RecordCountsMatchAPlainScan) {
   EXPECT_EQ(circle_lines, s.circles);
   EXPECT_EQ(rapids, s.rapids - (fc.gotos > 0 ? 1 : 0)) << "the first RAPID GOTO/ is the start position";
   EXPECT_EQ(goto_lines, s.gotos - s.circles - 1 - s.zero_length);
-  // Tools: the first TLDATA/ is the program's tool; each later different one is a warning.
-  int tool_warnings = 0;
-  for (const std::string& w : tp.warnings)
-    if (w.find("changes the tool") != std::string::npos) ++tool_warnings;
-  EXPECT_EQ(tool_warnings, s.tool_changes_from_first);
+  // Tools: the first TLDATA/ is the program's tool; one program tool per distinct TLDATA/ (these files' LOAD/TOOL
+  // numbers match their geometries), without a warning.
+  EXPECT_EQ(static_cast<int>(tp.program_tools.size()), fc.distinct_tools);
+  EXPECT_TRUE(tp.warnings.empty()) << tp.warnings.front();
   EXPECT_GT(tp.tool_diameter_mm, 0.0);
   EXPECT_FALSE(has_warning(tp, "no UNITS/"));
   std::printf("[ NX CLSF ] %s: %d GOTO/, %d CIRCLE/, %d RAPID, %d TLDATA/ (%zu tools), %d zero-length -> %zu moves\n",
