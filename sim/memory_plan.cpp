@@ -26,9 +26,13 @@ double motion_bytes_per_setpoint(int axes, bool turning) {
 
 double streamed_motion_bytes_per_setpoint(int axes, bool turning) {
   const double setpoints = 8.0 * axes + 20, turn = turning ? 24 : 0;
-  const double interpolation = setpoints + 95;       // and the interpolator's own arrays
-  const double blocks = setpoints + 48 + turn + 24;  // track (tip, velocity, axis) and commanded tip
-  const double contour = 4 + 24 + turn + 24 + 84;    // move index, tip, axis, command, the contour's own
+  // The interpolator writes the setpoints as it samples (motion/interp.cpp): its own arrays are the path parameter
+  // per sample, raw and filtered (16 B). The drives run without the path length (8 B: a run never reads it).
+  const double interpolation = setpoints + 16;
+  const double blocks = setpoints - 8 + 48 + turn + 24;  // track (tip, velocity, axis) and commanded tip
+  // Move index, tip, axis, then the command merged while it is still held (24 + 36 B); after it is released, the
+  // merged path's normals and the result (16 B) take less.
+  const double contour = 4 + 24 + turn + 24 + 36;
   return std::max({interpolation, blocks, contour});
 }
 

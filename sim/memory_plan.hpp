@@ -8,8 +8,8 @@
 //   field      8 R + 56 per row (removal::IntervalStore::initial_bytes: before cuts split rays), times the copies a
 //              run holds: the field, the stock it started from (kept for reference "stock"), and the reference
 //              field (kinds feed, program, stock, job);
-//   motion     an actual motion is streamed (sim/motion_stream.hpp): S max(8 a + 20 + 95 interpolation,
-//              8 a + 20 + 72 drives in blocks, 136 contour error) (+24 turning axis); other motions (setpoints,
+//   motion     an actual motion is streamed (sim/motion_stream.hpp): S max(8 a + 20 + 16 interpolation,
+//              8 a + 12 + 72 drives in blocks, 88 contour error) (+24 turning axis); other motions (setpoints,
 //              program) S (8 a + 20 setpoints + 64 a drives + 60 contour error + 48 pose track
 //              (+24 turning axis) + 8 (4 a + 6) signals);
 //   sweeps     96 W (removal::SweptTool);
