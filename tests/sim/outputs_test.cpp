@@ -111,7 +111,7 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
     EXPECT_DOUBLE_EQ(m["error_bound_mm"].get<double>(), 0.002);
     // The untouched stock top either side of the pass is flat: fewer triangles than the full mesh.
     EXPECT_GT(m["flat_blocks"].get<int>(), 0);
-    EXPECT_LT(m["triangles"].get<long>(), r.part_mesh->triangles.rows());
+    EXPECT_LT(m["triangles"].get<long>(), part_mesh.triangles.rows());
     EXPECT_EQ(core::read_stl(tmp.path() / "chosen" / "part.stl").triangles.rows(), m["triangles"].get<long>());
   }
   {  // Above the threshold, but asked for: csv "always" and the full mesh are written.
