@@ -41,6 +41,7 @@ namespace {
 constexpr double kBaseBytes = 70e6;  // the process: code and libraries (bench/README.md, measured)
 constexpr double kSweepBytes = sizeof(removal::SweptTool);
 constexpr double kZmapOutputBytesPerNode = 136;  // 3 height grids (24) + part mesh with deviation (56) + writer (56)
+constexpr double kGridsBytesPerNode = 24;        // the 3 height grids without the part mesh
 constexpr double kTileOutputBytesPerNode = 24;   // a tile's surface, reference and deviation grids
 
 // The field a job starts from, as geometry: the first job of its stock chain makes it.
@@ -171,8 +172,15 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
     b_outputs_whole =
         2 * (removal::estimate_level_set_bytes(sa, h) + removal::estimate_mesh_bytes(2 * shape.stock_area_mm2, h));
   }
-  if (shape.kind != core::RemovalSpec::Field::NBuffer && !shape.vdb)
-    b_outputs_whole += kZmapOutputBytesPerNode * surface_nodes(shape, shape.grids.back().nv);
+  if (shape.kind != core::RemovalSpec::Field::NBuffer && !shape.vdb) {
+    // The part mesh is made only when written (sim/run.hpp): not for [outputs] part_mesh = "none", nor by default
+    // for a grid of more than large_grid_nodes (sim/run_outputs.cpp's rule); then the three grids alone.
+    const double nodes = surface_nodes(shape, shape.grids.back().nv);
+    const core::OutputsSpec& o = job.outputs;
+    const bool mesh = o.part_mesh == core::OutputsSpec::Mesh::Auto ? nodes <= o.large_grid_nodes
+                                                                   : o.part_mesh != core::OutputsSpec::Mesh::None;
+    b_outputs_whole += (mesh ? kZmapOutputBytesPerNode : kGridsBytesPerNode) * nodes;
+  }
   if (shape.kind == core::RemovalSpec::Field::NBuffer) b_outputs_whole += 200.0 * double(shape.needles);  // CSV rows
 
   const TileSize whole = tile_size(shape, {});

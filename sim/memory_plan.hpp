@@ -16,9 +16,10 @@
 //   gather     rank 0 of a gathered run: the whole field and reference, plus 12 B per ray of the largest grid
 //              (interval counts and ends in flight);
 //   outputs    where the whole part is written (one process, or rank 0 when gathered): 136 B per height-grid node
-//              (three grids, the part mesh with its deviation, its writer's copy) for a z-map; for a tri-dexel
-//              field its level set and mesh (removal::estimate_level_set_bytes / estimate_mesh_bytes over twice
-//              the stock's box area, for the part and the reference); --tiles-out: 24 B per node of the tile;
+//              (three grids, the part mesh with its deviation, its writer's copy) for a z-map, 24 B where the
+//              mesh is not written ([outputs] part_mesh, large_grid_nodes: a run makes it only to write it); for a
+//              tri-dexel field its level set and mesh (removal::estimate_level_set_bytes / estimate_mesh_bytes over
+//              twice the stock's box area, for the part and the reference); --tiles-out: 24 B per node of the tile;
 //   base       the process itself (libraries, code): 70 MB, measured (bench/README.md).
 // Not modelled: rays a cut splits (their extra intervals; the report's memory_bytes shows them), the pictures'
 // renderer, the allocator's slack. bench/README.md compares the model with measured peak RSS.
