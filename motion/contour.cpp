@@ -63,12 +63,14 @@ constexpr double kCosReverse = -0.5;
 constexpr double kArcBudget = 4.0;
 constexpr int kMinWindow = 32, kMaxWindow = 65536;
 
-// The command path with consecutive repeats merged.
+// The command path with consecutive repeats merged. Per point 40 B (issue 21: a run's 3.7 M samples held 84 B each
+// here at its memory peak): the principal normal is kept as the point whose turn defines it, recomputed when used.
 struct DistinctPath {
-  std::vector<double> p;           // x y z per point
-  std::vector<double> s;           // arc length at each point
-  std::vector<Eigen::Index> last;  // last command row of each point's run of repeats
-  std::vector<double> n;           // principal normal per point (x y z), only without a plane normal
+  std::vector<double> p;    // x y z per point
+  std::vector<double> s;    // arc length at each point
+  std::vector<int> last;    // last command row of each point's run of repeats (ContourError's rows are int too)
+  std::vector<int> n_from;  // the point whose turn is each point's principal normal (-1: none), without a plane normal
+  double noise = 0.0;       // rounding of the coordinates: turns below noise / step are not measurable
   Eigen::Index size() const { return static_cast<Eigen::Index>(s.size()); }
 };
 
@@ -96,16 +98,30 @@ DistinctPath merge_repeats(const Eigen::MatrixXd& c) {
       const double* q = &path.p[path.p.size() - 3];
       const double d = std::sqrt((x - q[0]) * (x - q[0]) + (y - q[1]) * (y - q[1]) + (z - q[2]) * (z - q[2]));
       if (d <= kRepeatTolMm) {
-        path.last.back() = k;
+        path.last.back() = static_cast<int>(k);
         continue;
       }
       s += d;
     }
     path.p.insert(path.p.end(), {x, y, z});
     path.s.push_back(s);
-    path.last.push_back(k);
+    path.last.push_back(static_cast<int>(k));
   }
   return path;
+}
+
+// The unit turn of the tangent at interior point q, when it is measurable (false: straight there).
+bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d& n) {
+  const double* a = &path.p[3 * (q - 1)];
+  const double* b = &path.p[3 * q];
+  const double* c = &path.p[3 * (q + 1)];
+  const double l1 = path.s[q] - path.s[q - 1], l2 = path.s[q + 1] - path.s[q];
+  Eigen::Vector3d dt((c[0] - b[0]) / l2 - (b[0] - a[0]) / l1, (c[1] - b[1]) / l2 - (b[1] - a[1]) / l1,
+                     (c[2] - b[2]) / l2 - (b[2] - a[2]) / l1);
+  const double turn = dt.norm();
+  if (!(turn > std::max(1e-12, path.noise / std::min(l1, l2)))) return false;
+  n = dt / turn;
+  return true;
 }
 
 // Principal normal: the direction in which the unit tangent turns from one segment to the next. Where it does
@@ -114,32 +130,32 @@ DistinctPath merge_repeats(const Eigen::MatrixXd& c) {
 // that never turns gets n = 0, and its contour error is then unsigned (always >= 0).
 void principal_normals(DistinctPath& path) {
   const Eigen::Index q_n = path.size();
-  path.n.assign(3 * q_n, 0.0);
+  path.n_from.assign(static_cast<std::size_t>(q_n), -1);
   if (q_n < 3) return;
   double scale = 1.0;
   for (double v : path.p) scale = std::max(scale, std::abs(v));
   // Rounding of coordinates of magnitude `scale` perturbs a unit tangent over a step h by ~eps * scale / h.
-  const double noise = 64.0 * std::numeric_limits<double>::epsilon() * scale;
-  Eigen::Index first_defined = -1;
-  Eigen::Vector3d carry = Eigen::Vector3d::Zero();
+  path.noise = 64.0 * std::numeric_limits<double>::epsilon() * scale;
+  int first_defined = -1, carry = -1;
+  Eigen::Vector3d n;
   for (Eigen::Index q = 1; q + 1 < q_n; ++q) {
-    const double* a = &path.p[3 * (q - 1)];
-    const double* b = &path.p[3 * q];
-    const double* c = &path.p[3 * (q + 1)];
-    const double l1 = path.s[q] - path.s[q - 1], l2 = path.s[q + 1] - path.s[q];
-    Eigen::Vector3d dt((c[0] - b[0]) / l2 - (b[0] - a[0]) / l1, (c[1] - b[1]) / l2 - (b[1] - a[1]) / l1,
-                       (c[2] - b[2]) / l2 - (b[2] - a[2]) / l1);
-    const double turn = dt.norm();
-    if (turn > std::max(1e-12, noise / std::min(l1, l2))) {
-      carry = dt / turn;
-      if (first_defined < 0) first_defined = q;
+    if (turn_at(path, q, n)) {
+      carry = static_cast<int>(q);
+      if (first_defined < 0) first_defined = carry;
     }
-    for (int j = 0; j < 3; ++j) path.n[3 * q + j] = carry[j];
+    path.n_from[static_cast<std::size_t>(q)] = carry;
   }
   if (first_defined < 0) return;  // straight: n stays 0
-  for (Eigen::Index q = 0; q < first_defined; ++q)
-    for (int j = 0; j < 3; ++j) path.n[3 * q + j] = path.n[3 * first_defined + j];
-  for (int j = 0; j < 3; ++j) path.n[3 * (q_n - 1) + j] = path.n[3 * (q_n - 2) + j];
+  for (Eigen::Index q = 0; q < first_defined; ++q) path.n_from[static_cast<std::size_t>(q)] = first_defined;
+  path.n_from[static_cast<std::size_t>(q_n - 1)] = path.n_from[static_cast<std::size_t>(q_n - 2)];
+}
+
+// The principal normal at point q (zero where the path never turns).
+Eigen::Vector3d normal_at(const DistinctPath& path, Eigen::Index q) {
+  const int from = path.n_from[static_cast<std::size_t>(q)];
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  if (from >= 0) turn_at(path, from, n);
+  return n;
 }
 
 inline double dist2(const double* c, double ax, double ay, double az) {
@@ -163,8 +179,11 @@ int default_window(const Eigen::MatrixXd& command, const Eigen::MatrixXd& actual
 
 }  // namespace
 
-ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd& actual,
-                           const ContourOptions& options) {
+namespace {
+
+// contour_error; `release`, when given, is the command, released once the search no longer needs it.
+ContourError contour_error_impl(const Eigen::MatrixXd& command, const Eigen::MatrixXd& actual,
+                                const ContourOptions& options, Eigen::MatrixXd* release) {
   check_input(command, "command");
   check_input(actual, "actual");
   if (command.rows() == 0) throw core::Error("contour_error: the command path has no samples");
@@ -177,10 +196,12 @@ ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd
   }
 
   DistinctPath path = merge_repeats(command);
-  if (!planar) principal_normals(path);
   const Eigen::Index q_n = path.size();
   const Eigen::Index m = actual.rows();
+  const Eigen::Index command_rows = command.rows();
   const int window = options.window_samples > 0 ? options.window_samples : default_window(command, actual, path);
+  if (release) release->resize(0, 3);  // `command` is not used beyond this line
+  if (!planar) principal_normals(path);
 
   ContourError out;
   out.window_samples = window;
@@ -188,10 +209,8 @@ ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd
   out.foot_segment.resize(m);
   if (m == 0) return out;
 
-  // Distinct point of every command row.
-  std::vector<Eigen::Index> row_q(static_cast<std::size_t>(command.rows()));
-  for (Eigen::Index q = 0, r = 0; q < q_n; ++q)
-    for (; r <= path.last[static_cast<std::size_t>(q)]; ++r) row_q[static_cast<std::size_t>(r)] = q;
+  // The distinct point of the command row at the current instant (the rows only increase).
+  Eigen::Index q_now = 0;
 
   const double* P = path.p.data();
   const double* S = path.s.data();
@@ -262,7 +281,9 @@ ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd
     }
     // The command point at this instant (the held last point for settling rows).
     {
-      const Eigen::Index q = row_q[static_cast<std::size_t>(std::min<Eigen::Index>(k, command.rows() - 1))];
+      const Eigen::Index row = std::min<Eigen::Index>(k, command_rows - 1);
+      while (path.last[static_cast<std::size_t>(q_now)] < row) ++q_now;
+      const Eigen::Index q = q_now;
       const double d = dist2(pt(q), ax, ay, az);
       if (d < best2 && (!moving || runs_with_motion(q))) best2 = d, best = q;
     }
@@ -298,7 +319,8 @@ ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd
         nz = plane_n.x() * ty - plane_n.y() * tx;
       }
     } else {
-      nx = path.n[3 * f], ny = path.n[3 * f + 1], nz = path.n[3 * f + 2];
+      const Eigen::Vector3d n = normal_at(path, f);
+      nx = n[0], ny = n[1], nz = n[2];
     }
     const double ne = nx * (foot[0] - ax) + ny * (foot[1] - ay) + nz * (foot[2] - az);
     const double eps = std::sqrt(foot2);
@@ -312,6 +334,17 @@ ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd
   out.rms_mm = std::sqrt(sum2 / static_cast<double>(m));
   out.mse_um2 = sum2 / static_cast<double>(m) * 1e6;
   return out;
+}
+
+}  // namespace
+
+ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd& actual,
+                           const ContourOptions& options) {
+  return contour_error_impl(command, actual, options, nullptr);
+}
+
+ContourError contour_error(Eigen::MatrixXd&& command, const Eigen::MatrixXd& actual, const ContourOptions& options) {
+  return contour_error_impl(command, actual, options, &command);
 }
 
 }  // namespace vmsim::motion

@@ -31,5 +31,9 @@ struct ContourError {
 // says how the search keeps to the pass being followed. Throws core::Error for non-finite or non-3D input.
 ContourError contour_error(const Eigen::MatrixXd& command, const Eigen::MatrixXd& actual,
                            const ContourOptions& options = {});
+// The same, releasing the command's memory (it is left empty) as soon as the search no longer needs it, before the
+// result's arrays are made: a long run's peak then holds the command once, in the merged path.
+ContourError contour_error(Eigen::MatrixXd&& command, const Eigen::MatrixXd& actual,
+                           const ContourOptions& options = {});
 
 }  // namespace vmsim::motion

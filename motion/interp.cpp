@@ -31,6 +31,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <deque>
 #include <limits>
@@ -477,10 +478,10 @@ struct Violation {
 constexpr const char* kPathAxisNames[] = {"X", "Y", "Z", "A", "B", "C"};
 
 // The error for a limit the interpolator's passes could not keep: the first violation, at its move's line.
-core::Error limit_error(const core::ToolPath& path, const std::vector<int>& move_of, const Violation& v,
+core::Error limit_error(const core::ToolPath& path, const Eigen::ArrayXi& move_of, const Violation& v,
                         const std::string& after) {
-  const core::Move& mv = path.moves[static_cast<std::size_t>(
-      move_of[static_cast<std::size_t>(std::min<Eigen::Index>(v.sample, static_cast<Eigen::Index>(move_of.size()) - 1))])];
+  const core::Move& mv =
+      path.moves[static_cast<std::size_t>(move_of[std::min<Eigen::Index>(v.sample, move_of.size() - 1)])];
   return core::Error(core::located(path.source_path, mv.source_line,
                                    fmt::format("interpolator could not keep axis {} within its {} limit ({:.6g} > "
                                                "{:.6g}) {}",
@@ -491,48 +492,79 @@ core::Error limit_error(const core::ToolPath& path, const std::vector<int>& move
                                                std::abs(v.value), v.limit, after)));
 }
 
-// Finite differences of the path-space positions (rest before the first and after the last sample).
-std::vector<Violation> check_limits(const Eigen::MatrixXd& x, double te, const Limits6& lim, std::size_t max_report) {
-  std::vector<Violation> out;
-  const Eigen::Index n = x.rows();
-  auto at = [&](Eigen::Index k, int i) { return x(std::clamp<Eigen::Index>(k, 0, n - 1), i); };
-  for (int i = 0; i < 6; ++i) {
-    if (!std::isfinite(lim.v[i])) continue;
-    for (Eigen::Index k = 1; k < n + 3; ++k) {
-      const double x0 = at(k, i), x1 = at(k - 1, i), x2 = at(k - 2, i), x3 = at(k - 3, i);
-      const double v = (x0 - x1) / te;
-      const double a = (x0 - 2 * x1 + x2) / (te * te);
-      const double j = (x0 - 3 * x1 + 3 * x2 - x3) / (te * te * te);
-      // Round-off in the differences is ~1e-12 relative; 1e-9 keeps it from triggering repairs.
-      constexpr double kSlack = 1 + 1e-9;
-      if (std::abs(v) > lim.v[i] * kSlack)
-        out.push_back({k, i, 1, v, lim.v[i]});
-      else if (std::abs(a) > lim.a[i] * kSlack)
-        out.push_back({k, i, 2, a, lim.a[i]});
-      else if (std::abs(j) > lim.j[i] * kSlack)
-        out.push_back({k, i, 3, j, lim.j[i]});
-      if (out.size() >= max_report) return out;
-    }
-  }
-  return out;
-}
+// The setpoints of a sampled profile, written straight into `out` and checked as they are made: the path's points at
+// arc lengths s (path space; the last is the path's end exactly), each sample's move (a blend: the move it leaves, then
+// the one it enters), path length and speed, and the axes' positions (first and last exactly the program's points).
+// Only the last four path-space points are held (issue 21: the whole path-space array was 48 B per setpoint at the
+// run's memory peak). Returns the violations of the axes' limits by finite differences (rest before the first and
+// after the last sample), axis by axis in sample order, at most max_report.
+struct SetpointWriter {
+  const core::ToolPath& path;
+  const core::Machine& machine;
+  double te;
+  const Limits6& lim;
 
-// The path's points at arc lengths s (path space), and the move each belongs to (a blend: the move it leaves, then
-// the one it enters); the last row is the path's end exactly.
-void path_points(const SmoothPath& sp, const std::vector<double>& s, Eigen::MatrixXd& xp, std::vector<int>& move_of) {
-  const Eigen::Index ns = static_cast<Eigen::Index>(s.size());
-  xp.resize(ns, 6);
-  move_of.resize(static_cast<std::size_t>(ns));
-  SmoothPath::Cursor cursor;
-  for (Eigen::Index k = 0; k < ns; ++k) {
-    const double sk = s[static_cast<std::size_t>(k)];
-    xp.row(k) = sp.point(sk, cursor).transpose();
-    const PathPiece& pc = sp.pieces[sp.piece_at(sk, cursor.piece)];
-    move_of[static_cast<std::size_t>(k)] =
-        (pc.move_index == pc.move_index_next || sk < pc.s_begin + 0.5 * pc.length) ? pc.move_index : pc.move_index_next;
+  std::vector<Violation> write(const SmoothPath& sp, const std::vector<double>& s, core::Setpoints& out,
+                               std::size_t max_report) const {
+    const Eigen::Index n = static_cast<Eigen::Index>(s.size());
+    const auto axes = static_cast<Eigen::Index>(machine.axes.size());
+    out.position.resize(n, axes);
+    out.path_length_mm.resize(n);
+    out.path_speed_mm_per_s.resize(n);
+    out.move_index.resize(n);
+    Eigen::MatrixXd ring(4, 6);  // path-space rows k-3..k, row k at k % 4
+    std::array<std::vector<Violation>, 6> per_axis;
+    auto at = [&](Eigen::Index k, int i) { return ring(std::clamp<Eigen::Index>(k, 0, n - 1) % 4, i); };
+    // The differences ending at sample k (k up to n + 2: the axes come to rest after the last sample).
+    auto check = [&](Eigen::Index k) {
+      for (int i = 0; i < 6; ++i) {
+        if (!std::isfinite(lim.v[i]) || per_axis[i].size() >= max_report) continue;
+        const double x0 = at(k, i), x1 = at(k - 1, i), x2 = at(k - 2, i), x3 = at(k - 3, i);
+        const double v = (x0 - x1) / te;
+        const double a = (x0 - 2 * x1 + x2) / (te * te);
+        const double j = (x0 - 3 * x1 + 3 * x2 - x3) / (te * te * te);
+        // Round-off in the differences is ~1e-12 relative; 1e-9 keeps it from triggering repairs.
+        constexpr double kSlack = 1 + 1e-9;
+        if (std::abs(v) > lim.v[i] * kSlack)
+          per_axis[i].push_back({k, i, 1, v, lim.v[i]});
+        else if (std::abs(a) > lim.a[i] * kSlack)
+          per_axis[i].push_back({k, i, 2, a, lim.a[i]});
+        else if (std::abs(j) > lim.j[i] * kSlack)
+          per_axis[i].push_back({k, i, 3, j, lim.j[i]});
+      }
+    };
+    SmoothPath::Cursor cursor;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const double sk = s[static_cast<std::size_t>(k)];
+      const Eigen::Index r = k % 4;
+      ring.row(r) = sp.point(sk, cursor).transpose();
+      const PathPiece& pc = sp.pieces[sp.piece_at(sk, cursor.piece)];
+      out.move_index[k] = (pc.move_index == pc.move_index_next || sk < pc.s_begin + 0.5 * pc.length)
+                              ? pc.move_index
+                              : pc.move_index_next;
+      if (k == n - 1) ring.row(r) = sp.end.transpose();
+      for (Eigen::Index a = 0; a < axes; ++a) {
+        const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(a)];
+        out.position(k, a) =
+            ring(r, ax.program_axis) * (ax.kind == core::AxisKind::Rotary ? core::units::kDegToRad : 1.0);
+      }
+      out.path_length_mm[k] = sk;
+      out.path_speed_mm_per_s[k] = k == 0 ? 0.0 : (ring.row(r).head<3>() - ring.row((k - 1) % 4).head<3>()).norm() / te;
+      if (k >= 1) check(k);
+    }
+    for (Eigen::Index k = std::max<Eigen::Index>(n, 1); k < n + 3; ++k) check(k);
+    // The motion starts and ends exactly at the program's points, without a round trip through path space.
+    for (Eigen::Index a = 0; a < axes; ++a) {
+      const int pa = machine.axes[static_cast<std::size_t>(a)].program_axis;
+      out.position(0, a) = path.initial_position[pa];
+      if (!path.moves.empty()) out.position(n - 1, a) = path.moves.back().end[pa];
+    }
+    std::vector<Violation> bad;
+    for (const std::vector<Violation>& v : per_axis)
+      for (std::size_t q = 0; q < v.size() && bad.size() < max_report; ++q) bad.push_back(v[q]);
+    return bad;
   }
-  xp.row(ns - 1) = sp.end.transpose();
-}
+};
 
 // Filter length of the interpolator's jerk model for a direction of travel: the natural jerk time A / J of the
 // axes it moves (the moving average of a profile whose acceleration steps by at most A has jerk <= A / T).
@@ -552,8 +584,6 @@ constexpr double kFollowDipTime = 0.2;
 
 struct Followed {
   Sampled smp;
-  Eigen::MatrixXd xp;
-  std::vector<int> move_of;
   int passes = 0;
   std::vector<Violation> bad;  // what the last pass still exceeds (empty: none)
 };
@@ -565,7 +595,11 @@ struct Followed {
 // (those guard a ceiling that is not a profile). Where a finite difference of the setpoints still exceeds a limit
 // (the profile's model is continuous, the setpoints are sampled), the profile is lowered locally and smoothly (a
 // raised-cosine dip in v^2, as deep as that limit needs, as wide as kFollowDipTime of travel), and played again.
-Followed follow_profile(const SmoothPath& sp, const FeedCeiling& c, const Limits6& lim, double te, int max_passes) {
+// The setpoints go into `out` (the last pass's).
+Followed follow_profile(const SmoothPath& sp, const FeedCeiling& c, const SetpointWriter& writer,
+                        core::Setpoints& out_sp, int max_passes) {
+  const Limits6& lim = writer.lim;
+  const double te = writer.te;
   const double length = sp.length;
   const double tol = 1e-6 * std::max(1.0, length);
   if (sp.exact_stops > 0)
@@ -600,8 +634,7 @@ Followed follow_profile(const SmoothPath& sp, const FeedCeiling& c, const Limits
   for (int pass = 0;; ++pass) {
     const std::vector<double> t = node_times(s, q, stop, 0.0);
     out.smp = sample_and_filter(s, q, t, stop, 0.0, te, m, length);
-    path_points(sp, out.smp.s, out.xp, out.move_of);
-    out.bad = check_limits(out.xp, te, lim, 100000);
+    out.bad = writer.write(sp, out.smp.s, out_sp, 100000);
     out.passes = pass;
     if (out.bad.empty() || pass + 1 >= max_passes) return out;
     // A dip around each offending sample's stretch of the path (the filter window and the differences behind it),
@@ -814,46 +847,31 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
   out.period_s = te;
   for (const core::MachineAxis& ax : machine.axes) out.axis_names.push_back(ax.name);
 
-  auto write_samples = [&](const std::vector<double>& s_f, const Eigen::MatrixXd& xp, const std::vector<int>& move_of) {
-    const Eigen::Index n = xp.rows();
-    out.position.resize(n, static_cast<Eigen::Index>(machine.axes.size()));
-    for (std::size_t a = 0; a < machine.axes.size(); ++a) {
-      const core::MachineAxis& ax = machine.axes[a];
-      const double f = ax.kind == core::AxisKind::Rotary ? core::units::kDegToRad : 1.0;
-      const auto col = static_cast<Eigen::Index>(a);
-      out.position.col(col) = xp.col(ax.program_axis) * f;
-      // The motion starts and ends exactly at the program's points, without a round trip through path space.
-      out.position(0, col) = path.initial_position[ax.program_axis];
-      if (!path.moves.empty()) out.position(n - 1, col) = path.moves.back().end[ax.program_axis];
-    }
-    out.path_length_mm.resize(n);
-    out.path_speed_mm_per_s.resize(n);
-    out.move_index.resize(n);
-    for (Eigen::Index k = 0; k < n; ++k) {
-      out.path_length_mm[k] = s_f[k];
-      out.path_speed_mm_per_s[k] = k == 0 ? 0.0 : (xp.row(k).head<3>() - xp.row(k - 1).head<3>()).norm() / te;
-      out.move_index[k] = move_of[k];
-    }
-  };
-
+  const SetpointWriter writer{path, machine, te, lim};
   if (sp.pieces.empty()) {
-    Eigen::MatrixXd xp(1, 6);
-    xp.row(0) = sp.start.transpose();
-    write_samples({0.0}, xp, {path.moves.empty() ? -1 : 0});
+    // One setpoint, at the program's start (its end when it has moves: they go nowhere).
+    const auto axes = static_cast<Eigen::Index>(machine.axes.size());
+    out.position.resize(1, axes);
+    for (Eigen::Index a = 0; a < axes; ++a) {
+      const int pa = machine.axes[static_cast<std::size_t>(a)].program_axis;
+      out.position(0, a) = path.moves.empty() ? path.initial_position[pa] : path.moves.back().end[pa];
+    }
+    out.path_length_mm = Eigen::ArrayXd::Zero(1);
+    out.path_speed_mm_per_s = Eigen::ArrayXd::Zero(1);
+    out.move_index = Eigen::ArrayXi::Constant(1, path.moves.empty() ? -1 : 0);
     return result;
   }
 
   if (lim.ceiling && lim.ceiling->follow) {
     constexpr int kMaxFollowPasses = 60;
-    Followed f = follow_profile(sp, *lim.ceiling, lim, te, kMaxFollowPasses);
+    Followed f = follow_profile(sp, *lim.ceiling, writer, out, kMaxFollowPasses);
     if (!f.bad.empty()) {
-      throw limit_error(path, f.move_of, f.bad.front(),
+      throw limit_error(path, out.move_index, f.bad.front(),
                         fmt::format("following the feed profile after {} passes; is the profile within the "
                                     "machine's limits?",
                                     kMaxFollowPasses));
     }
     result.stats.repair_passes = f.passes;
-    write_samples(f.smp.s, f.xp, f.move_of);
     result.stats.cycle_time_s = out.duration_s();
     check_travel(out, machine, path);
     return result;
@@ -984,20 +1002,15 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
     std::vector<double> t = node_times(prof.s, prof.q, prof.stop, dwell_s);
     Sampled smp = sample_and_filter(prof.s, prof.q, t, prof.stop, dwell_s, te, m, sp.length);
 
-    // Setpoints in path space.
+    // The setpoints, checked as they are written.
     const Eigen::Index ns = static_cast<Eigen::Index>(smp.s.size());
-    Eigen::MatrixXd xp;
-    std::vector<int> move_of;
-    path_points(sp, smp.s, xp, move_of);
-
-    const std::vector<Violation> bad = check_limits(xp, te, lim, 100000);
+    const std::vector<Violation> bad = writer.write(sp, smp.s, out, 100000);
     if (bad.empty()) {
       result.stats.repair_passes = pass;
-      write_samples(smp.s, xp, move_of);
       break;
     }
     if (pass + 1 >= kMaxPasses) {
-      throw limit_error(path, move_of, bad.front(),
+      throw limit_error(path, out.move_index, bad.front(),
                         fmt::format("after {} passes; please report this program", kMaxPasses));
     }
     // Lower the limits on the nodes that fed the offending samples (the filter window and the differences).

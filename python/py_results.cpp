@@ -157,6 +157,7 @@ vmsim.Mesh with point_data["deviation_mm"], or None; out, files: where job.run(o
       .def_property_readonly(
           "mesh",
           [](PyResult& r) -> core::TriangleMesh* {
+            if (r.run.part_mesh_triangles >= 0 && !r.run.part_mesh) r.run.part_mesh = sim::grid_part_mesh(r.run);
             if (r.run.part_mesh) return &*r.run.part_mesh;
             if (r.run.level_set) return &r.run.level_set->mesh;
             return nullptr;

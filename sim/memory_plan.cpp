@@ -26,9 +26,13 @@ double motion_bytes_per_setpoint(int axes, bool turning) {
 
 double streamed_motion_bytes_per_setpoint(int axes, bool turning) {
   const double setpoints = 8.0 * axes + 20, turn = turning ? 24 : 0;
-  const double interpolation = setpoints + 95;       // and the interpolator's own arrays
-  const double blocks = setpoints + 48 + turn + 24;  // track (tip, velocity, axis) and commanded tip
-  const double contour = 4 + 24 + turn + 24 + 84;    // move index, tip, axis, command, the contour's own
+  // The interpolator writes the setpoints as it samples (motion/interp.cpp): its own arrays are the path parameter
+  // per sample, raw and filtered (16 B). The drives run without the path length (8 B: a run never reads it).
+  const double interpolation = setpoints + 16;
+  const double blocks = setpoints - 8 + 48 + turn + 24;  // track (tip, velocity, axis) and commanded tip
+  // Move index, tip, axis, then the command merged while it is still held (24 + 36 B); after it is released, the
+  // merged path's normals and the result (16 B) take less.
+  const double contour = 4 + 24 + turn + 24 + 36;
   return std::max({interpolation, blocks, contour});
 }
 
@@ -37,6 +41,7 @@ namespace {
 constexpr double kBaseBytes = 70e6;  // the process: code and libraries (bench/README.md, measured)
 constexpr double kSweepBytes = sizeof(removal::SweptTool);
 constexpr double kZmapOutputBytesPerNode = 136;  // 3 height grids (24) + part mesh with deviation (56) + writer (56)
+constexpr double kGridsBytesPerNode = 24;        // the 3 height grids without the part mesh
 constexpr double kTileOutputBytesPerNode = 24;   // a tile's surface, reference and deviation grids
 
 // The field a job starts from, as geometry: the first job of its stock chain makes it.
@@ -167,8 +172,15 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
     b_outputs_whole =
         2 * (removal::estimate_level_set_bytes(sa, h) + removal::estimate_mesh_bytes(2 * shape.stock_area_mm2, h));
   }
-  if (shape.kind != core::RemovalSpec::Field::NBuffer && !shape.vdb)
-    b_outputs_whole += kZmapOutputBytesPerNode * surface_nodes(shape, shape.grids.back().nv);
+  if (shape.kind != core::RemovalSpec::Field::NBuffer && !shape.vdb) {
+    // The part mesh is made only when written (sim/run.hpp): not for [outputs] part_mesh = "none", nor by default
+    // for a grid of more than large_grid_nodes (sim/run_outputs.cpp's rule); then the three grids alone.
+    const double nodes = surface_nodes(shape, shape.grids.back().nv);
+    const core::OutputsSpec& o = job.outputs;
+    const bool mesh = o.part_mesh == core::OutputsSpec::Mesh::Auto ? nodes <= o.large_grid_nodes
+                                                                   : o.part_mesh != core::OutputsSpec::Mesh::None;
+    b_outputs_whole += (mesh ? kZmapOutputBytesPerNode : kGridsBytesPerNode) * nodes;
+  }
   if (shape.kind == core::RemovalSpec::Field::NBuffer) b_outputs_whole += 200.0 * double(shape.needles);  // CSV rows
 
   const TileSize whole = tile_size(shape, {});

@@ -8,17 +8,18 @@
 //   field      8 R + 56 per row (removal::IntervalStore::initial_bytes: before cuts split rays), times the copies a
 //              run holds: the field, the stock it started from (kept for reference "stock"), and the reference
 //              field (kinds feed, program, stock, job);
-//   motion     an actual motion is streamed (sim/motion_stream.hpp): S max(8 a + 20 + 95 interpolation,
-//              8 a + 20 + 72 drives in blocks, 136 contour error) (+24 turning axis); other motions (setpoints,
+//   motion     an actual motion is streamed (sim/motion_stream.hpp): S max(8 a + 20 + 16 interpolation,
+//              8 a + 12 + 72 drives in blocks, 88 contour error) (+24 turning axis); other motions (setpoints,
 //              program) S (8 a + 20 setpoints + 64 a drives + 60 contour error + 48 pose track
 //              (+24 turning axis) + 8 (4 a + 6) signals);
 //   sweeps     96 W (removal::SweptTool);
 //   gather     rank 0 of a gathered run: the whole field and reference, plus 12 B per ray of the largest grid
 //              (interval counts and ends in flight);
 //   outputs    where the whole part is written (one process, or rank 0 when gathered): 136 B per height-grid node
-//              (three grids, the part mesh with its deviation, its writer's copy) for a z-map; for a tri-dexel
-//              field its level set and mesh (removal::estimate_level_set_bytes / estimate_mesh_bytes over twice
-//              the stock's box area, for the part and the reference); --tiles-out: 24 B per node of the tile;
+//              (three grids, the part mesh with its deviation, its writer's copy) for a z-map, 24 B where the
+//              mesh is not written ([outputs] part_mesh, large_grid_nodes: a run makes it only to write it); for a
+//              tri-dexel field its level set and mesh (removal::estimate_level_set_bytes / estimate_mesh_bytes over
+//              twice the stock's box area, for the part and the reference); --tiles-out: 24 B per node of the tile;
 //   base       the process itself (libraries, code): 70 MB, measured (bench/README.md).
 // Not modelled: rays a cut splits (their extra intervals; the report's memory_bytes shows them), the pictures'
 // renderer, the allocator's slack. bench/README.md compares the model with measured peak RSS.

@@ -11,6 +11,19 @@
 
 namespace vmsim::sim {
 
+Eigen::Index heightfield_mesh_triangles(const core::HeightGrid& top) {
+  const Eigen::Index nx = top.nx(), ny = top.ny();
+  const auto valid = [&](Eigen::Index j, Eigen::Index i) { return std::isfinite(top.z_mm(j, i)); };
+  Eigen::Index n = 0;
+  for (Eigen::Index j = 0; j + 1 < ny; ++j)
+    for (Eigen::Index i = 0; i + 1 < nx; ++i) {
+      const bool a = valid(j, i), b = valid(j, i + 1), c = valid(j + 1, i + 1), e = valid(j + 1, i);
+      n += (a && b && c) + (a && c && e);
+    }
+  if (top.z_mm.allFinite() && nx >= 2 && ny >= 2) n += 3 * (2 * nx + 2 * ny - 4);
+  return n;
+}
+
 namespace {
 
 // Whether the (B+1)^2 values of a block starting at (j0, i0) lie within tol of their least-squares plane. On a

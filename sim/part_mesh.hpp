@@ -16,6 +16,11 @@ struct SimplifiedMesh {
   Eigen::Index flat_blocks = 0, blocks = 0;
 };
 
+// The number of triangles removal::heightfield_mesh makes of `top` (two per cell whose four nodes are valid, one
+// where three are; a grid without invalid nodes is closed by walls and a bottom fan: 3 per boundary node), without
+// making it.
+Eigen::Index heightfield_mesh_triangles(const core::HeightGrid& top);
+
 // `top`, `bottom_z_mm` and `deviation` as removal::heightfield_mesh; blocks of block_cells x block_cells cells (an
 // even number >= 2); a block with an invalid node, or at the grid's far edges where it does not fit whole, keeps
 // every cell. Throws core::Error for a tolerance that is not positive or a bad block size.

@@ -9,6 +9,7 @@
 #include "removal/surface.hpp"
 #include "sim/contour_stats.hpp"
 #include "sim/motion_stream.hpp"
+#include "sim/part_mesh.hpp"
 #include "sim/report.hpp"
 #include "sim/tools.hpp"
 
@@ -113,8 +114,8 @@ void read_back_grids(const core::Job& job, RunResult& r, nlohmann::json& surface
     surface_json["mesh_triangles"] = r.level_set->figures["mesh_triangles"];
     surface_json["tridexel_mesh"] = r.level_set->figures;
   } else {
-    r.part_mesh = removal::heightfield_mesh(pred, field.region.lo.z(), r.deviation ? &*r.deviation : nullptr);
-    surface_json["mesh_triangles"] = r.part_mesh->triangles.rows();
+    r.part_mesh_triangles = heightfield_mesh_triangles(pred);  // the mesh itself on request: grid_part_mesh
+    surface_json["mesh_triangles"] = r.part_mesh_triangles;
     // The height-field mesh's error bound between nodes on walls (it interpolates straight across them).
     surface_json["mesh_wall_step_max_mm"] = metrology::wall_step_max_mm(pred);
   }
@@ -319,6 +320,12 @@ RunResult finish_run(const core::Job& job, Cut cut, core::Progress& progress) {
   report["timings_s"] = c.timings;
   report["timings_s"]["surfaces"] = seconds_since(t0);
   return r;
+}
+
+core::TriangleMesh grid_part_mesh(const RunResult& r) {
+  if (r.part_mesh) return *r.part_mesh;
+  if (!r.surface) throw core::Error("grid_part_mesh: the run has no height grid (an N-buffer field)");
+  return removal::heightfield_mesh(*r.surface, r.cut.field.region.lo.z(), r.deviation ? &*r.deviation : nullptr);
 }
 
 RunResult run_job(const core::Job& job, const RunOptions& options, core::Progress& progress) {

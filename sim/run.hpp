@@ -62,8 +62,12 @@ struct RunResult {
   // (NaN without a reference or where a needle is empty), and their difference.
   Eigen::VectorXd needle_offset_mm, needle_reference_mm, needle_deviation_mm;
   std::vector<metrology::Mark> marks;  // deeper than 1 um along the normal, deepest first
-  // The part as a closed mesh with its deviation per vertex: the height field's (z-map), or the level set's.
+  // A z-map's part as a closed mesh with its deviation per vertex (removal::heightfield_mesh): made on request
+  // (grid_part_mesh; the outputs when they write it, the Python module's Result.mesh), not by the run (issue 21: at
+  // 0.025 mm it is 10 M triangles that a run's default outputs do not write). part_mesh_triangles: its size, -1 for
+  // other fields. A level set's mesh is in level_set.
   std::optional<core::TriangleMesh> part_mesh;
+  Eigen::Index part_mesh_triangles = -1;
   std::optional<LevelSetPart> level_set;
   std::optional<BinnedSignals> signals;  // when the drives ran
   // Every figure of report.json except the files written and the time spent writing and drawing.
@@ -72,6 +76,9 @@ struct RunResult {
 
 // The surfaces, marks and report of a cut (the run's options are in it already: the feeds, the tile).
 RunResult finish_run(const core::Job& job, Cut cut, core::Progress& progress = core::no_progress());
+
+// The z-map part's mesh (r.part_mesh when made already). r must hold a grid surface.
+core::TriangleMesh grid_part_mesh(const RunResult& r);
 
 // cut_job then finish_run, on one process.
 RunResult run_job(const core::Job& job, const RunOptions& options = {}, core::Progress& progress = core::no_progress());

@@ -99,20 +99,20 @@ std::vector<std::string> write_run_outputs(const core::Job& job, const RunResult
     files.push_back("needles.csv");
   }
   using Mesh = core::OutputsSpec::Mesh;
-  if (r.part_mesh) {
+  if (r.part_mesh_triangles >= 0) {
     // A large grid's mesh is left out by default: the height field is in the .npy and .x3p files, and on a
     // scalloped part few blocks are flat (flower_mold at 0.025 mm: 18 %, the mesh 13 % smaller; bench/README.md).
     const Mesh mode = o.part_mesh == Mesh::Auto ? (large ? Mesh::None : Mesh::Full) : o.part_mesh;
     if (mode == Mesh::Full) {
-      write_mesh(*r.part_mesh);
-      info["part_mesh"] = {{"kind", "full"}, {"triangles", r.part_mesh->triangles.rows()}};
+      write_mesh(grid_part_mesh(r));
+      info["part_mesh"] = {{"kind", "full"}, {"triangles", r.part_mesh_triangles}};
     } else if (mode == Mesh::Simplified) {
       const SimplifiedMesh s = simplified_heightfield_mesh(*r.surface, r.cut.field.region.lo.z(),
                                                            r.deviation ? &*r.deviation : nullptr, o.mesh_tolerance_mm);
       write_mesh(s.mesh);
       info["part_mesh"] = {{"kind", "simplified"},
                            {"triangles", s.mesh.triangles.rows()},
-                           {"full_triangles", r.part_mesh->triangles.rows()},
+                           {"full_triangles", r.part_mesh_triangles},
                            {"tolerance_mm", o.mesh_tolerance_mm},
                            {"error_bound_mm", s.error_bound_mm},
                            {"flat_blocks", s.flat_blocks},
@@ -124,7 +124,7 @@ std::vector<std::string> write_run_outputs(const core::Job& job, const RunResult
             "part.stl and part.vtp are not written: the grid has {:.0f} nodes, more than [outputs] large_grid_nodes "
             "= {:.0f} (the height field is in the .npy and .x3p files; [outputs] part_mesh = \"full\" writes the "
             "mesh of {} triangles, \"simplified\" merges its flat blocks within 2 x mesh_tolerance_mm)",
-            nodes, o.large_grid_nodes, r.part_mesh->triangles.rows()));
+            nodes, o.large_grid_nodes, r.part_mesh_triangles));
     }
   }
   if (r.level_set) {

@@ -64,3 +64,20 @@ def test_run_without_out_equals_cli_figures(cli, parts, tmp_path):
     # The mark the feed-drive simulation paper reports at the fillet (about 0.02 mm at 10 m/min): an overcut.
     assert result.marks
     assert 0.010 < result.marks[0]["depth_mm"] < 0.030
+
+
+def test_mesh_made_on_request_equals_the_clis_part_stl(cli, parts, tmp_path):
+    """Result.mesh of a z-map run is made on first access (the run itself only counts its triangles): the same
+    triangles as the part.stl the CLI wrote and as report.json's surface.mesh_triangles."""
+    job_file = parts / "plane_cylinder" / "job_fast.toml"
+    if not job_file.is_file():
+        pytest.skip(f"{job_file} is absent")
+    cli_dir = tmp_path / "cli"
+    run_cli(cli, "run", job_file, "--out", cli_dir, "--no-render", "--quiet")
+    result = vmsim.load_job(job_file).run()
+    mesh = result.mesh
+    assert mesh is not None
+    stl = (cli_dir / "part.stl").read_bytes()
+    stl_triangles = int.from_bytes(stl[80:84], "little")  # binary STL: the count after the 80-byte header
+    report = json.loads((cli_dir / "report.json").read_text())
+    assert mesh.triangles.shape[0] == stl_triangles == report["surface"]["mesh_triangles"]

@@ -64,7 +64,9 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
   TempDir tmp("vmsim_outputs_");
   const core::Job plain = core::load_job(write_outputs_job(tmp.path(), ""));
   const sim::RunResult r = sim::run_job(plain);
-  ASSERT_TRUE(r.surface && r.deviation && r.part_mesh);
+  ASSERT_TRUE(r.surface && r.deviation && r.part_mesh_triangles > 0);
+  const core::TriangleMesh part_mesh = sim::grid_part_mesh(r);  // the run leaves it to be made on request
+  ASSERT_EQ(part_mesh.triangles.rows(), r.part_mesh_triangles);
   const std::set<std::string> grids_csv = {"surface.csv", "reference.csv", "deviation.csv"};
   const std::set<std::string> grids_npy = {
       "surface.npy",        "surface.npy.json",       "deviation.npy",
@@ -82,10 +84,10 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
     EXPECT_EQ(w.files, all_of({grids_csv, grids_npy, grids_x3p, mesh}));
     EXPECT_EQ(w.vtp_levels, std::vector<int>{1});
     EXPECT_EQ(w.report["outputs"]["part_mesh"]["kind"], "full");
-    EXPECT_EQ(w.report["outputs"]["part_mesh"]["triangles"], r.part_mesh->triangles.rows());
+    EXPECT_EQ(w.report["outputs"]["part_mesh"]["triangles"], part_mesh.triangles.rows());
     EXPECT_FALSE(w.report["outputs"].contains("notes"));
     // The full mesh is the run's, two triangles per cell.
-    EXPECT_EQ(core::read_stl(tmp.path() / "plain" / "part.stl").triangles.rows(), r.part_mesh->triangles.rows());
+    EXPECT_EQ(core::read_stl(tmp.path() / "plain" / "part.stl").triangles.rows(), part_mesh.triangles.rows());
   }
   {  // A "large" grid by the job's threshold: no CSV, no mesh, and notes naming the keys that write them.
     const core::Job job = core::load_job(write_outputs_job(tmp.path(), "[outputs]\nlarge_grid_nodes = 3000\n"));
@@ -110,7 +112,7 @@ TEST(Outputs, JobOutputsTableChoosesTheFiles) {
     EXPECT_DOUBLE_EQ(m["error_bound_mm"].get<double>(), 0.002);
     // The untouched stock top either side of the pass is flat: fewer triangles than the full mesh.
     EXPECT_GT(m["flat_blocks"].get<int>(), 0);
-    EXPECT_LT(m["triangles"].get<long>(), r.part_mesh->triangles.rows());
+    EXPECT_LT(m["triangles"].get<long>(), part_mesh.triangles.rows());
     EXPECT_EQ(core::read_stl(tmp.path() / "chosen" / "part.stl").triangles.rows(), m["triangles"].get<long>());
   }
   {  // Above the threshold, but asked for: csv "always" and the full mesh are written.
