@@ -10,6 +10,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -79,6 +80,49 @@ TEST(TimePlan, ShadowRaysAreTheKernelsFootprints) {
   g.general_rays = d.bull_nose_rays, g.bull_nose_rays = 0;
   EXPECT_GT(sim::predict_time(d, 0).removal_cpu_s, sim::predict_time(g, 0).removal_cpu_s);
   EXPECT_GT(sim::predict_time(d, 1.0).run_cpu_s, sim::predict_time(d, 0).removal_cpu_s + 1.0);
+}
+
+// The axial ball's tiles (the counts its cost follows): the kernel's tiles (removal/cut.cpp: 8 rows x 2^shift columns,
+// shift = round(log2(R / 2h)) within [2, 5]) that its footprint (removal::footprint, the kernel's own culling)
+// touches; a sweep whose lowest point stays above the stock leaves every tile settled (no open rays), and the kernel
+// cuts nothing with it.
+TEST(TimePlan, AxialBallTilesAreTheFootprintsTiles) {
+  const removal::Box stock{Eigen::Vector3d(0.3, -0.2, 0.1), Eigen::Vector3d(40.1, 30.05, 10.2)};
+  const double h = 0.25, R = 3;
+  const int cols = 1 << std::clamp(static_cast<int>(std::lround(std::log2(R / (2 * h)))), 2, 5);
+  const std::vector<removal::SweptTool> sweeps = random_sweeps(tool(R, R, 30), false, 200, 4);
+  removal::DexelGrid zm = removal::make_zmap(stock, h);
+  double tiles = 0;
+  for (const removal::SweptTool& s : sweeps) {
+    const removal::Footprint f = removal::footprint(zm, s);
+    if (!f.empty()) tiles += double(f.i1 / cols - f.i0 / cols + 1) * double(f.j1 / 8 - f.j0 / 8 + 1);
+  }
+  const sim::RemovalWork a = sim::count_removal_work(stock, h, false, sweeps);
+  EXPECT_EQ(a.axial_ball_tiles, tiles);
+  EXPECT_GT(a.axial_ball_open_rays, 0.0);
+  EXPECT_LE(a.axial_ball_open_rays, a.axial_ball_rays);
+  // Above the stock: tiles tested, none open; the kernel removes nothing.
+  std::vector<removal::SweptTool> above = sweeps;
+  for (removal::SweptTool& s : above) s.tip0.z() = stock.hi.z() + 0.5, s.d.z() = std::abs(s.d.z());
+  const sim::RemovalWork b = sim::count_removal_work(stock, h, false, above);
+  EXPECT_GT(b.axial_ball_tiles, 0.0);
+  EXPECT_EQ(b.axial_ball_open_rays, 0.0);
+  removal::fill_box(zm, stock);
+  EXPECT_EQ(removal::cut(zm, above).cuts, 0u);
+  // The same pass twice, then the pass and a copy 1 mm higher: tops only go down, so a second pass opens no more than
+  // the first; the higher copy finds the tiles near the first's centre lowered below its bound (a tile 2 x 2 mm at
+  // the path: its top at most the centre's height less sqrt(3^2 - 1.24^2) = 2.73 mm, the copy's lowest point over it
+  // the centre's height + 1 - 3 mm) and opens fewer.
+  removal::SweptTool pass;
+  pass.tool = tool(R, R, 30), pass.tip0 = Eigen::Vector3d(5, 15, 8), pass.d = Eigen::Vector3d(30, 0, 0);
+  removal::SweptTool higher = pass;
+  higher.tip0.z() += 1;
+  const sim::RemovalWork once = sim::count_removal_work(stock, h, false, {pass});
+  const sim::RemovalWork twice = sim::count_removal_work(stock, h, false, {pass, pass});
+  const sim::RemovalWork then_higher = sim::count_removal_work(stock, h, false, {pass, higher});
+  EXPECT_EQ(twice.axial_ball_tiles, 2 * once.axial_ball_tiles);
+  EXPECT_LE(twice.axial_ball_open_rays, 2 * once.axial_ball_open_rays);
+  EXPECT_LT(then_higher.axial_ball_open_rays - once.axial_ball_open_rays, once.axial_ball_open_rays);
 }
 
 }  // namespace
