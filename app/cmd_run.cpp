@@ -195,6 +195,17 @@ std::optional<std::string> draw_pictures(const core::Job& job, const sim::RunRes
   images.surface = result.surface;
   images.deviation = result.deviation;
   images.signals = result.signals;
+  if (const auto& m = result.cut.tool_map;
+      m && result.surface && result.surface->nx() == m->nu && result.surface->ny() == m->nv) {
+    images.tool_index = Eigen::ArrayXXi(m->nv, m->nu);
+    for (int j = 0; j < m->nv; ++j)
+      for (int i = 0; i < m->nu; ++i)
+        (*images.tool_index)(j, i) = m->at(i, j) == sim::ToolMap::kUncut ? -1 : m->at(i, j);
+    // The legend from report.json's tools: "T1 flat D6.35" (their areas are in report.json and report.html).
+    for (const nlohmann::json& t : result.report["tools"]["list"])
+      images.tool_names.push_back(fmt::format("{} {} D{:g}", t["tool"].get<std::string>(), t["type"].get<std::string>(),
+                                              t["diameter_mm"].get<double>()));
+  }
   try {
     // Test hook (tests/app/outdir_cli_test.cpp, README "What you can rely on"): the pictures run out of memory.
     if (const char* h = std::getenv("VMSIM_TEST_PICTURES_THROW"); h && std::string(h) == "bad_alloc")

@@ -154,6 +154,15 @@ void part_pictures(Writer& w, const ResultData& d, const ImageOptions& o, double
                              mm(zmin), mm(zmax), num(pic.light.elevation_deg), exag)};
   w.save("part.png", render::render_part(w.window, s, dev, pic).image);
 
+  // 1b. Which tool last cut where (several tools): the same view, each node its tool's colour.
+  if (d.tool_index) {
+    render::PartPicture t = pic;
+    t.caption = {d.job + ": which tool cut where",
+                 "each point coloured by the last tool that cut it; grey: uncut stock"};
+    t.categories = render::CategoryColours{*d.tool_index, d.tool_names, "uncut stock", "last cut by"};
+    w.save("tools.png", render::render_part(w.window, s, nullptr, t).image);
+  }
+
   // 2. The deepest mark (or the asked region), seen along the path, its relief magnified.
   if (zoom) {
     render::PartPicture z = pic;

@@ -24,6 +24,10 @@ struct ResultData {
   std::string deviation_along = "normal";
   std::vector<metrology::Mark> marks;         // deepest first
   std::optional<sim::BinnedSignals> signals;
+  // A job with several tools (vmsim run only): per surface node the index of the tool that last cut it (-1 uncut),
+  // and each tool's legend entry (tools.png).
+  std::optional<Eigen::ArrayXXi> tool_index;
+  std::vector<std::string> tool_names;
 };
 
 struct ImageOptions {

@@ -787,12 +787,14 @@ void tools_section(Page& p) {
   const json& tools = get(p.report(), {"tools", "list"});
   if (!tools.is_array() || tools.empty()) return;
   p.shown("tools");
-  bool timed = false, numbered = false;
-  for (const auto& t : tools) timed |= t.contains("time_s"), numbered |= t.contains("number");
+  bool timed = false, numbered = false, mapped = false;
+  for (const auto& t : tools)
+    timed |= t.contains("time_s"), numbered |= t.contains("number"), mapped |= t.contains("last_cut_area_mm2");
   std::vector<std::string> head = {"tool",   "type",       "diameter", "corner radius", "flute length",
                                    "length", "moves",      "feed moves", "sweeps"};
   if (timed) head.push_back("time");
   if (numbered) head.push_back("T number");
+  if (mapped) head.push_back("last cut area");
   std::vector<bool> numeric(head.size(), true);
   numeric[0] = numeric[1] = false;
   std::vector<std::vector<std::string>> rows;
@@ -802,13 +804,17 @@ void tools_section(Page& p) {
                                     plain(at(t, "moves")),       plain(at(t, "feed_moves")),   plain(at(t, "sweeps"))};
     if (timed) row.push_back(seconds(at(t, "time_s")));
     if (numbered) row.push_back(plain(at(t, "number")));
+    if (mapped) row.push_back(plain(at(t, "last_cut_area_mm2")) + " mm²");
     rows.push_back(row);
   }
-  p.section("tools", "Tools",
-            "<p>The tools that cut, from " + plain(get(p.report(), {"tools", "source"})) +
-                ": each move is cut by the tool in the spindle; time is on the setpoints. A mark's tool is the one "
-                "whose sweep made the surface at its deepest point.</p>\n" +
-                table(head, rows, numeric));
+  p.section(
+      "tools", "Tools",
+      "<p>The tools that cut, from " + plain(get(p.report(), {"tools", "source"})) +
+          ": each move is cut by the tool in the spindle; time is on the setpoints. A mark's tool is the one "
+          "whose sweep made the surface at its deepest point." +
+          (mapped ? " Last cut area: the part's surface (from above) where the tool was the last to cut." : "") +
+          "</p>\n" + table(head, rows, numeric) +
+          p.figures({{"images/tools.png", "Which tool cut where: each point coloured by the last tool that cut it"}}));
 }
 
 void run_page(Page& p) {

@@ -33,6 +33,7 @@
 #include <vtkTextActor.h>
 #include <vtkTextProperty.h>
 #include <vtkTypeInt32Array.h>
+#include <vtkUnsignedCharArray.h>
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
@@ -103,8 +104,17 @@ std::vector<Eigen::Index> drawn_nodes(Eigen::Index lo, Eigen::Index hi, Eigen::I
   return v;
 }
 
+// Okabe and Ito's qualitative palette (without black), then the grey of uncut stock.
+constexpr unsigned char kCategoryRgb[7][3] = {{230, 159, 0}, {86, 180, 233}, {0, 158, 115},  {240, 228, 66},
+                                              {0, 114, 178}, {213, 94, 0},   {204, 121, 167}};
+constexpr unsigned char kNoCategoryRgb[3] = {150, 150, 150};
+const unsigned char* category_rgb(int k) { return k < 0 ? kNoCategoryRgb : kCategoryRgb[k % 7]; }
+
 Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, const View& view, bool coloured,
-                       Eigen::Index max_nodes_across) {
+                       Eigen::Index max_nodes_across, const CategoryColours* categories = nullptr) {
+  if (categories && (categories->index.rows() != s.ny() || categories->index.cols() != s.nx()))
+    throw core::Error(fmt::format("render_part: the categories ({}x{}) are not the surface's grid ({}x{})",
+                                  categories->index.cols(), categories->index.rows(), s.nx(), s.ny()));
   if (s.nx() < 2 || s.ny() < 2) throw core::Error("render_part: the height grid has fewer than 2 x 2 nodes");
   if (!(s.dx_mm > 0) || !(s.dy_mm > 0)) throw core::Error("render_part: the height grid's spacing is not positive");
   const bool magnified = view.mark_magnification != 1.0;
@@ -173,6 +183,10 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
   vtkNew<vtkFloatArray> scalars;
   scalars->SetName("deviation_um");
   if (coloured) scalars->SetNumberOfValues(nx * ny);
+  vtkNew<vtkUnsignedCharArray> rgb;
+  rgb->SetName("category_rgb");
+  rgb->SetNumberOfComponents(3);
+  if (categories) rgb->SetNumberOfTuples(nx * ny);
   std::vector<std::int32_t> id(static_cast<std::size_t>(nx * ny), -1);
   vtkIdType n = 0;
   for (Eigen::Index jj = 0; jj < ny; ++jj)
@@ -199,11 +213,13 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
         scalars->SetValue(n, static_cast<float>(d * 1e3));
         if (std::isfinite(d)) g.deviation_um.push_back(d * 1e3);
       }
+      if (categories) rgb->SetTypedTuple(n, category_rgb(categories->index(j, i)));
       id[static_cast<std::size_t>(jj * nx + ii)] = static_cast<std::int32_t>(n++);
     }
   pts->SetNumberOfPoints(n);
   normals->SetNumberOfTuples(n);
   if (coloured) scalars->SetNumberOfValues(n);
+  if (categories) rgb->SetNumberOfTuples(n);
 
   // Two triangles per cell of four valid nodes, one where exactly three are valid (edges of holes stay close).
   std::vector<std::int32_t> offsets, conn;
@@ -239,6 +255,7 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
   g.surface->SetPolys(cells_of(offsets, conn));
   g.surface->GetPointData()->SetNormals(normals);
   if (coloured) g.surface->GetPointData()->SetScalars(scalars);
+  if (categories) g.surface->GetPointData()->SetScalars(rgb);
 
   // Side walls along the four edges of the drawn window, down to a base below the lowest point: the part reads as
   // a solid block, and a cut-out region shows its profile on its faces.
@@ -547,7 +564,8 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   const int n_caption = static_cast<int>(pic.caption.size());
   const double big = std::clamp(H / 40.0, 13.0, 36.0), small = std::clamp(H / 56.0, 11.0, 26.0);
   const double top_band = n_caption > 0 ? 14 + big + (n_caption - 1) * (small * 1.35) + 12 : 0;
-  const double right_band = coloured ? std::clamp(W * 0.14, 120.0, 320.0) : 0;
+  const bool categorised = pic.categories.has_value();
+  const double right_band = coloured || categorised ? std::clamp(W * 0.14, 120.0, 320.0) : 0;
   const bool top = pic.view.direction == ViewDirection::Top;
   const double bottom_band = top ? small * 1.6 + 22 : 0;                           // the scale bar of a map, under it
   const double vp[4] = {0, top_band, W - right_band, H - top_band - bottom_band};  // left, top, width, height (px)
@@ -598,6 +616,16 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
     } else {
       p->LightingOff();  // every pixel its map colour
     }
+  } else if (categorised) {
+    // Each node its category's colour (interpolated between nodes of different ones), lit as the deviation maps.
+    sm->SetScalarModeToUsePointData();
+    sm->ScalarVisibilityOn();
+    sm->SetColorModeToDirectScalars();
+    vtkProperty* p = surface->GetProperty();
+    p->SetAmbient(0.24);
+    p->SetDiffuse(0.58);
+    p->SetSpecular(0.10);
+    p->SetSpecularPower(30);
   } else {
     sm->ScalarVisibilityOff();
     metal(surface->GetProperty(), 1.0);
@@ -689,6 +717,40 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
     bar_top->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(by + bh + small * 2.4));
     bar_bottom->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(by - small * 2.6));
   }
+  if (categorised) {
+    // The legend: a square of each category's colour and its name, from the top of the right band down.
+    const CategoryColours& cc = *pic.categories;
+    std::vector<std::pair<int, std::string>> rows;
+    for (std::size_t k = 0; k < cc.names.size(); ++k) rows.emplace_back(static_cast<int>(k), cc.names[k]);
+    if (!cc.none_name.empty()) rows.emplace_back(-1, cc.none_name);
+    const double bx = W - right_band + 10;
+    double ly = H - top_band - 2 * small;
+    if (!cc.title.empty()) {
+      auto t = vtkSmartPointer<vtkTextActor>::New();
+      t->SetInput(cc.title.c_str());
+      detail::set_font(t->GetTextProperty(), static_cast<int>(small * 1.05), 0.96, 0.96, 0.96, true);
+      t->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(ly));
+      overlay->AddActor2D(t);
+      texts.push_back(t);
+      ly -= small * 1.8;
+    }
+    for (const auto& [k, name] : rows) {
+      const unsigned char* c = category_rgb(k);
+      auto sq = vtkSmartPointer<vtkTextActor>::New();
+      sq->SetInput("\u25A0");
+      detail::set_font(sq->GetTextProperty(), static_cast<int>(small * 1.4), c[0] / 255.0, c[1] / 255.0, c[2] / 255.0);
+      sq->SetDisplayPosition(static_cast<int>(bx), static_cast<int>(ly - small * 0.2));
+      auto t = vtkSmartPointer<vtkTextActor>::New();
+      t->SetInput(name.c_str());
+      detail::set_font(t->GetTextProperty(), static_cast<int>(small * 0.9), 0.92, 0.92, 0.92);
+      t->SetDisplayPosition(static_cast<int>(bx + small * 1.6), static_cast<int>(ly));
+      overlay->AddActor2D(sq);
+      overlay->AddActor2D(t);
+      texts.push_back(sq);
+      texts.push_back(t);
+      ly -= small * 1.8;
+    }
+  }
   if (top) add_scale_bar(overlay, 2 * cam->GetParallelScale() / vp[3], vp, static_cast<int>(small));
 
   out.image = detail::finish_picture(window);
@@ -703,6 +765,7 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
 
 void check_picture(const PartPicture& pic) {
   detail::check_size(pic.width, pic.height, "render_part");
+  if (pic.categories && pic.deviation) throw core::Error("render_part: colour by deviation or by category, not both");
   check_view(pic.view, "render_part");
   if (!std::isfinite(pic.light.elevation_deg) || pic.light.elevation_deg <= 0 || pic.light.elevation_deg > 90)
     throw core::Error("render_part: the light's elevation must be in (0, 90] degrees");
@@ -722,13 +785,15 @@ PartImage render_part(Window& window, const core::HeightGrid& surface, const cor
   check_picture(picture);
   // About one node per pixel of the picture's larger side (the part fills most of it).
   const Eigen::Index max_across = picture.full_resolution ? 0 : std::max(picture.width, picture.height);
-  Geometry g = grid_geometry(surface, deviation, picture.view, picture.deviation.has_value(), max_across);
+  Geometry g = grid_geometry(surface, deviation, picture.view, picture.deviation.has_value(), max_across,
+                             picture.categories ? &*picture.categories : nullptr);
   return draw(window, g, picture);
 }
 
 PartImage render_part(Window& window, const core::TriangleMesh& mesh, const PartPicture& picture,
                       const std::string& deviation_array) {
   check_picture(picture);
+  if (picture.categories) throw core::Error("render_part: category colours apply to height grids, not to meshes");
   Geometry g = mesh_geometry(mesh, picture.view, picture.deviation.has_value(), deviation_array);
   return draw(window, g, picture);
 }

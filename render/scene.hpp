@@ -56,6 +56,16 @@ struct DeviationColours {
   std::string reference;  // what the deviation is from, for the scale's caption (e.g. "the same pass at 0.1 m/min")
 };
 
+// Colour by category (e.g. which tool last cut each node): height grids only. `index` has the surface's shape
+// (ny x nx, like z_mm); a node's category k >= 0 takes the k-th colour of a qualitative palette (Okabe and Ito's,
+// which colour-blind readers tell apart), -1 the grey of uncut stock. The legend on the right names them.
+struct CategoryColours {
+  Eigen::ArrayXXi index;
+  std::vector<std::string> names;  // legend entry of category k
+  std::string none_name;           // legend entry of -1 (omitted when empty)
+  std::string title;               // above the legend
+};
+
 struct PartPicture {
   int width = 1600, height = 1200;
   std::vector<std::string> caption;  // lines drawn at the top left; the first one larger
@@ -63,6 +73,8 @@ struct PartPicture {
   Lighting light;
   // Colour by deviation (the grid given with the surface, or the mesh's per-vertex array); plain metal when empty.
   std::optional<DeviationColours> deviation;
+  // Colour by category instead (not together with deviation).
+  std::optional<CategoryColours> categories;
   // Height grids: draw every node. By default a grid finer than about one node per pixel of the picture's larger
   // side is drawn at every k-th node (k the smallest that fits), which the picture cannot tell apart.
   bool full_resolution = false;

@@ -355,6 +355,42 @@ std::size_t cut_field(Field& f, const std::vector<removal::SweptTool>& sweeps, c
   return reach;
 }
 
+std::size_t cut_field(Field& f, const removal::TrackSweeps& ts, core::Progress* progress, ToolMap& map) {
+  if (f.vdb || f.kind == core::RemovalSpec::Field::NBuffer || !f.tile.whole())
+    throw core::Error("the tool map needs a whole z-map or tri-dexel field (not a level set, needles or a tile)");
+  removal::DexelGrid& z = f.kind == core::RemovalSpec::Field::TriDexel ? f.tri.z : f.zmap;
+  map.nu = z.nu(), map.nv = z.nv();
+  const std::size_t n = static_cast<std::size_t>(map.nu) * static_cast<std::size_t>(map.nv);
+  map.tool.assign(n, ToolMap::kUncut);
+  std::vector<double> before(n);
+  auto tops = [&](std::vector<double>& t) {
+    for (int j = 0; j < z.nv(); ++j)
+      for (int i = 0; i < z.nu(); ++i) t[z.ray(i, j)] = z.top(i, j);
+  };
+  std::size_t reach = 0, done = 0, covered = 0;
+  for (const removal::TrackSweeps::Run& r : ts.runs) {
+    if (r.tool < 0 || r.tool >= ToolMap::kUncut || r.first != covered || r.first + r.count > ts.sweeps.size())
+      throw core::Error(fmt::format("the tool map: run of tool {} over sweeps [{}, +{}) does not follow the last",
+                                    r.tool, r.first, r.count));
+    covered += r.count;
+    tops(before);
+    reach += cut_field_one_tool(
+        f,
+        std::vector<removal::SweptTool>(ts.sweeps.begin() + static_cast<std::ptrdiff_t>(r.first),
+                                        ts.sweeps.begin() + static_cast<std::ptrdiff_t>(r.first + r.count)),
+        progress, done);
+    for (int j = 0; j < z.nv(); ++j)
+      for (int i = 0; i < z.nu(); ++i) {
+        // Lowered: material was there and its top is now lower, or the ray is now empty.
+        const double b = before[z.ray(i, j)], a = z.top(i, j);
+        if (std::isfinite(b) && !(a >= b)) map.tool[z.ray(i, j)] = static_cast<std::uint8_t>(r.tool);
+      }
+  }
+  if (covered != ts.sweeps.size())
+    throw core::Error(fmt::format("the tool map: the runs cover {} of {} sweeps", covered, ts.sweeps.size()));
+  return reach;
+}
+
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& tr) {
   removal::TrackOptions topt;
   topt.tolerance_mm = track_tolerance(job, track_turns(tr));

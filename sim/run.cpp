@@ -195,6 +195,17 @@ nlohmann::json removal_json(const core::Job& job, const Cut& c) {
 
 }  // namespace
 
+namespace {
+// The cut, and with several tools on a whole grid field the map of which tool last cut where (a single tool's run
+// is the plain cut, unchanged).
+std::size_t cut_with_map(const core::Job& job, Cut& c, core::Progress& progress) {
+  const bool grid = !c.field.vdb && c.field.kind != core::RemovalSpec::Field::NBuffer && c.field.tile.whole();
+  if (!grid || job_tools(job).size() < 2) return cut_field(c.field, c.sweeps.sweeps, &progress);
+  c.tool_map.emplace();
+  return cut_field(c.field, c.sweeps, &progress, *c.tool_map);
+}
+}  // namespace
+
 Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& progress) {
   ChainOptions copt;
   copt.feed_scale = options.feed_scale;
@@ -227,7 +238,7 @@ Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& pro
     cpu0 = process_cpu_s();
     progress.stage(job.name + ": material removal",
                    static_cast<double>(c.sweeps.sweeps.size() * std::max<std::size_t>(1, c.field.grids().size())));
-    c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps, &progress);
+    c.sweeps_in_tile = cut_with_map(job, c, progress);
     progress.done();
     c.timings["removal"] = removal_s + seconds_since(t0);
     c.timings["removal_cpu"] = removal_cpu + process_cpu_s() - cpu0;  // every thread's CPU time
@@ -245,7 +256,7 @@ Cut cut_job(const core::Job& job, const RunOptions& options, core::Progress& pro
     // The sweeps times the grids: cut_field reports them done, and the terminal turns that into the time left.
     progress.stage(job.name + ": material removal",
                    static_cast<double>(c.sweeps.sweeps.size() * std::max<std::size_t>(1, c.field.grids().size())));
-    c.sweeps_in_tile = cut_field(c.field, c.sweeps.sweeps, &progress);
+    c.sweeps_in_tile = cut_with_map(job, c, progress);
     progress.done();
     c.timings["removal"] = seconds_since(t0);
     c.timings["removal_cpu"] = process_cpu_s() - cpu0;  // every thread's CPU time

@@ -16,6 +16,7 @@
 #include "removal/vdb_part.hpp"
 #include "sim/pipeline.hpp"
 #include "sim/signals.hpp"
+#include "sim/tools.hpp"
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
@@ -39,6 +40,8 @@ struct Cut {
   double track_tolerance_mm = 0;
   std::size_t sweeps_in_tile = 0;  // sweeps that reach this process's tile (all of them for a whole field)
   Reference reference;
+  // A job with several tools on a whole z-map or tri-dexel field: which tool last cut each node (tools.png).
+  std::optional<ToolMap> tool_map;
   nlohmann::json timings = nlohmann::json::object();  // motion's, and stock, removal, removal_cpu, reference (s)
 };
 

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,16 @@ namespace vmsim::sim {
 
 struct Motion;
 struct Cut;
+
+// Which tool last cut each node of a job with several tools (issue 24 section 1): per node of the z grid (z-map, or the
+// tri-dexel's Z grid; row-major, nu x nv like removal::height_grid's nodes), the index into job_tools(job) of the last
+// tool whose run of sweeps lowered the node's top, kUncut where none did.
+struct ToolMap {
+  static constexpr std::uint8_t kUncut = 255;
+  int nu = 0, nv = 0;
+  std::vector<std::uint8_t> tool;  // tool[j * nu + i]
+  std::uint8_t at(int i, int j) const { return tool[static_cast<std::size_t>(j) * static_cast<std::size_t>(nu) + i]; }
+};
 
 // The tools PoseTrack::tool indexes: [[tools]] in the job's order, or the one [tool] (index 0).
 std::vector<core::ToolSpec> job_tools(const core::Job& job);
