@@ -3,7 +3,9 @@
 #   make test   install what is missing, build, run the whole test suite
 BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
-GENERATOR := $(shell command -v ninja >/dev/null 2>&1 && echo Ninja || echo "Unix Makefiles")
+# Ninja when present, chosen when cmake runs: on a fresh machine it is installed by `deps`, after make read this file.
+GENERATOR ?=
+CMAKE_GENERATOR_ARG = "$(if $(GENERATOR),$(GENERATOR),$$(command -v ninja >/dev/null 2>&1 && echo Ninja || echo 'Unix Makefiles'))"
 VMSIM := $(BUILD)/app/vmsim
 
 .PHONY: all deps test-deps configure build demo test bench validate asan clean
@@ -19,7 +21,7 @@ test-deps:
 
 $(BUILD)/CMakeCache.txt:
 	@$(MAKE) --no-print-directory deps
-	cmake -S . -B $(BUILD) -G "$(GENERATOR)" -DCMAKE_BUILD_TYPE=Release
+	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR_ARG) -DCMAKE_BUILD_TYPE=Release
 
 configure: deps $(BUILD)/CMakeCache.txt
 
@@ -44,7 +46,7 @@ validate: build
 
 # The hostile-input tests under AddressSanitizer/UBSan, in their own build tree.
 asan: deps
-	cmake -S . -B $(BUILD)-asan -G "$(GENERATOR)" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVMSIM_SANITIZE=ON
+	cmake -S . -B $(BUILD)-asan -G $(CMAKE_GENERATOR_ARG) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVMSIM_SANITIZE=ON
 	cmake --build $(BUILD)-asan -j $(JOBS) --target core_tests
 	cd $(BUILD)-asan && ctest --output-on-failure -L core -R 'Hostile|Fuzz'
 
