@@ -11,36 +11,13 @@
 #include <string>
 
 #include "tests/app/cli_util.hpp"
+#include "tests/test_machines.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-const char* kTpngMill = R"([machine]
-name = "test mill"
-kinematics = "xyz"
-[[axes]]
-name = "X"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Y"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Z"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-)";
+using vmsim::test::kXyzTestMill;
 
 const char* kTpngProgram =
     "UNITS/MM\nTLDATA/MILL,6.0000,0.0000,20.0000,0.0000,0.0000\nFEDRAT/MMPM,600\nGOTO/-15,-5,5\nGOTO/-15,-5,-1\n"
@@ -56,7 +33,7 @@ std::string tpng_job(const std::string& tools) {
 
 TEST(ToolsPngCli, SeveralToolsDrawToolsPngAndOneToolDoesNot) {
   vmsim_test::TempDir tmp("vmsim_tools_png_");
-  vmsim_test::write_file(tmp.path() / "machine.toml", kTpngMill);
+  vmsim_test::write_file(tmp.path() / "machine.toml", kXyzTestMill);
   vmsim_test::write_file(tmp.path() / "two.cl", kTpngProgram);
   vmsim_test::write_file(tmp.path() / "two.toml", tpng_job(""));
   const fs::path out = tmp.path() / "out";

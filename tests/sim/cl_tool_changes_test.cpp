@@ -10,6 +10,7 @@
 #include "sim/job_program.hpp"
 #include "sim/run.hpp"
 #include "sim/tools.hpp"
+#include "tests/test_machines.hpp"
 
 #include <gtest/gtest.h>
 
@@ -38,31 +39,7 @@ fs::path cltc_write(const std::string& name, const std::string& text) {
   return p;
 }
 
-const char* kCltcMill = R"([machine]
-name = "test mill"
-kinematics = "xyz"
-[[axes]]
-name = "X"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Y"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Z"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-)";
+using vmsim::test::kXyzTestMill;
 
 // Tool 1 (TLDATA/ line 2, flat D6) cuts a slot along x at y = -5, 1 mm deep; tool 2 (TLDATA/ line 10, flat D4) one
 // along y at x = 5, 2 mm deep. No LOAD/TOOL: the tools are numbered 1, 2 in order of appearance.
@@ -132,7 +109,7 @@ class ClToolChanges : public ::testing::TestWithParam<const char*> {};
 // Each slot has its own TLDATA/ tool's width and depth: 6 mm wide and 1 mm deep, then 4 mm wide and 2 mm deep (the
 // other tool's would be 2 mm off in width), on the programmed path and on the interpolator's setpoints.
 TEST_P(ClToolChanges, EachSlotHasItsTldataToolsWidth) {
-  cltc_write("machine.toml", kCltcMill);
+  cltc_write("machine.toml", kXyzTestMill);
   cltc_write("two.cl", kCltcProgram);
   core::Job job = core::load_job(cltc_write("two.toml", cltc_job("two.cl", "", GetParam())));
   const auto note = use_program_tool(job);
@@ -178,7 +155,7 @@ INSTANTIATE_TEST_SUITE_P(Motions, ClToolChanges, ::testing::Values("program", "s
 // A job's one [tool] meeting a program that changes its geometry: an error naming the job, the program's tools with
 // their TLDATA/ lines and all_tools; with all_tools the one tool cuts both slots (slot 2 then 6 mm wide).
 TEST(ClToolChangesJob, OneToolNeedsAllTools) {
-  cltc_write("machine.toml", kCltcMill);
+  cltc_write("machine.toml", kXyzTestMill);
   cltc_write("two.cl", kCltcProgram);
   const std::string one = "[tool]\ntype = \"flat\"\ndiameter_mm = 6.0\nflute_length_mm = 20.0\n";
   const std::string err = cltc_error(core::load_job(cltc_write("one.toml", cltc_job("two.cl", one, "program"))));
@@ -192,7 +169,7 @@ TEST(ClToolChangesJob, OneToolNeedsAllTools) {
 
 // [[tools]] map the CL tools by their LOAD/TOOL numbers (7 and 3 here, the program's, not the order).
 TEST(ClToolChangesJob, ToolsMapByLoadToolNumber) {
-  cltc_write("machine.toml", kCltcMill);
+  cltc_write("machine.toml", kXyzTestMill);
   std::string prog = kCltcProgram;
   prog.insert(prog.find("FEDRAT"), "LOAD/TOOL,7\n");
   prog.insert(prog.find("RAPID\nGOTO/5,-15,5"), "LOAD/TOOL,3\n");

@@ -12,6 +12,7 @@
 #include "sim/job_program.hpp"
 #include "sim/run.hpp"
 #include "sim/tools.hpp"
+#include "tests/test_machines.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -41,32 +42,7 @@ fs::path write_tool_job_file(const std::string& name, const std::string& text) {
   return p;
 }
 
-// A 3-axis mill with generous limits: the moves are short and straight.
-const char* kMachine = R"([machine]
-name = "test mill"
-kinematics = "xyz"
-[[axes]]
-name = "X"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Y"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Z"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-)";
+using vmsim::test::kXyzTestMill;
 
 // T1 (flat D6) cuts a groove along x at y = -5, 1 mm deep; T2 (ball D4) one along y at x = 5, 2 mm deep.
 const char* kFirstHalf =
@@ -97,7 +73,7 @@ std::string job_text(const std::string& program, const std::string& tools, const
 }
 
 core::Job two_tool_job(const std::string& motion) {
-  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("machine.toml", kXyzTestMill);
   write_tool_job_file("two.ngc", two_tool_program());
   return core::load_job(write_tool_job_file("two.toml", job_text("two.ngc", std::string(kT1) + kT2, motion)));
 }
@@ -232,7 +208,7 @@ TEST(ToolChanges, SameResultOnOneAndTwoThreads) {
 }
 
 TEST(ToolChanges, ToolTheJobDoesNotDescribeIsAnErrorNamingFileLineAndNumber) {
-  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("machine.toml", kXyzTestMill);
   // Line 9 is the first move under T3 (T3 M6 is line 8).
   write_tool_job_file("three.ngc", std::string("G21 G90 G17\nT1 M6\n") + kFirstHalf + "T3 M6\n" + kSecondHalf + "M2\n");
   const core::Job job =
@@ -245,7 +221,7 @@ TEST(ToolChanges, ToolTheJobDoesNotDescribeIsAnErrorNamingFileLineAndNumber) {
 }
 
 TEST(ToolChanges, OneToolMeetingSeveralNumbersNeedsAllTools) {
-  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("machine.toml", kXyzTestMill);
   write_tool_job_file("two.ngc", two_tool_program());
   const std::string one = "[tool]\ntype = \"flat\"\ndiameter_mm = 6.0\n";
   const std::string err =
@@ -261,7 +237,7 @@ TEST(ToolChanges, OneToolMeetingSeveralNumbersNeedsAllTools) {
 }
 
 TEST(ToolChanges, ToolsWithoutAToolChangeAreAnError) {
-  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("machine.toml", kXyzTestMill);
   write_tool_job_file("none.ngc", std::string("G21 G90\n") + kFirstHalf + "M2\n");
   const std::string err =
       tool_change_error_of(core::load_job(write_tool_job_file("none.toml", job_text("none.ngc", kT1, "program"))));
@@ -271,7 +247,7 @@ TEST(ToolChanges, ToolsWithoutAToolChangeAreAnError) {
 
 // 840D programs call tools by name (T="name"); [[tools]] name maps them.
 TEST(ToolChanges, SinumerikNamesMapThroughTheJob) {
-  write_tool_job_file("machine.toml", kMachine);
+  write_tool_job_file("machine.toml", kXyzTestMill);
   write_tool_job_file("named.mpf",
                       "N10 G90\nN20 T=\"FLAT_D6\"\nN30 M6\nN40 G0 X-15 Y-5 Z5\nN50 G1 Z-1 F600\nN60 X15\nN70 G0 Z5\n"
                       "N80 T=\"BALL_D4\"\nN90 M6\nN100 G0 X5 Y-15\nN110 G1 Z-2 F600\nN120 Y15\nN130 G0 Z5\nN140 M30\n");

@@ -9,6 +9,7 @@
 #include "sim/job_program.hpp"
 #include "sim/run.hpp"
 #include "sim/tools.hpp"
+#include "tests/test_machines.hpp"
 
 #include <gtest/gtest.h>
 
@@ -35,31 +36,7 @@ fs::path tmap_write(const std::string& name, const std::string& text) {
   return p;
 }
 
-const char* kTmapMill = R"([machine]
-name = "test mill"
-kinematics = "xyz"
-[[axes]]
-name = "X"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Y"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-[[axes]]
-name = "Z"
-type = "linear"
-travel_mm = [-100.0, 100.0]
-max_velocity_m_per_min = 30.0
-max_acceleration_m_per_s2 = 2.5
-max_jerk_m_per_s3 = 50.0
-)";
+using vmsim::test::kXyzTestMill;
 
 // The two-slot program of cl_tool_changes_test.cpp: tool 1 (flat D6) a slot along x at y = -5 from x = -15 to 15,
 // 1 mm deep; tool 2 (flat D4) one along y at x = 5 from y = -15 to 15, 2 mm deep (crossing slot 1).
@@ -102,7 +79,7 @@ class ToolMapSlots : public ::testing::TestWithParam<const char*> {};
 // a slot's edge are left out: twice the interpolation tolerance, by which the setpoints may round the plunges'
 // corners; on the edge itself round-off decides); areas = nodes x cell area.
 TEST_P(ToolMapSlots, EachNodeIsCreditedToTheToolThatCutItLast) {
-  tmap_write("machine.toml", kTmapMill);
+  tmap_write("machine.toml", kXyzTestMill);
   tmap_write("two.cl", kTmapProgram);
   core::Job job = core::load_job(tmap_write("two.toml", tmap_job("", GetParam())));
   ASSERT_TRUE(use_program_tool(job));
@@ -154,7 +131,7 @@ INSTANTIATE_TEST_SUITE_P(Motions, ToolMapSlots, ::testing::Values("program", "se
 
 // One tool: no map and no last_cut_area_mm2 (the single-tool run and its report stay as they were).
 TEST(ToolMapSingleTool, MakesNoMap) {
-  tmap_write("machine.toml", kTmapMill);
+  tmap_write("machine.toml", kXyzTestMill);
   tmap_write("two.cl", kTmapProgram);
   const std::string one = "[tool]\ntype = \"flat\"\ndiameter_mm = 6.0\nflute_length_mm = 20.0\nall_tools = true\n";
   const RunResult r = run_job(core::load_job(tmap_write("one.toml", tmap_job(one, "program"))));
