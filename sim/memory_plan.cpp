@@ -1,11 +1,11 @@
 // The memory model of a run (sim/memory_plan.hpp), per process and per rank, with advice.
 #include "sim/memory_plan.hpp"
 
+#include "sim/pipeline.hpp"
 #include "sim/report.hpp"
 #include "core/memory.hpp"
 #include "core/csv.hpp"
 #include "core/error.hpp"
-#include "core/stl.hpp"
 #include "removal/dexel_grid.hpp"
 #include "removal/fields.hpp"
 #include "removal/vdb_part.hpp"
@@ -71,12 +71,10 @@ FieldShape shape_of(const core::Job& job, int depth = 0) {
   s.vdb = job.removal.method == core::RemovalSpec::Method::Vdb;
   s.spacing_mm = job.removal.spacing_mm;
   s.voxel_mm = job.removal.voxel_mm;
-  if (job.stock.kind == core::StockSpec::Kind::Box) {
-    s.region = removal::Box{job.stock.min_mm, job.stock.max_mm};
-  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
-    const core::TriangleMesh mesh = core::read_stl(job.stock.mesh_file);
-    s.region.lo = mesh.vertices_mm.colwise().minCoeff().transpose();
-    s.region.hi = mesh.vertices_mm.colwise().maxCoeff().transpose();
+  if (job.stock.kind == core::StockSpec::Kind::Mesh || job.stock.kind == core::StockSpec::Kind::Box) {
+    const std::optional<removal::Box> box = stock_box(job);
+    if (!box) throw core::Error(job.stock.mesh_file.string() + ": the stock mesh has no vertices");
+    s.region = *box;
   } else {
     throw core::Error(job.file.string() + ": [stock] is required to remove material (box, stl or job)");
   }

@@ -360,6 +360,7 @@ std::size_t cut_field(Field& f, const removal::TrackSweeps& ts, core::Progress* 
     throw core::Error("the tool map needs a whole z-map or tri-dexel field (not a level set, needles or a tile)");
   removal::DexelGrid& z = f.kind == core::RemovalSpec::Field::TriDexel ? f.tri.z : f.zmap;
   map.nu = z.nu(), map.nv = z.nv();
+  map.cell_mm2 = z.du() * z.dv();
   const std::size_t n = static_cast<std::size_t>(map.nu) * static_cast<std::size_t>(map.nv);
   map.tool.assign(n, ToolMap::kUncut);
   std::vector<double> before(n);
@@ -396,15 +397,21 @@ removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& t
   topt.tolerance_mm = track_tolerance(job, track_turns(tr));
   // The stock's bounding box holds all the material: a turning tool's sub-steps count only its engaging length
   // (track.hpp). A mesh stock's is its mesh's (read again here: a few ms for the parts' meshes, beside the sweeps).
-  if (job.stock.kind == core::StockSpec::Kind::Box) {
-    topt.material_box = Eigen::AlignedBox3d(job.stock.min_mm, job.stock.max_mm);
-  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
-    const core::TriangleMesh mesh = core::read_stl(job.stock.mesh_file);
-    if (mesh.vertices_mm.rows() > 0)
-      topt.material_box = Eigen::AlignedBox3d(mesh.vertices_mm.colwise().minCoeff().transpose(),
-                                              mesh.vertices_mm.colwise().maxCoeff().transpose());
-  }
+  if (const std::optional<removal::Box> box = stock_box(job)) topt.material_box = Eigen::AlignedBox3d(box->lo, box->hi);
   return removal::sweeps_from_track(cutting_tools(job), tr, topt);
+}
+
+removal::Box mesh_box(const core::TriangleMesh& mesh) {
+  return removal::Box{mesh.vertices_mm.colwise().minCoeff().transpose(),
+                      mesh.vertices_mm.colwise().maxCoeff().transpose()};
+}
+
+std::optional<removal::Box> stock_box(const core::Job& job) {
+  if (job.stock.kind == core::StockSpec::Kind::Box) return removal::Box{job.stock.min_mm, job.stock.max_mm};
+  if (job.stock.kind != core::StockSpec::Kind::Mesh) return std::nullopt;
+  const core::TriangleMesh mesh = core::read_stl(job.stock.mesh_file);
+  if (mesh.vertices_mm.rows() == 0) return std::nullopt;
+  return mesh_box(mesh);
 }
 
 removal::PoseTrack motion_track(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress) {
@@ -447,8 +454,7 @@ Field initial_field(const core::Job& job, core::Progress& progress, std::set<std
     mesh = core::read_stl(job.stock.mesh_file);
     // Before its bounding box: a mesh without triangles has none (it crashed here, issue 18).
     core::check_closed(*mesh, job.stock.mesh_file.string());
-    region.lo = mesh->vertices_mm.colwise().minCoeff().transpose();
-    region.hi = mesh->vertices_mm.colwise().maxCoeff().transpose();
+    region = mesh_box(*mesh);
   } else {
     throw core::Error(job.file.string() + ": [stock] is required to remove material (box, stl or job)");
   }

@@ -7,6 +7,7 @@
 #include "core/height_grid.hpp"
 #include "motion/interp.hpp"
 #include "core/job.hpp"
+#include "core/mesh.hpp"
 #include "program/program.hpp"
 #include "drives/simulate.hpp"
 #include "removal/fields.hpp"
@@ -68,6 +69,11 @@ removal::PoseTrack track_of(const Motion& m, const core::Job& job, core::Removal
 removal::PoseTrack motion_track(const Chain& chain, core::RemovalSpec::Motion kind, core::Progress& progress);
 // The track as the tool's swept volumes, within the job's track tolerance.
 removal::TrackSweeps sweeps_of(const core::Job& job, const removal::PoseTrack& track);
+
+// The bounding box of the stock's material: a box stock's box, a mesh stock's mesh's (the STL is read); none for a stock
+// that another job leaves, or a mesh without vertices. The one derivation the field, the plans and the sweeps share.
+std::optional<removal::Box> stock_box(const core::Job& job);
+removal::Box mesh_box(const core::TriangleMesh& mesh);  // the mesh must have vertices
 
 // A share of the stock's rays for one process (removal/fields.hpp): all of them in a plain run; tile `rank` of
 // `ranks` in a tiled run under MPI (app/tiled_run.hpp), a band of every dexel grid's rows or of the needle list's

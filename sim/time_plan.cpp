@@ -1,6 +1,6 @@
 #include "sim/time_plan.hpp"
 
-#include "core/stl.hpp"
+#include "sim/pipeline.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -180,17 +180,11 @@ nlohmann::json plan_time(const core::Job& job, const PlannedMotions& motions, co
   };
   if (job.removal.method == core::RemovalSpec::Method::Vdb) return not_predicted("the vdb method is not modelled");
   if (job.removal.field == core::RemovalSpec::Field::NBuffer) return not_predicted("an N-buffer field is not modelled");
-  removal::Box stock;
-  if (job.stock.kind == core::StockSpec::Kind::Box) {
-    stock = removal::Box{job.stock.min_mm, job.stock.max_mm};
-  } else if (job.stock.kind == core::StockSpec::Kind::Mesh) {
-    const core::TriangleMesh mesh = core::read_stl(job.stock.mesh_file);
-    if (mesh.vertices_mm.rows() == 0) return not_predicted("the stock mesh is empty");
-    stock.lo = mesh.vertices_mm.colwise().minCoeff().transpose();
-    stock.hi = mesh.vertices_mm.colwise().maxCoeff().transpose();
-  } else {
-    return not_predicted("a stock that another job leaves is not modelled");
-  }
+  const std::optional<removal::Box> box = stock_box(job);
+  if (!box)
+    return not_predicted(job.stock.kind == core::StockSpec::Kind::Mesh ? "the stock mesh is empty"
+                                                                       : "a stock that another job leaves is not modelled");
+  const removal::Box stock = *box;
   const bool tridexel = job.removal.field == core::RemovalSpec::Field::TriDexel;
   // The z-map's outputs as sim/run_outputs.cpp decides them (a large grid leaves the mesh and CSV out by default).
   auto with_outputs = [&](RemovalWork w) {

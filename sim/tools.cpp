@@ -159,16 +159,11 @@ nlohmann::json tools_json(const core::Job& job, const Cut& cut) {
     }
   }
   for (const removal::TrackSweeps::Run& r : cut.sweeps.runs) sweeps[static_cast<std::size_t>(r.tool)] += r.count;
-  // Per tool, the nodes it cut last times a node's cell (the z grid's du x dv).
+  // Per tool, the nodes it cut last times a node's cell.
   std::vector<std::size_t> last_cut(n, 0);
-  double cell_mm2 = 0;
-  if (cut.tool_map) {
+  if (cut.tool_map)
     for (const std::uint8_t t : cut.tool_map->tool)
       if (t < n) ++last_cut[t];
-    const removal::DexelGrid& z =
-        cut.field.kind == core::RemovalSpec::Field::TriDexel ? cut.field.tri.z : cut.field.zmap;
-    cell_mm2 = z.du() * z.dv();
-  }
   nlohmann::json list = nlohmann::json::array();
   for (std::size_t t = 0; t < n; ++t) {
     const core::ToolSpec& s = tools[t];
@@ -189,7 +184,7 @@ nlohmann::json tools_json(const core::Job& job, const Cut& cut) {
         j["program_lines"] = pt->stretch_lines;
     }
     if (timed) j["time_s"] = time_s[t];
-    if (cut.tool_map) j["last_cut_area_mm2"] = static_cast<double>(last_cut[t]) * cell_mm2;
+    if (cut.tool_map) j["last_cut_area_mm2"] = static_cast<double>(last_cut[t]) * cut.tool_map->cell_mm2;
     list.push_back(j);
   }
   // The program's tools (sim::use_program_tool) fill job.tools too: tool_from_program says they are its.

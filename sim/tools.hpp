@@ -29,6 +29,7 @@ struct Cut;
 struct ToolMap {
   static constexpr std::uint8_t kUncut = 255;
   int nu = 0, nv = 0;
+  double cell_mm2 = 0;             // a node's cell on the z grid (du x dv): a tool's area is its nodes times this
   std::vector<std::uint8_t> tool;  // tool[j * nu + i]
   std::uint8_t at(int i, int j) const { return tool[static_cast<std::size_t>(j) * static_cast<std::size_t>(nu) + i]; }
 };

@@ -30,15 +30,22 @@ core::Setpoints plane_cylinder_setpoints(const core::Machine& m) {
   return motion::interpolate(tp, m, motion::InterpOptions{}).setpoints;
 }
 
-void expect_identical(const AxisResponse& a, const AxisResponse& b) {
+// Every column, bit for bit (exact equality; NaN would fail it too).
+void expect_same_rows(const AxisResponse& a, const AxisResponse& b) {
   ASSERT_EQ(a.samples(), b.samples());
-  // Bit for bit: exact equality of every element (NaN would fail it too).
   EXPECT_TRUE((a.position.array() == b.position.array()).all());
   EXPECT_TRUE((a.velocity.array() == b.velocity.array()).all());
   EXPECT_TRUE((a.acceleration.array() == b.acceleration.array()).all());
   EXPECT_TRUE((a.jerk.array() == b.jerk.array()).all());
   EXPECT_TRUE((a.current_A.array() == b.current_A.array()).all());
   EXPECT_TRUE((a.current_setpoint_A.array() == b.current_setpoint_A.array()).all());
+  EXPECT_TRUE((a.current_mean_A.array() == b.current_mean_A.array()).all());
+  EXPECT_TRUE((a.current_peak_A.array() == b.current_peak_A.array()).all());
+}
+
+// Every column and the per-period trace, bit for bit.
+void expect_identical(const AxisResponse& a, const AxisResponse& b) {
+  expect_same_rows(a, b);
   ASSERT_EQ(a.trace.size(), b.trace.size());
   for (std::size_t i = 0; i < a.trace.size(); ++i) {
     EXPECT_TRUE((a.trace[i].position == b.trace[i].position).all());
@@ -124,18 +131,6 @@ AxisResponse blocked(const core::Setpoints& sp, const core::Machine& m, const Si
   return whole;
 }
 
-// Every column, bit for bit (exact equality; NaN would fail it too).
-void expect_same_rows(const AxisResponse& a, const AxisResponse& b) {
-  ASSERT_EQ(a.samples(), b.samples());
-  EXPECT_TRUE((a.position.array() == b.position.array()).all());
-  EXPECT_TRUE((a.velocity.array() == b.velocity.array()).all());
-  EXPECT_TRUE((a.acceleration.array() == b.acceleration.array()).all());
-  EXPECT_TRUE((a.jerk.array() == b.jerk.array()).all());
-  EXPECT_TRUE((a.current_A.array() == b.current_A.array()).all());
-  EXPECT_TRUE((a.current_setpoint_A.array() == b.current_setpoint_A.array()).all());
-  EXPECT_TRUE((a.current_mean_A.array() == b.current_mean_A.array()).all());
-  EXPECT_TRUE((a.current_peak_A.array() == b.current_peak_A.array()).all());
-}
 
 // Reference: simulate_axes over the whole run. The drives' simulation in blocks (issue 21: the response of a long
 // program streamed) carries every drive's state, the NC's previous setpoint and velocity (the feedforward's
