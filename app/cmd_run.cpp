@@ -184,25 +184,28 @@ void print_written(const fs::path& dir, std::size_t n_files, std::size_t n_image
 }
 
 // The pictures' failure of any kind (bad_alloc at a large --image-size included) as a message: the results and
-// report.json are written whatever the pictures do.
-std::optional<std::string> draw_pictures(const core::Job& job, const sim::RunResult& result, const fs::path& dir,
-                                         const ImageOptions& image_opt, std::vector<std::string>& files,
-                                         std::size_t& n_images) {
+// report.json are written whatever the pictures do. The result is written and printed by now: what the pictures draw
+// is moved out of it and the rest (motion, track, sweeps, field, meshes: ~0.3 GB on flower_mold at 0.1 mm) is freed
+// first, since the drawing is otherwise the run's peak (issue 21). `report` is the result's report, moved out before.
+std::optional<std::string> draw_pictures(const core::Job& job, sim::RunResult&& result, const nlohmann::json& report,
+                                         const fs::path& dir, const ImageOptions& image_opt,
+                                         std::vector<std::string>& files, std::size_t& n_images) {
   ResultData images;
   images.job = job.name;
   images.reference = result.cut.reference.name;
-  images.marks = result.marks;
-  images.surface = result.surface;
-  images.deviation = result.deviation;
-  images.signals = result.signals;
-  if (const auto& m = result.cut.tool_map;
-      m && result.surface && result.surface->nx() == m->nu && result.surface->ny() == m->nv) {
+  images.marks = std::move(result.marks);
+  images.surface = std::move(result.surface);
+  images.deviation = std::move(result.deviation);
+  images.signals = std::move(result.signals);
+  std::optional<sim::ToolMap> tool_map = std::move(result.cut.tool_map);
+  result = sim::RunResult{};
+  if (const auto& m = tool_map; m && images.surface && images.surface->nx() == m->nu && images.surface->ny() == m->nv) {
     images.tool_index = Eigen::ArrayXXi(m->nv, m->nu);
     for (int j = 0; j < m->nv; ++j)
       for (int i = 0; i < m->nu; ++i)
         (*images.tool_index)(j, i) = m->at(i, j) == sim::ToolMap::kUncut ? -1 : m->at(i, j);
     // The legend from report.json's tools: "T1 flat D6.35" (their areas are in report.json and report.html).
-    for (const nlohmann::json& t : result.report["tools"]["list"])
+    for (const nlohmann::json& t : report["tools"]["list"])
       images.tool_names.push_back(fmt::format("{} {} D{:g}", t["tool"].get<std::string>(), t["type"].get<std::string>(),
                                               t["diameter_mm"].get<double>()));
   }
@@ -273,7 +276,7 @@ int run_run(const RunArgs& args) {
     if (out) out->commit();  // --tiles-out: every rank's tile is written (gather_tiles ends in a barrier)
     return 0;
   }
-  const sim::RunResult result = sim::finish_run(job, std::move(cut), progress);
+  sim::RunResult result = sim::finish_run(job, std::move(cut), progress);
 
   auto t0 = Clock::now();
   create_out_dir(dir);
@@ -285,6 +288,7 @@ int run_run(const RunArgs& args) {
     for (const auto& n : outputs["outputs"].value("notes", nlohmann::json::array()))
       std::fprintf(stderr, "vmsim: note: %s\n", n.get<std::string>().c_str());
   print_results(job, result);
+  nlohmann::json report = std::move(result.report);
 
   // Pictures, after every result file: a failure to draw loses no result.
   std::optional<std::string> render_error;
@@ -294,12 +298,11 @@ int run_run(const RunArgs& args) {
     t0 = Clock::now();
     const double cpu1 = core::process_cpu_s();
     progress.stage(job.name + ": pictures");
-    render_error = draw_pictures(job, result, dir, image_opt, files, n_images);
+    render_error = draw_pictures(job, std::move(result), report, dir, image_opt, files, n_images);
     progress.done();
     t_render = seconds_since(t0), cpu_render = core::process_cpu_s() - cpu1;
   }
 
-  nlohmann::json report = result.report;
   report["outputs"] = outputs["outputs"];
   if (!program_warnings.empty()) report["program_warnings"] = program_warnings;
   if (!tiles_json.is_null()) report["tiles"] = tiles_json;
