@@ -158,6 +158,9 @@ void PyJob::reload() {
       throw core::Error(std::string(e.what()) + " [in " + file_.string() + " with job.override() of " + keys + "]");
     }
   }
+  // As `vmsim run` does on load: a CL program's own tools when the job gives none (its stderr note is in the report's
+  // tools.source), so that job.run() cuts with the tools the command line cuts with.
+  sim::use_program_tool(loaded->job);
   loaded_ = std::move(loaded);
 }
 

@@ -136,7 +136,10 @@ surface, reference, deviation, deviation_vertical: vmsim.Grid (heights on the z-
 surface - reference along the reference's normal and vertically: negative is overcut), or None (no reference; N-buffer fields have needles instead: needle_offset_mm,
 needle_reference_mm, needle_deviation_mm); marks: a list of dicts as report.json lists them (depth_mm, kind,
 x_mm, y_mm, x_extent_mm, y_extent_mm, area_mm2, depth_vertical_mm, slope_deg, steep_wall), deepest first; report: report.json as a dict; mesh: the part as a
-vmsim.Mesh with point_data["deviation_mm"], or None; out, files: where job.run(out=...) wrote and what.)")
+vmsim.Mesh with point_data["deviation_mm"], or None; tools: the job's tools as report.json lists them (tool, type,
+diameter_mm, ..., last_cut_area_mm2 on a job with several); tool_map: for a job with several tools on a z-map or
+tri-dexel field, an int8 array of the surface's shape (ny, nx) giving per node the index into tools of the tool that
+last cut it (-1: uncut), what images/tools.png draws; else None; out, files: where job.run(out=...) wrote and what.)")
       .def_property_readonly(
           "surface", [](PyResult& r) -> core::HeightGrid* { return r.run.surface ? &*r.run.surface : nullptr; }, kRef)
       .def_property_readonly(
@@ -173,6 +176,22 @@ vmsim.Mesh with point_data["deviation_mm"], or None; out, files: where job.run(o
           "marks", [](const PyResult& r) { return to_python(r.report.value("marks", nlohmann::json::array())); })
       .def_property_readonly("report", [](const PyResult& r) { return to_python(r.report); })
       .def_property_readonly("reference_name", [](const PyResult& r) { return r.run.cut.reference.name; })
+      // What images/tools.png draws (issue 24 section 1), as data: a new int8 array in the surface's layout.
+      .def_property_readonly("tool_map",
+                             [](const PyResult& r) -> py::object {
+                               const auto& m = r.run.cut.tool_map;
+                               if (!m) return py::none();
+                               py::array_t<std::int8_t> a({m->nv, m->nu});
+                               auto v = a.mutable_unchecked<2>();
+                               for (int j = 0; j < m->nv; ++j)
+                                 for (int i = 0; i < m->nu; ++i)
+                                   v(j, i) = m->at(i, j) == sim::ToolMap::kUncut ? std::int8_t{-1}
+                                                                                 : static_cast<std::int8_t>(m->at(i, j));
+                               return std::move(a);
+                             })
+      .def_property_readonly(
+          "tools",
+          [](const PyResult& r) { return to_python(r.report.value("tools", nlohmann::json::object()).value("list", nlohmann::json::array())); })
       .def_readonly("out", &PyResult::out)
       .def_readonly("files", &PyResult::files)
       .def("__repr__", [](const PyResult& r) {
