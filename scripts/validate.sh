@@ -87,3 +87,16 @@ if [ -x "$here/build/tests/app_tests" ]; then
 else
   echo "(build/tests/app_tests absent: build it with cmake --build build --target app_tests)"
 fi
+
+echo
+echo "== flower_mold end to end (issue 21: CAMotics' flower_mold.nc on the Mikron, z-map 0.1 mm, with pictures;"
+echo "   targets <= 10 s CPU and <= 0.6 GiB peak, measured as ratios against the issue's baseline in bench/README.md)"
+if [ -f "$here/../shared/data/real/cam/flower_mold.nc" ]; then
+  # CPU is user + sys of the whole process (llvmpipe's drawing threads included); the load average beside it.
+  echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
+  /usr/bin/time -f "CPU %U s user + %S s sys, %e s wall, peak RSS %M kB" \
+    "$vmsim" run "$here/bench/flower_mold/job.toml" --out "$tmp/flower_mold" --quiet
+  python3 -c "import json,sys; t=json.load(open(sys.argv[1]))['timings_s']; print('stages (s):', ', '.join(f'{k} {v:.2f}' for k,v in t.items()))" "$tmp/flower_mold/report.json"
+else
+  echo "(../shared/data/real/cam/flower_mold.nc absent: skipped)"
+fi
