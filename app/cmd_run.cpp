@@ -200,14 +200,10 @@ std::optional<std::string> draw_pictures(const core::Job& job, sim::RunResult&& 
   std::optional<sim::ToolMap> tool_map = std::move(result.cut.tool_map);
   result = sim::RunResult{};
   if (const auto& m = tool_map; m && images.surface && images.surface->nx() == m->nu && images.surface->ny() == m->nv) {
-    images.tool_index = Eigen::ArrayXXi(m->nv, m->nu);
-    for (int j = 0; j < m->nv; ++j)
-      for (int i = 0; i < m->nu; ++i)
-        (*images.tool_index)(j, i) = m->at(i, j) == sim::ToolMap::kUncut ? -1 : m->at(i, j);
+    images.tool_index = sim::tool_index(*m).cast<int>();
     // The legend from report.json's tools: "T1 flat D6.35" (their areas are in report.json and report.html).
     for (const nlohmann::json& t : report["tools"]["list"])
-      images.tool_names.push_back(fmt::format("{} {} D{:g}", t["tool"].get<std::string>(), t["type"].get<std::string>(),
-                                              t["diameter_mm"].get<double>()));
+      images.tool_names.push_back(tool_legend(t));
   }
   try {
     // Test hook (tests/app/outdir_cli_test.cpp, README "What you can rely on"): the pictures run out of memory.

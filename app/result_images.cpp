@@ -395,6 +395,11 @@ ImageOptions image_options(const ImageArgs& a) {
   return o;
 }
 
+std::string tool_legend(const nlohmann::json& t) {
+  return fmt::format("{} {} D{:g}", t.value("tool", std::string("?")), t.value("type", std::string("?")),
+                     t.value("diameter_mm", 0.0));
+}
+
 ResultData load_results(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw core::Error(dir.string() + ": not a directory");
@@ -429,6 +434,18 @@ ResultData load_results(const fs::path& dir) {
     d.deviation_along = along.is_string() ? along.get<std::string>() : "vertical";
     d.marks = metrology::find_marks(*d.deviation, 1e-3);  // as vmsim run: marks deeper than 1 um
   }
+  // A run with several tools: which tool last cut each node (tools.png), the legend from report.json's tools.
+  if (d.surface && take("tool_map.npy")) {
+    const metrology::IndexGrid index = metrology::read_index_npy(dir / "tool_map.npy");
+    if (index.rows() != d.surface->ny() || index.cols() != d.surface->nx())
+      throw core::Error(fmt::format("{}: tool_map.npy is {} x {} nodes, the surface {} x {}", dir.string(),
+                                    index.cols(), index.rows(), d.surface->nx(), d.surface->ny()));
+    d.tool_index = index.cast<int>();
+    for (const nlohmann::json& t : r.value("tools", nlohmann::json::object()).value("list", nlohmann::json::array()))
+      d.tool_names.push_back(tool_legend(t));
+    if (static_cast<int>(d.tool_names.size()) <= d.tool_index->maxCoeff())
+      throw core::Error(dir.string() + ": tool_map.npy names a tool that report.json's tools.list does not have");
+  }
   if (take("signals.csv")) d.signals = sim::read_signals(dir / "signals.csv");
   if (!d.surface && !d.deviation && !d.signals)
     throw core::Error(dir.string() +
@@ -457,8 +474,8 @@ std::vector<std::string> write_result_images(const ResultData& d, const fs::path
   // Pictures of an earlier run into the same directory that this one did not draw (a mark that is gone, an axis
   // that no longer moves) would contradict its report: they go. Only names this function writes are touched.
   const auto ours = [](const std::string& n) {
-    for (const char* p : {"part.png", "part_mark.png", "deviation.png", "deviation_mark.png", "deviation_3d.png",
-                          "contour_error.png", "feed.png", "currents.png"})
+    for (const char* p : {"part.png", "part_mark.png", "tools.png", "deviation.png", "deviation_mark.png",
+                          "deviation_3d.png", "contour_error.png", "feed.png", "currents.png"})
       if (n == p) return true;
     // Per-axis charts: axis_<name>.png, position_<name>.png (axis names are one letter: X Y Z A B C).
     return n.size() <= 16 && n.ends_with(".png") && (n.starts_with("axis_") || n.starts_with("position_"));

@@ -7,6 +7,8 @@
 #include "metrology/marks.hpp"
 #include "render/scene.hpp"
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -29,6 +31,9 @@ struct ResultData {
   std::optional<Eigen::ArrayXXi> tool_index;
   std::vector<std::string> tool_names;
 };
+
+// A tool's legend entry in tools.png from its report.json tools.list entry: "T1 flat D6.35".
+std::string tool_legend(const nlohmann::json& tool);
 
 struct ImageOptions {
   int width = 1600, height = 1200;

@@ -132,26 +132,111 @@ core::HeightGrid read_height_csv(std::istream& is, const std::string& file_name)
   return g;
 }
 
-void write_height_npy(const std::filesystem::path& file, const core::HeightGrid& g) {
-  // NPY 1.0: magic, version, little-endian header length, a Python dict literal padded to 64 bytes, raw data.
-  std::string header = fmt::format("{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {}), }}", g.ny(), g.nx());
+namespace {
+
+// The NPY 1.0 header (magic, version, little-endian length, a Python dict literal padded so the data start on a
+// 64-byte boundary), as numpy.save writes it. NumPy's format is small and fixed: Debian has no C++ library for it.
+void write_npy_header(std::ostream& s, const std::string& descr, Eigen::Index ny, Eigen::Index nx) {
+  std::string header = fmt::format("{{'descr': '{}', 'fortran_order': False, 'shape': ({}, {}), }}", descr, ny, nx);
   const std::size_t total = 10 + header.size() + 1;
   header += std::string((64 - total % 64) % 64, ' ');
   header += '\n';
-  core::AtomicFile out(file);
-  auto& s = out.stream();
   s.write("\x93NUMPY\x01\x00", 8);
   const unsigned short hl = static_cast<unsigned short>(header.size());
   const char len[2] = {static_cast<char>(hl & 0xff), static_cast<char>(hl >> 8)};
   s.write(len, 2);
   s.write(header.data(), static_cast<std::streamsize>(header.size()));
-  s.write(reinterpret_cast<const char*>(g.z_mm.data()), static_cast<std::streamsize>(g.z_mm.size() * sizeof(double)));
-  out.commit();
+}
+
+void write_npy_sidecar(const std::filesystem::path& file, const core::HeightGrid& g, const std::string& values) {
   std::filesystem::path side = file;
   side += ".json";
   core::write_file_atomic(side, fmt::format("{{\"x0_mm\": {}, \"y0_mm\": {}, \"dx_mm\": {}, \"dy_mm\": {}, "
-                                            "\"nx\": {}, \"ny\": {}, \"z_unit\": \"mm\", \"row\": \"y\"}}\n",
-                                            g.x0_mm, g.y0_mm, g.dx_mm, g.dy_mm, g.nx(), g.ny()));
+                                            "\"nx\": {}, \"ny\": {}, {}, \"row\": \"y\"}}\n",
+                                            g.x0_mm, g.y0_mm, g.dx_mm, g.dy_mm, g.nx(), g.ny(), values));
+}
+
+}  // namespace
+
+void write_height_npy(const std::filesystem::path& file, const core::HeightGrid& g) {
+  core::AtomicFile out(file);
+  write_npy_header(out.stream(), "<f8", g.ny(), g.nx());
+  out.stream().write(reinterpret_cast<const char*>(g.z_mm.data()),
+                     static_cast<std::streamsize>(g.z_mm.size() * sizeof(double)));
+  out.commit();
+  write_npy_sidecar(file, g, "\"z_unit\": \"mm\"");
+}
+
+
+void write_index_npy(const std::filesystem::path& file, const IndexGrid& index, const core::HeightGrid& on,
+                     const std::string& meaning) {
+  if (index.rows() != on.ny() || index.cols() != on.nx())
+    throw core::Error(fmt::format("{}: the index is {} x {} nodes, its grid {} x {}", file.string(), index.cols(),
+                                  index.rows(), on.nx(), on.ny()));
+  core::AtomicFile out(file);
+  write_npy_header(out.stream(), "|i1", index.rows(), index.cols());
+  out.stream().write(reinterpret_cast<const char*>(index.data()), static_cast<std::streamsize>(index.size()));
+  out.commit();
+  std::string quoted;  // `meaning` as a JSON string (it is ours: no control characters)
+  for (const char c : meaning) quoted += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  write_npy_sidecar(file, on, "\"values\": \"" + quoted + "\"");
+}
+
+IndexGrid read_index_npy(const std::filesystem::path& file) {
+  const std::string what = file.string();
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw core::Error(what + ": cannot open the file");
+  char magic[8];
+  if (!in.read(magic, 8) || std::memcmp(magic, "\x93NUMPY", 6) != 0)
+    throw core::Error(what + ": not a NumPy .npy file (expected the magic \\x93NUMPY)");
+  const int major = static_cast<unsigned char>(magic[6]);
+  if (major < 1 || major > 3) throw core::Error(fmt::format("{}: NPY version {} (expected 1.0 to 3.0)", what, major));
+  unsigned char len[4] = {0, 0, 0, 0};
+  if (!in.read(reinterpret_cast<char*>(len), major == 1 ? 2 : 4)) throw core::Error(what + ": cut short in its header");
+  const std::size_t hl = len[0] | (len[1] << 8) | (static_cast<std::size_t>(len[2]) << 16) |
+                         (static_cast<std::size_t>(len[3]) << 24);
+  if (hl > 65536) throw core::Error(fmt::format("{}: a header of {} bytes (expected under 64 KiB)", what, hl));
+  std::string header(hl, '\0');
+  if (!in.read(header.data(), static_cast<std::streamsize>(hl))) throw core::Error(what + ": cut short in its header");
+  // The dict's three keys, as numpy.save writes them ('descr': '|i1', 'fortran_order': False, 'shape': (ny, nx)).
+  auto value_of = [&](const std::string& key) {
+    const std::size_t k = header.find("'" + key + "'");
+    if (k == std::string::npos) throw core::Error(what + ": its header has no '" + key + "'");
+    std::size_t v = header.find(':', k);
+    if (v == std::string::npos) throw core::Error(what + ": its header's '" + key + "' has no value");
+    ++v;
+    while (v < header.size() && header[v] == ' ') ++v;
+    return v;
+  };
+  std::size_t d = value_of("descr");
+  const std::size_t d_end = header.find('\'', d + 1);
+  const std::string descr = d < header.size() && header[d] == '\'' && d_end != std::string::npos
+                                ? header.substr(d + 1, d_end - d - 1)
+                                : std::string();
+  const bool is_unsigned = descr == "|u1" || descr == "u1";
+  if (descr != "|i1" && descr != "i1" && !is_unsigned)
+    throw core::Error(what + ": values of type '" + descr + "' (expected 8-bit integers, '|i1')");
+  const bool fortran = header.compare(value_of("fortran_order"), 4, "True") == 0;
+  const std::size_t sh = value_of("shape");
+  long long ny = -1, nx = -1;
+  char close = 0;
+  if (std::sscanf(header.c_str() + sh, "(%lld, %lld%c", &ny, &nx, &close) != 3 || (close != ')' && close != ','))
+    throw core::Error(what + ": its shape is not 2-D (expected (ny, nx))");
+  if (ny < 1 || nx < 1 || ny > kMaxNodes / nx)
+    throw core::Error(fmt::format("{}: a shape of {} x {} nodes (expected 1 to {} nodes)", what, ny, nx, kMaxNodes));
+  IndexGrid g(ny, nx);
+  std::vector<std::int8_t> raw(static_cast<std::size_t>(ny * nx));
+  if (!in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size())))
+    throw core::Error(fmt::format("{}: cut short: {} x {} values expected", what, ny, nx));
+  for (long long j = 0; j < ny; ++j)
+    for (long long i = 0; i < nx; ++i) {
+      const std::int8_t v = raw[static_cast<std::size_t>(fortran ? i * ny + j : j * nx + i)];
+      if (is_unsigned && v < 0)
+        throw core::Error(fmt::format("{}: value {} at row {}, column {} (expected at most 127)", what,
+                                      static_cast<unsigned char>(v), j, i));
+      g(j, i) = v;
+    }
+  return g;
 }
 
 // ---- points on a lattice ----

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <filesystem>
 #include <istream>
 #include <string>
@@ -22,6 +23,16 @@ core::HeightGrid read_height_csv(std::istream& in, const std::string& name);  //
 // NumPy .npy (float64, shape ny x nx, C order; NaN where invalid) for Python users, plus the grid geometry in a
 // JSON sidecar file.npy.json. Written atomically.
 void write_height_npy(const std::filesystem::path& file, const core::HeightGrid& grid);
+
+// Per node of a grid a small index (NumPy .npy int8, shape ny x nx, C order; -1: none), e.g. which tool last cut each
+// node of a run with several tools (tool_map.npy); `meaning` goes into the JSON sidecar beside the geometry of `on`
+// (the grid it indexes, as write_height_npy's). Written atomically.
+using IndexGrid = Eigen::Array<std::int8_t, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+void write_index_npy(const std::filesystem::path& file, const IndexGrid& index, const core::HeightGrid& on,
+                     const std::string& meaning);
+// Reads such a file as NumPy writes int8 (also uint8 values up to 127) 2-D arrays: NPY 1.0-3.0, C or Fortran order.
+// Throws core::Error naming the file and what was expected.
+IndexGrid read_index_npy(const std::filesystem::path& file);
 
 // Points that lie on a regular x/y lattice (columns of equal x, rows of equal y, to 1e-3 of the step; some nodes
 // may be missing) to a grid whose missing nodes are invalid. Throws core::Error starting with `what` (a file

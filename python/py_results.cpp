@@ -12,6 +12,7 @@
 #include "sim/motion_run.hpp"
 #include "sim/run.hpp"
 #include "sim/run_outputs.hpp"
+#include "sim/tools.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
@@ -181,12 +182,9 @@ last cut it (-1: uncut), what images/tools.png draws; else None; out, files: whe
                              [](const PyResult& r) -> py::object {
                                const auto& m = r.run.cut.tool_map;
                                if (!m) return py::none();
-                               py::array_t<std::int8_t> a({m->nv, m->nu});
-                               auto v = a.mutable_unchecked<2>();
-                               for (int j = 0; j < m->nv; ++j)
-                                 for (int i = 0; i < m->nu; ++i)
-                                   v(j, i) = m->at(i, j) == sim::ToolMap::kUncut ? std::int8_t{-1}
-                                                                                 : static_cast<std::int8_t>(m->at(i, j));
+                               const metrology::IndexGrid index = sim::tool_index(*m);
+                               py::array_t<std::int8_t> a({index.rows(), index.cols()});
+                               std::copy(index.data(), index.data() + index.size(), a.mutable_data());
                                return std::move(a);
                              })
       .def_property_readonly(

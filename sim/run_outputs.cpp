@@ -1,4 +1,5 @@
 #include "sim/run_outputs.hpp"
+#include "sim/tools.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/stl.hpp"
@@ -63,6 +64,13 @@ std::vector<std::string> write_run_outputs(const core::Job& job, const RunResult
     if (o.npy) {
       metrology::write_height_npy(dir / "surface.npy", *r.surface);
       files.insert(files.end(), {"surface.npy", "surface.npy.json"});
+    }
+    // A job with several tools: which tool last cut each node (1 byte per node), the data of images/tools.png, so
+    // that vmsim render redraws it and Python reads it (numpy.load).
+    if (const auto& m = r.cut.tool_map; m && m->nu == r.surface->nx() && m->nv == r.surface->ny()) {
+      metrology::write_index_npy(dir / "tool_map.npy", tool_index(*m), *r.surface,
+                                 "index into report.json tools.list of the tool that last cut the node; -1: uncut");
+      files.insert(files.end(), {"tool_map.npy", "tool_map.npy.json"});
     }
     // X3P (ISO 5436-2) for metrology tools: MountainsMap, Gwyddion, vmsim compare.
     metrology::X3pWriteOptions x3p;

@@ -43,6 +43,14 @@ const char* shape_name(core::ToolShape s) {
 
 }  // namespace
 
+metrology::IndexGrid tool_index(const ToolMap& map) {
+  metrology::IndexGrid out(map.nv, map.nu);
+  for (int j = 0; j < map.nv; ++j)
+    for (int i = 0; i < map.nu; ++i)
+      out(j, i) = map.at(i, j) == ToolMap::kUncut ? std::int8_t{-1} : static_cast<std::int8_t>(map.at(i, j));
+  return out;
+}
+
 std::vector<core::ToolSpec> job_tools(const core::Job& job) {
   if (!job.tools.empty()) return job.tools;
   return {job.tool};

@@ -9,6 +9,7 @@
 #include "core/height_grid.hpp"
 #include "core/job.hpp"
 #include "core/toolpath.hpp"
+#include "metrology/grid_io.hpp"
 #include "metrology/marks.hpp"
 #include "removal/track.hpp"
 
@@ -33,6 +34,10 @@ struct ToolMap {
   std::vector<std::uint8_t> tool;  // tool[j * nu + i]
   std::uint8_t at(int i, int j) const { return tool[static_cast<std::size_t>(j) * static_cast<std::size_t>(nu) + i]; }
 };
+
+// The map in the height grid's layout (rows along y, as core::HeightGrid and tool_map.npy): the tool's index, -1 where
+// none cut.
+metrology::IndexGrid tool_index(const ToolMap& map);
 
 // The tools PoseTrack::tool indexes: [[tools]] in the job's order, or the one [tool] (index 0).
 std::vector<core::ToolSpec> job_tools(const core::Job& job);

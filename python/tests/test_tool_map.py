@@ -88,6 +88,11 @@ def test_tool_map_is_the_slots_and_the_cli_agrees(cli, tmp_path):
     m = result.tool_map
     g = result.surface
     assert m is not None and m.dtype == np.int8 and m.shape == g.z_mm.shape
+    # tool_map.npy as numpy itself reads it (numpy.load: the reference reader of the format) is the same map.
+    on_disk = np.load(py_dir / "tool_map.npy")
+    assert on_disk.dtype == np.int8 and np.array_equal(on_disk, m)
+    side = json.loads((py_dir / "tool_map.npy.json").read_text())
+    assert (side["x0_mm"], side["dx_mm"], side["nx"], side["ny"]) == (g.x0_mm, g.dx_mm, m.shape[1], m.shape[0])
     ny, nx = m.shape
     wrong = 0
     for j in range(ny):

@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
 
+#include "render/image.hpp"
 #include "tests/app/cli_util.hpp"
 #include "tests/test_machines.hpp"
 
@@ -64,6 +66,54 @@ TEST(ToolsPngCli, SeveralToolsDrawToolsPngAndOneToolDoesNot) {
   EXPECT_FALSE(fs::exists(out1 / "images" / "tools.png"));
   EXPECT_FALSE(vmsim_test::read_json(out1 / "report.json")["tools"]["list"][0].contains("last_cut_area_mm2"));
   EXPECT_EQ(vmsim_test::slurp(out1 / "report.html").find("tools.png"), std::string::npos);
+}
+
+}  // namespace
+
+namespace {
+
+// tools.png's data is written (tool_map.npy, numpy's int8 format) and `vmsim render` redraws the picture from the
+// directory alone: the same pixels as the run drew (the surface read back bit for bit from surface.csv).
+TEST(ToolsPngCli, RenderRedrawsToolsPngFromToolMapNpy) {
+  vmsim_test::TempDir tmp("vmsim_tools_render_");
+  vmsim_test::write_file(tmp.path() / "machine.toml", kXyzTestMill);
+  vmsim_test::write_file(tmp.path() / "two.cl", kTpngProgram);
+  vmsim_test::write_file(tmp.path() / "two.toml", tpng_job(""));
+  const fs::path out = tmp.path() / "out";
+  const vmsim_test::CliRun r = vmsim_test::run_vmsim(
+      "run '" + (tmp.path() / "two.toml").string() + "' -o '" + out.string() + "' --image-size 480x360", tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json files = vmsim_test::read_json(out / "report.json")["files"];
+  EXPECT_NE(std::find(files.begin(), files.end(), "tool_map.npy"), files.end()) << files.dump();
+  EXPECT_NE(std::find(files.begin(), files.end(), "tool_map.npy.json"), files.end()) << files.dump();
+
+  const fs::path again = tmp.path() / "again";
+  const vmsim_test::CliRun rr =
+      vmsim_test::run_vmsim("render '" + out.string() + "' -o '" + again.string() + "' --size 480x360", tmp);
+  ASSERT_EQ(rr.code, 0) << rr.err;
+  ASSERT_TRUE(fs::exists(again / "tools.png")) << rr.out;
+  const vmsim::render::Image a = vmsim::render::read_png(out / "images" / "tools.png");
+  const vmsim::render::Image b = vmsim::render::read_png(again / "tools.png");
+  ASSERT_EQ(a.width, b.width);
+  ASSERT_EQ(a.height, b.height);
+  EXPECT_TRUE(a.rgb == b.rgb) << "vmsim render drew another tools.png than vmsim run";
+
+  // A one-tool run into the same picture folder: no tool_map.npy, and the stale tools.png goes.
+  vmsim_test::write_file(tmp.path() / "one.toml",
+                         tpng_job("[tool]\ntype = \"flat\"\ndiameter_mm = 6.0\nflute_length_mm = 20.0\n"
+                                  "all_tools = true\n"));
+  const fs::path out1 = tmp.path() / "out1";
+  ASSERT_EQ(vmsim_test::run_vmsim("run '" + (tmp.path() / "one.toml").string() + "' -o '" + out1.string() +
+                                      "' --no-render",
+                                  tmp)
+                .code,
+            0);
+  EXPECT_FALSE(fs::exists(out1 / "tool_map.npy"));
+  const vmsim_test::CliRun r1 =
+      vmsim_test::run_vmsim("render '" + out1.string() + "' -o '" + again.string() + "' --size 480x360", tmp);
+  ASSERT_EQ(r1.code, 0) << r1.err;
+  EXPECT_TRUE(fs::exists(again / "part.png"));
+  EXPECT_FALSE(fs::exists(again / "tools.png"));
 }
 
 }  // namespace
