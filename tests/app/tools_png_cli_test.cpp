@@ -33,14 +33,19 @@ std::string tpng_job(const std::string& tools) {
          "[removal]\nfield = \"zmap\"\nspacing_mm = 0.2\nmotion = \"program\"\n[reference]\nkind = \"none\"\n";
 }
 
-TEST(ToolsPngCli, SeveralToolsDrawToolsPngAndOneToolDoesNot) {
-  vmsim_test::TempDir tmp("vmsim_tools_png_");
+// The two-slot job (its program's two tools) in tmp, run into out with 480 x 360 pictures.
+vmsim_test::CliRun run_two_slots(const vmsim_test::TempDir& tmp, const fs::path& out) {
   vmsim_test::write_file(tmp.path() / "machine.toml", kXyzTestMill);
   vmsim_test::write_file(tmp.path() / "two.cl", kTpngProgram);
   vmsim_test::write_file(tmp.path() / "two.toml", tpng_job(""));
-  const fs::path out = tmp.path() / "out";
-  const vmsim_test::CliRun r = vmsim_test::run_vmsim(
+  return vmsim_test::run_vmsim(
       "run '" + (tmp.path() / "two.toml").string() + "' -o '" + out.string() + "' --image-size 480x360", tmp);
+}
+
+TEST(ToolsPngCli, SeveralToolsDrawToolsPngAndOneToolDoesNot) {
+  vmsim_test::TempDir tmp("vmsim_tools_png_");
+  const fs::path out = tmp.path() / "out";
+  const vmsim_test::CliRun r = run_two_slots(tmp, out);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(out / "images" / "part.png")) << r.out;
   EXPECT_TRUE(fs::exists(out / "images" / "tools.png")) << r.out;
@@ -68,20 +73,12 @@ TEST(ToolsPngCli, SeveralToolsDrawToolsPngAndOneToolDoesNot) {
   EXPECT_EQ(vmsim_test::slurp(out1 / "report.html").find("tools.png"), std::string::npos);
 }
 
-}  // namespace
-
-namespace {
-
 // tools.png's data is written (tool_map.npy, numpy's int8 format) and `vmsim render` redraws the picture from the
 // directory alone: the same pixels as the run drew (the surface read back bit for bit from surface.csv).
 TEST(ToolsPngCli, RenderRedrawsToolsPngFromToolMapNpy) {
   vmsim_test::TempDir tmp("vmsim_tools_render_");
-  vmsim_test::write_file(tmp.path() / "machine.toml", kXyzTestMill);
-  vmsim_test::write_file(tmp.path() / "two.cl", kTpngProgram);
-  vmsim_test::write_file(tmp.path() / "two.toml", tpng_job(""));
   const fs::path out = tmp.path() / "out";
-  const vmsim_test::CliRun r = vmsim_test::run_vmsim(
-      "run '" + (tmp.path() / "two.toml").string() + "' -o '" + out.string() + "' --image-size 480x360", tmp);
+  const vmsim_test::CliRun r = run_two_slots(tmp, out);
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json files = vmsim_test::read_json(out / "report.json")["files"];
   EXPECT_NE(std::find(files.begin(), files.end(), "tool_map.npy"), files.end()) << files.dump();
