@@ -52,7 +52,7 @@ void print_plan(const core::Job& job, const nlohmann::json& plan) {
   if (t["removal_cpu_s"].is_null())
     std::printf("time: not predicted (%s)\n", t["not_predicted"].get<std::string>().c_str());
   else
-    std::printf("time: removal %.3g s CPU, whole run %.3g s CPU (%.3g shadow rays of %.0f sweeps; within about 2x)\n",
+    std::printf("time: removal %.3g s CPU, whole run %.3g s CPU without the pictures (%.3g shadow rays of %.0f sweeps; within about 2x)\n",
                 t["removal_cpu_s"].get<double>(), t["run_cpu_s"].get<double>(),
                 t["shadow_rays"]["axial_ball"].get<double>() + t["shadow_rays"]["general"].get<double>() +
                     t["shadow_rays"]["bull_nose"].get<double>(),
