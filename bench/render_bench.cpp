@@ -7,12 +7,15 @@
 // Each iteration: VTK polydata from the vmsim value type (and normals), render, read the pixels back, encode and
 // write the PNG (to $TMPDIR). One window for all iterations, as vmsim run and render draw all their pictures in one;
 // BM_FirstPicture makes a new window (EGL context, shader compilation) every time.
-// Counters: triangles per second; the time of the PNG step alone is BM_WritePng.
-// Figures: bench/README.md.
+// Counters: triangles per second; the time of the PNG step alone is BM_WritePng. cpu_ms_per_picture is the CPU of
+// the whole process (llvmpipe's render threads included; the benchmark's own CPU column counts the calling thread).
+// Antialiasing (last argument of BM_GridToPng and BM_ChartToPng): 0 none, 1 FXAA, 2 4x MSAA. Figures: bench/README.md.
 #include "render/chart.hpp"
 #include "render/image.hpp"
 #include "render/scene.hpp"
 #include "render/window.hpp"
+
+#include "core/timing.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -20,6 +23,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 namespace {
 
@@ -90,6 +94,17 @@ render::Window& window() {
 
 const std::filesystem::path png = std::filesystem::temp_directory_path() / "vmsim_render_bench.png";
 
+const char* aa_name(std::int64_t a) { return a == 0 ? "no AA" : a == 1 ? "FXAA" : "4x MSAA"; }
+
+// CPU of every thread of the process per iteration, from the first to the last.
+struct ProcessCpu {
+  double t0 = core::process_cpu_s();
+  void report(benchmark::State& state) const {
+    state.counters["cpu_ms_per_picture"] =
+        benchmark::Counter((core::process_cpu_s() - t0) * 1e3 / static_cast<double>(state.iterations()));
+  }
+};
+
 render::PartPicture picture(bool coloured, render::ViewDirection dir) {
   render::PartPicture p;
   p.width = 1600, p.height = 1200;
@@ -120,25 +135,38 @@ BENCHMARK(BM_MeshToPng)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealT
 
 void BM_GridToPng(benchmark::State& state) {
   const auto dir = static_cast<render::ViewDirection>(state.range(0));
-  const auto pic = picture(state.range(1) != 0, dir);
+  auto pic = picture(state.range(1) != 0, dir);
+  pic.antialiasing = static_cast<render::Antialiasing>(state.range(2));
   render::Window& w = window();
+  render::render_part(w, grid(), &deviation(), pic);  // shaders compiled outside the timing
+  const ProcessCpu cpu;
   for (auto _ : state) {
     const render::PartImage img = render::render_part(w, grid(), &deviation(), pic);
     render::write_png(png, img.image);
   }
+  cpu.report(state);
   state.counters["triangles_per_s"] =
       benchmark::Counter(2.0 * (kN - 1) * (kN - 1), benchmark::Counter::kIsIterationInvariantRate);
   state.SetLabel(std::string(dir == render::ViewDirection::Top ? "top map" : "isometric") +
-                 (state.range(1) ? ", deviation colours" : ", plain metal"));
+                 (state.range(1) ? ", deviation colours" : ", plain metal") + ", " + aa_name(state.range(2)));
 }
-BENCHMARK(BM_GridToPng)->Args({0, 0})->Args({1, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_GridToPng)
+    ->Args({0, 0, 0})
+    ->Args({0, 0, 1})
+    ->Args({0, 0, 2})
+    ->Args({1, 1, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_WritePng(benchmark::State& state) {
   const render::PartImage img =
       render::render_part(window(), grid(), nullptr, picture(false, render::ViewDirection::Isometric));
-  for (auto _ : state) render::write_png(png, img.image);
+  const int level = static_cast<int>(state.range(0));
+  for (auto _ : state) render::write_png(png, img.image, level);
+  state.counters["bytes"] = static_cast<double>(std::filesystem::file_size(png));
+  state.SetLabel("zlib level " + std::to_string(level));
 }
-BENCHMARK(BM_WritePng)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WritePng)->Arg(1)->Arg(3)->Arg(5)->Arg(9)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_ChartToPng(benchmark::State& state) {
   render::ChartPicture p;
@@ -158,10 +186,14 @@ void BM_ChartToPng(benchmark::State& state) {
     ch.levels.push_back({"limit", 120});
     p.charts.push_back(ch);
   }
+  p.antialiasing = static_cast<render::Antialiasing>(state.range(0));
+  render::render_charts(window(), p);
+  const ProcessCpu cpu;
   for (auto _ : state) render::write_png(png, render::render_charts(window(), p).image);
-  state.SetLabel("3 stacked charts, 2 x 20 000 points each, limits");
+  cpu.report(state);
+  state.SetLabel(std::string("3 stacked charts, 2 x 20 000 points each, limits, ") + aa_name(state.range(0)));
 }
-BENCHMARK(BM_ChartToPng)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ChartToPng)->Arg(0)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_FirstPicture(benchmark::State& state) {
   render::PartPicture p = picture(false, render::ViewDirection::Isometric);

@@ -557,8 +557,6 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   const bool coloured = pic.deviation.has_value();
   vtkRenderWindow* rw = detail::begin_picture(window, W, H);
   rw->SetNumberOfLayers(2);
-  // Maps stay exact (every pixel one colour of the table); 3-D views get smooth silhouettes.
-  rw->SetMultiSamples(pic.view.direction == ViewDirection::Top ? 0 : 4);
 
   // Layout (pixels): caption band on top, colour scale on the right, the scene in the rest.
   const int n_caption = static_cast<int>(pic.caption.size());
@@ -580,6 +578,9 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   vtkNew<vtkRenderer> ren;  // layer 1: the part, drawn over the background
   ren->SetLayer(1);
   ren->SetViewport(vp[0] / W, 1 - (vp[1] + vp[3]) / H, (vp[0] + vp[2]) / W, 1 - vp[1] / H);
+  // Maps stay exact (every pixel one colour of the table); 3-D views get smooth silhouettes. FXAA works on the
+  // scene's viewport only: the annotations around it stay as drawn.
+  detail::set_antialiasing(rw, ren, top ? Antialiasing::None : pic.antialiasing);
   rw->AddRenderer(overlay);
   rw->AddRenderer(ren);
 

@@ -75,6 +75,9 @@ struct PartPicture {
   std::optional<DeviationColours> deviation;
   // Colour by category instead (not together with deviation).
   std::optional<CategoryColours> categories;
+  // Edges of the 3-D views (Isometric, AlongPath). Top maps are never smoothed: every pixel stays exactly its map
+  // colour.
+  Antialiasing antialiasing = Antialiasing::Fxaa;
   // Height grids: draw every node. By default a grid finer than about one node per pixel of the picture's larger
   // side is drawn at every k-th node (k the smallest that fits), which the picture cannot tell apart.
   bool full_resolution = false;

@@ -345,6 +345,11 @@ vtkRenderWindow* begin_picture(Window& window, int width, int height) {
   return w;
 }
 
+void set_antialiasing(vtkRenderWindow* window, vtkRenderer* renderer, Antialiasing aa) {
+  window->SetMultiSamples(aa == Antialiasing::Msaa4 ? 4 : 0);
+  renderer->SetUseFXAA(aa == Antialiasing::Fxaa);
+}
+
 Image finish_picture(Window& window) {
   HeadlessRenderWindow* w = window.impl().win;
   VtkMessages messages;
@@ -434,7 +439,9 @@ std::vector<std::string> VtkMessages::warnings() const {
 
 // ---- PNG ---------------------------------------------------------------------------------------------------------
 
-void write_png(const std::filesystem::path& file, const Image& image) {
+void write_png(const std::filesystem::path& file, const Image& image, int zlib_level) {
+  if (zlib_level < 0 || zlib_level > 9)
+    throw core::Error(fmt::format("{}: PNG compression level {} is not in 0..9", file.string(), zlib_level));
   if (image.width <= 0 || image.height <= 0 ||
       image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3)
     throw core::Error(file.string() + ": not a complete RGB image");
@@ -451,6 +458,7 @@ void write_png(const std::filesystem::path& file, const Image& image) {
   vtkNew<vtkPNGWriter> w;
   w->SetFileName(tmp.string().c_str());
   w->SetInputData(data);
+  w->SetCompressionLevel(zlib_level);
   w->Write();
   std::error_code ec;
   if (w->GetErrorCode() != 0 || !std::filesystem::exists(tmp, ec)) {

@@ -11,6 +11,15 @@
 
 namespace vmsim::render {
 
+// How edges are smoothed. On Mesa's llvmpipe (no GPU) 4x multisampling costs ~0.2 s of CPU per 1600 x 1200 picture
+// even for an empty one, plus ~0.6 s for a part of 0.6 M triangles; FXAA (VTK's screen-space filter) ~0.2 s
+// (bench/README.md "Pictures' CPU").
+enum class Antialiasing {
+  None,   // every pixel one sample: exact colours, stair-stepped edges
+  Fxaa,   // NVIDIA's FXAA over the finished scene: smooth silhouettes, a slight softening of one-pixel detail
+  Msaa4,  // 4 samples per pixel
+};
+
 class Window {
  public:
   // Makes the EGL display, context and VTK window. Throws core::Error, naming the EGL call and its error code
