@@ -59,13 +59,19 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
   const Eigen::RowVectorXd first = sp.position.row(0);
   const auto tlo = [&](Eigen::Index k) { return tlo_at(m, k); };
   AxisFollowing following(machine, std::min(ns, rows), kin.get(), tlo);
+  // Each row's tool poses computed once (forward_rows) and shared: the track, the signals, the following error and
+  // the contour error's command all take them, as they would have from their own forward() calls.
+  Eigen::VectorXd tlo_rows;
+  Eigen::MatrixXd command_axis, actual_axis, held;
   while (!drives.sim->done()) {
     const Eigen::Index k0 = drives.sim->next_row();
     const drives::AxisResponse block = drives.sim->next(options.block_rows);
     const Eigen::Index n = block.samples();
+    tlo_rows.resize(n);
+    for (Eigen::Index r = 0; r < n; ++r) tlo_rows[r] = tlo(k0 + r);
     // The track's rows: pose_track_from_axes on the block, its rows those of the whole motion.
     const removal::PoseTrack b = pose_track_from_axes(*kin, machine, block.position, &block.velocity, sp.period_s,
-                                                      [&](Eigen::Index r) { return tlo(k0 + r); });
+                                                      [&](Eigen::Index r) { return tlo_rows[r]; });
     tr.tip_mm.middleRows(k0, n) = b.tip_mm;
     tr.tip_velocity_mm_per_s.middleRows(k0, n) = b.tip_velocity_mm_per_s;
     bool block_constant = b.axis_per_sample.rows() == 0;
@@ -83,13 +89,23 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
     axes.constant = axes.constant && block_constant;
     drives.after->add(k0, sp, block);
     if (options.figures) {
-      out.signals->add(k0, block);
-      following.add(k0, sp, block.position);
-      for (Eigen::Index r = 0; r < n; ++r) {
-        const Eigen::Index k = k0 + r;
-        out.command_tip_mm.row(k) =
-            kin->forward(sp.position.row(std::min(k, ns - 1)).transpose(), tlo(k)).tip_mm.transpose();
+      // The commanded poses: the setpoint each row holds (the last one while the axes settle).
+      const Eigen::Index nc = std::clamp<Eigen::Index>(ns - k0, 0, n);
+      command_axis.resize(n, 3);
+      if (nc > 0)
+        kin->forward_rows(sp.position.middleRows(k0, nc), tlo_rows.head(nc), out.command_tip_mm.middleRows(k0, nc),
+                          command_axis.topRows(nc));
+      if (nc < n) {
+        held = sp.position.row(ns - 1).replicate(n - nc, 1);
+        kin->forward_rows(held, tlo_rows.tail(n - nc), out.command_tip_mm.middleRows(k0 + nc, n - nc),
+                          command_axis.bottomRows(n - nc));
       }
+      if (b.axis_per_sample.rows() == 0) {
+        actual_axis = b.axis.transpose().replicate(n, 1);
+      }
+      const Eigen::MatrixXd& act_axis = b.axis_per_sample.rows() ? b.axis_per_sample : actual_axis;
+      out.signals->add(k0, block, b.tip_mm, out.command_tip_mm.middleRows(k0, n));
+      following.add(k0, sp, block.position, command_axis, act_axis);
     }
   }
   if (axes.constant) {
