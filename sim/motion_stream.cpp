@@ -69,22 +69,32 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
     const Eigen::Index n = block.samples();
     tlo_rows.resize(n);
     for (Eigen::Index r = 0; r < n; ++r) tlo_rows[r] = tlo(k0 + r);
-    // The track's rows: pose_track_from_axes on the block, its rows those of the whole motion.
-    const removal::PoseTrack b = pose_track_from_axes(*kin, machine, block.position, &block.velocity, sp.period_s,
-                                                      [&](Eigen::Index r) { return tlo_rows[r]; });
-    tr.tip_mm.middleRows(k0, n) = b.tip_mm;
-    tr.tip_velocity_mm_per_s.middleRows(k0, n) = b.tip_velocity_mm_per_s;
-    bool block_constant = b.axis_per_sample.rows() == 0;
+    // The track's rows, as pose_track_from_axes gives them on the block, written in place.
+    actual_axis.resize(n, 3);
+    kin->forward_rows(block.position, tlo_rows, tr.tip_mm.middleRows(k0, n), actual_axis);
+    kin->tip_velocity_rows(block.position, block.velocity, tlo_rows, tr.tip_velocity_mm_per_s.middleRows(k0, n));
+    // The block's tool axis is constant when its rotary axes hold still (bitwise) and every pose's axis is the first's
+    // (pose_track_from_axes' test; an empty block counts as constant, as its empty per-row axes did).
+    bool axis_constant = true;
+    for (std::size_t i = 0; axis_constant && i < machine.axes.size(); ++i) {
+      if (machine.axes[i].kind != core::AxisKind::Rotary) continue;
+      const auto c = static_cast<Eigen::Index>(i);
+      axis_constant = (block.position.col(c).array() == block.position(0, c)).all();
+    }
+    for (Eigen::Index k = 1; axis_constant && k < n; ++k) axis_constant = actual_axis.row(k) == actual_axis.row(0);
+    const Eigen::Vector3d block_axis =
+        n > 0 ? Eigen::Vector3d(actual_axis.row(0).transpose()) : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
+    bool block_constant = axis_constant;
     for (std::size_t i = 0; block_constant && i < machine.axes.size(); ++i)
       if (machine.axes[i].kind == core::AxisKind::Rotary)
         block_constant =
             (block.position.col(static_cast<Eigen::Index>(i)).array() == first[static_cast<Eigen::Index>(i)]).all();
-    if (k0 == 0) axes.axis = b.axis_per_sample.rows() ? Eigen::Vector3d(b.axis_per_sample.row(0)) : b.axis;
-    if (b.axis_per_sample.rows()) {
-      axes.turning_blocks.emplace_back(k0, b.axis_per_sample);
+    if (k0 == 0) axes.axis = block_axis;
+    if (!axis_constant) {
+      axes.turning_blocks.emplace_back(k0, actual_axis);
     } else {
-      axes.constant_blocks.emplace_back(k0, b.axis);
-      block_constant = block_constant && b.axis == axes.axis;
+      axes.constant_blocks.emplace_back(k0, block_axis);
+      block_constant = block_constant && block_axis == axes.axis;
     }
     axes.constant = axes.constant && block_constant;
     drives.after->add(k0, sp, block);
@@ -100,12 +110,8 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
         kin->forward_rows(held, tlo_rows.tail(n - nc), out.command_tip_mm.middleRows(k0 + nc, n - nc),
                           command_axis.bottomRows(n - nc));
       }
-      if (b.axis_per_sample.rows() == 0) {
-        actual_axis = b.axis.transpose().replicate(n, 1);
-      }
-      const Eigen::MatrixXd& act_axis = b.axis_per_sample.rows() ? b.axis_per_sample : actual_axis;
-      out.signals->add(k0, block, b.tip_mm, out.command_tip_mm.middleRows(k0, n));
-      following.add(k0, sp, block.position, command_axis, act_axis);
+      out.signals->add(k0, block, tr.tip_mm.middleRows(k0, n), out.command_tip_mm.middleRows(k0, n));
+      following.add(k0, sp, block.position, command_axis, actual_axis);
     }
   }
   if (axes.constant) {

@@ -97,26 +97,39 @@ double SignalBinner::tlo(Eigen::Index k) const {
   return mi >= 0 ? program_->moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
 }
 
-// Column c's values of rows [r0, r1) of a block starting at row k0 into their bins, in row order whatever the blocks
-// (a bin's first finite value starts it; non-finite values are left out), bin by bin: no division per sample.
-template <class Value>
-void SignalBinner::fold_rows(int c, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1, const Value& value) {
-  Column& col = columns_[static_cast<std::size_t>(c)];
+// Columns cols' values of rows [r0, r1) of a block starting at row k0 into their bins, in row order whatever the
+// blocks (a bin's first finite value starts it; non-finite values are left out). Bin by bin, with no division per
+// sample, and the columns side by side (their min/max chains overlap). An empty bin runs from +inf to -inf here:
+// min(+inf, v) and max(-inf, v) are v, as a first value, and a non-finite value enters as the neutral infinity.
+template <std::size_t N, class Values>
+void SignalBinner::fold_columns(const std::array<int, N>& cols, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1,
+                                const Values& values) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   Eigen::Index r = r0;
   while (r < r1) {
     const Eigen::Index b = (k0 + r) / bs_;
     const Eigen::Index end = std::min(r1, (b + 1) * bs_ - k0);
-    double lo = col.lo[b], hi = col.hi[b];
-    for (; r < end; ++r) {
-      const double v = value(r);
-      if (!std::isfinite(v)) continue;
-      if (std::isnan(lo))
-        lo = hi = v;
-      else
-        lo = std::min(lo, v), hi = std::max(hi, v);
+    double lo[N], hi[N], v[N];
+    for (std::size_t i = 0; i < N; ++i) {
+      const Column& col = columns_[static_cast<std::size_t>(cols[i])];
+      const bool empty = std::isnan(col.lo[b]);
+      lo[i] = empty ? kInf : col.lo[b];
+      hi[i] = empty ? -kInf : col.hi[b];
     }
-    col.lo[b] = lo;
-    col.hi[b] = hi;
+    for (; r < end; ++r) {
+      values(r, v);
+      for (std::size_t i = 0; i < N; ++i) {
+        const bool finite = std::isfinite(v[i]);
+        lo[i] = std::min(lo[i], finite ? v[i] : kInf);
+        hi[i] = std::max(hi[i], finite ? v[i] : -kInf);
+      }
+    }
+    for (std::size_t i = 0; i < N; ++i) {
+      Column& col = columns_[static_cast<std::size_t>(cols[i])];
+      const bool empty = lo[i] == kInf;  // only finite values enter
+      col.lo[b] = empty ? kNaN : lo[i];
+      col.hi[b] = empty ? kNaN : hi[i];
+    }
   }
 }
 
@@ -162,7 +175,8 @@ void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, E
                             const Eigen::Ref<const Eigen::MatrixXd>& cmd) {
   const core::Setpoints& sp = *sp_;
   const double te = te_;
-  fold_rows(0, k0, r0, r1, [&](Eigen::Index r) { return static_cast<double>(k0 + r) * te; });
+  fold_columns(std::array<int, 1>{0}, k0, r0, r1,
+               [&](Eigen::Index r, double* v) { v[0] = static_cast<double>(k0 + r) * te; });
   for (const AxisColumns& ac : axes_) {
     const Eigen::Index ai = ac.axis;
     const double f = ac.scale;
@@ -171,26 +185,25 @@ void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, E
     const int c = ac.first;
     const auto pos = resp.position.col(ai), vel = resp.velocity.col(ai), acc = resp.acceleration.col(ai),
                jerk = resp.jerk.col(ai), cur = resp.current_mean_A.col(ai), peak = resp.current_peak_A.col(ai);
-    fold_rows(c, k0, r0, r1, [&](Eigen::Index r) { return x(k0 + r) * f; });
-    fold_rows(c + 1, k0, r0, r1, [&](Eigen::Index r) { return pos[r] * f; });
-    fold_rows(c + 2, k0, r0, r1, [&](Eigen::Index r) { return (x(k0 + r) - pos[r]) * f; });
-    fold_rows(c + 3, k0, r0, r1, [&](Eigen::Index r) {
+    // The setpoint, its differences and the tracking error; then the drive's own signals.
+    fold_columns(std::array<int, 5>{c, c + 2, c + 3, c + 5, c + 7}, k0, r0, r1, [&](Eigen::Index r, double* v) {
       const Eigen::Index k = k0 + r;
-      return (x(k) - x(k - 1)) / te * f;
+      const double xk = x(k), x1 = x(k - 1), x2 = x(k - 2), x3 = x(k - 3);
+      v[0] = xk * f;
+      v[1] = (xk - pos[r]) * f;
+      v[2] = (xk - x1) / te * f;
+      v[3] = (xk - 2 * x1 + x2) / (te * te) * f;
+      v[4] = (xk - 3 * x1 + 3 * x2 - x3) / (te * te * te) * f;
     });
-    fold_rows(c + 4, k0, r0, r1, [&](Eigen::Index r) { return vel[r] * f; });
-    fold_rows(c + 5, k0, r0, r1, [&](Eigen::Index r) {
-      const Eigen::Index k = k0 + r;
-      return (x(k) - 2 * x(k - 1) + x(k - 2)) / (te * te) * f;
-    });
-    fold_rows(c + 6, k0, r0, r1, [&](Eigen::Index r) { return acc[r] * f; });
-    fold_rows(c + 7, k0, r0, r1, [&](Eigen::Index r) {
-      const Eigen::Index k = k0 + r;
-      return (x(k) - 3 * x(k - 1) + 3 * x(k - 2) - x(k - 3)) / (te * te * te) * f;
-    });
-    fold_rows(c + 8, k0, r0, r1, [&](Eigen::Index r) { return jerk[r] * f; });
-    fold_rows(c + 9, k0, r0, r1, [&](Eigen::Index r) { return cur[r]; });
-    fold_rows(c + 10, k0, r0, r1, [&](Eigen::Index r) { return peak[r]; });
+    fold_columns(std::array<int, 6>{c + 1, c + 4, c + 6, c + 8, c + 9, c + 10}, k0, r0, r1,
+                 [&](Eigen::Index r, double* v) {
+                   v[0] = pos[r] * f;
+                   v[1] = vel[r] * f;
+                   v[2] = acc[r] * f;
+                   v[3] = jerk[r] * f;
+                   v[4] = cur[r];
+                   v[5] = peak[r];
+                 });
   }
   const auto rows = static_cast<std::size_t>(r1 - r0);
   for (auto* v : {&feed_, &speed_, &speed_actual_, &path_, &cutting_}) v->resize(rows);
@@ -214,20 +227,22 @@ void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, E
     path_[i] = cutting_path_;
     cutting_[i] = cut ? 1.0 : 0.0;
   }
-  const auto at = [r0](const std::vector<double>& v) {
-    return [&v, r0](Eigen::Index r) { return v[static_cast<std::size_t>(r - r0)]; };
-  };
-  fold_rows(c_feed_, k0, r0, r1, at(feed_));
-  fold_rows(c_speed_, k0, r0, r1, at(speed_));
-  fold_rows(c_speed_actual_, k0, r0, r1, at(speed_actual_));
-  fold_rows(c_path_, k0, r0, r1, at(path_));
-  fold_rows(c_cutting_, k0, r0, r1, at(cutting_));
+  fold_columns(std::array<int, 5>{c_feed_, c_speed_, c_speed_actual_, c_path_, c_cutting_}, k0, r0, r1,
+               [&](Eigen::Index r, double* v) {
+                 const auto i = static_cast<std::size_t>(r - r0);
+                 v[0] = feed_[i];
+                 v[1] = speed_[i];
+                 v[2] = speed_actual_[i];
+                 v[3] = path_[i];
+                 v[4] = cutting_[i];
+               });
 }
 
 void SignalBinner::add_contour(const motion::ContourError& ce) {
   if (ce.signed_mm.size() != n_)
     throw core::Error(fmt::format("signals: {} contour-error samples for {} drive samples", ce.signed_mm.size(), n_));
-  fold_rows(c_contour_, 0, 0, n_, [&](Eigen::Index k) { return cutting(k) ? ce.signed_mm[k] : kNaN; });
+  fold_columns(std::array<int, 1>{c_contour_}, 0, 0, n_,
+               [&](Eigen::Index k, double* v) { v[0] = cutting(k) ? ce.signed_mm[k] : kNaN; });
 }
 
 BinnedSignals SignalBinner::finish() {

@@ -42,6 +42,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -103,8 +104,9 @@ class SignalBinner {
     int first;  // its eleven columns, from the setpoint's
   };
   int column(const std::string& name);
-  template <class Value>
-  void fold_rows(int c, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1, const Value& value);
+  template <std::size_t N, class Values>
+  void fold_columns(const std::array<int, N>& cols, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1,
+                    const Values& values);
   void add_rows(Eigen::Index k0, const drives::AxisResponse& block, Eigen::Index r0, Eigen::Index r1,
                 const Eigen::Ref<const Eigen::MatrixXd>& actual_tip_mm,
                 const Eigen::Ref<const Eigen::MatrixXd>& command_tip_mm);
