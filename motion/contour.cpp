@@ -228,6 +228,8 @@ ContourError contour_error_impl(const Eigen::MatrixXd& command, const Eigen::Mat
   }
 
   double sum2 = 0.0, max_abs = 0.0;
+  int normal_from = -2;  // the point normal was last computed from (-2: none yet)
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   double px = actual(0, 0), py = actual(0, 1), pz = actual(0, 2);
   for (Eigen::Index k = 0; k < m; ++k) {
     const double ax = actual(k, 0), ay = actual(k, 1), az = actual(k, 2);
@@ -319,8 +321,13 @@ ContourError contour_error_impl(const Eigen::MatrixXd& command, const Eigen::Mat
         nz = plane_n.x() * ty - plane_n.y() * tx;
       }
     } else {
-      const Eigen::Vector3d n = normal_at(path, f);
-      nx = n[0], ny = n[1], nz = n[2];
+      // Consecutive feet mostly share the point whose turn defines the normal: computed again only when it changes.
+      const int from = path.n_from[static_cast<std::size_t>(f)];
+      if (from != normal_from) {
+        normal_from = from;
+        normal = normal_at(path, f);
+      }
+      nx = normal[0], ny = normal[1], nz = normal[2];
     }
     const double ne = nx * (foot[0] - ax) + ny * (foot[1] - ay) + nz * (foot[2] - az);
     const double eps = std::sqrt(foot2);

@@ -8,7 +8,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <string>
@@ -45,6 +47,17 @@ void require_xyz(const core::Machine& machine) {
 void require_size(const Eigen::VectorXd& v, std::size_t n, const char* what) {
   if (static_cast<std::size_t>(v.size()) != n)
     throw core::Error(fmt::format("kinematics: {} has {} entries, the machine has {} axes", what, v.size(), n));
+}
+
+// The shapes forward_rows and tip_velocity_rows take (axis_rows, axis_cols: the axes wanted, or 0 x 0).
+void require_rows(Eigen::Index rows, Eigen::Index axes, std::size_t n, Eigen::Index tlo, Eigen::Index out_rows,
+                  Eigen::Index out_cols, Eigen::Index axis_rows = 0, Eigen::Index axis_cols = 0) {
+  if (static_cast<std::size_t>(axes) != n)
+    throw core::Error(fmt::format("kinematics: rows of {} axes, the machine has {} axes", axes, n));
+  const bool axis_ok = (axis_rows == 0 && axis_cols == 0) || (axis_rows == rows && axis_cols == 3);
+  if (tlo != rows || out_rows != rows || out_cols != 3 || !axis_ok)
+    throw core::Error(fmt::format("kinematics: {} axis rows with {} tool length offsets and {} x {} outputs", rows, tlo,
+                                  out_rows, out_cols));
 }
 
 class CartesianXyz final : public Kinematics {
@@ -188,6 +201,71 @@ class ChainKinematics final : public Kinematics {
       step(j, q[j.index], r, t);
     }
     return r.transpose() * v_rel;
+  }
+
+  // forward() row by row, each rotary joint's cosine and sine kept while its angle repeats.
+  void forward_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::VectorXd>& tlo,
+                    Eigen::Ref<Eigen::MatrixXd> tip, Eigen::Ref<Eigen::MatrixXd> axis) const override {
+    require_rows(q.rows(), q.cols(), n_, tlo.size(), tip.rows(), tip.cols(), axis.rows(), axis.cols());
+    const bool axes_wanted = axis.size() > 0;
+    std::vector<Trig> trig(tool_.size() + wp_.size());
+    for (Eigen::Index k = 0; k < q.rows(); ++k) {
+      Eigen::Vector3d p = gauge_ - tlo[k] * d_, v = d_;
+      std::size_t c = 0;
+      for (auto it = tool_.rbegin(); it != tool_.rend(); ++it) apply(*it, q(k, it->index), p, v, trig[c++]);
+      for (const Joint& j : wp_) apply(j, -q(k, j.index), p, v, trig[c++]);
+      tip.row(k) = (p - origin_).transpose();
+      if (axes_wanted) axis.row(k) = v.transpose();
+    }
+  }
+
+  // tip_velocity() row by row, each rotary joint's rotation kept while its angle repeats.
+  void tip_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::MatrixXd>& qd,
+                         const Eigen::Ref<const Eigen::VectorXd>& tlo, Eigen::Ref<Eigen::MatrixXd> out) const override {
+    require_rows(q.rows(), q.cols(), n_, tlo.size(), out.rows(), out.cols());
+    if (qd.rows() != q.rows() || qd.cols() != q.cols())
+      throw core::Error(fmt::format("kinematics: {} x {} axis velocities for {} x {} axis positions", qd.rows(),
+                                    qd.cols(), q.rows(), q.cols()));
+    std::vector<Rotation> rot(tool_.size() + wp_.size());
+    Eigen::Vector3d u_moved[6], p_moved[6];
+    // The workpiece chain's moved axes and points and its rotation depend on its own joints only: kept while their
+    // values repeat bit for bit (a three-axis program on a table-table machine: always).
+    bool wp_valid = false;
+    std::vector<std::uint64_t> wp_bits(wp_.size());
+    std::vector<Eigen::Vector3d> wp_u(wp_.size()), wp_p(wp_.size());
+    Eigen::Matrix3d wp_r;
+    for (Eigen::Index k = 0; k < q.rows(); ++k) {
+      Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+      Eigen::Vector3d t = Eigen::Vector3d::Zero();
+      for (std::size_t i = 0; i < tool_.size(); ++i) {
+        u_moved[i] = r * tool_[i].u;
+        p_moved[i] = r * tool_[i].p + t;
+        step(tool_[i], q(k, tool_[i].index), r, t, rot[i]);
+      }
+      const Eigen::Vector3d tip_b = r * (gauge_ - tlo[k] * d_) + t;
+      Eigen::Vector3d v_rel = Eigen::Vector3d::Zero();
+      for (std::size_t i = 0; i < tool_.size(); ++i)
+        v_rel += qd(k, tool_[i].index) * point_velocity(tool_[i].rotary, u_moved[i], p_moved[i], tip_b);
+      bool same = wp_valid;
+      for (std::size_t i = 0; same && i < wp_.size(); ++i)
+        same = std::bit_cast<std::uint64_t>(q(k, wp_[i].index)) == wp_bits[i];
+      if (!same) {
+        r.setIdentity();
+        t.setZero();
+        for (std::size_t i = 0; i < wp_.size(); ++i) {
+          const Joint& j = wp_[i];
+          wp_bits[i] = std::bit_cast<std::uint64_t>(q(k, j.index));
+          wp_u[i] = r * j.u;
+          wp_p[i] = r * j.p + t;
+          step(j, q(k, j.index), r, t, rot[tool_.size() + i]);
+        }
+        wp_r = r;
+        wp_valid = true;
+      }
+      for (std::size_t i = 0; i < wp_.size(); ++i)
+        v_rel -= qd(k, wp_[i].index) * point_velocity(wp_[i].rotary, wp_u[i], wp_p[i], tip_b);
+      out.row(k) = (wp_r.transpose() * v_rel).transpose();
+    }
   }
 
   KinematicFamily family() const override { return family_; }
@@ -337,17 +415,66 @@ class ChainKinematics final : public Kinematics {
     v = rotate(j.u, c, s, v);
   }
 
+  // A rotary joint's cosine and sine at the angle whose bits are `bits` (forward_rows: computed again only when the
+  // angle changes, so the values are those apply() computes).
+  struct Trig {
+    bool valid = false;
+    std::uint64_t bits = 0;
+    double c = 1, s = 0;
+  };
+  static void apply(const Joint& j, double q, Eigen::Vector3d& p, Eigen::Vector3d& v, Trig& trig) {
+    if (q == 0.0) return;
+    if (!j.rotary) {
+      p += q * j.u;
+      return;
+    }
+    const auto bits = std::bit_cast<std::uint64_t>(q);
+    if (!trig.valid || trig.bits != bits) {
+      const double c = std::cos(q), s = std::sin(q);
+      trig = {true, bits, c, s};
+    }
+    p = j.p + rotate(j.u, trig.c, trig.s, p - j.p);
+    v = rotate(j.u, trig.c, trig.s, v);
+  }
+
+  // A rotary joint's rotation at the angle whose bits are `bits`, and the shift p - rot p it gives its point.
+  struct Rotation {
+    bool valid = false;
+    std::uint64_t bits = 0;
+    Eigen::Matrix3d rot;
+    Eigen::Vector3d shift;
+  };
+  static void rotation(const Joint& j, double q, Eigen::Matrix3d& rot) {
+    const double c = std::cos(q), s = std::sin(q);
+    for (int k = 0; k < 3; ++k) rot.col(k) = rotate(j.u, c, s, Eigen::Vector3d::Unit(k));
+  }
+
   // Composes (r, t) <- (r, t) * exp(joint q).
   static void step(const Joint& j, double q, Eigen::Matrix3d& r, Eigen::Vector3d& t) {
     if (!j.rotary) {
       t += r * (q * j.u);
       return;
     }
-    const double c = std::cos(q), s = std::sin(q);
     Eigen::Matrix3d rot;
-    for (int k = 0; k < 3; ++k) rot.col(k) = rotate(j.u, c, s, Eigen::Vector3d::Unit(k));
+    rotation(j, q, rot);
     t += r * (j.p - rot * j.p);
     r = r * rot;
+  }
+  // The same, the rotation computed again only when the angle changes (tip_velocity_rows).
+  static void step(const Joint& j, double q, Eigen::Matrix3d& r, Eigen::Vector3d& t, Rotation& cache) {
+    if (!j.rotary) {
+      t += r * (q * j.u);
+      return;
+    }
+    const auto bits = std::bit_cast<std::uint64_t>(q);
+    if (!cache.valid || cache.bits != bits) {
+      cache.valid = true;
+      cache.bits = bits;
+      rotation(j, q, cache.rot);
+      cache.shift = j.p - cache.rot * j.p;
+    }
+    t += r * cache.shift;
+    r = r * cache.rot;
   }
 
   static Eigen::Vector3d point_velocity(bool rotary, const Eigen::Vector3d& u, const Eigen::Vector3d& p,
@@ -906,6 +1033,36 @@ core::ToolPath chain_toolpath(const core::ToolPath& path, const core::Machine& m
 }
 
 }  // namespace
+
+void Kinematics::forward_rows(const Eigen::Ref<const Eigen::MatrixXd>& axes,
+                              const Eigen::Ref<const Eigen::VectorXd>& tlo, Eigen::Ref<Eigen::MatrixXd> tip,
+                              Eigen::Ref<Eigen::MatrixXd> axis) const {
+  require_rows(axes.rows(), axes.cols(), static_cast<std::size_t>(axes.cols()), tlo.size(), tip.rows(), tip.cols(),
+               axis.rows(), axis.cols());
+  Eigen::VectorXd q(axes.cols());
+  for (Eigen::Index k = 0; k < axes.rows(); ++k) {
+    q = axes.row(k).transpose();
+    const ToolPose p = forward(q, tlo[k]);
+    tip.row(k) = p.tip_mm.transpose();
+    if (axis.size() > 0) axis.row(k) = p.axis.transpose();
+  }
+}
+
+void Kinematics::tip_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& axes,
+                                   const Eigen::Ref<const Eigen::MatrixXd>& velocities,
+                                   const Eigen::Ref<const Eigen::VectorXd>& tlo,
+                                   Eigen::Ref<Eigen::MatrixXd> out) const {
+  require_rows(axes.rows(), axes.cols(), static_cast<std::size_t>(axes.cols()), tlo.size(), out.rows(), out.cols());
+  if (velocities.rows() != axes.rows() || velocities.cols() != axes.cols())
+    throw core::Error(fmt::format("kinematics: {} x {} axis velocities for {} x {} axis positions", velocities.rows(),
+                                  velocities.cols(), axes.rows(), axes.cols()));
+  Eigen::VectorXd q(axes.cols()), qd(axes.cols());
+  for (Eigen::Index k = 0; k < axes.rows(); ++k) {
+    q = axes.row(k).transpose();
+    qd = velocities.row(k).transpose();
+    out.row(k) = tip_velocity(q, qd, tlo[k]).transpose();
+  }
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const core::Machine& machine) {
   if (machine.kinematics == "chain") return std::make_unique<ChainKinematics>(machine);

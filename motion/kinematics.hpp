@@ -52,6 +52,20 @@ class Kinematics {
   // `axis_velocities` (machine-file order; mm/s, rad/s) at `axes`: the chain's Jacobian times the velocities.
   virtual Eigen::Vector3d tip_velocity(const Eigen::VectorXd& axes, const Eigen::VectorXd& axis_velocities,
                                        double tool_length_offset_mm) const = 0;
+  // Many samples at once (issue 21: a run's millions): row k of tip_mm (and of axis, when given) is
+  // forward(axes.row(k), tool_length_offset_mm[k]), bit for bit, with no temporary per row; a chain reuses a rotary
+  // joint's cosine and sine while its angle repeats bit for bit (a held rotary axis costs no sin/cos per row).
+  // tip_mm and axis must have axes.rows() rows and 3 columns (axis may be empty: not wanted). Throws core::Error
+  // otherwise.
+  virtual void forward_rows(const Eigen::Ref<const Eigen::MatrixXd>& axes,
+                            const Eigen::Ref<const Eigen::VectorXd>& tool_length_offset_mm,
+                            Eigen::Ref<Eigen::MatrixXd> tip_mm, Eigen::Ref<Eigen::MatrixXd> axis) const;
+  // Row k of tip_velocity_mm_per_s is tip_velocity(axes.row(k), axis_velocities.row(k), tool_length_offset_mm[k]),
+  // bit for bit (as forward_rows, a repeated rotary angle reuses its rotation).
+  virtual void tip_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& axes,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& axis_velocities,
+                                 const Eigen::Ref<const Eigen::VectorXd>& tool_length_offset_mm,
+                                 Eigen::Ref<Eigen::MatrixXd> tip_velocity_mm_per_s) const;
   virtual KinematicFamily family() const = 0;
 };
 

@@ -384,8 +384,7 @@ NurbsPath nurbs_to_path(const NurbsCurve& curve, const NurbsPathOptions& options
   for (std::size_t i = 0; i < pieces.size(); ++i) {
     const Candidate& c = pieces[i];
     PathPiece pc;
-    pc.kind = PathPiece::Kind::Quintic;
-    pc.coef = c.coef;
+    pc.set_quintic(c.coef);
     pc.u_begin = 0.0;
     pc.u_end = 1.0;
     pc.uniform = false;

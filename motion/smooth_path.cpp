@@ -89,6 +89,12 @@ CurveJet PathPiece::jet_u(double u) const {
   return j;
 }
 
+void PathPiece::set_quintic(const Eigen::Matrix<double, 6, 6>& c) {
+  kind = Kind::Quintic;
+  coef = c;
+  for (int k = 1; k <= 5; ++k) dcoef.col(k - 1) = k * coef.col(k);
+}
+
 double PathPiece::speed_u(double u) const {
   switch (kind) {
     case Kind::Line:
@@ -102,8 +108,8 @@ double PathPiece::speed_u(double u) const {
       return d.norm();
     }
     case Kind::Quintic: {
-      core::Vec6 d = 5 * coef.col(5);
-      for (int k = 4; k >= 1; --k) d = d * u + k * coef.col(k);
+      core::Vec6 d = dcoef.col(4);
+      for (int k = 4; k >= 1; --k) d = d * u + dcoef.col(k - 1);
       return d.norm();
     }
   }
@@ -310,8 +316,8 @@ BlendTrial make_blend(const PathPiece& A, const PathPiece& B, double la, double 
   const double lambda = (jb.p - ja.p).norm();
   if (!(lambda > 0)) return t;
   PathPiece& q = t.blend;
-  q.kind = PathPiece::Kind::Quintic;
-  q.coef = quintic_hermite(ja.p, lambda * ja.t, lambda * lambda * ja.k, jb.p, lambda * jb.t, lambda * lambda * jb.k);
+  q.set_quintic(
+      quintic_hermite(ja.p, lambda * ja.t, lambda * lambda * ja.k, jb.p, lambda * jb.t, lambda * lambda * jb.k));
   q.u_begin = 0;
   q.u_end = 1;
   q.uniform = false;

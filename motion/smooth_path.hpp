@@ -30,6 +30,9 @@ struct PathPiece {
   // Line: p(u) = a + u * b.  Arc: see arc_* fields.  Quintic: p(u) = sum_k coef.col(k) u^k.
   core::Vec6 a = core::Vec6::Zero(), b = core::Vec6::Zero();
   Eigen::Matrix<double, 6, 6> coef = Eigen::Matrix<double, 6, 6>::Zero();
+  // Quintic: the derivative's coefficients, dcoef.col(k - 1) = k * coef.col(k), so that speed_u (millions of calls
+  // while the setpoints are written) runs Horner without the products. Set with coef by set_quintic.
+  Eigen::Matrix<double, 6, 5> dcoef = Eigen::Matrix<double, 6, 5>::Zero();
   // Arc (helix, or a spiral when the start and end radii differ as G-code allows): in the plane of axes
   // (arc_i1, arc_i2) about centre (c1, c2): angle theta0 + u * dtheta, radius r0 + u * dr; every other
   // coordinate moves linearly: a + u * b (a, b hold zero in arc_i1, arc_i2).
@@ -53,7 +56,8 @@ struct PathPiece {
   double feed_limit = 0.0;  // in the metric's units per s; infinity for rapids
   bool stop_after = false;  // the axes must stop at the end of this piece (a corner too sharp to blend)
 
-  CurveJet jet_u(double u) const;  // derivatives w.r.t. u
+  void set_quintic(const Eigen::Matrix<double, 6, 6>& c);  // kind Quintic, coef and dcoef
+  CurveJet jet_u(double u) const;                          // derivatives w.r.t. u
   core::Vec6 point_u(double u) const;
   double speed_u(double u) const;  // |dp/du|
   // Local arc length (0 .. length) to the curve parameter, and back.

@@ -1,11 +1,15 @@
 #include "sim/axis_following.hpp"
 
+#include "core/error.hpp"
 #include "core/units.hpp"
+
+#include <fmt/format.h>
 
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <utility>
 
@@ -77,7 +81,7 @@ AxisFollowing::AxisFollowing(const core::Machine& machine, Eigen::Index samples,
                              std::function<double(Eigen::Index)> tool_length_offset)
     : machine_(&machine), n_(samples), kin_(kin), tlo_(std::move(tool_length_offset)), axes_(machine.axes.size()) {}
 
-void AxisFollowing::add(Eigen::Index k0, const core::Setpoints& sp, const Eigen::MatrixXd& actual) {
+void AxisFollowing::add_axes(Eigen::Index k0, const core::Setpoints& sp, const Eigen::MatrixXd& actual) {
   const double to_deg = 180 / core::units::kPi;
   const Eigen::Index end = std::min(n_, k0 + actual.rows());
   for (std::size_t i = 0; i < axes_.size(); ++i) {
@@ -91,15 +95,49 @@ void AxisFollowing::add(Eigen::Index k0, const core::Setpoints& sp, const Eigen:
       a.sum2.add(e * e);
     }
   }
+}
+
+void AxisFollowing::add_tool_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  // Bitwise the same pair: the same angle (compared as bits: a signed zero may change atan2's answer).
+  if (!last_valid_ || std::memcmp(a.data(), last_command_.data(), sizeof(double) * 3) != 0 ||
+      std::memcmp(b.data(), last_actual_.data(), sizeof(double) * 3) != 0) {
+    last_valid_ = true;
+    last_command_ = a;
+    last_actual_ = b;
+    last_angle_deg_ = std::atan2(a.cross(b).norm(), a.dot(b)) * (180 / core::units::kPi);
+  }
+  const double ang = last_angle_deg_;
+  tool_max_ = std::max(tool_max_, ang);
+  tool_ss_ += ang * ang;
+}
+
+void AxisFollowing::add(Eigen::Index k0, const core::Setpoints& sp, const Eigen::MatrixXd& actual) {
+  add_axes(k0, sp, actual);
   if (!kin_) return;
+  const Eigen::Index end = std::min(n_, k0 + actual.rows());
   for (Eigen::Index k = k0; k < end; ++k) {
     const double tlo = tlo_(k);
     const Eigen::Vector3d a = kin_->forward(sp.position.row(k).transpose(), tlo).axis;
     const Eigen::Vector3d b = kin_->forward(actual.row(k - k0).transpose(), tlo).axis;
-    const double ang = std::atan2(a.cross(b).norm(), a.dot(b)) * to_deg;
+    const double ang = std::atan2(a.cross(b).norm(), a.dot(b)) * (180 / core::units::kPi);
     tool_max_ = std::max(tool_max_, ang);
     tool_ss_ += ang * ang;
   }
+}
+
+void AxisFollowing::add(Eigen::Index k0, const core::Setpoints& sp, const Eigen::MatrixXd& actual,
+                        const Eigen::Ref<const Eigen::MatrixXd>& command_axis,
+                        const Eigen::Ref<const Eigen::MatrixXd>& actual_axis) {
+  if (command_axis.rows() != actual.rows() || actual_axis.rows() != actual.rows() || command_axis.cols() != 3 ||
+      actual_axis.cols() != 3)
+    throw core::Error(fmt::format("axis following: {} x {} commanded and {} x {} actual tool axes for {} rows",
+                                  command_axis.rows(), command_axis.cols(), actual_axis.rows(), actual_axis.cols(),
+                                  actual.rows()));
+  add_axes(k0, sp, actual);
+  if (!kin_) return;
+  const Eigen::Index end = std::min(n_, k0 + actual.rows());
+  for (Eigen::Index k = k0; k < end; ++k)
+    add_tool_angle(command_axis.row(k - k0).transpose(), actual_axis.row(k - k0).transpose());
 }
 
 nlohmann::json AxisFollowing::json(double period_s) const {

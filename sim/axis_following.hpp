@@ -40,9 +40,16 @@ class AxisFollowing {
   AxisFollowing(const core::Machine& machine, Eigen::Index samples, const motion::Kinematics* kin,
                 std::function<double(Eigen::Index)> tool_length_offset);
   void add(Eigen::Index k0, const core::Setpoints& setpoints, const Eigen::MatrixXd& actual_rows);
+  // The same with the block's tool axes known (rows of the block, 3 columns: forward()'s axis of the setpoint and of
+  // the actual row): add()'s figures bit for bit, the angle computed again only where the two axes change.
+  // Throws core::Error when their shapes are not the block's.
+  void add(Eigen::Index k0, const core::Setpoints& setpoints, const Eigen::MatrixXd& actual_rows,
+           const Eigen::Ref<const Eigen::MatrixXd>& command_axis, const Eigen::Ref<const Eigen::MatrixXd>& actual_axis);
   nlohmann::json json(double period_s) const;
 
  private:
+  void add_axes(Eigen::Index k0, const core::Setpoints& setpoints, const Eigen::MatrixXd& actual_rows);
+  void add_tool_angle(const Eigen::Vector3d& command, const Eigen::Vector3d& actual);
   struct Axis {
     double max = 0;
     Eigen::Index at = 0;
@@ -54,6 +61,10 @@ class AxisFollowing {
   std::function<double(Eigen::Index)> tlo_;
   std::vector<Axis> axes_;
   double tool_max_ = 0, tool_ss_ = 0;
+  // The last tool-axis pair and its angle (the tool axis of a three-axis program never turns).
+  bool last_valid_ = false;
+  Eigen::Vector3d last_command_, last_actual_;
+  double last_angle_deg_ = 0;
 };
 
 // Per machine axis over the setpoint samples (row k of `actual` is the axis when setpoint k is sent): largest |e|

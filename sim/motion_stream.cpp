@@ -59,37 +59,59 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
   const Eigen::RowVectorXd first = sp.position.row(0);
   const auto tlo = [&](Eigen::Index k) { return tlo_at(m, k); };
   AxisFollowing following(machine, std::min(ns, rows), kin.get(), tlo);
+  // Each row's tool poses computed once (forward_rows) and shared: the track, the signals, the following error and
+  // the contour error's command all take them, as they would have from their own forward() calls.
+  Eigen::VectorXd tlo_rows;
+  Eigen::MatrixXd command_axis, actual_axis, held;
   while (!drives.sim->done()) {
     const Eigen::Index k0 = drives.sim->next_row();
     const drives::AxisResponse block = drives.sim->next(options.block_rows);
     const Eigen::Index n = block.samples();
-    // The track's rows: pose_track_from_axes on the block, its rows those of the whole motion.
-    const removal::PoseTrack b = pose_track_from_axes(*kin, machine, block.position, &block.velocity, sp.period_s,
-                                                      [&](Eigen::Index r) { return tlo(k0 + r); });
-    tr.tip_mm.middleRows(k0, n) = b.tip_mm;
-    tr.tip_velocity_mm_per_s.middleRows(k0, n) = b.tip_velocity_mm_per_s;
-    bool block_constant = b.axis_per_sample.rows() == 0;
+    tlo_rows.resize(n);
+    for (Eigen::Index r = 0; r < n; ++r) tlo_rows[r] = tlo(k0 + r);
+    // The track's rows, as pose_track_from_axes gives them on the block, written in place.
+    actual_axis.resize(n, 3);
+    kin->forward_rows(block.position, tlo_rows, tr.tip_mm.middleRows(k0, n), actual_axis);
+    kin->tip_velocity_rows(block.position, block.velocity, tlo_rows, tr.tip_velocity_mm_per_s.middleRows(k0, n));
+    // The block's tool axis is constant when its rotary axes hold still (bitwise) and every pose's axis is the first's
+    // (pose_track_from_axes' test; an empty block counts as constant, as its empty per-row axes did).
+    bool axis_constant = true;
+    for (std::size_t i = 0; axis_constant && i < machine.axes.size(); ++i) {
+      if (machine.axes[i].kind != core::AxisKind::Rotary) continue;
+      const auto c = static_cast<Eigen::Index>(i);
+      axis_constant = (block.position.col(c).array() == block.position(0, c)).all();
+    }
+    for (Eigen::Index k = 1; axis_constant && k < n; ++k) axis_constant = actual_axis.row(k) == actual_axis.row(0);
+    const Eigen::Vector3d block_axis =
+        n > 0 ? Eigen::Vector3d(actual_axis.row(0).transpose()) : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
+    bool block_constant = axis_constant;
     for (std::size_t i = 0; block_constant && i < machine.axes.size(); ++i)
       if (machine.axes[i].kind == core::AxisKind::Rotary)
         block_constant =
             (block.position.col(static_cast<Eigen::Index>(i)).array() == first[static_cast<Eigen::Index>(i)]).all();
-    if (k0 == 0) axes.axis = b.axis_per_sample.rows() ? Eigen::Vector3d(b.axis_per_sample.row(0)) : b.axis;
-    if (b.axis_per_sample.rows()) {
-      axes.turning_blocks.emplace_back(k0, b.axis_per_sample);
+    if (k0 == 0) axes.axis = block_axis;
+    if (!axis_constant) {
+      axes.turning_blocks.emplace_back(k0, actual_axis);
     } else {
-      axes.constant_blocks.emplace_back(k0, b.axis);
-      block_constant = block_constant && b.axis == axes.axis;
+      axes.constant_blocks.emplace_back(k0, block_axis);
+      block_constant = block_constant && block_axis == axes.axis;
     }
     axes.constant = axes.constant && block_constant;
     drives.after->add(k0, sp, block);
     if (options.figures) {
-      out.signals->add(k0, block);
-      following.add(k0, sp, block.position);
-      for (Eigen::Index r = 0; r < n; ++r) {
-        const Eigen::Index k = k0 + r;
-        out.command_tip_mm.row(k) =
-            kin->forward(sp.position.row(std::min(k, ns - 1)).transpose(), tlo(k)).tip_mm.transpose();
+      // The commanded poses: the setpoint each row holds (the last one while the axes settle).
+      const Eigen::Index nc = std::clamp<Eigen::Index>(ns - k0, 0, n);
+      command_axis.resize(n, 3);
+      if (nc > 0)
+        kin->forward_rows(sp.position.middleRows(k0, nc), tlo_rows.head(nc), out.command_tip_mm.middleRows(k0, nc),
+                          command_axis.topRows(nc));
+      if (nc < n) {
+        held = sp.position.row(ns - 1).replicate(n - nc, 1);
+        kin->forward_rows(held, tlo_rows.tail(n - nc), out.command_tip_mm.middleRows(k0 + nc, n - nc),
+                          command_axis.bottomRows(n - nc));
       }
+      out.signals->add(k0, block, tr.tip_mm.middleRows(k0, n), out.command_tip_mm.middleRows(k0, n));
+      following.add(k0, sp, block.position, command_axis, actual_axis);
     }
   }
   if (axes.constant) {

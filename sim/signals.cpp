@@ -87,17 +87,6 @@ int SignalBinner::column(const std::string& name) {
   return static_cast<int>(columns_.size()) - 1;
 }
 
-// Each column's values fold into their bins in row order, whatever the blocks (a bin's first finite value starts it).
-inline void SignalBinner::fold(int c, Eigen::Index k, double v) {
-  if (!std::isfinite(v)) return;
-  Column& col = columns_[static_cast<std::size_t>(c)];
-  const Eigen::Index b = k / bs_;
-  if (std::isnan(col.lo[b]))
-    col.lo[b] = col.hi[b] = v;
-  else
-    col.lo[b] = std::min(col.lo[b], v), col.hi[b] = std::max(col.hi[b], v);
-}
-
 int SignalBinner::move_of(Eigen::Index k) const { return sp_->move_index[std::min(k, ns_ - 1)]; }
 bool SignalBinner::cutting(Eigen::Index k) const {
   const int mi = move_of(k);
@@ -108,62 +97,152 @@ double SignalBinner::tlo(Eigen::Index k) const {
   return mi >= 0 ? program_->moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
 }
 
+// Columns cols' values of rows [r0, r1) of a block starting at row k0 into their bins, in row order whatever the
+// blocks (a bin's first finite value starts it; non-finite values are left out). Bin by bin, with no division per
+// sample, and the columns side by side (their min/max chains overlap). An empty bin runs from +inf to -inf here:
+// min(+inf, v) and max(-inf, v) are v, as a first value, and a non-finite value enters as the neutral infinity.
+template <std::size_t N, class Values>
+void SignalBinner::fold_columns(const std::array<int, N>& cols, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1,
+                                const Values& values) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Eigen::Index r = r0;
+  while (r < r1) {
+    const Eigen::Index b = (k0 + r) / bs_;
+    const Eigen::Index end = std::min(r1, (b + 1) * bs_ - k0);
+    double lo[N], hi[N], v[N];
+    for (std::size_t i = 0; i < N; ++i) {
+      const Column& col = columns_[static_cast<std::size_t>(cols[i])];
+      const bool empty = std::isnan(col.lo[b]);
+      lo[i] = empty ? kInf : col.lo[b];
+      hi[i] = empty ? -kInf : col.hi[b];
+    }
+    for (; r < end; ++r) {
+      values(r, v);
+      for (std::size_t i = 0; i < N; ++i) {
+        const bool finite = std::isfinite(v[i]);
+        lo[i] = std::min(lo[i], finite ? v[i] : kInf);
+        hi[i] = std::max(hi[i], finite ? v[i] : -kInf);
+      }
+    }
+    for (std::size_t i = 0; i < N; ++i) {
+      Column& col = columns_[static_cast<std::size_t>(cols[i])];
+      const bool empty = lo[i] == kInf;  // only finite values enter
+      col.lo[b] = empty ? kNaN : lo[i];
+      col.hi[b] = empty ? kNaN : hi[i];
+    }
+  }
+}
+
 void SignalBinner::add(Eigen::Index k0, const drives::AxisResponse& resp) {
   const Eigen::Index m = resp.samples();
   if (k0 != next_ || k0 + m > n_)
     throw core::Error(fmt::format("signals: a block of rows [{}, {}) after row {} of {}", k0, k0 + m, next_, n_));
+  // The tips row by row through forward() (the reference the tips add()'s other form takes are checked against), a
+  // few thousand rows at a time.
+  constexpr Eigen::Index kChunk = 4096;
+  Eigen::MatrixXd act(std::min(m, kChunk), 3), cmd(std::min(m, kChunk), 3);
+  for (Eigen::Index r0 = 0; r0 < m; r0 += kChunk) {
+    const Eigen::Index r1 = std::min(m, r0 + kChunk);
+    for (Eigen::Index r = r0; r < r1; ++r) {
+      const Eigen::Index k = k0 + r;
+      const double l = tlo(k);
+      act.row(r - r0) = kin_->forward(resp.position.row(r).transpose(), l).tip_mm.transpose();
+      cmd.row(r - r0) = kin_->forward(sp_->position.row(std::min(k, ns_ - 1)).transpose(), l).tip_mm.transpose();
+    }
+    add_rows(k0, resp, r0, r1, act.topRows(r1 - r0), cmd.topRows(r1 - r0));
+  }
+  next_ = k0 + m;
+}
+
+void SignalBinner::add(Eigen::Index k0, const drives::AxisResponse& resp,
+                       const Eigen::Ref<const Eigen::MatrixXd>& actual_tip_mm,
+                       const Eigen::Ref<const Eigen::MatrixXd>& command_tip_mm) {
+  const Eigen::Index m = resp.samples();
+  if (k0 != next_ || k0 + m > n_)
+    throw core::Error(fmt::format("signals: a block of rows [{}, {}) after row {} of {}", k0, k0 + m, next_, n_));
+  if (actual_tip_mm.rows() != m || actual_tip_mm.cols() != 3 || command_tip_mm.rows() != m ||
+      command_tip_mm.cols() != 3)
+    throw core::Error(fmt::format("signals: {} x {} actual and {} x {} commanded tips for a block of {} rows",
+                                  actual_tip_mm.rows(), actual_tip_mm.cols(), command_tip_mm.rows(),
+                                  command_tip_mm.cols(), m));
+  add_rows(k0, resp, 0, m, actual_tip_mm, command_tip_mm);
+  next_ = k0 + m;
+}
+
+// Rows [r0, r1) of a block starting at row k0; the tips are those rows' (row 0: row r0).
+void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, Eigen::Index r0, Eigen::Index r1,
+                            const Eigen::Ref<const Eigen::MatrixXd>& act,
+                            const Eigen::Ref<const Eigen::MatrixXd>& cmd) {
   const core::Setpoints& sp = *sp_;
   const double te = te_;
-  for (Eigen::Index r = 0; r < m; ++r) fold(0, k0 + r, static_cast<double>(k0 + r) * te);
+  fold_columns(std::array<int, 1>{0}, k0, r0, r1,
+               [&](Eigen::Index r, double* v) { v[0] = static_cast<double>(k0 + r) * te; });
   for (const AxisColumns& ac : axes_) {
     const Eigen::Index ai = ac.axis;
     const double f = ac.scale;
     // Setpoints as the drives receive them: held at the last one while the axes settle, at rest before the first.
     auto x = [&](Eigen::Index k) { return sp.position(std::clamp<Eigen::Index>(k, 0, ns_ - 1), ai); };
     const int c = ac.first;
-    for (Eigen::Index r = 0; r < m; ++r) {
+    const auto pos = resp.position.col(ai), vel = resp.velocity.col(ai), acc = resp.acceleration.col(ai),
+               jerk = resp.jerk.col(ai), cur = resp.current_mean_A.col(ai), peak = resp.current_peak_A.col(ai);
+    // The setpoint, its differences and the tracking error; then the drive's own signals.
+    fold_columns(std::array<int, 5>{c, c + 2, c + 3, c + 5, c + 7}, k0, r0, r1, [&](Eigen::Index r, double* v) {
       const Eigen::Index k = k0 + r;
-      const double xk = x(k);
-      fold(c, k, xk * f);
-      fold(c + 1, k, resp.position(r, ai) * f);
-      fold(c + 2, k, (xk - resp.position(r, ai)) * f);
-      fold(c + 3, k, (xk - x(k - 1)) / te * f);
-      fold(c + 4, k, resp.velocity(r, ai) * f);
-      fold(c + 5, k, (xk - 2 * x(k - 1) + x(k - 2)) / (te * te) * f);
-      fold(c + 6, k, resp.acceleration(r, ai) * f);
-      fold(c + 7, k, (xk - 3 * x(k - 1) + 3 * x(k - 2) - x(k - 3)) / (te * te * te) * f);
-      fold(c + 8, k, resp.jerk(r, ai) * f);
-      fold(c + 9, k, resp.current_mean_A(r, ai));
-      fold(c + 10, k, resp.current_peak_A(r, ai));
-    }
+      const double xk = x(k), x1 = x(k - 1), x2 = x(k - 2), x3 = x(k - 3);
+      v[0] = xk * f;
+      v[1] = (xk - pos[r]) * f;
+      v[2] = (xk - x1) / te * f;
+      v[3] = (xk - 2 * x1 + x2) / (te * te) * f;
+      v[4] = (xk - 3 * x1 + 3 * x2 - x3) / (te * te * te) * f;
+    });
+    fold_columns(std::array<int, 6>{c + 1, c + 4, c + 6, c + 8, c + 9, c + 10}, k0, r0, r1,
+                 [&](Eigen::Index r, double* v) {
+                   v[0] = pos[r] * f;
+                   v[1] = vel[r] * f;
+                   v[2] = acc[r] * f;
+                   v[3] = jerk[r] * f;
+                   v[4] = cur[r];
+                   v[5] = peak[r];
+                 });
   }
-  for (Eigen::Index r = 0; r < m; ++r) {
+  const auto rows = static_cast<std::size_t>(r1 - r0);
+  for (auto* v : {&feed_, &speed_, &speed_actual_, &path_, &cutting_}) v->resize(rows);
+  for (Eigen::Index r = r0; r < r1; ++r) {
     const Eigen::Index k = k0 + r;
+    const auto i = static_cast<std::size_t>(r - r0);
     const bool cut = cutting(k);
     double feed = kNaN;
     if (k < ns_ && cut) {
       const core::Move& mv = program_->moves[static_cast<std::size_t>(move_of(k))];
       feed = mv.feed_mode == core::FeedMode::UnitsPerMinute ? mv.feed_mm_per_min * feed_scale_ : kNaN;
     }
-    fold(c_feed_, k, feed);
-    fold(c_speed_, k, k < ns_ ? sp.path_speed_mm_per_s[k] * 60 : 0.0);
-    const double l = tlo(k);
-    const Eigen::Vector3d p = kin_->forward(resp.position.row(r).transpose(), l).tip_mm;
-    fold(c_speed_actual_, k, k == 0 ? 0.0 : (p - prev_actual_).norm() / te * 60);
+    feed_[i] = feed;
+    speed_[i] = k < ns_ ? sp.path_speed_mm_per_s[k] * 60 : 0.0;
+    const Eigen::Vector3d p = act.row(r - r0).transpose();
+    speed_actual_[i] = k == 0 ? 0.0 : (p - prev_actual_).norm() / te * 60;
     prev_actual_ = p;
-    const Eigen::Vector3d q = kin_->forward(sp.position.row(std::min(k, ns_ - 1)).transpose(), l).tip_mm;
+    const Eigen::Vector3d q = cmd.row(r - r0).transpose();
     if (k > 0 && cut) cutting_path_ += (q - prev_command_).norm();
     prev_command_ = q;
-    fold(c_path_, k, cutting_path_);
-    fold(c_cutting_, k, cut ? 1.0 : 0.0);
+    path_[i] = cutting_path_;
+    cutting_[i] = cut ? 1.0 : 0.0;
   }
-  next_ = k0 + m;
+  fold_columns(std::array<int, 5>{c_feed_, c_speed_, c_speed_actual_, c_path_, c_cutting_}, k0, r0, r1,
+               [&](Eigen::Index r, double* v) {
+                 const auto i = static_cast<std::size_t>(r - r0);
+                 v[0] = feed_[i];
+                 v[1] = speed_[i];
+                 v[2] = speed_actual_[i];
+                 v[3] = path_[i];
+                 v[4] = cutting_[i];
+               });
 }
 
 void SignalBinner::add_contour(const motion::ContourError& ce) {
   if (ce.signed_mm.size() != n_)
     throw core::Error(fmt::format("signals: {} contour-error samples for {} drive samples", ce.signed_mm.size(), n_));
-  for (Eigen::Index k = 0; k < n_; ++k) fold(c_contour_, k, cutting(k) ? ce.signed_mm[k] : kNaN);
+  fold_columns(std::array<int, 1>{c_contour_}, 0, 0, n_,
+               [&](Eigen::Index k, double* v) { v[0] = cutting(k) ? ce.signed_mm[k] : kNaN; });
 }
 
 BinnedSignals SignalBinner::finish() {

@@ -42,6 +42,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -83,6 +84,11 @@ class SignalBinner {
   SignalBinner(SignalBinner&&) noexcept = default;
   // Response rows [k0, k0 + block.samples()); k0 must follow the previous block. Throws core::Error otherwise.
   void add(Eigen::Index k0, const drives::AxisResponse& block);
+  // The same with the block's tool tips already known (rows of the block, 3 columns): the actual one (forward
+  // kinematics of the response) and the commanded one (of the setpoint each row holds); bit for bit what add()
+  // computes itself. Throws core::Error also when their shapes are not the block's.
+  void add(Eigen::Index k0, const drives::AxisResponse& block, const Eigen::Ref<const Eigen::MatrixXd>& actual_tip_mm,
+           const Eigen::Ref<const Eigen::MatrixXd>& command_tip_mm);
   // The contour error of every row. Throws core::Error when its length is not the response's.
   void add_contour(const motion::ContourError& contour);
   // Throws core::Error when rows are missing.
@@ -98,7 +104,12 @@ class SignalBinner {
     int first;  // its eleven columns, from the setpoint's
   };
   int column(const std::string& name);
-  void fold(int c, Eigen::Index k, double v);
+  template <std::size_t N, class Values>
+  void fold_columns(const std::array<int, N>& cols, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1,
+                    const Values& values);
+  void add_rows(Eigen::Index k0, const drives::AxisResponse& block, Eigen::Index r0, Eigen::Index r1,
+                const Eigen::Ref<const Eigen::MatrixXd>& actual_tip_mm,
+                const Eigen::Ref<const Eigen::MatrixXd>& command_tip_mm);
   int move_of(Eigen::Index k) const;
   bool cutting(Eigen::Index k) const;
   double tlo(Eigen::Index k) const;
@@ -115,6 +126,7 @@ class SignalBinner {
   int c_feed_ = 0, c_speed_ = 0, c_speed_actual_ = 0, c_contour_ = 0, c_path_ = 0, c_cutting_ = 0;
   Eigen::Vector3d prev_actual_ = Eigen::Vector3d::Zero(), prev_command_ = Eigen::Vector3d::Zero();
   double cutting_path_ = 0;
+  std::vector<double> feed_, speed_, speed_actual_, path_, cutting_;  // add_rows' per-row values
 };
 
 // The signals of one run through the drives, binned on the fly (no full-rate copy of the signals is made).

@@ -67,13 +67,9 @@ removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const cor
   tr.period_s = period_s;
   tr.tip_mm.resize(n, 3);
   Eigen::MatrixXd ax(n, 3);
-  Eigen::VectorXd q(axes.cols()), qd(axes.cols());
-  for (Eigen::Index k = 0; k < n; ++k) {
-    q = axes.row(k).transpose();
-    const motion::ToolPose p = kin.forward(q, tool_length_offset(k));
-    tr.tip_mm.row(k) = p.tip_mm.transpose();
-    ax.row(k) = p.axis.transpose();
-  }
+  Eigen::VectorXd tlo(n);
+  for (Eigen::Index k = 0; k < n; ++k) tlo[k] = tool_length_offset(k);
+  kin.forward_rows(axes, tlo, tr.tip_mm, ax);
   // Constant tool axis: the rotary axes never move (bitwise) and the pose's axis is the same everywhere.
   bool constant = n > 0;
   for (std::size_t i = 0; constant && i < machine.axes.size(); ++i) {
@@ -92,11 +88,7 @@ removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const cor
       throw core::Error(fmt::format("tool poses: {} x {} axis velocities for {} x {} axis positions",
                                     velocities->rows(), velocities->cols(), n, axes.cols()));
     tr.tip_velocity_mm_per_s.resize(n, 3);
-    for (Eigen::Index k = 0; k < n; ++k) {
-      q = axes.row(k).transpose();
-      qd = velocities->row(k).transpose();
-      tr.tip_velocity_mm_per_s.row(k) = kin.tip_velocity(q, qd, tool_length_offset(k)).transpose();
-    }
+    kin.tip_velocity_rows(axes, *velocities, tlo, tr.tip_velocity_mm_per_s);
   }
   return tr;
 }
