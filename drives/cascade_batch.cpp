@@ -179,8 +179,14 @@ template <bool kTrace>
       const CbV x1 = x + (p20 * i + p21 * w + gu2 * u + gt2 * tau);
       const CbM reverses = dir * w1 < zero;
       const CbM near = ~reverses & ((CbV)((CbM)w1 & abs_mask) < win);
-      if (!any_stuck && !any(reverses | near)) {
-        i = i1, w = w1, x = x1;
+      if (!any((reverses | near) & ~stuck)) {  // no sliding lane stops: the stuck ones keep w and x
+        if (!any_stuck) {
+          i = i1, w = w1, x = x1;
+        } else {
+          i = stuck ? (cb_load(P.sa + q0) * i + cb_load(P.sb + q0) * u) : i1;
+          w = stuck ? w : w1;
+          x = stuck ? x : x1;
+        }
       } else {
         CbM sticks = reverses;
         if (any(near)) sticks |= near & ((CbV)((CbM)(kt * i1 - gravity_at(x1)) & abs_mask) <= brk);
