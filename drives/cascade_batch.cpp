@@ -160,15 +160,29 @@ template <bool kTrace>
         any_stuck = any(stuck);
         const CbM breaks = fr & wz & ~stuck;
         const CbM slides = fr & ~wz;
-        dir = breaks ? (drive > zero ? one : minus_one) : (slides ? (w > zero ? one : minus_one) : zero);
-        CbV level = coul;
-        if (any_strib)
-          for (int j = 0; j < 4; ++j)
-            if (P.strib[q0 + j] && slides[j]) {
-              const double q = std::abs(w[j]) / P.s_vel[q0 + j];
-              level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
-            }
-        tau = (breaks | slides) ? tau - dir * (breaks ? brk : level) : tau;
+        if (all_friction && !any(breaks)) {
+          // Every lane slides or stays stuck: the sliding lanes' torque as above; a stuck lane's linear step is
+          // computed and then dropped (it keeps w and x, its current follows the winding alone).
+          dir = w > zero ? one : minus_one;
+          CbV level = coul;
+          if (any_strib)
+            for (int j = 0; j < 4; ++j)
+              if (P.strib[q0 + j] && slides[j]) {
+                const double q = std::abs(w[j]) / P.s_vel[q0 + j];
+                level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
+              }
+          tau = tau - dir * level;
+        } else {
+          dir = breaks ? (drive > zero ? one : minus_one) : (slides ? (w > zero ? one : minus_one) : zero);
+          CbV level = coul;
+          if (any_strib)
+            for (int j = 0; j < 4; ++j)
+              if (P.strib[q0 + j] && slides[j]) {
+                const double q = std::abs(w[j]) / P.s_vel[q0 + j];
+                level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
+              }
+          tau = (breaks | slides) ? tau - dir * (breaks ? brk : level) : tau;
+        }
       }
       const CbV p00 = cb_load(P.p00 + q0), p01 = cb_load(P.p01 + q0), gu0 = cb_load(P.gu0 + q0);
       const CbV gt0 = cb_load(P.gt0 + q0), p10 = cb_load(P.p10 + q0), p11 = cb_load(P.p11 + q0);
