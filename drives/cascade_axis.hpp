@@ -59,6 +59,8 @@ class CascadeAxis final : public AxisModel {
   const core::DriveParams& params() const { return params_; }
 
  private:
+  friend class CascadeBatch;  // steps several axes together on this state (drives/cascade_batch)
+
   template <bool kTrace>
   AxisSample advance(const AxisCommand& command, InnerSample* trace);
   void rest_at(double position);

@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 #include "core/progress.hpp"
 #include "drives/cascade_axis.hpp"
+#include "drives/cascade_batch.hpp"
 
 #include <fmt/format.h>
 
@@ -128,6 +129,104 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
   }
 }
 
+// Several cascade axes (a group of CascadeBatch::compatible ones) over rows [k0, k1): the same rows, commands and
+// trace as run_axis gives each of them, bit for bit (CascadeBatch steps each axis as CascadeAxis::step does).
+void run_batch(const std::vector<AxisJob*>& group, const std::vector<Index>& axis_of, const Eigen::MatrixXd& setpoints,
+               double te, Index k0, Index k1, Index rows, AxisResponse& out, std::vector<FullRateTrace>* traces,
+               Stop& stop) {
+  const Index n_set = setpoints.rows();
+  const int lanes = static_cast<int>(group.size());
+  std::vector<CascadeAxis*> axes;
+  for (AxisJob* job : group) axes.push_back(&*job->model);
+  CascadeBatch batch(axes, traces != nullptr);
+  const Index nin = axes.front()->inner_steps();
+  AxisCommand commands[CascadeBatch::kMaxLanes];
+  AxisSample samples[CascadeBatch::kMaxLanes];
+  for (int l = 0; l < lanes; ++l) {
+    AxisJob& job = *group[static_cast<std::size_t>(l)];
+    if (!job.started) {
+      job.s = job.model->sample();
+      job.prev_x = setpoints(0, axis_of[static_cast<std::size_t>(l)]), job.prev_v = 0.0, job.prev_acc = 0.0;
+      job.started = true;
+    }
+    samples[l] = job.s;
+  }
+  // Each lane's output columns and setpoint column, looked up once (the loop stores through them).
+  struct LaneColumns {
+    double *position, *velocity, *acceleration, *jerk, *current, *current_mean, *current_peak, *current_setpoint;
+    const double* setpoints;
+  };
+  LaneColumns cols[CascadeBatch::kMaxLanes];
+  for (int l = 0; l < lanes; ++l) {
+    const Index axis = axis_of[static_cast<std::size_t>(l)];
+    cols[l] = LaneColumns{out.position.col(axis).data(),       out.velocity.col(axis).data(),
+                          out.acceleration.col(axis).data(),   out.jerk.col(axis).data(),
+                          out.current_A.col(axis).data(),      out.current_mean_A.col(axis).data(),
+                          out.current_peak_A.col(axis).data(), out.current_setpoint_A.col(axis).data(),
+                          setpoints.col(axis).data()};
+  }
+  Index k = k0;
+  for (; k < k1; ++k) {
+    if ((k - k0) % kPollRows == 0 && !stop.go()) break;
+    const Index r = k - k0;
+    for (int l = 0; l < lanes; ++l) {
+      AxisJob& job = *group[static_cast<std::size_t>(l)];
+      const AxisSample& s = samples[l];
+      const LaneColumns& c = cols[l];
+      c.position[r] = s.position;
+      c.velocity[r] = s.velocity;
+      c.acceleration[r] = s.acceleration;
+      c.current[r] = s.current_A;
+      c.current_mean[r] = s.current_mean_A;
+      c.current_peak[r] = s.current_peak_A;
+      c.current_setpoint[r] = s.current_setpoint_A;
+      c.jerk[r] = (s.acceleration - job.prev_acc) / te;
+      job.prev_acc = s.acceleration;
+    }
+    if (k + 1 == rows) break;
+    const Index ks = k < n_set ? k : n_set - 1;
+    for (int l = 0; l < lanes; ++l) {
+      AxisJob& job = *group[static_cast<std::size_t>(l)];
+      AxisCommand& c = commands[l];
+      c = AxisCommand{};
+      c.position = cols[l].setpoints[ks];
+      c.velocity = (c.position - job.prev_x) / te;
+      c.acceleration = (c.velocity - job.prev_v) / te;
+      job.prev_x = c.position;
+      job.prev_v = c.velocity;
+      if (job.kv) c.kv_per_s = job.kv[ks];
+      if (job.kf) c.kf = job.kf[ks];
+    }
+    batch.step(commands, samples);
+    if (traces)
+      for (int l = 0; l < lanes; ++l) {
+        FullRateTrace& t = (*traces)[static_cast<std::size_t>(axis_of[static_cast<std::size_t>(l)])];
+        const InnerSample* q = batch.trace(l);
+        for (Index n = 0; n < nin; ++n) {
+          const Index at = k * nin + n;
+          t.position[at] = q[n].position;
+          t.velocity[at] = q[n].velocity;
+          t.current_A[at] = q[n].current_A;
+          t.current_setpoint_A[at] = q[n].current_setpoint_A;
+          t.voltage_V[at] = q[n].voltage_V;
+        }
+      }
+  }
+  batch.store();
+  for (int l = 0; l < lanes; ++l) group[static_cast<std::size_t>(l)]->s = samples[l];
+  if (traces && k1 == rows && k + 1 == rows)  // the last row's instant closes the trace
+    for (int l = 0; l < lanes; ++l) {
+      const InnerSample q = group[static_cast<std::size_t>(l)]->model->inner_sample();
+      FullRateTrace& t = (*traces)[static_cast<std::size_t>(axis_of[static_cast<std::size_t>(l)])];
+      const Index at = (rows - 1) * nin;
+      t.position[at] = q.position;
+      t.velocity[at] = q.velocity;
+      t.current_A[at] = q.current_A;
+      t.current_setpoint_A[at] = q.current_setpoint_A;
+      t.voltage_V[at] = q.voltage_V;
+    }
+}
+
 }  // namespace
 
 Eigen::VectorXd simulate_axis(AxisModel& m, const Eigen::VectorXd& setpoints, double te, Eigen::Index rows) {
@@ -155,10 +254,18 @@ struct BlockSimulation::Impl {
   std::vector<AxisJob> jobs;
   bool full_rate_trace = false;
   std::vector<FullRateTrace> trace;  // whole run, per axis, when full_rate_trace
+  // The units of work, each run by one thread: a group of cascade axes stepped together (CascadeBatch), or one
+  // other axis on its own (run_axis).
+  struct Work {
+    std::vector<Index> axes;
+    bool batch = false;
+  };
+  std::vector<Work> work;
 
   Impl(const core::Setpoints& setpoints, const core::Machine& machine, const SimulateOptions& options);
   // Rows [next, k1) into `out` (sized for them), then next = k1.
   void run(Index k1, AxisResponse& out);
+  void plan_work();
 };
 
 BlockSimulation::Impl::Impl(const core::Setpoints& setpoints, const core::Machine& machine,
@@ -253,6 +360,30 @@ BlockSimulation::Impl::Impl(const core::Setpoints& setpoints, const core::Machin
         v->setZero(n);
     }
   }
+  plan_work();
+}
+
+// Cascade axes with the same loop periods go into one batch (up to CascadeBatch::kMaxLanes): one thread steps them
+// all, which costs less CPU than an axis per thread (the batch overlaps their latency-bound chains, threads only
+// add their hand-over). Every other axis is a unit of its own.
+void BlockSimulation::Impl::plan_work() {
+  work.clear();
+  for (Index a = 0; a < static_cast<Index>(jobs.size()); ++a) {
+    const AxisJob& job = jobs[static_cast<std::size_t>(a)];
+    if (!job.model || job.other) {
+      work.push_back(Work{{a}, false});
+      continue;
+    }
+    Work* into = nullptr;
+    for (Work& w : work)
+      if (w.batch && static_cast<int>(w.axes.size()) < CascadeBatch::kMaxLanes &&
+          CascadeBatch::compatible(*jobs[static_cast<std::size_t>(w.axes.front())].model, *job.model))
+        into = &w;
+    if (into)
+      into->axes.push_back(a);
+    else
+      work.push_back(Work{{a}, true});
+  }
 }
 
 void BlockSimulation::Impl::run(Index k1, AxisResponse& out) {
@@ -264,29 +395,42 @@ void BlockSimulation::Impl::run(Index k1, AxisResponse& out) {
                              &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
     m->setZero(k1 - k0, n_axes);
   // Axes are independent (no coupling in the model, the feed-drive simulation paper section 2.2): each thread runs
-  // whole axes, writing only its own columns, so the results do not depend on the thread count or the schedule.
-  const int n = static_cast<int>(n_axes);
+  // whole units of work (a batch or an axis), writing only their columns, so the results do not depend on the thread
+  // count or the schedule.
+  const int n = static_cast<int>(work.size());
   Stop stop;
   stop.progress = &core::ambient_progress();
   stop.caller = std::this_thread::get_id();
-  std::atomic<int> next_axis{0}, axes_done{0};
-#pragma omp parallel
-  {
-    // Each thread takes the next axis until none is left (as schedule(dynamic, 1) would).
-    for (int a = next_axis++; a < n; a = next_axis++) {
-      FullRateTrace* t =
-          full_rate_trace && jobs[static_cast<std::size_t>(a)].model && !jobs[static_cast<std::size_t>(a)].other
-              ? &trace[static_cast<std::size_t>(a)]
-              : nullptr;
-      run_axis(jobs[static_cast<std::size_t>(a)], setpoints->position, a, te, k0, k1, rows, out, t, stop);
-      ++axes_done;
+  std::atomic<int> next_unit{0}, units_done{0};
+  const auto run_unit = [&](const Work& w) {
+    if (w.batch) {
+      std::vector<AxisJob*> group;
+      for (Index a : w.axes) group.push_back(&jobs[static_cast<std::size_t>(a)]);
+      run_batch(group, w.axes, setpoints->position, te, k0, k1, rows, out, full_rate_trace ? &trace : nullptr, stop);
+    } else {
+      const Index a = w.axes.front();
+      AxisJob& job = jobs[static_cast<std::size_t>(a)];
+      FullRateTrace* t = full_rate_trace && job.model && !job.other ? &trace[static_cast<std::size_t>(a)] : nullptr;
+      run_axis(job, setpoints->position, a, te, k0, k1, rows, out, t, stop);
     }
-    // The calling thread, out of axes, keeps asking its caller while the others finish theirs.
-    if (std::this_thread::get_id() == stop.caller && stop.progress != &core::no_progress())
-      while (axes_done.load() < n) {
-        stop.go();
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  };
+  if (n == 1) {
+    run_unit(work.front());  // no thread to share with: no parallel region
+  } else {
+#pragma omp parallel
+    {
+      // Each thread takes the next unit until none is left (as schedule(dynamic, 1) would).
+      for (int u = next_unit++; u < n; u = next_unit++) {
+        run_unit(work[static_cast<std::size_t>(u)]);
+        ++units_done;
       }
+      // The calling thread, out of units, keeps asking its caller while the others finish theirs.
+      if (std::this_thread::get_id() == stop.caller && stop.progress != &core::no_progress())
+        while (units_done.load() < n) {
+          stop.go();
+          std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+    }
   }
   // Stopped by the caller: its progress throws (the response is incomplete and is not returned).
   if (stop.requested) stop.progress->update(0);

@@ -53,7 +53,9 @@ struct AxisResponse {
 // differences of the setpoints, as in simulate_axes.
 Eigen::VectorXd simulate_axis(AxisModel& model, const Eigen::VectorXd& setpoints, double te, Eigen::Index rows);
 
-// Throws core::Error naming the machine file when an axis the setpoints move has no [axes.drive].
+// Cascade axes with the same loop periods are stepped together (drives/cascade_batch), bit for bit as
+// CascadeAxis::step steps each alone. Throws core::Error naming the machine file when an axis the setpoints move has
+// no [axes.drive].
 AxisResponse simulate_axes(const core::Setpoints& setpoints, const core::Machine& machine,
                            const SimulateOptions& options = {});
 

@@ -1,0 +1,431 @@
+#include "drives/cascade_batch.hpp"
+
+#include "core/error.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+// Every expression below repeats CascadeAxis' (cascade_axis.cpp) operation for operation and in the same order, so
+// that the batch gives its bits; tests/drives/cascade_batch_test.cpp holds the two together. A change to the
+// cascade's physics is made in both places.
+namespace vmsim::drives {
+
+// Four lanes per vector (GCC's vector extensions: two SSE2 operations each on the generic build, one AVX2 operation
+// where the processor has it). Element-wise IEEE arithmetic gives each lane the bits of the scalar code; the branches
+// of the scalar code become selects, the scalar libm calls (gravity's sin, Stribeck's exp) stay scalar calls.
+// The vectors live only inside always-inlined functions: no call passes one, so -Wpsabi's ABI note does not apply.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+using CbV = double __attribute__((vector_size(32)));
+using CbM = decltype(CbV{} < CbV{});  // lane masks: all bits set or none
+
+// The active lanes of a period, four to a vector: constants and state in slots (structure of arrays).
+struct alignas(32) CascadePack {
+  static constexpr int kSlots = CascadeBatch::kMaxLanes;
+  alignas(32) double kpv[kSlots], kiv[kSlots], ilim[kSlots], kpc[kSlots], kic[kSlots], ulim[kSlots];
+  alignas(32) double p00[kSlots], p01[kSlots], p10[kSlots], p11[kSlots], p20[kSlots], p21[kSlots];
+  alignas(32) double gu0[kSlots], gu1[kSlots], gu2[kSlots], gt0[kSlots], gt1[kSlots], gt2[kSlots];
+  alignas(32) double sa[kSlots], sb[kSlots], kt[kSlots], brk[kSlots], win[kSlots], coul[kSlots], gconst[kSlots];
+  alignas(32) double r[kSlots];
+  alignas(32) long long fr[kSlots];  // friction: all bits set
+  // Scalar parts: a tilting gravity's sin, a Stribeck curve's exp.
+  bool tilt[kSlots], strib[kSlots];
+  double g_nm[kSlots], g_off[kSlots], s_static[kSlots], s_vel[kSlots];
+  // State.
+  alignas(32) double i[kSlots], w[kSlots], x[kSlots], ic[kSlots], iv[kSlots], iset[kSlots], u[kSlots];
+  alignas(32) double w_cmd[kSlots], i_ff[kSlots], i_sum[kSlots], i_peak[kSlots];
+};
+
+namespace {
+
+bool cb_same_bits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
+
+// CascadeAxis::gravity_torque at position x.
+inline double cb_gravity(const CascadeLane& L, double x) {
+  switch (L.gravity) {
+    case 0:
+      return 0.0;
+    case 1:
+      return L.gravity_Nm;
+    default:
+      return L.gravity_Nm * std::sin(x - L.gravity_offset);
+  }
+}
+
+// CascadeAxis::friction_level.
+inline double cb_friction_level(const CascadeLane& L, double abs_w) {
+  if (L.stribeck_static <= 0.0) return L.coulomb;
+  const double q = abs_w / L.stribeck_velocity;
+  return L.coulomb + (L.stribeck_static - L.coulomb) * std::exp(-q * q);
+}
+
+[[gnu::always_inline]] inline CbV cb_load(const double* p) {
+  CbV v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+[[gnu::always_inline]] inline void cb_store(double* p, CbV v) { __builtin_memcpy(p, &v, sizeof v); }
+
+// One period (per_te current periods) of the four lanes in slots [q0, q0 + 4): CascadeAxis::advance's inner loops,
+// lane by lane the same operations. trace: slot-major, per_te samples a slot; `real` lanes of the four are traced.
+template <bool kTrace>
+[[gnu::always_inline]] inline void cb_period(CascadePack& P, int q0, int per_te, int per_vel, InnerSample* trace,
+                                             int real) {
+  const CbM abs_mask = CbM{} + 0x7fffffffffffffffLL;
+  const CbV zero = CbV{}, one = zero + 1.0, minus_one = zero - 1.0;
+  const CbV kpv = cb_load(P.kpv + q0), kiv = cb_load(P.kiv + q0), ilim = cb_load(P.ilim + q0);
+  const CbV kpc = cb_load(P.kpc + q0), kic = cb_load(P.kic + q0), ulim = cb_load(P.ulim + q0);
+  const CbV w_cmd = cb_load(P.w_cmd + q0), i_ff = cb_load(P.i_ff + q0);
+  const CbV kt = cb_load(P.kt + q0), brk = cb_load(P.brk + q0), win = cb_load(P.win + q0);
+  const CbV coul = cb_load(P.coul + q0), gconst = cb_load(P.gconst + q0);
+  CbM fr;
+  __builtin_memcpy(&fr, P.fr + q0, sizeof fr);
+  bool any_tilt = false, any_strib = false;
+  for (int j = 0; j < 4; ++j) any_tilt |= P.tilt[q0 + j], any_strib |= P.strib[q0 + j];
+  CbV i = cb_load(P.i + q0), w = cb_load(P.w + q0), x = cb_load(P.x + q0), ic = cb_load(P.ic + q0);
+  CbV iv = cb_load(P.iv + q0), iset = cb_load(P.iset + q0), u = cb_load(P.u + q0);
+  CbV i_sum = zero, i_peak = zero;
+  const auto gravity_at = [&](CbV at) {
+    CbV g = gconst;
+    if (any_tilt)
+      for (int j = 0; j < 4; ++j)
+        if (P.tilt[q0 + j]) g[j] = P.g_nm[q0 + j] * std::sin(at[j] - P.g_off[q0 + j]);
+    return g;
+  };
+  // The common case takes branches on whole-vector conditions (no lane saturates, every lane slides and none
+  // reverses or nears a stop): the core predicts them, so the masks leave the loop-carried chains. Where a condition
+  // fails, the selects below give every lane the scalar code's branch; both ways compute the same values.
+  const auto any = [](CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; };
+  const bool all_friction = (fr[0] & fr[1] & fr[2] & fr[3]) != 0;
+  const CbM all_set = CbM{} == CbM{};
+  int n = 0;
+  for (int vs = 0; vs < per_te; vs += per_vel) {
+    {  // velocity PI (CascadeAxis::velocity_loop)
+      const CbV err = w_cmd - w;
+      const CbV integ = iv + kiv * err;
+      const CbV out = kpv * err + integ + i_ff;
+      const CbM hi = out > ilim, lo = out < -ilim;
+      if (!any(hi | lo)) {
+        iset = out;
+        iv = integ;
+      } else {
+        iset = hi ? ilim : (lo ? -ilim : out);
+        const CbM keep = hi ? (err < zero) : (lo ? (err > zero) : all_set);
+        iv = keep ? integ : iv;
+      }
+    }
+    for (int k = 0; k < per_vel; ++k, ++n) {
+      {  // current PI (CascadeAxis::current_loop)
+        const CbV err = iset - i;
+        const CbV integ = ic + kic * err;
+        const CbV out = kpc * err + integ;
+        const CbM hi = out > ulim, lo = out < -ulim;
+        if (!any(hi | lo)) {
+          u = out;
+          ic = integ;
+        } else {
+          u = hi ? ulim : (lo ? -ulim : out);
+          const CbM keep = hi ? (err < zero) : (lo ? (err > zero) : all_set);
+          ic = keep ? integ : ic;
+        }
+      }
+      if constexpr (kTrace) {
+        const CbV rw = cb_load(P.r + q0) * w;
+        for (int j = 0; j < real; ++j)
+          trace[static_cast<std::size_t>(q0 + j) * static_cast<std::size_t>(per_te) + static_cast<std::size_t>(n)] =
+              InnerSample{x[j], rw[j], i[j], iset[j], u[j]};
+      }
+      // Plant (CascadeAxis::plant): Karnopp friction as masks.
+      CbV tau = -gravity_at(x);
+      const CbM wz = w == zero;
+      CbV dir;
+      CbM stuck = CbM{};
+      bool any_stuck = false;
+      if (all_friction && !any(wz)) {  // every lane slides
+        dir = w > zero ? one : minus_one;
+        CbV level = coul;
+        if (any_strib)
+          for (int j = 0; j < 4; ++j)
+            if (P.strib[q0 + j]) {
+              const double q = std::abs(w[j]) / P.s_vel[q0 + j];
+              level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
+            }
+        tau = tau - dir * level;
+      } else {
+        const CbV drive = kt * i + tau;
+        stuck = fr & wz & ((CbV)((CbM)drive & abs_mask) <= brk);
+        any_stuck = any(stuck);
+        const CbM breaks = fr & wz & ~stuck;
+        const CbM slides = fr & ~wz;
+        if (all_friction && !any(breaks)) {
+          // Every lane slides or stays stuck: the sliding lanes' torque as above; a stuck lane's linear step is
+          // computed and then dropped (it keeps w and x, its current follows the winding alone).
+          dir = w > zero ? one : minus_one;
+          CbV level = coul;
+          if (any_strib)
+            for (int j = 0; j < 4; ++j)
+              if (P.strib[q0 + j] && slides[j]) {
+                const double q = std::abs(w[j]) / P.s_vel[q0 + j];
+                level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
+              }
+          tau = tau - dir * level;
+        } else {
+          dir = breaks ? (drive > zero ? one : minus_one) : (slides ? (w > zero ? one : minus_one) : zero);
+          CbV level = coul;
+          if (any_strib)
+            for (int j = 0; j < 4; ++j)
+              if (P.strib[q0 + j] && slides[j]) {
+                const double q = std::abs(w[j]) / P.s_vel[q0 + j];
+                level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
+              }
+          tau = (breaks | slides) ? tau - dir * (breaks ? brk : level) : tau;
+        }
+      }
+      const CbV p00 = cb_load(P.p00 + q0), p01 = cb_load(P.p01 + q0), gu0 = cb_load(P.gu0 + q0);
+      const CbV gt0 = cb_load(P.gt0 + q0), p10 = cb_load(P.p10 + q0), p11 = cb_load(P.p11 + q0);
+      const CbV gu1 = cb_load(P.gu1 + q0), gt1 = cb_load(P.gt1 + q0), p20 = cb_load(P.p20 + q0);
+      const CbV p21 = cb_load(P.p21 + q0), gu2 = cb_load(P.gu2 + q0), gt2 = cb_load(P.gt2 + q0);
+      const CbV i1 = p00 * i + p01 * w + gu0 * u + gt0 * tau;
+      CbV w1 = p10 * i + p11 * w + gu1 * u + gt1 * tau;
+      const CbV x1 = x + (p20 * i + p21 * w + gu2 * u + gt2 * tau);
+      const CbM reverses = dir * w1 < zero;
+      const CbM near = ~reverses & ((CbV)((CbM)w1 & abs_mask) < win);
+      if (!any((reverses | near) & ~stuck)) {  // no sliding lane stops: the stuck ones keep w and x
+        if (!any_stuck) {
+          i = i1, w = w1, x = x1;
+        } else {
+          i = stuck ? (cb_load(P.sa + q0) * i + cb_load(P.sb + q0) * u) : i1;
+          w = stuck ? w : w1;
+          x = stuck ? x : x1;
+        }
+      } else {
+        CbM sticks = reverses;
+        if (any(near)) sticks |= near & ((CbV)((CbM)(kt * i1 - gravity_at(x1)) & abs_mask) <= brk);
+        w1 = sticks ? zero : w1;
+        i = stuck ? (cb_load(P.sa + q0) * i + cb_load(P.sb + q0) * u) : i1;
+        w = stuck ? w : w1;
+        x = stuck ? x : x1;
+      }
+      i_sum += i;
+      const CbV ai = (CbV)((CbM)i & abs_mask);
+      i_peak = i_peak < ai ? ai : i_peak;
+    }
+  }
+  cb_store(P.i + q0, i), cb_store(P.w + q0, w), cb_store(P.x + q0, x), cb_store(P.ic + q0, ic);
+  cb_store(P.iv + q0, iv), cb_store(P.iset + q0, iset), cb_store(P.u + q0, u);
+  cb_store(P.i_sum + q0, i_sum), cb_store(P.i_peak + q0, i_peak);
+}
+
+template <bool kTrace>
+void cb_periods_generic(CascadePack& P, int m, int per_te, int per_vel, InnerSample* trace) {
+  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
+}
+
+// The same code compiled for AVX2 (no FMA: nothing can fuse), chosen at run time.
+template <bool kTrace>
+__attribute__((target("avx2"))) void cb_periods_avx2(CascadePack& P, int m, int per_te, int per_vel,
+                                                     InnerSample* trace) {
+  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
+}
+
+bool cb_use_avx2() {
+  static const bool cpu = __builtin_cpu_supports("avx2");
+  return cpu && !cascade_batch_generic_only();
+}
+
+}  // namespace
+
+bool& cascade_batch_generic_only() {
+  static bool generic = false;
+  return generic;
+}
+
+bool CascadeBatch::compatible(const CascadeAxis& a, const CascadeAxis& b) {
+  return a.current_per_te_ == b.current_per_te_ && a.current_per_velocity_ == b.current_per_velocity_;
+}
+
+CascadeBatch::CascadeBatch(const std::vector<CascadeAxis*>& axes, bool trace) : axes_(axes), trace_(trace) {
+  if (axes.empty() || static_cast<int>(axes.size()) > kMaxLanes)
+    throw core::Error(fmt::format("a batch of cascade drives holds 1 to {} axes, given {}", kMaxLanes, axes.size()));
+  for (const CascadeAxis* a : axes)
+    if (!compatible(*a, *axes.front()))
+      throw core::Error("a batch of cascade drives needs the same loop periods on every axis");
+  per_te_ = axes.front()->current_per_te_;
+  per_velocity_ = axes.front()->current_per_velocity_;
+  lanes_.resize(axes.size());
+  for (std::size_t l = 0; l < axes.size(); ++l) {
+    const CascadeAxis& a = *axes[l];
+    const core::DriveParams& p = a.params_;
+    CascadeLane& L = lanes_[l];
+    L = CascadeLane{};
+    L.kpv = a.kpv_, L.kiv = a.kiv_, L.kpc = a.kpc_, L.kic = a.kic_;
+    L.current_limit = p.current_limit_A, L.voltage_limit = p.voltage_limit_V;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) L.phi[r][c] = a.phi_[r][c];
+      L.gam_u[r] = a.gam_u_[r];
+      L.gam_t[r] = a.gam_t_[r];
+    }
+    L.stuck_a = a.stuck_a_, L.stuck_b = a.stuck_b_;
+    L.kt = p.torque_constant_Nm_per_A, L.breakaway = a.breakaway_Nm_, L.stick_window = a.stick_window_;
+    L.coulomb = p.coulomb_Nm, L.stribeck_static = p.stribeck_static_Nm;
+    L.stribeck_velocity = p.stribeck_velocity_rad_per_s;
+    L.gravity_Nm = p.gravity_Nm, L.gravity_offset = p.gravity_angle_offset_rad;
+    L.gravity = p.gravity == core::DriveParams::Gravity::None       ? 0
+                : p.gravity == core::DriveParams::Gravity::Constant ? 1
+                                                                    : 2;
+    L.friction = a.friction_;
+    L.r = a.r_, L.inv_r = a.inv_r_, L.ff_current_per_accel = a.ff_current_per_accel_, L.te = a.te_;
+    L.i = a.i_, L.w = a.w_, L.x = a.x_, L.ic = a.ic_, L.iv = a.iv_, L.iset = a.iset_, L.u = a.u_;
+    L.fixed = false;
+  }
+  pack_ = std::make_unique<CascadePack>();
+  if (trace_) {
+    trace_buf_.resize(axes.size() * static_cast<std::size_t>(per_te_));
+    trace_slots_.resize(static_cast<std::size_t>(kMaxLanes) * static_cast<std::size_t>(per_te_));
+  }
+}
+
+CascadeBatch::~CascadeBatch() = default;
+CascadeBatch::CascadeBatch(CascadeBatch&&) noexcept = default;
+
+// The constants of lanes active[0 .. m) into the pack's slots 0 .. m, and of lane active[0] into the slots that
+// fill the last vector (computed, never read). Only when the active lanes change.
+void CascadeBatch::pack(const int* active, int m) {
+  if (m == packed_m_ && std::equal(active, active + m, packed_)) return;
+  CascadePack& P = *pack_;
+  const int slots = (m + 3) / 4 * 4;
+  for (int j = 0; j < slots; ++j) {
+    const CascadeLane& L = lanes_[static_cast<std::size_t>(active[j < m ? j : 0])];
+    P.kpv[j] = L.kpv, P.kiv[j] = L.kiv, P.ilim[j] = L.current_limit;
+    P.kpc[j] = L.kpc, P.kic[j] = L.kic, P.ulim[j] = L.voltage_limit;
+    P.p00[j] = L.phi[0][0], P.p01[j] = L.phi[0][1], P.p10[j] = L.phi[1][0];
+    P.p11[j] = L.phi[1][1], P.p20[j] = L.phi[2][0], P.p21[j] = L.phi[2][1];
+    P.gu0[j] = L.gam_u[0], P.gu1[j] = L.gam_u[1], P.gu2[j] = L.gam_u[2];
+    P.gt0[j] = L.gam_t[0], P.gt1[j] = L.gam_t[1], P.gt2[j] = L.gam_t[2];
+    P.sa[j] = L.stuck_a, P.sb[j] = L.stuck_b, P.kt[j] = L.kt, P.brk[j] = L.breakaway, P.win[j] = L.stick_window;
+    P.coul[j] = L.coulomb;
+    P.gconst[j] = L.gravity == 1 ? L.gravity_Nm : 0.0;
+    P.r[j] = L.r;
+    P.fr[j] = L.friction ? -1LL : 0LL;
+    P.tilt[j] = j < m && L.gravity == 2;
+    P.strib[j] = j < m && L.stribeck_static > 0.0;
+    P.g_nm[j] = L.gravity_Nm, P.g_off[j] = L.gravity_offset;
+    P.s_static[j] = L.stribeck_static, P.s_vel[j] = L.stribeck_velocity;
+  }
+  std::copy(active, active + m, packed_);
+  packed_m_ = m;
+}
+
+const InnerSample* CascadeBatch::trace(int lane) const {
+  return trace_ ? trace_buf_.data() + static_cast<std::size_t>(lane) * static_cast<std::size_t>(per_te_) : nullptr;
+}
+
+void CascadeBatch::store() const {
+  for (std::size_t l = 0; l < axes_.size(); ++l) {
+    CascadeAxis& a = *axes_[l];
+    const CascadeLane& L = lanes_[l];
+    a.i_ = L.i, a.w_ = L.w, a.x_ = L.x, a.ic_ = L.ic, a.iv_ = L.iv, a.iset_ = L.iset, a.u_ = L.u;
+  }
+}
+
+void CascadeBatch::step(const AxisCommand* commands, AxisSample* samples) {
+  if (trace_)
+    advance<true>(commands, samples);
+  else
+    advance<false>(commands, samples);
+}
+
+template <bool kTrace>
+void CascadeBatch::advance(const AxisCommand* commands, AxisSample* samples) {
+  // The position loop of every lane (CascadeAxis::advance up to the inner loops), and which lanes must run.
+  int active[kMaxLanes];
+  int m = 0;
+  for (int l = 0; l < lanes(); ++l) {
+    CascadeAxis& a = *axes_[static_cast<std::size_t>(l)];
+    CascadeLane& L = lanes_[static_cast<std::size_t>(l)];
+    const AxisCommand& c = commands[l];
+    const double kv = std::isnan(c.kv_per_s) ? a.params_.kv_per_s : c.kv_per_s;
+    const double kf = std::isnan(c.kf) ? a.params_.kf : c.kf;
+    const int pos_n = static_cast<int>(a.pos_line_.size()), ff_n = static_cast<int>(a.vel_line_.size());
+    a.pos_line_[static_cast<std::size_t>(a.pos_head_)] = c.position;
+    a.pos_head_ = a.pos_head_ + 1 == pos_n ? 0 : a.pos_head_ + 1;
+    const double xd = a.pos_line_[static_cast<std::size_t>(a.pos_head_)];
+    a.vel_line_[static_cast<std::size_t>(a.ff_head_)] = c.velocity;
+    a.acc_line_[static_cast<std::size_t>(a.ff_head_)] = c.acceleration;
+    a.ff_head_ = a.ff_head_ + 1 == ff_n ? 0 : a.ff_head_ + 1;
+    const double vd = a.vel_line_[static_cast<std::size_t>(a.ff_head_)];
+    const double ad = a.acc_line_[static_cast<std::size_t>(a.ff_head_)];
+    L.w_cmd = (kv * (xd - L.x) + kf * vd) * L.inv_r;
+    L.i_ff = L.ff_current_per_accel * ad;
+    // At a fixed point with the same inputs: this period is the last one again (its trace is still in trace_buf_).
+    if (L.fixed && cb_same_bits(L.w_cmd, L.last_w_cmd) && cb_same_bits(L.i_ff, L.last_i_ff)) {
+      samples[l] = L.last;
+      ++skipped_;
+      continue;
+    }
+    L.last_w_cmd = L.w_cmd, L.last_i_ff = L.i_ff;
+    L.w_start = L.w;
+    L.i_sum = 0.0, L.i_peak = 0.0;
+    active[m++] = l;
+  }
+  if (m == 0) return;
+
+  // Before the period, to tell whether it changes the state.
+  double before[kMaxLanes][7];
+  for (int j = 0; j < m; ++j) {
+    const CascadeLane& L = lanes_[static_cast<std::size_t>(active[j])];
+    const double s[7] = {L.i, L.w, L.x, L.ic, L.iv, L.iset, L.u};
+    std::copy(s, s + 7, before[j]);
+  }
+
+  // The inner loops of the active lanes, four to a vector.
+  pack(active, m);
+  CascadePack& P = *pack_;
+  CascadeLane* lanes = lanes_.data();
+  const int slots = (m + 3) / 4 * 4;
+  for (int j = 0; j < slots; ++j) {
+    const CascadeLane& L = lanes[active[j < m ? j : 0]];
+    P.i[j] = L.i, P.w[j] = L.w, P.x[j] = L.x, P.ic[j] = L.ic, P.iv[j] = L.iv, P.iset[j] = L.iset, P.u[j] = L.u;
+    P.w_cmd[j] = L.w_cmd, P.i_ff[j] = L.i_ff;
+  }
+  InnerSample* trace = kTrace ? trace_slots_.data() : nullptr;
+  if (cb_use_avx2())
+    cb_periods_avx2<kTrace>(P, m, per_te_, per_velocity_, trace);
+  else
+    cb_periods_generic<kTrace>(P, m, per_te_, per_velocity_, trace);
+  const int n = per_te_;
+  for (int j = 0; j < m; ++j) {
+    CascadeLane& L = lanes[active[j]];
+    L.i = P.i[j], L.w = P.w[j], L.x = P.x[j], L.ic = P.ic[j], L.iv = P.iv[j], L.iset = P.iset[j], L.u = P.u[j];
+    L.i_sum = P.i_sum[j], L.i_peak = P.i_peak[j];
+    if constexpr (kTrace)
+      std::copy_n(trace_slots_.begin() + static_cast<std::ptrdiff_t>(j) * per_te_, per_te_,
+                  trace_buf_.begin() + static_cast<std::ptrdiff_t>(active[j]) * per_te_);
+  }
+
+  for (int j = 0; j < m; ++j) {
+    const int l = active[j];
+    CascadeLane& L = lanes[l];
+    // CascadeAxis::sample() and the end of advance().
+    AxisSample s;
+    s.position = L.x;
+    s.velocity = L.r * L.w;
+    s.current_A = L.i;
+    s.current_setpoint_A = L.iset;
+    s.current_mean_A = L.i_sum / n;
+    s.current_peak_A = L.i_peak;
+    s.acceleration = L.r * (L.w - L.w_start) / L.te;
+    samples[l] = s;
+    L.last = s;
+    const double after[7] = {L.i, L.w, L.x, L.ic, L.iv, L.iset, L.u};
+    L.fixed = true;
+    for (int q = 0; q < 7; ++q) L.fixed = L.fixed && cb_same_bits(after[q], before[j][q]);
+  }
+}
+
+}  // namespace vmsim::drives
+
+#pragma GCC diagnostic pop

@@ -1,0 +1,368 @@
+// The batched cascade (drives/cascade_batch, used by simulate_axes and BlockSimulation) against the reference it
+// replaces: each axis alone through CascadeAxis::step (drives/cascade_axis.cpp, unchanged), rows and commands as
+// simulate_axes documents them. Bit for bit on every machine in parts/machines, with friction (Coulomb, Stribeck),
+// gravity (none, constant, tilting with an offset), current and voltage saturation, sticking, gain schedules, axes at
+// rest (the batch's skipped periods), 1 and 2 threads, blocks of 1, 7 and all rows, and both kernels (the generic
+// build's and the AVX2 one the batch picks at run time).
+#include "drives/cascade_batch.hpp"
+#include "drives/simulate.hpp"
+
+#include "core/error.hpp"
+#include "tests/drives/drive_test_support.hpp"
+#include "tests/test_paths.hpp"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace vmsim::drives {
+namespace {
+
+// Reference: simulate_axes' rows from each axis' own CascadeAxis::step (with the full-rate trace), as its header
+// documents them: row 0 at rest at the first setpoint, row k+1 after one Te on setpoint k, the feedforward the
+// backward differences of the setpoints, the last setpoint (and gains) held over the settling rows, jerk the backward
+// difference of the accelerations.
+AxisResponse cbt_reference(const core::Setpoints& sp, const core::Machine& m, const GainSchedule* gains,
+                           double settle_s) {
+  const double te = sp.period_s;
+  const Eigen::Index n_set = sp.samples(), n_axes = sp.position.cols();
+  const Eigen::Index rows = n_set + static_cast<Eigen::Index>(std::llround(settle_s / te));
+  AxisResponse out;
+  out.period_s = te;
+  for (Eigen::MatrixXd* c : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
+                             &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
+    c->setZero(rows, n_axes);
+  out.trace.resize(static_cast<std::size_t>(n_axes));
+  for (Eigen::Index a = 0; a < n_axes; ++a) {
+    const core::MachineAxis& ax = m.axes[static_cast<std::size_t>(a)];
+    CascadeAxis model(*ax.drive, te, ax.kind);
+    model.reset(sp.position(0, a));
+    const Eigen::Index nin = model.inner_steps();
+    FullRateTrace& t = out.trace[static_cast<std::size_t>(a)];
+    t.period_s = ax.drive->current_period_s;
+    for (Eigen::ArrayXd* v : {&t.position, &t.velocity, &t.current_A, &t.current_setpoint_A, &t.voltage_V})
+      v->setZero((rows - 1) * nin + 1);
+    std::vector<InnerSample> inner(static_cast<std::size_t>(nin));
+    AxisSample s = model.sample();
+    double prev_x = sp.position(0, a), prev_v = 0.0, prev_acc = 0.0;
+    for (Eigen::Index k = 0; k < rows; ++k) {
+      out.position(k, a) = s.position;
+      out.velocity(k, a) = s.velocity;
+      out.acceleration(k, a) = s.acceleration;
+      out.jerk(k, a) = (s.acceleration - prev_acc) / te;
+      prev_acc = s.acceleration;
+      out.current_A(k, a) = s.current_A;
+      out.current_mean_A(k, a) = s.current_mean_A;
+      out.current_peak_A(k, a) = s.current_peak_A;
+      out.current_setpoint_A(k, a) = s.current_setpoint_A;
+      if (k + 1 == rows) break;
+      const Eigen::Index ks = std::min(k, n_set - 1);
+      AxisCommand c;
+      c.position = sp.position(ks, a);
+      c.velocity = (c.position - prev_x) / te;
+      c.acceleration = (c.velocity - prev_v) / te;
+      prev_x = c.position;
+      prev_v = c.velocity;
+      if (gains && gains->kv_per_s.size()) c.kv_per_s = gains->kv_per_s(ks, a);
+      if (gains && gains->kf.size()) c.kf = gains->kf(ks, a);
+      s = model.step(c, inner.data());
+      for (Eigen::Index n = 0; n < nin; ++n) {
+        const InnerSample& q = inner[static_cast<std::size_t>(n)];
+        t.position[k * nin + n] = q.position;
+        t.velocity[k * nin + n] = q.velocity;
+        t.current_A[k * nin + n] = q.current_A;
+        t.current_setpoint_A[k * nin + n] = q.current_setpoint_A;
+        t.voltage_V[k * nin + n] = q.voltage_V;
+      }
+    }
+    const InnerSample q = model.inner_sample();
+    const Eigen::Index last = (rows - 1) * nin;
+    t.position[last] = q.position, t.velocity[last] = q.velocity, t.current_A[last] = q.current_A;
+    t.current_setpoint_A[last] = q.current_setpoint_A, t.voltage_V[last] = q.voltage_V;
+  }
+  return out;
+}
+
+// Index of the first entry whose bits differ (-1: none; sizes differ: 0). Bits, not ==: 0.0 and -0.0 differ.
+template <typename A, typename B>
+Eigen::Index cbt_first_difference(const A& a, const B& b) {
+  if (a.size() != b.size()) return 0;
+  for (Eigen::Index i = 0; i < a.size(); ++i)
+    if (std::bit_cast<std::uint64_t>(a.data()[i]) != std::bit_cast<std::uint64_t>(b.data()[i])) return i;
+  return -1;
+}
+
+void cbt_expect_rows(const AxisResponse& got, const AxisResponse& want, Eigen::Index row0, const std::string& what) {
+  const struct {
+    const char* name;
+    const Eigen::MatrixXd& got;
+    const Eigen::MatrixXd& want;
+  } cols[] = {{"position", got.position, want.position},
+              {"velocity", got.velocity, want.velocity},
+              {"acceleration", got.acceleration, want.acceleration},
+              {"jerk", got.jerk, want.jerk},
+              {"current_A", got.current_A, want.current_A},
+              {"current_setpoint_A", got.current_setpoint_A, want.current_setpoint_A},
+              {"current_mean_A", got.current_mean_A, want.current_mean_A},
+              {"current_peak_A", got.current_peak_A, want.current_peak_A}};
+  for (const auto& c : cols) {
+    ASSERT_EQ(c.got.cols(), c.want.cols()) << what << " " << c.name;
+    ASSERT_LE(row0 + c.got.rows(), c.want.rows()) << what << " " << c.name;
+    const Eigen::MatrixXd part = c.want.middleRows(row0, c.got.rows());
+    const Eigen::Index i = cbt_first_difference(c.got, part);
+    EXPECT_EQ(i, -1) << what << ": " << c.name << " differs at row "
+                     << row0 + (i % std::max<Eigen::Index>(1, part.rows())) << ", axis "
+                     << i / std::max<Eigen::Index>(1, part.rows());
+  }
+}
+
+void cbt_expect_traces(const AxisResponse& got, const AxisResponse& want, const std::string& what) {
+  ASSERT_EQ(got.trace.size(), want.trace.size()) << what;
+  for (std::size_t a = 0; a < got.trace.size(); ++a) {
+    const FullRateTrace &g = got.trace[a], &w = want.trace[a];
+    EXPECT_EQ(g.period_s, w.period_s) << what;
+    EXPECT_EQ(cbt_first_difference(g.position, w.position), -1) << what << " trace position, axis " << a;
+    EXPECT_EQ(cbt_first_difference(g.velocity, w.velocity), -1) << what << " trace velocity, axis " << a;
+    EXPECT_EQ(cbt_first_difference(g.current_A, w.current_A), -1) << what << " trace current, axis " << a;
+    EXPECT_EQ(cbt_first_difference(g.current_setpoint_A, w.current_setpoint_A), -1)
+        << what << " trace iset, axis " << a;
+    EXPECT_EQ(cbt_first_difference(g.voltage_V, w.voltage_V), -1) << what << " trace voltage, axis " << a;
+  }
+}
+
+// A profile that exercises every branch of the cascade, per axis (scale s: 5 mm linear, 0.2 rad rotary), 3 s:
+// rest; a step of s in one Te (the velocity loop saturates at the current limit and the current loop at the voltage
+// limit); rest (the axis settles and sticks); a 2 Hz sine (reversals through the friction band); a step of -2 s;
+// a creep at 0.2 % of s per s (stick-slip); rest. Each axis starts its pattern at another instant. Axes in `held`
+// never move (the batch skips their periods once they are at rest).
+core::Setpoints cbt_profile(const core::Machine& m, const std::vector<bool>& held) {
+  const std::size_t n_axes = m.axes.size();
+  return test::sampled(m, 1e-3, 3000, [&](double t, double* out) {
+    for (std::size_t a = 0; a < n_axes; ++a) {
+      const double s = m.axes[a].kind == core::AxisKind::Rotary ? 0.2 : 5.0;
+      const double x0 = m.axes[a].kind == core::AxisKind::Rotary ? 0.1 : 10.0 * static_cast<double>(a);
+      const double u = t - 0.05 * static_cast<double>(a);
+      double x = x0;
+      if (held[a] || u < 0.3)
+        x = x0;
+      else if (u < 0.8)
+        x = x0 + s;
+      else if (u < 1.8)
+        x = x0 + s * std::cos(2.0 * 3.141592653589793 * 2.0 * (u - 0.8));
+      else if (u < 2.3)
+        x = x0 - s;
+      else if (u < 2.7)
+        x = x0 - s + 0.002 * s * (u - 2.3);
+      else
+        x = x0 - s + 0.002 * s * 0.4;
+      out[a] = x;
+    }
+  });
+}
+
+struct CbtVariant {
+  std::string name;
+  core::Machine machine;
+  std::vector<bool> held;
+};
+
+// Every machine file as written (the last axis held), then with every axis moving and: Stribeck friction on every
+// drive; the tilting axes' gravity with an offset of 0.3 rad; no friction at all (the exact linear step).
+std::vector<CbtVariant> cbt_variants() {
+  std::vector<CbtVariant> out;
+  for (const auto& e : std::filesystem::directory_iterator(vmsim::test::kPartsPath / "machines")) {
+    if (e.path().extension() != ".toml") continue;
+    const core::Machine base = core::load_machine(e.path());
+    const std::string file = e.path().stem().string();
+    std::vector<bool> last_held(base.axes.size(), false), none_held(base.axes.size(), false);
+    last_held.back() = true;
+    out.push_back({file + " as written", base, last_held});
+    core::Machine stribeck = base, offset = base, frictionless = base;
+    for (auto& ax : stribeck.axes) {
+      ax.drive->stribeck_static_Nm = 1.6 * ax.drive->coulomb_Nm + 0.2;
+      ax.drive->stribeck_velocity_rad_per_s = 3.0;
+    }
+    for (auto& ax : offset.axes)
+      if (ax.drive->gravity == core::DriveParams::Gravity::Tilting) ax.drive->gravity_angle_offset_rad = 0.3;
+    for (auto& ax : frictionless.axes) ax.drive->coulomb_Nm = 0.0;
+    out.push_back({file + " stribeck", stribeck, none_held});
+    out.push_back({file + " tilting offset", offset, none_held});
+    out.push_back({file + " frictionless", frictionless, none_held});
+  }
+  return out;
+}
+
+// The profile does what it claims: somewhere the current setpoint sits at the current limit and the voltage at the
+// voltage limit, and an axis is at rest (speed exactly 0) with friction.
+void cbt_expect_exercised(const CbtVariant& v, const AxisResponse& ref) {
+  bool current_limited = false, voltage_limited = false, stuck = false;
+  for (std::size_t a = 0; a < v.machine.axes.size(); ++a) {
+    const core::DriveParams& p = *v.machine.axes[a].drive;
+    const Eigen::Index c = static_cast<Eigen::Index>(a);
+    current_limited |= (ref.current_setpoint_A.col(c).array().abs() == p.current_limit_A).any();
+    voltage_limited |= (ref.trace[a].voltage_V.abs() == p.voltage_limit_V).any();
+    stuck |= p.coulomb_Nm > 0.0 && (ref.velocity.col(c).array() == 0.0).any();
+  }
+  EXPECT_TRUE(current_limited) << v.name;
+  EXPECT_TRUE(voltage_limited) << v.name;
+  if (v.name.find("frictionless") == std::string::npos) {
+    EXPECT_TRUE(stuck) << v.name;
+  }
+}
+
+TEST(CascadeBatch, SimulateAxesBitForBitWithEachAxisAloneOnEveryMachine) {
+  const int saved = omp_get_max_threads();
+  int machines = 0;
+  for (const CbtVariant& v : cbt_variants()) {
+    ++machines;
+    const core::Setpoints sp = cbt_profile(v.machine, v.held);
+    const AxisResponse ref = cbt_reference(sp, v.machine, nullptr, 0.2);
+    cbt_expect_exercised(v, ref);
+    SimulateOptions o;
+    o.full_rate_trace = true;
+    for (bool generic : {false, true})
+      for (int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        cascade_batch_generic_only() = generic;
+        const AxisResponse got = simulate_axes(sp, v.machine, o);
+        cascade_batch_generic_only() = false;
+        const std::string what = v.name + ", " + std::to_string(threads) + " thread(s)" + (generic ? ", generic" : "");
+        cbt_expect_rows(got, ref, 0, what);
+        cbt_expect_traces(got, ref, what);
+      }
+  }
+  omp_set_num_threads(saved);
+  EXPECT_EQ(machines, 16);  // 4 machine files x 4 variants
+}
+
+TEST(CascadeBatch, BlocksOfOneSevenAndAllRowsBitForBit) {
+  const core::Machine m = test::mikron();
+  std::vector<bool> held(m.axes.size(), false);
+  held[4] = true;  // C at rest all along: its periods are skipped within a block
+  const core::Setpoints sp = cbt_profile(m, held);
+  const AxisResponse ref = cbt_reference(sp, m, nullptr, 0.2);
+  for (Eigen::Index block : {Eigen::Index{1}, Eigen::Index{7}, Eigen::Index{1 << 20}}) {
+    BlockSimulation sim(sp, m);
+    ASSERT_EQ(sim.rows(), ref.samples());
+    while (!sim.done()) {
+      const Eigen::Index row0 = sim.next_row();
+      const AxisResponse r = sim.next(block);
+      cbt_expect_rows(r, ref, row0, "blocks of " + std::to_string(block));
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+}
+
+// Reference as above with a gain schedule (Duong et al.'s OGA): Kv and KF changing every 50 rows on every axis,
+// NaN (the drive's own) on some rows; the settling rows keep the last row's gains.
+TEST(CascadeBatch, GainScheduleBitForBit) {
+  const core::Machine m = test::mikron();
+  const core::Setpoints sp = cbt_profile(m, std::vector<bool>(m.axes.size(), false));
+  GainSchedule g;
+  g.kv_per_s.resize(sp.samples(), sp.position.cols());
+  g.kf.resize(sp.samples(), sp.position.cols());
+  for (Eigen::Index k = 0; k < sp.samples(); ++k)
+    for (Eigen::Index a = 0; a < sp.position.cols(); ++a) {
+      const Eigen::Index phase = (k / 50 + a) % 4;
+      g.kv_per_s(k, a) =
+          phase == 3 ? std::numeric_limits<double>::quiet_NaN() : 60.0 + 20.0 * static_cast<double>(phase);
+      g.kf(k, a) = phase == 1 ? std::numeric_limits<double>::quiet_NaN() : 0.05 * static_cast<double>(phase);
+    }
+  const AxisResponse ref = cbt_reference(sp, m, &g, 0.2);
+  SimulateOptions o;
+  o.gains = &g;
+  o.full_rate_trace = true;
+  for (bool generic : {false, true}) {
+    cascade_batch_generic_only() = generic;
+    const AxisResponse got = simulate_axes(sp, m, o);
+    cascade_batch_generic_only() = false;
+    cbt_expect_rows(got, ref, 0, generic ? "gain schedule, generic" : "gain schedule");
+    cbt_expect_traces(got, ref, generic ? "gain schedule, generic" : "gain schedule");
+  }
+}
+
+// Axes with different loop periods go into different batches: X's current loop at 31.25 us (32 periods per Te,
+// velocity loop every 4), the rest as in the machine file. Reference as above.
+TEST(CascadeBatch, AxesWithOtherLoopPeriodsRunInTheirOwnBatch) {
+  core::Machine m = test::mikron();
+  m.axes[0].drive->current_period_s = 31.25e-6;
+  const core::Setpoints sp = cbt_profile(m, std::vector<bool>(m.axes.size(), false));
+  const AxisResponse ref = cbt_reference(sp, m, nullptr, 0.2);
+  SimulateOptions o;
+  o.full_rate_trace = true;
+  const AxisResponse got = simulate_axes(sp, m, o);
+  cbt_expect_rows(got, ref, 0, "mixed loop periods");
+  cbt_expect_traces(got, ref, "mixed loop periods");
+}
+
+// The batch directly: an axis at rest under a constant command has its periods skipped (the count says so), the
+// results are CascadeAxis::step's, and after store() the axes go on by themselves exactly as the reference does.
+TEST(CascadeBatch, SkipsPeriodsAtAFixedPointAndHandsTheStateBack) {
+  const core::Machine m = test::mikron();
+  std::vector<CascadeAxis> ref_axes, batch_axes;
+  for (std::size_t a = 0; a < m.axes.size(); ++a) {
+    ref_axes.emplace_back(*m.axes[a].drive, 1e-3, m.axes[a].kind);
+    ref_axes.back().reset(0.0);
+  }
+  batch_axes = ref_axes;
+  std::vector<CascadeAxis*> ptrs;
+  for (CascadeAxis& a : batch_axes) ptrs.push_back(&a);
+  CascadeBatch batch(ptrs, false);
+  ASSERT_EQ(batch.lanes(), 5);
+  AxisCommand commands[5];
+  AxisSample samples[5];
+  for (int k = 0; k < 400; ++k) {
+    // X moves 1 mm at k = 10 and is then held; the other axes hold 0 all along.
+    commands[0] = AxisCommand{};
+    commands[0].position = k >= 10 ? 1.0 : 0.0;
+    commands[0].velocity = k == 10 ? 1000.0 : 0.0;
+    commands[0].acceleration = k == 10 ? 1e6 : (k == 11 ? -1e6 : 0.0);
+    for (int a = 1; a < 5; ++a) commands[a] = AxisCommand{};
+    batch.step(commands, samples);
+    for (int a = 0; a < 5; ++a) {
+      const AxisSample want = ref_axes[static_cast<std::size_t>(a)].step(commands[a]);
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(samples[a].position), std::bit_cast<std::uint64_t>(want.position))
+          << "axis " << a << " row " << k;
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(samples[a].current_mean_A),
+                std::bit_cast<std::uint64_t>(want.current_mean_A))
+          << "axis " << a << " row " << k;
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(samples[a].acceleration), std::bit_cast<std::uint64_t>(want.acceleration))
+          << "axis " << a << " row " << k;
+    }
+  }
+  // Y, A and C rest at 0 from the start (no gravity on them at 0): all but their first period are skipped.
+  EXPECT_GE(batch.skipped_periods(), 3 * 399);
+  batch.store();
+  AxisCommand c;
+  c.position = -0.5;
+  for (std::size_t a = 0; a < 5; ++a) {
+    const AxisSample got = batch_axes[a].step(c), want = ref_axes[a].step(c);
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(got.position), std::bit_cast<std::uint64_t>(want.position)) << a;
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(got.current_A), std::bit_cast<std::uint64_t>(want.current_A)) << a;
+  }
+}
+
+TEST(CascadeBatch, RefusesWhatItCannotBatch) {
+  const core::Machine m = test::mikron();
+  CascadeAxis x(*m.axes[0].drive, 1e-3, m.axes[0].kind);
+  core::DriveParams other = *m.axes[1].drive;
+  other.current_period_s = 31.25e-6;
+  CascadeAxis y(other, 1e-3, m.axes[1].kind);
+  EXPECT_FALSE(CascadeBatch::compatible(x, y));
+  EXPECT_THROW(CascadeBatch({&x, &y}, false), core::Error);
+  EXPECT_THROW(CascadeBatch({}, false), core::Error);
+  std::vector<CascadeAxis> many(CascadeBatch::kMaxLanes + 1, x);
+  std::vector<CascadeAxis*> ptrs;
+  for (CascadeAxis& a : many) ptrs.push_back(&a);
+  EXPECT_THROW(CascadeBatch(ptrs, false), core::Error);
+}
+
+}  // namespace
+}  // namespace vmsim::drives
