@@ -69,6 +69,27 @@ inline double cb_friction_level(const CascadeLane& L, double abs_w) {
 }
 [[gnu::always_inline]] inline void cb_store(double* p, CbV v) { __builtin_memcpy(p, &v, sizeof v); }
 
+// A PI with its output saturated at +-lim and the integrator stopped while saturated and pushed further out
+// (CascadeAxis::velocity_loop, with the current feedforward ff added, and current_loop, without), lane by lane.
+template <bool kFeedforward>
+[[gnu::always_inline]] inline void cb_saturated_pi(CbV err, CbV kp, CbV ki, CbV ff, CbV lim, CbV& integ_state,
+                                                   CbV& out_held) {
+  const CbV integ = integ_state + ki * err;
+  CbV out = kp * err + integ;
+  if constexpr (kFeedforward) out = out + ff;
+  const CbM hi = out > lim, lo = out < -lim;
+  const CbM sat = hi | lo;
+  if ((sat[0] | sat[1] | sat[2] | sat[3]) == 0) {  // the common case: no lane saturates
+    out_held = out;
+    integ_state = integ;
+  } else {
+    out_held = hi ? lim : (lo ? -lim : out);
+    const CbV zero = CbV{};
+    const CbM keep = hi ? (err < zero) : (lo ? (err > zero) : (CbM{} == CbM{}));
+    integ_state = keep ? integ : integ_state;
+  }
+}
+
 // One period (per_te current periods) of the four lanes in slots [q0, q0 + 4): CascadeAxis::advance's inner loops,
 // lane by lane the same operations. trace: slot-major, per_te samples a slot; `real` lanes of the four are traced.
 template <bool kTrace>
@@ -100,38 +121,11 @@ template <bool kTrace>
   // fails, the selects below give every lane the scalar code's branch; both ways compute the same values.
   const auto any = [](CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; };
   const bool all_friction = (fr[0] & fr[1] & fr[2] & fr[3]) != 0;
-  const CbM all_set = CbM{} == CbM{};
   int n = 0;
   for (int vs = 0; vs < per_te; vs += per_vel) {
-    {  // velocity PI (CascadeAxis::velocity_loop)
-      const CbV err = w_cmd - w;
-      const CbV integ = iv + kiv * err;
-      const CbV out = kpv * err + integ + i_ff;
-      const CbM hi = out > ilim, lo = out < -ilim;
-      if (!any(hi | lo)) {
-        iset = out;
-        iv = integ;
-      } else {
-        iset = hi ? ilim : (lo ? -ilim : out);
-        const CbM keep = hi ? (err < zero) : (lo ? (err > zero) : all_set);
-        iv = keep ? integ : iv;
-      }
-    }
+    cb_saturated_pi<true>(w_cmd - w, kpv, kiv, i_ff, ilim, iv, iset);  // velocity PI (CascadeAxis::velocity_loop)
     for (int k = 0; k < per_vel; ++k, ++n) {
-      {  // current PI (CascadeAxis::current_loop)
-        const CbV err = iset - i;
-        const CbV integ = ic + kic * err;
-        const CbV out = kpc * err + integ;
-        const CbM hi = out > ulim, lo = out < -ulim;
-        if (!any(hi | lo)) {
-          u = out;
-          ic = integ;
-        } else {
-          u = hi ? ulim : (lo ? -ulim : out);
-          const CbM keep = hi ? (err < zero) : (lo ? (err > zero) : all_set);
-          ic = keep ? integ : ic;
-        }
-      }
+      cb_saturated_pi<false>(iset - i, kpc, kic, zero, ulim, ic, u);  // current PI (CascadeAxis::current_loop)
       if constexpr (kTrace) {
         const CbV rw = cb_load(P.r + q0) * w;
         for (int j = 0; j < real; ++j)

@@ -37,6 +37,20 @@ struct AxisJob {
   bool started = false;
 };
 
+// The NC's command for setpoint row ks (position x_d): the feedforward set points are backward differences of the
+// position setpoints; the gain schedule's row when there is one.
+AxisCommand next_command(AxisJob& job, double position, Index ks, double te) {
+  AxisCommand c;
+  c.position = position;
+  c.velocity = (c.position - job.prev_x) / te;
+  c.acceleration = (c.velocity - job.prev_v) / te;
+  job.prev_x = c.position;
+  job.prev_v = c.velocity;
+  if (job.kv) c.kv_per_s = job.kv[ks];
+  if (job.kf) c.kf = job.kf[ks];
+  return c;
+}
+
 // One axis from its setpoint column to its response columns. Row k of the response is the axis at t = k*Te, the
 // instant setpoint k is sent: row 0 is the resting state after reset, row k+1 the state after the drive has worked
 // on setpoint k for one Te. Beyond the last setpoint the NC holds it (and its last gains) for the settling rows.
@@ -94,15 +108,7 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
     job.prev_acc = s.acceleration;
     if (k + 1 == rows) break;
     const Index ks = k < n_set ? k : n_set - 1;
-    AxisCommand c;
-    c.position = setpoints(ks, axis);
-    // The NC's feedforward set points: backward differences of the position setpoints.
-    c.velocity = (c.position - job.prev_x) / te;
-    c.acceleration = (c.velocity - job.prev_v) / te;
-    job.prev_x = c.position;
-    job.prev_v = c.velocity;
-    if (job.kv) c.kv_per_s = job.kv[ks];
-    if (job.kf) c.kf = job.kf[ks];
+    const AxisCommand c = next_command(job, setpoints(ks, axis), ks, te);
     if (trace) {
       s = job.model->step(c, inner.data());
       for (Index n = 0; n < nin; ++n) {
@@ -185,18 +191,8 @@ void run_batch(const std::vector<AxisJob*>& group, const std::vector<Index>& axi
     }
     if (k + 1 == rows) break;
     const Index ks = k < n_set ? k : n_set - 1;
-    for (int l = 0; l < lanes; ++l) {
-      AxisJob& job = *group[static_cast<std::size_t>(l)];
-      AxisCommand& c = commands[l];
-      c = AxisCommand{};
-      c.position = cols[l].setpoints[ks];
-      c.velocity = (c.position - job.prev_x) / te;
-      c.acceleration = (c.velocity - job.prev_v) / te;
-      job.prev_x = c.position;
-      job.prev_v = c.velocity;
-      if (job.kv) c.kv_per_s = job.kv[ks];
-      if (job.kf) c.kf = job.kf[ks];
-    }
+    for (int l = 0; l < lanes; ++l)
+      commands[l] = next_command(*group[static_cast<std::size_t>(l)], cols[l].setpoints[ks], ks, te);
     batch.step(commands, samples);
     if (traces)
       for (int l = 0; l < lanes; ++l) {
