@@ -116,6 +116,18 @@ template <bool kTrace>
         if (P.tilt[q0 + j]) g[j] = P.g_nm[q0 + j] * std::sin(at[j] - P.g_off[q0 + j]);
     return g;
   };
+  // The friction while sliding at w (CascadeAxis::friction_level): Coulomb, with the Stribeck hump in the sliding
+  // lanes that have one.
+  const auto sliding_level = [&](CbM slides) {
+    CbV level = coul;
+    if (any_strib)
+      for (int j = 0; j < 4; ++j)
+        if (P.strib[q0 + j] && slides[j]) {
+          const double q = std::abs(w[j]) / P.s_vel[q0 + j];
+          level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
+        }
+    return level;
+  };
   // The common case takes branches on whole-vector conditions (no lane saturates, every lane slides and none
   // reverses or nears a stop): the core predicts them, so the masks leave the loop-carried chains. Where a condition
   // fails, the selects below give every lane the scalar code's branch; both ways compute the same values.
@@ -158,23 +170,11 @@ template <bool kTrace>
           // Every lane slides or stays stuck: the sliding lanes' torque as above; a stuck lane's linear step is
           // computed and then dropped (it keeps w and x, its current follows the winding alone).
           dir = w > zero ? one : minus_one;
-          CbV level = coul;
-          if (any_strib)
-            for (int j = 0; j < 4; ++j)
-              if (P.strib[q0 + j] && slides[j]) {
-                const double q = std::abs(w[j]) / P.s_vel[q0 + j];
-                level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
-              }
+          const CbV level = sliding_level(slides);
           tau = tau - dir * level;
         } else {
           dir = breaks ? (drive > zero ? one : minus_one) : (slides ? (w > zero ? one : minus_one) : zero);
-          CbV level = coul;
-          if (any_strib)
-            for (int j = 0; j < 4; ++j)
-              if (P.strib[q0 + j] && slides[j]) {
-                const double q = std::abs(w[j]) / P.s_vel[q0 + j];
-                level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
-              }
+          const CbV level = sliding_level(slides);
           tau = (breaks | slides) ? tau - dir * (breaks ? brk : level) : tau;
         }
       }
