@@ -51,6 +51,58 @@ AxisCommand next_command(AxisJob& job, double position, Index ks, double te) {
   return c;
 }
 
+// An axis' first row: at rest (its model's resting state, or held at x0 without a cascade), the NC's previous
+// setpoint x0 and velocity and acceleration zero.
+void start_axis(AxisJob& job, double x0) {
+  if (job.started) return;
+  if (job.model)
+    job.s = job.model->sample();
+  else
+    job.s.position = x0;
+  job.prev_x = x0, job.prev_v = 0.0, job.prev_acc = 0.0;
+  job.started = true;
+}
+
+// An axis' response columns in a block, and where its setpoints are.
+struct ResponseColumns {
+  double *position, *velocity, *acceleration, *jerk, *current, *current_mean, *current_peak, *current_setpoint;
+  const double* setpoints;
+
+  ResponseColumns() = default;
+  ResponseColumns(AxisResponse& out, const Eigen::MatrixXd& setpoints_all, Index axis)
+      : position(out.position.col(axis).data()),
+        velocity(out.velocity.col(axis).data()),
+        acceleration(out.acceleration.col(axis).data()),
+        jerk(out.jerk.col(axis).data()),
+        current(out.current_A.col(axis).data()),
+        current_mean(out.current_mean_A.col(axis).data()),
+        current_peak(out.current_peak_A.col(axis).data()),
+        current_setpoint(out.current_setpoint_A.col(axis).data()),
+        setpoints(setpoints_all.col(axis).data()) {}
+
+  // Row r is the axis' sample s; the jerk is the backward difference of the accelerations (at rest before row 0).
+  void put(Index r, const AxisSample& s, AxisJob& job, double te) const {
+    position[r] = s.position;
+    velocity[r] = s.velocity;
+    acceleration[r] = s.acceleration;
+    current[r] = s.current_A;
+    current_mean[r] = s.current_mean_A;
+    current_peak[r] = s.current_peak_A;
+    current_setpoint[r] = s.current_setpoint_A;
+    jerk[r] = (s.acceleration - job.prev_acc) / te;
+    job.prev_acc = s.acceleration;
+  }
+};
+
+// One current-loop sample into the full-rate trace at sample `at`.
+void put_inner(FullRateTrace& t, Index at, const InnerSample& q) {
+  t.position[at] = q.position;
+  t.velocity[at] = q.velocity;
+  t.current_A[at] = q.current_A;
+  t.current_setpoint_A[at] = q.current_setpoint_A;
+  t.voltage_V[at] = q.voltage_V;
+}
+
 // One axis from its setpoint column to its response columns. Row k of the response is the axis at t = k*Te, the
 // instant setpoint k is sent: row 0 is the resting state after reset, row k+1 the state after the drive has worked
 // on setpoint k for one Te. Beyond the last setpoint the NC holds it (and its last gains) for the settling rows.
@@ -84,55 +136,22 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
   const Index nin = job.model ? job.model->inner_steps() : 0;
 
   AxisSample& s = job.s;
-  if (!job.started) {
-    if (job.model) {
-      s = job.model->sample();
-    } else {
-      s.position = x0;
-    }
-    job.prev_x = x0, job.prev_v = 0.0, job.prev_acc = 0.0;
-    job.started = true;
-  }
+  start_axis(job, x0);
+  const ResponseColumns cols(out, setpoints, axis);
   for (Index k = k0; k < k1; ++k) {
     if ((k - k0) % kPollRows == 0 && !stop.go()) return;
-    const Index r = k - k0;
-    out.position(r, axis) = s.position;
-    out.velocity(r, axis) = s.velocity;
-    out.acceleration(r, axis) = s.acceleration;
-    out.current_A(r, axis) = s.current_A;
-    out.current_mean_A(r, axis) = s.current_mean_A;
-    out.current_peak_A(r, axis) = s.current_peak_A;
-    out.current_setpoint_A(r, axis) = s.current_setpoint_A;
-    // Jerk: backward difference of the accelerations (at rest before row 0).
-    out.jerk(r, axis) = (s.acceleration - job.prev_acc) / te;
-    job.prev_acc = s.acceleration;
+    cols.put(k - k0, s, job, te);
     if (k + 1 == rows) break;
     const Index ks = k < n_set ? k : n_set - 1;
-    const AxisCommand c = next_command(job, setpoints(ks, axis), ks, te);
+    const AxisCommand c = next_command(job, cols.setpoints[ks], ks, te);
     if (trace) {
       s = job.model->step(c, inner.data());
-      for (Index n = 0; n < nin; ++n) {
-        const InnerSample& q = inner[static_cast<std::size_t>(n)];
-        const Index t = k * nin + n;
-        trace->position[t] = q.position;
-        trace->velocity[t] = q.velocity;
-        trace->current_A[t] = q.current_A;
-        trace->current_setpoint_A[t] = q.current_setpoint_A;
-        trace->voltage_V[t] = q.voltage_V;
-      }
+      for (Index n = 0; n < nin; ++n) put_inner(*trace, k * nin + n, inner[static_cast<std::size_t>(n)]);
     } else {
       s = m.step(c);
     }
   }
-  if (trace && k1 == rows) {  // the last row's instant closes the trace
-    const InnerSample q = job.model->inner_sample();
-    const Index t = (rows - 1) * nin;
-    trace->position[t] = q.position;
-    trace->velocity[t] = q.velocity;
-    trace->current_A[t] = q.current_A;
-    trace->current_setpoint_A[t] = q.current_setpoint_A;
-    trace->voltage_V[t] = q.voltage_V;
-  }
+  if (trace && k1 == rows) put_inner(*trace, (rows - 1) * nin, job.model->inner_sample());  // the last row's instant
 }
 
 // Several cascade axes (a group of CascadeBatch::compatible ones) over rows [k0, k1): the same rows, commands and
@@ -148,47 +167,19 @@ void run_batch(const std::vector<AxisJob*>& group, const std::vector<Index>& axi
   const Index nin = axes.front()->inner_steps();
   AxisCommand commands[CascadeBatch::kMaxLanes];
   AxisSample samples[CascadeBatch::kMaxLanes];
-  for (int l = 0; l < lanes; ++l) {
-    AxisJob& job = *group[static_cast<std::size_t>(l)];
-    if (!job.started) {
-      job.s = job.model->sample();
-      job.prev_x = setpoints(0, axis_of[static_cast<std::size_t>(l)]), job.prev_v = 0.0, job.prev_acc = 0.0;
-      job.started = true;
-    }
-    samples[l] = job.s;
-  }
   // Each lane's output columns and setpoint column, looked up once (the loop stores through them).
-  struct LaneColumns {
-    double *position, *velocity, *acceleration, *jerk, *current, *current_mean, *current_peak, *current_setpoint;
-    const double* setpoints;
-  };
-  LaneColumns cols[CascadeBatch::kMaxLanes];
+  ResponseColumns cols[CascadeBatch::kMaxLanes];
   for (int l = 0; l < lanes; ++l) {
     const Index axis = axis_of[static_cast<std::size_t>(l)];
-    cols[l] = LaneColumns{out.position.col(axis).data(),       out.velocity.col(axis).data(),
-                          out.acceleration.col(axis).data(),   out.jerk.col(axis).data(),
-                          out.current_A.col(axis).data(),      out.current_mean_A.col(axis).data(),
-                          out.current_peak_A.col(axis).data(), out.current_setpoint_A.col(axis).data(),
-                          setpoints.col(axis).data()};
+    AxisJob& job = *group[static_cast<std::size_t>(l)];
+    start_axis(job, setpoints(0, axis));
+    samples[l] = job.s;
+    cols[l] = ResponseColumns(out, setpoints, axis);
   }
   Index k = k0;
   for (; k < k1; ++k) {
     if ((k - k0) % kPollRows == 0 && !stop.go()) break;
-    const Index r = k - k0;
-    for (int l = 0; l < lanes; ++l) {
-      AxisJob& job = *group[static_cast<std::size_t>(l)];
-      const AxisSample& s = samples[l];
-      const LaneColumns& c = cols[l];
-      c.position[r] = s.position;
-      c.velocity[r] = s.velocity;
-      c.acceleration[r] = s.acceleration;
-      c.current[r] = s.current_A;
-      c.current_mean[r] = s.current_mean_A;
-      c.current_peak[r] = s.current_peak_A;
-      c.current_setpoint[r] = s.current_setpoint_A;
-      c.jerk[r] = (s.acceleration - job.prev_acc) / te;
-      job.prev_acc = s.acceleration;
-    }
+    for (int l = 0; l < lanes; ++l) cols[l].put(k - k0, samples[l], *group[static_cast<std::size_t>(l)], te);
     if (k + 1 == rows) break;
     const Index ks = k < n_set ? k : n_set - 1;
     for (int l = 0; l < lanes; ++l)
@@ -198,29 +189,15 @@ void run_batch(const std::vector<AxisJob*>& group, const std::vector<Index>& axi
       for (int l = 0; l < lanes; ++l) {
         FullRateTrace& t = (*traces)[static_cast<std::size_t>(axis_of[static_cast<std::size_t>(l)])];
         const InnerSample* q = batch.trace(l);
-        for (Index n = 0; n < nin; ++n) {
-          const Index at = k * nin + n;
-          t.position[at] = q[n].position;
-          t.velocity[at] = q[n].velocity;
-          t.current_A[at] = q[n].current_A;
-          t.current_setpoint_A[at] = q[n].current_setpoint_A;
-          t.voltage_V[at] = q[n].voltage_V;
-        }
+        for (Index n = 0; n < nin; ++n) put_inner(t, k * nin + n, q[n]);
       }
   }
   batch.store();
   for (int l = 0; l < lanes; ++l) group[static_cast<std::size_t>(l)]->s = samples[l];
   if (traces && k1 == rows && k + 1 == rows)  // the last row's instant closes the trace
-    for (int l = 0; l < lanes; ++l) {
-      const InnerSample q = group[static_cast<std::size_t>(l)]->model->inner_sample();
-      FullRateTrace& t = (*traces)[static_cast<std::size_t>(axis_of[static_cast<std::size_t>(l)])];
-      const Index at = (rows - 1) * nin;
-      t.position[at] = q.position;
-      t.velocity[at] = q.velocity;
-      t.current_A[at] = q.current_A;
-      t.current_setpoint_A[at] = q.current_setpoint_A;
-      t.voltage_V[at] = q.voltage_V;
-    }
+    for (int l = 0; l < lanes; ++l)
+      put_inner((*traces)[static_cast<std::size_t>(axis_of[static_cast<std::size_t>(l)])], (rows - 1) * nin,
+                group[static_cast<std::size_t>(l)]->model->inner_sample());
 }
 
 }  // namespace

@@ -153,10 +153,8 @@ class ChainKinematics final : public Kinematics {
 
   ToolPose forward(const Eigen::VectorXd& q, double tlo) const override {
     require_size(q, n_, "the axis vector");
-    Eigen::Vector3d p = gauge_ - tlo * d_, v = d_;
-    for (auto it = tool_.rbegin(); it != tool_.rend(); ++it) apply(*it, q[it->index], p, v);
-    for (const Joint& j : wp_) apply(j, -q[j.index], p, v);
-    return ToolPose{p - origin_, v};
+    std::vector<Trig> fresh(tool_.size() + wp_.size());
+    return pose_at(q, tlo, fresh.data());
   }
 
   Eigen::VectorXd place_tip(const Eigen::Vector3d& tip, double tlo, const Eigen::VectorXd& axes) const override {
@@ -210,12 +208,9 @@ class ChainKinematics final : public Kinematics {
     const bool axes_wanted = axis.size() > 0;
     std::vector<Trig> trig(tool_.size() + wp_.size());
     for (Eigen::Index k = 0; k < q.rows(); ++k) {
-      Eigen::Vector3d p = gauge_ - tlo[k] * d_, v = d_;
-      std::size_t c = 0;
-      for (auto it = tool_.rbegin(); it != tool_.rend(); ++it) apply(*it, q(k, it->index), p, v, trig[c++]);
-      for (const Joint& j : wp_) apply(j, -q(k, j.index), p, v, trig[c++]);
-      tip.row(k) = (p - origin_).transpose();
-      if (axes_wanted) axis.row(k) = v.transpose();
+      const ToolPose pose = pose_at(q.row(k), tlo[k], trig.data());
+      tip.row(k) = pose.tip_mm.transpose();
+      if (axes_wanted) axis.row(k) = pose.axis.transpose();
     }
   }
 
@@ -402,26 +397,19 @@ class ChainKinematics final : public Kinematics {
   static constexpr double kSingular = 1e-10;
   static constexpr double kAxisSlack = 1e-9;
 
-  // Applies the joint at value q to a point and a direction of the bodies it carries (q = 0 leaves them exactly
-  // as they are, so a chain at zero reproduces the Cartesian machine bit for bit).
-  static void apply(const Joint& j, double q, Eigen::Vector3d& p, Eigen::Vector3d& v) {
-    if (q == 0.0) return;
-    if (!j.rotary) {
-      p += q * j.u;
-      return;
-    }
-    const double c = std::cos(q), s = std::sin(q);
-    p = j.p + rotate(j.u, c, s, p - j.p);
-    v = rotate(j.u, c, s, v);
-  }
-
-  // A rotary joint's cosine and sine at the angle whose bits are `bits` (forward_rows: computed again only when the
-  // angle changes, so the values are those apply() computes).
+  // A rotary joint's cosine and sine at the angle whose bits are `bits` (forward_rows keeps them across rows:
+  // computed again only when the angle changes; a fresh one computes them).
   struct Trig {
     bool valid = false;
     std::uint64_t bits = 0;
     double c = 1, s = 0;
   };
+  // Applies the joint at value q to a point and a direction of the bodies it carries (q = 0 leaves them exactly
+  // as they are, so a chain at zero reproduces the Cartesian machine bit for bit).
+  static void apply(const Joint& j, double q, Eigen::Vector3d& p, Eigen::Vector3d& v) {
+    Trig fresh;
+    apply(j, q, p, v, fresh);
+  }
   static void apply(const Joint& j, double q, Eigen::Vector3d& p, Eigen::Vector3d& v, Trig& trig) {
     if (q == 0.0) return;
     if (!j.rotary) {
@@ -435,6 +423,17 @@ class ChainKinematics final : public Kinematics {
     }
     p = j.p + rotate(j.u, trig.c, trig.s, p - j.p);
     v = rotate(j.u, trig.c, trig.s, v);
+  }
+
+  // The pose at joint values q (q[i] in machine order; a vector or a row), each joint's cosine and sine through
+  // trig[] (tool joints from the tip up, then the workpiece's).
+  template <class Q>
+  ToolPose pose_at(const Q& q, double tlo, Trig* trig) const {
+    Eigen::Vector3d p = gauge_ - tlo * d_, v = d_;
+    std::size_t c = 0;
+    for (auto it = tool_.rbegin(); it != tool_.rend(); ++it) apply(*it, q[it->index], p, v, trig[c++]);
+    for (const Joint& j : wp_) apply(j, -q[j.index], p, v, trig[c++]);
+    return ToolPose{p - origin_, v};
   }
 
   // A rotary joint's rotation at the angle whose bits are `bits`, and the shift p - rot p it gives its point.
@@ -451,16 +450,10 @@ class ChainKinematics final : public Kinematics {
 
   // Composes (r, t) <- (r, t) * exp(joint q).
   static void step(const Joint& j, double q, Eigen::Matrix3d& r, Eigen::Vector3d& t) {
-    if (!j.rotary) {
-      t += r * (q * j.u);
-      return;
-    }
-    Eigen::Matrix3d rot;
-    rotation(j, q, rot);
-    t += r * (j.p - rot * j.p);
-    r = r * rot;
+    Rotation fresh;
+    step(j, q, r, t, fresh);
   }
-  // The same, the rotation computed again only when the angle changes (tip_velocity_rows).
+  // The same, the rotation kept across calls and computed again only when the angle changes (tip_velocity_rows).
   static void step(const Joint& j, double q, Eigen::Matrix3d& r, Eigen::Vector3d& t, Rotation& cache) {
     if (!j.rotary) {
       t += r * (q * j.u);

@@ -119,9 +119,7 @@ void AxisFollowing::add(Eigen::Index k0, const core::Setpoints& sp, const Eigen:
     const double tlo = tlo_(k);
     const Eigen::Vector3d a = kin_->forward(sp.position.row(k).transpose(), tlo).axis;
     const Eigen::Vector3d b = kin_->forward(actual.row(k - k0).transpose(), tlo).axis;
-    const double ang = std::atan2(a.cross(b).norm(), a.dot(b)) * (180 / core::units::kPi);
-    tool_max_ = std::max(tool_max_, ang);
-    tool_ss_ += ang * ang;
+    add_tool_angle(a, b);
   }
 }
 

@@ -75,13 +75,7 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
     kin->tip_velocity_rows(block.position, block.velocity, tlo_rows, tr.tip_velocity_mm_per_s.middleRows(k0, n));
     // The block's tool axis is constant when its rotary axes hold still (bitwise) and every pose's axis is the first's
     // (pose_track_from_axes' test; an empty block counts as constant, as its empty per-row axes did).
-    bool axis_constant = true;
-    for (std::size_t i = 0; axis_constant && i < machine.axes.size(); ++i) {
-      if (machine.axes[i].kind != core::AxisKind::Rotary) continue;
-      const auto c = static_cast<Eigen::Index>(i);
-      axis_constant = (block.position.col(c).array() == block.position(0, c)).all();
-    }
-    for (Eigen::Index k = 1; axis_constant && k < n; ++k) axis_constant = actual_axis.row(k) == actual_axis.row(0);
+    const bool axis_constant = tool_axis_constant(machine, block.position, actual_axis);
     const Eigen::Vector3d block_axis =
         n > 0 ? Eigen::Vector3d(actual_axis.row(0).transpose()) : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
     bool block_constant = axis_constant;

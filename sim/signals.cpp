@@ -133,10 +133,14 @@ void SignalBinner::fold_columns(const std::array<int, N>& cols, Eigen::Index k0,
   }
 }
 
-void SignalBinner::add(Eigen::Index k0, const drives::AxisResponse& resp) {
-  const Eigen::Index m = resp.samples();
+void SignalBinner::check_block(Eigen::Index k0, Eigen::Index m) const {
   if (k0 != next_ || k0 + m > n_)
     throw core::Error(fmt::format("signals: a block of rows [{}, {}) after row {} of {}", k0, k0 + m, next_, n_));
+}
+
+void SignalBinner::add(Eigen::Index k0, const drives::AxisResponse& resp) {
+  const Eigen::Index m = resp.samples();
+  check_block(k0, m);
   // The tips row by row through forward() (the reference the tips add()'s other form takes are checked against), a
   // few thousand rows at a time.
   constexpr Eigen::Index kChunk = 4096;
@@ -158,8 +162,7 @@ void SignalBinner::add(Eigen::Index k0, const drives::AxisResponse& resp,
                        const Eigen::Ref<const Eigen::MatrixXd>& actual_tip_mm,
                        const Eigen::Ref<const Eigen::MatrixXd>& command_tip_mm) {
   const Eigen::Index m = resp.samples();
-  if (k0 != next_ || k0 + m > n_)
-    throw core::Error(fmt::format("signals: a block of rows [{}, {}) after row {} of {}", k0, k0 + m, next_, n_));
+  check_block(k0, m);
   if (actual_tip_mm.rows() != m || actual_tip_mm.cols() != 3 || command_tip_mm.rows() != m ||
       command_tip_mm.cols() != 3)
     throw core::Error(fmt::format("signals: {} x {} actual and {} x {} commanded tips for a block of {} rows",

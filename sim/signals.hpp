@@ -104,6 +104,7 @@ class SignalBinner {
     int first;  // its eleven columns, from the setpoint's
   };
   int column(const std::string& name);
+  void check_block(Eigen::Index k0, Eigen::Index rows) const;  // k0 follows the last block, the rows fit
   template <std::size_t N, class Values>
   void fold_columns(const std::array<int, N>& cols, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1,
                     const Values& values);

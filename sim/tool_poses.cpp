@@ -59,6 +59,17 @@ bool program_turns_tool(const core::ToolPath& program) {
   return false;
 }
 
+bool tool_axis_constant(const core::Machine& machine, const Eigen::MatrixXd& axes, const Eigen::MatrixXd& axis_rows) {
+  bool constant = true;
+  for (std::size_t i = 0; constant && axes.rows() > 0 && i < machine.axes.size(); ++i) {
+    if (machine.axes[i].kind != core::AxisKind::Rotary) continue;
+    const auto c = static_cast<Eigen::Index>(i);
+    constant = (axes.col(c).array() == axes(0, c)).all();
+  }
+  for (Eigen::Index k = 1; constant && k < axis_rows.rows(); ++k) constant = axis_rows.row(k) == axis_rows.row(0);
+  return constant;
+}
+
 removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const core::Machine& machine,
                                         const Eigen::MatrixXd& axes, const Eigen::MatrixXd* velocities, double period_s,
                                         const std::function<double(Eigen::Index)>& tool_length_offset) {
@@ -70,15 +81,7 @@ removal::PoseTrack pose_track_from_axes(const motion::Kinematics& kin, const cor
   Eigen::VectorXd tlo(n);
   for (Eigen::Index k = 0; k < n; ++k) tlo[k] = tool_length_offset(k);
   kin.forward_rows(axes, tlo, tr.tip_mm, ax);
-  // Constant tool axis: the rotary axes never move (bitwise) and the pose's axis is the same everywhere.
-  bool constant = n > 0;
-  for (std::size_t i = 0; constant && i < machine.axes.size(); ++i) {
-    if (machine.axes[i].kind != core::AxisKind::Rotary) continue;
-    const auto c = static_cast<Eigen::Index>(i);
-    constant = (axes.col(c).array() == axes(0, c)).all();
-  }
-  for (Eigen::Index k = 1; constant && k < n; ++k) constant = ax.row(k) == ax.row(0);
-  if (constant) {
+  if (n > 0 && tool_axis_constant(machine, axes, ax)) {
     if (n > 0) tr.axis = ax.row(0).transpose();
   } else {
     tr.axis_per_sample = std::move(ax);

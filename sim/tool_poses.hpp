@@ -17,6 +17,10 @@
 
 namespace vmsim::sim {
 
+// Whether the tool axis holds still over these rows: every rotary axis stays exactly (bitwise) where it starts and
+// every pose's axis (axis_rows: forward()'s axis per row) is the first's. No rows: true.
+bool tool_axis_constant(const core::Machine& machine, const Eigen::MatrixXd& axes, const Eigen::MatrixXd& axis_rows);
+
 // Axis positions every Te (samples x machine axes, mm and rad, machine-file order) to tool poses: row k's tip and
 // axis are kin.forward(axes.row(k), tool_length_offset(k)). With `velocities` (same shape, mm/s and rad/s) the tip
 // velocity is the chain's Jacobian times them (Kinematics::tip_velocity), so the track follows the cubic Hermite curve

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/test_paths.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -21,18 +23,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path test_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  fs::path dir =
-      fs::temp_directory_path() / "vmsim_job_test" / (std::string(info->test_suite_name()) + "." + info->name());
-  fs::create_directories(dir);
-  return dir;
-}
-
+fs::path test_dir() { return vmsim::test::test_scratch_dir("vmsim_job_test"); }
 fs::path write(const std::string& name, const std::string& text) {
-  const fs::path p = test_dir() / name;
-  std::ofstream(p, std::ios::binary) << text;
-  return p;
+  return vmsim::test::write_test_file("vmsim_job_test", name, text);
 }
 
 // A valid machine file; tests replace one line to break it. Line numbers are commented for the assertions.

@@ -15,6 +15,8 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "tests/test_paths.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -35,18 +37,9 @@ using vmsim::core::units::kPi;
 const fs::path kMachines = fs::path(VMSIM_SOURCE_DIR) / "parts" / "machines";
 const fs::path kGcodeData = fs::path(VMSIM_SHARED_DIR) / "data" / "gcode";
 
-fs::path test_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  fs::path dir =
-      fs::temp_directory_path() / "vmsim_kinematics_test" / (std::string(info->test_suite_name()) + "." + info->name());
-  fs::create_directories(dir);
-  return dir;
-}
-
+fs::path test_dir() { return vmsim::test::test_scratch_dir("vmsim_kinematics_test"); }
 fs::path write(const std::string& name, const std::string& text) {
-  const fs::path p = test_dir() / name;
-  std::ofstream(p, std::ios::binary) << text;
-  return p;
+  return vmsim::test::write_test_file("vmsim_kinematics_test", name, text);
 }
 
 double angle(const Vector3d& a, const Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }

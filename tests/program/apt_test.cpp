@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/test_paths.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -20,13 +22,7 @@ namespace fs = std::filesystem;
 
 // Writes `text` to a fresh file named after the running test, so parallel test processes never share one.
 fs::path write_cl(const std::string& text, const std::string& name = "prog.apt") {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  fs::path dir =
-      fs::temp_directory_path() / "vmsim_apt_test" / (std::string(info->test_suite_name()) + "." + info->name());
-  fs::create_directories(dir);
-  fs::path p = dir / name;
-  std::ofstream(p, std::ios::binary) << text;
-  return p;
+  return vmsim::test::write_test_file("vmsim_apt_test", name, text);
 }
 
 // The message of the core::Error that reading `text` throws ("" when it does not throw).

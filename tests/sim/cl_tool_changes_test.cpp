@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/test_paths.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -25,18 +27,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path cltc_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  fs::path dir = fs::temp_directory_path() / "vmsim_cl_tool_changes_test" /
-                 (std::string(info->test_suite_name()) + "." + info->name());
-  fs::create_directories(dir);
-  return dir;
-}
-
 fs::path cltc_write(const std::string& name, const std::string& text) {
-  const fs::path p = cltc_dir() / name;
-  std::ofstream(p, std::ios::binary) << text;
-  return p;
+  return vmsim::test::write_test_file("vmsim_cl_tool_changes_test", name, text);
 }
 
 using vmsim::test::kXyzTestMill;

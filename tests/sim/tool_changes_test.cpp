@@ -15,6 +15,8 @@
 #include "tests/test_machines.hpp"
 
 #include <gtest/gtest.h>
+
+#include "tests/test_paths.hpp"
 #include <omp.h>
 
 #include <cmath>
@@ -28,18 +30,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path test_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  fs::path dir = fs::temp_directory_path() / "vmsim_tool_changes_test" /
-                 (std::string(info->test_suite_name()) + "." + info->name());
-  fs::create_directories(dir);
-  return dir;
-}
-
 fs::path write_tool_job_file(const std::string& name, const std::string& text) {
-  const fs::path p = test_dir() / name;
-  std::ofstream(p, std::ios::binary) << text;
-  return p;
+  return vmsim::test::write_test_file("vmsim_tool_changes_test", name, text);
 }
 
 using vmsim::test::kXyzTestMill;

@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/test_paths.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -23,17 +25,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tmap_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  fs::path dir = fs::temp_directory_path() / "vmsim_tool_map_test" / info->name();
-  fs::create_directories(dir);
-  return dir;
-}
-
 fs::path tmap_write(const std::string& name, const std::string& text) {
-  const fs::path p = tmap_dir() / name;
-  std::ofstream(p, std::ios::binary) << text;
-  return p;
+  return vmsim::test::write_test_file("vmsim_tool_map_test", name, text);
 }
 
 using vmsim::test::kXyzTestMill;
