@@ -153,8 +153,8 @@ class ChainKinematics final : public Kinematics {
 
   ToolPose forward(const Eigen::VectorXd& q, double tlo) const override {
     require_size(q, n_, "the axis vector");
-    std::vector<Trig> fresh(tool_.size() + wp_.size());
-    return pose_at(q, tlo, fresh.data());
+    Trig fresh[6];  // one per joint: at most six (each of X Y Z A B C once, core/machine.cpp; as tip_velocity's)
+    return pose_at(q, tlo, fresh);
   }
 
   Eigen::VectorXd place_tip(const Eigen::Vector3d& tip, double tlo, const Eigen::VectorXd& axes) const override {
