@@ -3,6 +3,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 namespace vmsim::render {
@@ -21,10 +22,28 @@ struct Image {
   }
 };
 
-// Written through VTK's PNG writer to a temporary name, then renamed (DESIGN: no half-written outputs). zlib level 3
-// by default: on vmsim's pictures as cheap as level 1 and 6 % smaller; VTK's own 5 costs ~50 % more CPU for 11 %
-// fewer bytes (bench/README.md "Pictures' CPU"). Throws core::Error for a level outside 0..9.
-void write_png(const std::filesystem::path& file, const Image& image, int zlib_level = 3);
+// PNG row filters (libpng's): each row is stored as its difference from a prediction before zlib sees it.
+enum class PngFilter {
+  None,      // the bytes as they are
+  Sub,       // minus the pixel to the left
+  Up,        // minus the pixel above
+  Paeth,     // minus the best of left, above, upper-left
+  Adaptive,  // libpng's choice per row among all five: the smallest files, ~4x the filtering CPU
+};
+
+struct PngEncoding {
+  int zlib_level = 3;
+  PngFilter filter = PngFilter::Up;
+  bool rle = false;  // zlib's run-length strategy (matches at distance 1 only): cheaper, larger
+};
+
+// The PNG file's bytes (8-bit RGB, no interlacing). The default encoding is what vmsim writes its pictures with
+// (bench/README.md "Pictures' CPU"). Throws core::Error for a level outside 0..9 or an incomplete image.
+std::string encode_png(const Image& image, const PngEncoding& encoding = {});
+// encode_png's bytes written through core::write_file_atomic (no half-written file). Throws core::Error naming the
+// file.
+void write_png(const std::filesystem::path& file, const Image& image, const PngEncoding& encoding);
+void write_png(const std::filesystem::path& file, const Image& image, int zlib_level = PngEncoding{}.zlib_level);
 // For tests and tools that check a written picture. Throws core::Error naming the file.
 Image read_png(const std::filesystem::path& file);
 

@@ -14,13 +14,10 @@
 #include <EGL/eglext.h>
 
 #include <vtkGenericOpenGLRenderWindow.h>
-#include <vtkImageData.h>
 #include <vtkLogger.h>
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkOutputWindow.h>
-#include <vtkPNGReader.h>
-#include <vtkPNGWriter.h>
 #include <vtkPointData.h>
 #include <vtkRenderer.h>
 #include <vtkRendererCollection.h>
@@ -29,8 +26,6 @@
 #include <vtkUnsignedCharArray.h>
 
 #include <fmt/format.h>
-
-#include <unistd.h>
 
 #include <cstdio>
 #include <cstring>
@@ -436,70 +431,5 @@ std::vector<std::string> VtkMessages::warnings() const {
 }
 
 }  // namespace detail
-
-// ---- PNG ---------------------------------------------------------------------------------------------------------
-
-void write_png(const std::filesystem::path& file, const Image& image, int zlib_level) {
-  if (zlib_level < 0 || zlib_level > 9)
-    throw core::Error(fmt::format("{}: PNG compression level {} is not in 0..9", file.string(), zlib_level));
-  if (image.width <= 0 || image.height <= 0 ||
-      image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3)
-    throw core::Error(file.string() + ": not a complete RGB image");
-  vtkNew<vtkImageData> data;
-  data->SetDimensions(image.width, image.height, 1);
-  data->AllocateScalars(VTK_UNSIGNED_CHAR, 3);
-  auto* dst = static_cast<std::uint8_t*>(data->GetScalarPointer());
-  const std::size_t row = static_cast<std::size_t>(image.width) * 3;
-  for (int y = 0; y < image.height; ++y)  // VTK images run bottom-up, like GL
-    std::memcpy(dst + static_cast<std::size_t>(image.height - 1 - y) * row, image.rgb.data() + y * row, row);
-  std::filesystem::path tmp = file;
-  tmp += ".tmp" + std::to_string(::getpid());
-  detail::VtkMessages messages;
-  vtkNew<vtkPNGWriter> w;
-  w->SetFileName(tmp.string().c_str());
-  w->SetInputData(data);
-  w->SetCompressionLevel(zlib_level);
-  w->Write();
-  std::error_code ec;
-  if (w->GetErrorCode() != 0 || !std::filesystem::exists(tmp, ec)) {
-    std::filesystem::remove(tmp, ec);
-    throw core::Error(file.string() + ": cannot write the PNG file (check the directory exists and is writable)");
-  }
-  messages.check(file.string() + ": cannot write the PNG file");
-  std::filesystem::rename(tmp, file, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw core::Error(file.string() + ": cannot move the finished file into place: " + ec.message());
-  }
-}
-
-Image read_png(const std::filesystem::path& file) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) throw core::Error(file.string() + ": cannot open file");
-  detail::VtkMessages messages;
-  vtkNew<vtkPNGReader> r;
-  if (!r->CanReadFile(file.string().c_str())) throw core::Error(file.string() + ": not a PNG file");
-  r->SetFileName(file.string().c_str());
-  r->Update();
-  messages.check(file.string() + ": cannot read the PNG file");
-  vtkImageData* data = r->GetOutput();
-  int dims[3];
-  data->GetDimensions(dims);
-  const int nc = data->GetNumberOfScalarComponents();
-  if (data->GetScalarType() != VTK_UNSIGNED_CHAR || nc < 1 || nc > 4)
-    throw core::Error(file.string() + ": not an 8-bit PNG file");
-  Image img;
-  img.width = dims[0];
-  img.height = dims[1];
-  img.rgb.resize(static_cast<std::size_t>(img.width) * img.height * 3);
-  const auto* src = static_cast<const std::uint8_t*>(data->GetScalarPointer());
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x) {
-      const std::uint8_t* p = src + (static_cast<std::size_t>(img.height - 1 - y) * img.width + x) * nc;
-      std::uint8_t* q = img.rgb.data() + (static_cast<std::size_t>(y) * img.width + x) * 3;
-      for (int c = 0; c < 3; ++c) q[c] = nc >= 3 ? p[c] : p[0];
-    }
-  return img;
-}
 
 }  // namespace vmsim::render
