@@ -7,6 +7,7 @@
 #include "core/error.hpp"
 #include "render/colormap.hpp"
 #include "render/detail.hpp"
+#include "render/isolines.hpp"
 
 #include <vtkActor.h>
 #include <vtkActor2D.h>
@@ -55,6 +56,10 @@ struct Geometry {
   double bounds[6] = {0, 0, 0, 0, 0, 0};  // drawn (exaggerated) coordinates
   std::vector<double> deviation_um;       // the coloured values, for the limits
   double z_base_mm = 0, exaggeration = 1;
+  // Height grids coloured by deviation: the drawn nodes as a rectilinear grid (row-major, j * nx + i), for the
+  // iso-lines; NaN where a node is not drawn or has no deviation.
+  std::vector<double> node_x_mm, node_y_mm;
+  std::vector<float> node_deviation_um, node_z_mm;
 };
 
 void check_view(const View& v, const char* what) {
@@ -218,6 +223,20 @@ Geometry grid_geometry(const core::HeightGrid& s, const core::HeightGrid* dev, c
     }
   pts->SetNumberOfPoints(n);
   normals->SetNumberOfTuples(n);
+  if (coloured) {
+    for (Eigen::Index i : xs) g.node_x_mm.push_back(s.x(i));
+    for (Eigen::Index j : ys) g.node_y_mm.push_back(s.y(j));
+    constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+    g.node_deviation_um.assign(static_cast<std::size_t>(nx * ny), kNaNf);
+    g.node_z_mm.assign(static_cast<std::size_t>(nx * ny), kNaNf);
+    for (Eigen::Index jj = 0; jj < ny; ++jj)
+      for (Eigen::Index ii = 0; ii < nx; ++ii) {
+        const std::int32_t k = id[static_cast<std::size_t>(jj * nx + ii)];
+        if (k < 0) continue;
+        g.node_deviation_um[static_cast<std::size_t>(jj * nx + ii)] = scalars->GetValue(k);
+        g.node_z_mm[static_cast<std::size_t>(jj * nx + ii)] = static_cast<float>(pts->GetPoint(k)[2]);
+      }
+  }
   if (coloured) scalars->SetNumberOfValues(n);
   if (categories) rgb->SetNumberOfTuples(n);
 
@@ -509,6 +528,26 @@ vtkSmartPointer<vtkLookupTable> deviation_table(double limit_um) {
   return lut;
 }
 
+// Iso-lines as VTK lines.
+vtkSmartPointer<vtkPolyData> isoline_polydata(const IsoLines& lines) {
+  vtkNew<vtkPoints> p;
+  p->SetDataTypeToFloat();
+  p->SetNumberOfPoints(lines.points_mm.rows());
+  for (Eigen::Index k = 0; k < lines.points_mm.rows(); ++k)
+    p->SetPoint(k, lines.points_mm(k, 0), lines.points_mm(k, 1), lines.points_mm(k, 2));
+  std::vector<std::int32_t> offsets{0}, conn;
+  conn.reserve(2 * lines.segments.size());
+  offsets.reserve(lines.segments.size() + 1);
+  for (const auto& s : lines.segments) {
+    conn.insert(conn.end(), {s[0], s[1]});
+    offsets.push_back(static_cast<std::int32_t>(conn.size()));
+  }
+  auto pd = vtkSmartPointer<vtkPolyData>::New();
+  pd->SetPoints(p);
+  pd->SetLines(cells_of(offsets, conn));
+  return pd;
+}
+
 // Iso-deviation values: multiples of step on each side of zero, within the limits.
 std::vector<double> iso_values(double limit_um, int n) {
   std::vector<double> v;
@@ -646,12 +685,18 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   vtkNew<vtkActor> isolines;
   if (coloured && pic.deviation->isolines > 0) {
     const std::vector<double> values = iso_values(out.limit_mm * 1e3, pic.deviation->isolines);
-    iso->SetInputData(g.surface);
-    iso->SetNumberOfContours(static_cast<int>(values.size()));
-    for (std::size_t k = 0; k < values.size(); ++k) iso->SetValue(static_cast<int>(k), values[k]);
-    iso->ComputeScalarsOff();
-    iso->ComputeNormalsOff();
-    im->SetInputConnection(iso->GetOutputPort());
+    if (!g.node_deviation_um.empty()) {
+      // A grid: marching squares over its nodes (render/isolines.hpp), the same crossings on every grid edge.
+      im->SetInputData(
+          isoline_polydata(grid_isolines(g.node_x_mm, g.node_y_mm, g.node_deviation_um, g.node_z_mm, values)));
+    } else {
+      iso->SetInputData(g.surface);
+      iso->SetNumberOfContours(static_cast<int>(values.size()));
+      for (std::size_t k = 0; k < values.size(); ++k) iso->SetValue(static_cast<int>(k), values[k]);
+      iso->ComputeScalarsOff();
+      iso->ComputeNormalsOff();
+      im->SetInputConnection(iso->GetOutputPort());
+    }
     im->ScalarVisibilityOff();
     // Drawn over the coincident surface.
     im->SetResolveCoincidentTopologyToPolygonOffset();
