@@ -7,7 +7,7 @@
 // Each iteration: VTK polydata from the vmsim value type (and normals), render, read the pixels back, encode and
 // write the PNG (to $TMPDIR). One window for all iterations, as vmsim run and render draw all their pictures in one;
 // BM_FirstPicture makes a new window (EGL context, shader compilation) every time.
-// Counters: triangles per second; the time of the PNG step alone is BM_WritePng. cpu_ms_per_picture is the CPU of
+// Counters: triangles per second; the time of the PNG step alone is BM_EncodePng. cpu_ms_per_picture is the CPU of
 // the whole process (llvmpipe's render threads included; the benchmark's own CPU column counts the calling thread).
 // Antialiasing (last argument of BM_GridToPng and BM_ChartToPng): 0 none, 1 FXAA, 2 4x MSAA. Figures: bench/README.md.
 #include "render/chart.hpp"
@@ -158,15 +158,50 @@ BENCHMARK(BM_GridToPng)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-void BM_WritePng(benchmark::State& state) {
-  const render::PartImage img =
-      render::render_part(window(), grid(), nullptr, picture(false, render::ViewDirection::Isometric));
-  const int level = static_cast<int>(state.range(0));
-  for (auto _ : state) render::write_png(png, img.image, level);
-  state.counters["bytes"] = static_cast<double>(std::filesystem::file_size(png));
-  state.SetLabel("zlib level " + std::to_string(level));
+const char* filter_name(std::int64_t f) {
+  static const char* names[] = {"none", "sub", "up", "paeth", "adaptive"};
+  return names[f];
 }
-BENCHMARK(BM_WritePng)->Arg(1)->Arg(3)->Arg(5)->Arg(9)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// PNG encoding alone (calling thread's CPU = all of it), by picture, row filter, zlib level and strategy.
+// Pictures: 0 the isometric part (plain metal, FXAA), 1 the top map (deviation colours, iso-lines), 2 three charts.
+void BM_EncodePng(benchmark::State& state) {
+  static const render::Image part =
+      render::render_part(window(), grid(), nullptr, picture(false, render::ViewDirection::Isometric)).image;
+  static const render::Image map =
+      render::render_part(window(), grid(), &deviation(), picture(true, render::ViewDirection::Top)).image;
+  static const render::Image chart = [] {
+    render::ChartPicture p;
+    p.width = 1600, p.height = 1200;
+    for (int c = 0; c < 3; ++c) {
+      render::Chart ch;
+      ch.x_title = "t [s]";
+      ch.y_title = "v [mm/s]";
+      ch.series.push_back(render::make_series("setpoint", Eigen::ArrayXd::LinSpaced(20000, 0, 100),
+                                              (Eigen::ArrayXd::LinSpaced(20000, 0, 100) * (c + 1)).sin() * 100, 0));
+      ch.levels.push_back({"limit", 120});
+      p.charts.push_back(ch);
+    }
+    return render::render_charts(window(), p).image;
+  }();
+  const render::Image* images[] = {&part, &map, &chart};
+  const render::Image& img = *images[state.range(0)];
+  render::PngEncoding enc;
+  enc.filter = static_cast<render::PngFilter>(state.range(1));
+  enc.zlib_level = static_cast<int>(state.range(2));
+  enc.rle = state.range(3) != 0;
+  std::size_t bytes = 0;
+  for (auto _ : state) bytes = render::encode_png(img, enc).size();
+  state.counters["bytes"] = static_cast<double>(bytes);
+  static const char* kinds[] = {"part", "map", "chart"};
+  state.SetLabel(std::string(kinds[state.range(0)]) + ", filter " + filter_name(state.range(1)) + ", zlib " +
+                 std::to_string(enc.zlib_level) + (enc.rle ? " RLE" : ""));
+}
+BENCHMARK(BM_EncodePng)
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2, 4}, {1, 3}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2}, {1}, {1}})
+    ->ArgsProduct({{0, 1, 2}, {4}, {5}, {0}})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_ChartToPng(benchmark::State& state) {
   render::ChartPicture p;
