@@ -38,7 +38,7 @@ struct PngEncoding {
 };
 
 // The PNG file's bytes (8-bit RGB, no interlacing). The default encoding is what vmsim writes its pictures with
-// (bench/README.md "Pictures' CPU"). Throws core::Error for a level outside 0..9 or an incomplete image.
+// (bench/README.md "Pictures' CPU, round 2"). Throws core::Error for a level outside 0..9 or an incomplete image.
 std::string encode_png(const Image& image, const PngEncoding& encoding = {});
 // encode_png's bytes written through core::write_file_atomic (no half-written file). Throws core::Error naming the
 // file.

@@ -1,7 +1,7 @@
 // report.html from crafted reports: what a page must never do (let a job name or a message become markup, link a
 // picture that is not a PNG, hide a key of the report) and what it must say. References: the HTML specification's
 // character references for text and attribute values (& < > " '), RFC 3986 percent-encoding for the links, the PNG
-// specification's IHDR chunk for the pictures' sizes (the files here are written by VTK's PNG writer). Whole pages
+// specification's IHDR chunk for the pictures' sizes (the files here are written by render::write_png). Whole pages
 // of real runs are validated and opened in Chromium by the app tests (tests/app/check_report_html.py,
 // report_html_browser_test.py).
 #include "render/report_html.hpp"
