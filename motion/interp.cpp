@@ -428,6 +428,10 @@ Sampled sample_and_filter(const std::vector<double>& s, const std::vector<double
   const std::size_t count = static_cast<std::size_t>(std::ceil(total / te - 1e-9)) + 1;
   out.s_raw.resize(count);
   std::size_t j = 0;
+  // Interval j's start, speed and acceleration, computed when the samples enter it (the same expressions as per
+  // sample before: a square root and a division per interval, not per sample).
+  std::size_t j_done = static_cast<std::size_t>(-1);
+  double start = 0.0, v0 = 0.0, acc_j = 0.0;
   for (std::size_t k = 0; k < count; ++k) {
     const double tk = k * te;
     while (j + 1 < n - 1 && t[j + 1] <= tk) ++j;
@@ -436,11 +440,15 @@ Sampled sample_and_filter(const std::vector<double>& s, const std::vector<double
       sk = length;
     } else {
       // Interval j: starts at t[j] (+ dwell when node j is an interior stop), constant acceleration.
-      const double start = t[j] + ((j > 0 && stop[j]) ? dwell_s : 0.0);
+      if (j != j_done) {
+        j_done = j;
+        start = t[j] + ((j > 0 && stop[j]) ? dwell_s : 0.0);
+        v0 = std::sqrt(q[j]);
+        const double h = s[j + 1] - s[j];
+        acc_j = h > 0 ? (q[j + 1] - q[j]) / (2 * h) : 0.0;
+      }
       const double tau = std::max(0.0, tk - start);
-      const double v0 = std::sqrt(q[j]), h = s[j + 1] - s[j];
-      const double acc = h > 0 ? (q[j + 1] - q[j]) / (2 * h) : 0.0;
-      sk = std::min(s[j] + v0 * tau + 0.5 * acc * tau * tau, s[j + 1]);
+      sk = std::min(s[j] + v0 * tau + 0.5 * acc_j * tau * tau, s[j + 1]);
     }
     out.s_raw[k] = sk;
   }

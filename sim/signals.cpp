@@ -56,7 +56,10 @@ SignalBinner::SignalBinner(const core::Job& job, const core::ToolPath& program, 
   for (std::size_t a = 0; a < machine.axes.size(); ++a) {
     const core::MachineAxis& ax = machine.axes[a];
     const auto ai = static_cast<Eigen::Index>(a);
-    const bool moves = sp.position.col(ai).maxCoeff() - sp.position.col(ai).minCoeff() > 1e-9;
+    // The column's range in one pass (it is read from memory once, not twice: 3.7 M rows on flower_mold).
+    double lo = sp.position(0, ai), hi = lo;
+    for (const double x : sp.position.col(ai)) lo = std::min(lo, x), hi = std::max(hi, x);
+    const bool moves = hi - lo > 1e-9;
     if (!moves) {
       out_.held_axes.push_back(ax.name);
       continue;
