@@ -78,6 +78,7 @@ void check_input(const Eigen::MatrixXd& m, const char* what) {
   if (m.cols() != 3)
     throw core::Error(std::string("contour_error: the ") + what + " has " + std::to_string(m.cols()) +
                       " columns; expected 3 (x y z in mm)");
+  if (m.allFinite()) return;  // one contiguous pass; the search below names the first bad value
   for (Eigen::Index k = 0; k < m.rows(); ++k)
     for (int j = 0; j < 3; ++j)
       if (!std::isfinite(m(k, j)))
