@@ -173,6 +173,18 @@ Error CsvReader::error(const std::string& message, int line) const {
   return Error(located(name_, line > 0 ? line : line_, message));
 }
 
+void append_general(std::string& out, double v, int precision) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, precision);
+  out.append(buf, r.ptr);
+}
+
+void append_shortest(std::string& out, double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+
 void CsvWriter::comment(std::string_view text) {
   auto& s = out_.stream();
   s << "# " << text << '\n';

@@ -78,6 +78,7 @@ void check_input(const Eigen::MatrixXd& m, const char* what) {
   if (m.cols() != 3)
     throw core::Error(std::string("contour_error: the ") + what + " has " + std::to_string(m.cols()) +
                       " columns; expected 3 (x y z in mm)");
+  if (m.allFinite()) return;  // one contiguous pass; the search below names the first bad value
   for (Eigen::Index k = 0; k < m.rows(); ++k)
     for (int j = 0; j < 3; ++j)
       if (!std::isfinite(m(k, j)))
@@ -110,8 +111,10 @@ DistinctPath merge_repeats(const Eigen::MatrixXd& c) {
   return path;
 }
 
-// The unit turn of the tangent at interior point q, when it is measurable (false: straight there).
-bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d& n) {
+// The unit turn of the tangent at interior point q, when it is measurable (false: straight there); without n, only
+// whether it is (principal_normals asks that of every point and keeps no normal: three divisions fewer each).
+template <bool kWithNormal = true>
+bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d* n) {
   const double* a = &path.p[3 * (q - 1)];
   const double* b = &path.p[3 * q];
   const double* c = &path.p[3 * (q + 1)];
@@ -120,7 +123,7 @@ bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d& n) {
                      (c[2] - b[2]) / l2 - (b[2] - a[2]) / l1);
   const double turn = dt.norm();
   if (!(turn > std::max(1e-12, path.noise / std::min(l1, l2)))) return false;
-  n = dt / turn;
+  if constexpr (kWithNormal) *n = dt / turn;
   return true;
 }
 
@@ -137,9 +140,8 @@ void principal_normals(DistinctPath& path) {
   // Rounding of coordinates of magnitude `scale` perturbs a unit tangent over a step h by ~eps * scale / h.
   path.noise = 64.0 * std::numeric_limits<double>::epsilon() * scale;
   int first_defined = -1, carry = -1;
-  Eigen::Vector3d n;
   for (Eigen::Index q = 1; q + 1 < q_n; ++q) {
-    if (turn_at(path, q, n)) {
+    if (turn_at<false>(path, q, nullptr)) {
       carry = static_cast<int>(q);
       if (first_defined < 0) first_defined = carry;
     }
@@ -154,7 +156,7 @@ void principal_normals(DistinctPath& path) {
 Eigen::Vector3d normal_at(const DistinctPath& path, Eigen::Index q) {
   const int from = path.n_from[static_cast<std::size_t>(q)];
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
-  if (from >= 0) turn_at(path, from, n);
+  if (from >= 0) turn_at(path, from, &n);
   return n;
 }
 

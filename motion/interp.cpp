@@ -428,6 +428,10 @@ Sampled sample_and_filter(const std::vector<double>& s, const std::vector<double
   const std::size_t count = static_cast<std::size_t>(std::ceil(total / te - 1e-9)) + 1;
   out.s_raw.resize(count);
   std::size_t j = 0;
+  // Interval j's start, speed and acceleration, computed when the samples enter it (the same expressions as per
+  // sample before: a square root and a division per interval, not per sample).
+  std::size_t j_done = static_cast<std::size_t>(-1);
+  double start = 0.0, v0 = 0.0, acc_j = 0.0;
   for (std::size_t k = 0; k < count; ++k) {
     const double tk = k * te;
     while (j + 1 < n - 1 && t[j + 1] <= tk) ++j;
@@ -436,11 +440,15 @@ Sampled sample_and_filter(const std::vector<double>& s, const std::vector<double
       sk = length;
     } else {
       // Interval j: starts at t[j] (+ dwell when node j is an interior stop), constant acceleration.
-      const double start = t[j] + ((j > 0 && stop[j]) ? dwell_s : 0.0);
+      if (j != j_done) {
+        j_done = j;
+        start = t[j] + ((j > 0 && stop[j]) ? dwell_s : 0.0);
+        v0 = std::sqrt(q[j]);
+        const double h = s[j + 1] - s[j];
+        acc_j = h > 0 ? (q[j + 1] - q[j]) / (2 * h) : 0.0;
+      }
       const double tau = std::max(0.0, tk - start);
-      const double v0 = std::sqrt(q[j]), h = s[j + 1] - s[j];
-      const double acc = h > 0 ? (q[j + 1] - q[j]) / (2 * h) : 0.0;
-      sk = std::min(s[j] + v0 * tau + 0.5 * acc * tau * tau, s[j + 1]);
+      sk = std::min(s[j] + v0 * tau + 0.5 * acc_j * tau * tau, s[j + 1]);
     }
     out.s_raw[k] = sk;
   }
@@ -512,47 +520,92 @@ struct SetpointWriter {
     out.path_length_mm.resize(n);
     out.path_speed_mm_per_s.resize(n);
     out.move_index.resize(n);
-    Eigen::MatrixXd ring(4, 6);  // path-space rows k-3..k, row k at k % 4
+    // The path-space rows k-3..k as four rows x[0] (row k) .. x[3] (row k-3), rows before the first being the first
+    // and rows after the last the last (the axes at rest outside the motion).
+    double x[4][6];
     std::array<std::vector<Violation>, 6> per_axis;
-    auto at = [&](Eigen::Index k, int i) { return ring(std::clamp<Eigen::Index>(k, 0, n - 1) % 4, i); };
+    // Each axis' limits as the check compares them, and a cheaper bound that decides most samples without the three
+    // divisions: with the reciprocals rounded, |d| * (1 / te) stays within 3 ulp of the quotient |d| / te, so a
+    // product below the threshold by the relative margin kSure gives the same verdict as the quotient; the others go
+    // through the divisions as before (issue 21: the divisions were most of this check's time).
+    constexpr double kSlack = 1 + 1e-9;  // round-off in the differences is ~1e-12 relative; 1e-9 keeps it from repairs
+    constexpr double kSure = 1 - 1e-14;
+    const double inv_te = 1 / te, inv_te2 = 1 / (te * te), inv_te3 = 1 / (te * te * te);
+    double tv[6], ta[6], tj[6], sv[6], sa[6], sj[6];
+    bool checked[6];
+    for (int i = 0; i < 6; ++i) {
+      checked[i] = std::isfinite(lim.v[i]);
+      tv[i] = lim.v[i] * kSlack, ta[i] = lim.a[i] * kSlack, tj[i] = lim.j[i] * kSlack;
+      sv[i] = tv[i] * kSure, sa[i] = ta[i] * kSure, sj[i] = tj[i] * kSure;
+    }
     // The differences ending at sample k (k up to n + 2: the axes come to rest after the last sample).
     auto check = [&](Eigen::Index k) {
       for (int i = 0; i < 6; ++i) {
-        if (!std::isfinite(lim.v[i]) || per_axis[i].size() >= max_report) continue;
-        const double x0 = at(k, i), x1 = at(k - 1, i), x2 = at(k - 2, i), x3 = at(k - 3, i);
-        const double v = (x0 - x1) / te;
-        const double a = (x0 - 2 * x1 + x2) / (te * te);
-        const double j = (x0 - 3 * x1 + 3 * x2 - x3) / (te * te * te);
-        // Round-off in the differences is ~1e-12 relative; 1e-9 keeps it from triggering repairs.
-        constexpr double kSlack = 1 + 1e-9;
-        if (std::abs(v) > lim.v[i] * kSlack)
+        if (!checked[i] || per_axis[i].size() >= max_report) continue;
+        const double x0 = x[0][i], x1 = x[1][i], x2 = x[2][i], x3 = x[3][i];
+        const double d1 = x0 - x1, d2 = x0 - 2 * x1 + x2, d3 = x0 - 3 * x1 + 3 * x2 - x3;
+        if (std::abs(d1) * inv_te <= sv[i] && std::abs(d2) * inv_te2 <= sa[i] && std::abs(d3) * inv_te3 <= sj[i])
+          continue;
+        const double v = d1 / te;
+        const double a = d2 / (te * te);
+        const double j = d3 / (te * te * te);
+        if (std::abs(v) > tv[i])
           per_axis[i].push_back({k, i, 1, v, lim.v[i]});
-        else if (std::abs(a) > lim.a[i] * kSlack)
+        else if (std::abs(a) > ta[i])
           per_axis[i].push_back({k, i, 2, a, lim.a[i]});
-        else if (std::abs(j) > lim.j[i] * kSlack)
+        else if (std::abs(j) > tj[i])
           per_axis[i].push_back({k, i, 3, j, lim.j[i]});
       }
     };
+    auto shift_in = [&x](const double* row) {
+      for (int i = 0; i < 6; ++i) {
+        x[3][i] = x[2][i];
+        x[2][i] = x[1][i];
+        x[1][i] = x[0][i];
+        x[0][i] = row[i];
+      }
+    };
+    // Each machine axis' path-space column and unit factor.
+    std::array<int, 6> axis_column{};
+    std::array<double, 6> axis_factor{};
+    for (Eigen::Index a = 0; a < axes; ++a) {
+      const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(a)];
+      axis_column[static_cast<std::size_t>(a)] = ax.program_axis;
+      axis_factor[static_cast<std::size_t>(a)] = ax.kind == core::AxisKind::Rotary ? core::units::kDegToRad : 1.0;
+    }
     SmoothPath::Cursor cursor;
     for (Eigen::Index k = 0; k < n; ++k) {
       const double sk = s[static_cast<std::size_t>(k)];
-      const Eigen::Index r = k % 4;
-      ring.row(r) = sp.point(sk, cursor).transpose();
+      core::Vec6 p = sp.point(sk, cursor);
       const PathPiece& pc = sp.pieces[sp.piece_at(sk, cursor.piece)];
       out.move_index[k] = (pc.move_index == pc.move_index_next || sk < pc.s_begin + 0.5 * pc.length)
                               ? pc.move_index
                               : pc.move_index_next;
-      if (k == n - 1) ring.row(r) = sp.end.transpose();
-      for (Eigen::Index a = 0; a < axes; ++a) {
-        const core::MachineAxis& ax = machine.axes[static_cast<std::size_t>(a)];
-        out.position(k, a) =
-            ring(r, ax.program_axis) * (ax.kind == core::AxisKind::Rotary ? core::units::kDegToRad : 1.0);
+      if (k == n - 1) p = sp.end;
+      if (k == 0) {
+        for (int h = 0; h < 3; ++h) shift_in(p.data());
       }
+      shift_in(p.data());
+      for (Eigen::Index a = 0; a < axes; ++a)
+        out.position(k, a) = p[axis_column[static_cast<std::size_t>(a)]] * axis_factor[static_cast<std::size_t>(a)];
       out.path_length_mm[k] = sk;
-      out.path_speed_mm_per_s[k] = k == 0 ? 0.0 : (ring.row(r).head<3>() - ring.row((k - 1) % 4).head<3>()).norm() / te;
+      if (k == 0) {
+        out.path_speed_mm_per_s[k] = 0.0;
+      } else {
+        // Summed as Eigen's norm() of the three differences did (x^2 + (y^2 + z^2)), bit for bit.
+        const double dx = x[0][0] - x[1][0], dy = x[0][1] - x[1][1], dz = x[0][2] - x[1][2];
+        out.path_speed_mm_per_s[k] = std::sqrt(dx * dx + (dy * dy + dz * dz)) / te;
+      }
       if (k >= 1) check(k);
     }
-    for (Eigen::Index k = std::max<Eigen::Index>(n, 1); k < n + 3; ++k) check(k);
+    if (n >= 1) {
+      double last[6];
+      for (int i = 0; i < 6; ++i) last[i] = x[0][i];
+      for (Eigen::Index k = n; k < n + 3; ++k) {
+        shift_in(last);
+        check(k);
+      }
+    }
     // The motion starts and ends exactly at the program's points, without a round trip through path space.
     for (Eigen::Index a = 0; a < axes; ++a) {
       const int pa = machine.axes[static_cast<std::size_t>(a)].program_axis;

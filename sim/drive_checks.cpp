@@ -70,13 +70,14 @@ DriveChecksAfter::DriveChecksAfter(const core::Machine& machine, const core::Set
     }
     const drives::DriveStability d = drives::drive_stability(p, te);
     // The setpoints' velocity and acceleration (backward differences, as the feedforward takes them).
-    double v_max = 0, a_max = 0;
+    // The largest differences first, divided once: rounding is monotone, so max(|d| / te) is max(|d|) / te exactly.
+    double d1_max = 0, d2_max = 0;
+    const double* px = sp.position.col(a).data();
     for (Eigen::Index k = 1; k < ns; ++k) {
-      v_max = std::max(v_max, std::abs(sp.position(k, a) - sp.position(k - 1, a)) / te);
-      if (k >= 2)
-        a_max = std::max(a_max,
-                         std::abs(sp.position(k, a) - 2 * sp.position(k - 1, a) + sp.position(k - 2, a)) / (te * te));
+      d1_max = std::max(d1_max, std::abs(px[k] - px[k - 1]));
+      if (k >= 2) d2_max = std::max(d2_max, std::abs(px[k] - 2 * px[k - 1] + px[k - 2]));
     }
+    const double v_max = d1_max / te, a_max = d2_max / (te * te);
     // The floor covers what the linear model leaves out and a careful drive still shows: Coulomb friction at
     // reversals, gravity, the current loop's voltage limit (a few um on the parts' machines).
     const double floor = ax.kind == core::AxisKind::Rotary ? 1e-4 : 0.01;
