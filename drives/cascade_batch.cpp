@@ -284,6 +284,12 @@ void cb_flush_state(const CascadePack& P, CascadeLane* lanes, const int* active,
   }
 }
 
+// d / te for te > 0, without the division when d is +0 (an axis at rest: its setpoint, speed or acceleration
+// repeats), where the quotient is +0 exactly.
+[[gnu::always_inline]] inline double cb_over_te(double d, double te) {
+  return std::bit_cast<std::uint64_t>(d) == 0 ? 0.0 : d / te;
+}
+
 // A lane's position loop as CascadeAxis::advance runs it: the axis' own delay lines (by address) and gains.
 struct CbNcLane {
   double *pos_line, *vel_line, *acc_line;
@@ -319,7 +325,7 @@ struct CbRows {
     R.out[0][r] = s.position;
     R.out[1][r] = s.velocity;
     R.out[2][r] = s.acceleration;
-    R.out[3][r] = (s.acceleration - R.prev_acc) / te;
+    R.out[3][r] = cb_over_te(s.acceleration - R.prev_acc, te);
     R.prev_acc = s.acceleration;
     R.out[4][r] = s.current_A;
     R.out[5][r] = s.current_mean_A;
@@ -338,8 +344,8 @@ struct CbRows {
       CbNcLane& N = c.nc[l];
       // simulate.cpp's next_command.
       const double position = R.setpoints[ks];
-      const double velocity = (position - R.prev_x) / te;
-      const double acceleration = (velocity - R.prev_v) / te;
+      const double velocity = cb_over_te(position - R.prev_x, te);
+      const double acceleration = cb_over_te(velocity - R.prev_v, te);
       R.prev_x = position, R.prev_v = velocity;
       double kv = N.kv, kf = N.kf;
       if (R.kv && !std::isnan(R.kv[ks])) kv = R.kv[ks];
