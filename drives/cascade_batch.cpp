@@ -37,6 +37,10 @@ struct alignas(32) CascadePack {
   // State.
   alignas(32) double i[kSlots], w[kSlots], x[kSlots], ic[kSlots], iv[kSlots], iset[kSlots], u[kSlots];
   alignas(32) double w_cmd[kSlots], i_ff[kSlots], i_sum[kSlots], i_peak[kSlots];
+  // run_rows: each lane's Te and, after a period, its sample's derived values and whether it left the state as it was.
+  alignas(32) double te[kSlots];
+  alignas(32) double o_vel[kSlots], o_acc[kSlots], o_mean[kSlots];
+  alignas(32) long long o_fixed[kSlots];
 };
 
 namespace {
@@ -69,6 +73,9 @@ inline double cb_friction_level(const CascadeLane& L, double abs_w) {
 }
 [[gnu::always_inline]] inline void cb_store(double* p, CbV v) { __builtin_memcpy(p, &v, sizeof v); }
 
+// Whether any lane's mask is set.
+[[gnu::always_inline]] inline bool cb_any(CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+
 // A PI with its output saturated at +-lim and the integrator stopped while saturated and pushed further out
 // (CascadeAxis::velocity_loop, with the current feedforward ff added, and current_loop, without), lane by lane.
 template <bool kFeedforward>
@@ -79,7 +86,7 @@ template <bool kFeedforward>
   if constexpr (kFeedforward) out = out + ff;
   const CbM hi = out > lim, lo = out < -lim;
   const CbM sat = hi | lo;
-  if ((sat[0] | sat[1] | sat[2] | sat[3]) == 0) {  // the common case: no lane saturates
+  if (!cb_any(sat)) {  // the common case: no lane saturates
     out_held = out;
     integ_state = integ;
   } else {
@@ -92,7 +99,7 @@ template <bool kFeedforward>
 
 // One period (per_te current periods) of the four lanes in slots [q0, q0 + 4): CascadeAxis::advance's inner loops,
 // lane by lane the same operations. trace: slot-major, per_te samples a slot; `real` lanes of the four are traced.
-template <bool kTrace>
+template <bool kTrace, bool kOutputs>
 [[gnu::always_inline]] inline void cb_period(CascadePack& P, int q0, int per_te, int per_vel, InnerSample* trace,
                                              int real) {
   const CbM abs_mask = CbM{} + 0x7fffffffffffffffLL;
@@ -109,6 +116,7 @@ template <bool kTrace>
   CbV i = cb_load(P.i + q0), w = cb_load(P.w + q0), x = cb_load(P.x + q0), ic = cb_load(P.ic + q0);
   CbV iv = cb_load(P.iv + q0), iset = cb_load(P.iset + q0), u = cb_load(P.u + q0);
   CbV i_sum = zero, i_peak = zero;
+  const CbV i0 = i, w0 = w, x0 = x, ic0 = ic, iv0 = iv, iset0 = iset, u0 = u;
   const auto gravity_at = [&](CbV at) {
     CbV g = gconst;
     if (any_tilt)
@@ -131,7 +139,7 @@ template <bool kTrace>
   // The common case takes branches on whole-vector conditions (no lane saturates, every lane slides and none
   // reverses or nears a stop): the core predicts them, so the masks leave the loop-carried chains. Where a condition
   // fails, the selects below give every lane the scalar code's branch; both ways compute the same values.
-  const auto any = [](CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; };
+  const auto any = [](CbM m) { return cb_any(m); };
   const bool all_friction = (fr[0] & fr[1] & fr[2] & fr[3]) != 0;
   int n = 0;
   for (int vs = 0; vs < per_te; vs += per_vel) {
@@ -211,18 +219,204 @@ template <bool kTrace>
   cb_store(P.i + q0, i), cb_store(P.w + q0, w), cb_store(P.x + q0, x), cb_store(P.ic + q0, ic);
   cb_store(P.iv + q0, iv), cb_store(P.iset + q0, iset), cb_store(P.u + q0, u);
   cb_store(P.i_sum + q0, i_sum), cb_store(P.i_peak + q0, i_peak);
+  if constexpr (kOutputs) {
+    // CascadeBatch::advance's sample (CascadeAxis::sample() and the end of CascadeAxis::advance), and whether every
+    // state variable kept its bits.
+    const CbV r = cb_load(P.r + q0), te = cb_load(P.te + q0);
+    cb_store(P.o_vel + q0, r * w);
+    cb_store(P.o_acc + q0, r * (w - w0) / te);
+    cb_store(P.o_mean + q0, i_sum / (zero + static_cast<double>(per_te)));
+    const CbM fixed = ((CbM)i == (CbM)i0) & ((CbM)w == (CbM)w0) & ((CbM)x == (CbM)x0) & ((CbM)ic == (CbM)ic0) &
+                      ((CbM)iv == (CbM)iv0) & ((CbM)iset == (CbM)iset0) & ((CbM)u == (CbM)u0);
+    __builtin_memcpy(P.o_fixed + q0, &fixed, sizeof fixed);
+  }
 }
 
 template <bool kTrace>
 void cb_periods_generic(CascadePack& P, int m, int per_te, int per_vel, InnerSample* trace) {
-  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
+  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace, false>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
 }
 
 // The same code compiled for AVX2 (no FMA: nothing can fuse), chosen at run time.
 template <bool kTrace>
 __attribute__((target("avx2"))) void cb_periods_avx2(CascadePack& P, int m, int per_te, int per_vel,
                                                      InnerSample* trace) {
-  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
+  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace, false>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
+}
+
+// The constants of lanes active[0 .. m) into the pack's slots 0 .. m, and of lane active[0] into the slots that
+// fill the last vector (computed, never read).
+void cb_pack_constants(CascadePack& P, const CascadeLane* lanes, const int* active, int m) {
+  const int slots = (m + 3) / 4 * 4;
+  for (int j = 0; j < slots; ++j) {
+    const CascadeLane& L = lanes[active[j < m ? j : 0]];
+    P.kpv[j] = L.kpv, P.kiv[j] = L.kiv, P.ilim[j] = L.current_limit;
+    P.kpc[j] = L.kpc, P.kic[j] = L.kic, P.ulim[j] = L.voltage_limit;
+    P.p00[j] = L.phi[0][0], P.p01[j] = L.phi[0][1], P.p10[j] = L.phi[1][0];
+    P.p11[j] = L.phi[1][1], P.p20[j] = L.phi[2][0], P.p21[j] = L.phi[2][1];
+    P.gu0[j] = L.gam_u[0], P.gu1[j] = L.gam_u[1], P.gu2[j] = L.gam_u[2];
+    P.gt0[j] = L.gam_t[0], P.gt1[j] = L.gam_t[1], P.gt2[j] = L.gam_t[2];
+    P.sa[j] = L.stuck_a, P.sb[j] = L.stuck_b, P.kt[j] = L.kt, P.brk[j] = L.breakaway, P.win[j] = L.stick_window;
+    P.coul[j] = L.coulomb;
+    P.gconst[j] = L.gravity == 1 ? L.gravity_Nm : 0.0;
+    P.r[j] = L.r;
+    P.te[j] = L.te;
+    P.fr[j] = L.friction ? -1LL : 0LL;
+    P.tilt[j] = j < m && L.gravity == 2;
+    P.strib[j] = j < m && L.stribeck_static > 0.0;
+    P.g_nm[j] = L.gravity_Nm, P.g_off[j] = L.gravity_offset;
+    P.s_static[j] = L.stribeck_static, P.s_vel[j] = L.stribeck_velocity;
+  }
+}
+
+// The state of lanes active[0 .. m) into the slots (the filling slots: lane active[0]'s), and back.
+void cb_load_state(CascadePack& P, const CascadeLane* lanes, const int* active, int m) {
+  const int slots = (m + 3) / 4 * 4;
+  for (int j = 0; j < slots; ++j) {
+    const CascadeLane& L = lanes[active[j < m ? j : 0]];
+    P.i[j] = L.i, P.w[j] = L.w, P.x[j] = L.x, P.ic[j] = L.ic, P.iv[j] = L.iv, P.iset[j] = L.iset, P.u[j] = L.u;
+  }
+}
+void cb_flush_state(const CascadePack& P, CascadeLane* lanes, const int* active, int m) {
+  for (int j = 0; j < m; ++j) {
+    CascadeLane& L = lanes[active[j]];
+    L.i = P.i[j], L.w = P.w[j], L.x = P.x[j], L.ic = P.ic[j], L.iv = P.iv[j], L.iset = P.iset[j], L.u = P.u[j];
+  }
+}
+
+// d / te for te > 0, without the division when d is +0 (an axis at rest: its setpoint, speed or acceleration
+// repeats), where the quotient is +0 exactly.
+[[gnu::always_inline]] inline double cb_over_te(double d, double te) {
+  return std::bit_cast<std::uint64_t>(d) == 0 ? 0.0 : d / te;
+}
+
+// A lane's position loop as CascadeAxis::advance runs it: the axis' own delay lines (by address) and gains.
+struct CbNcLane {
+  double *pos_line, *vel_line, *acc_line;
+  int *pos_head, *ff_head;
+  int pos_n, ff_n;
+  double kv, kf;
+};
+
+// What run_rows hands to its loop (CascadeBatch's members, the axes' delay lines).
+struct CbRows {
+  CascadePack* P;
+  CascadeLane* lanes;
+  CascadeRowLane* rl;
+  CbNcLane* nc;
+  int n_lanes, per_te, per_vel;
+  int* packed;  // the lanes whose constants are in the slots
+  int* packed_m;
+  long long* skipped;
+};
+
+// CascadeBatch::run_rows, Te by Te: the NC's command and the position loop per lane (scalar: simulate.cpp's
+// next_command, CascadeBatch::advance), the inner loops of the lanes that run on the slots' vectors, whose state
+// stays in the pack while the same lanes run (the slots are re-filled only when that set changes: a lane reaches
+// or leaves its fixed point), and the rows written per lane.
+[[gnu::always_inline]] inline void cb_rows_loop(CbRows& c, long long k0, long long k1, long long base, long long n_set,
+                                                long long rows, double te) {
+  CascadePack& P = *c.P;
+  const int n_lanes = c.n_lanes;
+  int cur[CascadeBatch::kMaxLanes];  // the lanes whose state is in the slots (cur_m < 0: none)
+  int cur_m = -1;
+  const auto put = [&](CascadeRowLane& R, long long row, const AxisSample& s) {
+    const long long r = row - base;
+    R.out[0][r] = s.position;
+    R.out[1][r] = s.velocity;
+    R.out[2][r] = s.acceleration;
+    R.out[3][r] = cb_over_te(s.acceleration - R.prev_acc, te);
+    R.prev_acc = s.acceleration;
+    R.out[4][r] = s.current_A;
+    R.out[5][r] = s.current_mean_A;
+    R.out[6][r] = s.current_peak_A;
+    R.out[7][r] = s.current_setpoint_A;
+  };
+  if (k0 < k1)
+    for (int l = 0; l < n_lanes; ++l) put(c.rl[l], k0, c.rl[l].s);
+  for (long long k = k0; k < k1 && k + 1 < rows; ++k) {
+    const long long ks = k < n_set ? k : n_set - 1;
+    int run[CascadeBatch::kMaxLanes];
+    int m = 0;
+    for (int l = 0; l < n_lanes; ++l) {
+      CascadeRowLane& R = c.rl[l];
+      CascadeLane& L = c.lanes[l];
+      CbNcLane& N = c.nc[l];
+      // simulate.cpp's next_command.
+      const double position = R.setpoints[ks];
+      const double velocity = cb_over_te(position - R.prev_x, te);
+      const double acceleration = cb_over_te(velocity - R.prev_v, te);
+      R.prev_x = position, R.prev_v = velocity;
+      double kv = N.kv, kf = N.kf;
+      if (R.kv && !std::isnan(R.kv[ks])) kv = R.kv[ks];
+      if (R.kf && !std::isnan(R.kf[ks])) kf = R.kf[ks];
+      // CascadeBatch::advance's position loop.
+      N.pos_line[*N.pos_head] = position;
+      *N.pos_head = *N.pos_head + 1 == N.pos_n ? 0 : *N.pos_head + 1;
+      const double xd = N.pos_line[*N.pos_head];
+      N.vel_line[*N.ff_head] = velocity;
+      N.acc_line[*N.ff_head] = acceleration;
+      *N.ff_head = *N.ff_head + 1 == N.ff_n ? 0 : *N.ff_head + 1;
+      const double vd = N.vel_line[*N.ff_head], ad = N.acc_line[*N.ff_head];
+      int slot = -1;
+      for (int j = 0; j < cur_m; ++j)
+        if (cur[j] == l) slot = j;
+      const double x = slot >= 0 ? P.x[slot] : L.x;
+      L.w_cmd = (kv * (xd - x) + kf * vd) * L.inv_r;
+      L.i_ff = L.ff_current_per_accel * ad;
+      if (L.fixed && cb_same_bits(L.w_cmd, L.last_w_cmd) && cb_same_bits(L.i_ff, L.last_i_ff)) {
+        R.s = L.last;
+        ++*c.skipped;
+        continue;
+      }
+      L.last_w_cmd = L.w_cmd, L.last_i_ff = L.i_ff;
+      run[m++] = l;
+    }
+    if (m > 0) {
+      if (m != cur_m || !std::equal(run, run + m, cur)) {
+        if (cur_m > 0) cb_flush_state(P, c.lanes, cur, cur_m);
+        if (m != *c.packed_m || !std::equal(run, run + m, c.packed)) {
+          cb_pack_constants(P, c.lanes, run, m);
+          std::copy(run, run + m, c.packed);
+          *c.packed_m = m;
+        }
+        cb_load_state(P, c.lanes, run, m);
+        std::copy(run, run + m, cur);
+        cur_m = m;
+      }
+      const int slots = (m + 3) / 4 * 4;
+      for (int j = 0; j < slots; ++j) {
+        const CascadeLane& L = c.lanes[run[j < m ? j : 0]];
+        P.w_cmd[j] = L.w_cmd, P.i_ff[j] = L.i_ff;
+      }
+      for (int q0 = 0; q0 < m; q0 += 4) cb_period<false, true>(P, q0, c.per_te, c.per_vel, nullptr, 0);
+      for (int j = 0; j < m; ++j) {
+        CascadeLane& L = c.lanes[run[j]];
+        AxisSample& s = c.rl[run[j]].s;
+        s.position = P.x[j];
+        s.velocity = P.o_vel[j];
+        s.acceleration = P.o_acc[j];
+        s.current_A = P.i[j];
+        s.current_mean_A = P.o_mean[j];
+        s.current_peak_A = P.i_peak[j];
+        s.current_setpoint_A = P.iset[j];
+        L.last = s;
+        L.fixed = P.o_fixed[j] != 0;
+      }
+    }
+    if (k + 1 < k1)
+      for (int l = 0; l < n_lanes; ++l) put(c.rl[l], k + 1, c.rl[l].s);
+  }
+  if (cur_m > 0) cb_flush_state(P, c.lanes, cur, cur_m);
+}
+
+void cb_rows_generic(CbRows& c, long long k0, long long k1, long long base, long long n_set, long long rows,
+                     double te) {
+  cb_rows_loop(c, k0, k1, base, n_set, rows, te);
+}
+__attribute__((target("avx2"))) void cb_rows_avx2(CbRows& c, long long k0, long long k1, long long base,
+                                                  long long n_set, long long rows, double te) {
+  cb_rows_loop(c, k0, k1, base, n_set, rows, te);
 }
 
 bool cb_use_avx2() {
@@ -289,28 +483,31 @@ CascadeBatch::CascadeBatch(CascadeBatch&&) noexcept = default;
 // fill the last vector (computed, never read). Only when the active lanes change.
 void CascadeBatch::pack(const int* active, int m) {
   if (m == packed_m_ && std::equal(active, active + m, packed_)) return;
-  CascadePack& P = *pack_;
-  const int slots = (m + 3) / 4 * 4;
-  for (int j = 0; j < slots; ++j) {
-    const CascadeLane& L = lanes_[static_cast<std::size_t>(active[j < m ? j : 0])];
-    P.kpv[j] = L.kpv, P.kiv[j] = L.kiv, P.ilim[j] = L.current_limit;
-    P.kpc[j] = L.kpc, P.kic[j] = L.kic, P.ulim[j] = L.voltage_limit;
-    P.p00[j] = L.phi[0][0], P.p01[j] = L.phi[0][1], P.p10[j] = L.phi[1][0];
-    P.p11[j] = L.phi[1][1], P.p20[j] = L.phi[2][0], P.p21[j] = L.phi[2][1];
-    P.gu0[j] = L.gam_u[0], P.gu1[j] = L.gam_u[1], P.gu2[j] = L.gam_u[2];
-    P.gt0[j] = L.gam_t[0], P.gt1[j] = L.gam_t[1], P.gt2[j] = L.gam_t[2];
-    P.sa[j] = L.stuck_a, P.sb[j] = L.stuck_b, P.kt[j] = L.kt, P.brk[j] = L.breakaway, P.win[j] = L.stick_window;
-    P.coul[j] = L.coulomb;
-    P.gconst[j] = L.gravity == 1 ? L.gravity_Nm : 0.0;
-    P.r[j] = L.r;
-    P.fr[j] = L.friction ? -1LL : 0LL;
-    P.tilt[j] = j < m && L.gravity == 2;
-    P.strib[j] = j < m && L.stribeck_static > 0.0;
-    P.g_nm[j] = L.gravity_Nm, P.g_off[j] = L.gravity_offset;
-    P.s_static[j] = L.stribeck_static, P.s_vel[j] = L.stribeck_velocity;
-  }
+  cb_pack_constants(*pack_, lanes_.data(), active, m);
   std::copy(active, active + m, packed_);
   packed_m_ = m;
+}
+
+void CascadeBatch::run_rows(CascadeRowLane* rl, long long k0, long long k1, long long base, long long n_set,
+                            long long rows, double te) {
+  CbNcLane nc[kMaxLanes];
+  for (int l = 0; l < lanes(); ++l) {
+    CascadeAxis& a = *axes_[static_cast<std::size_t>(l)];
+    nc[l] = CbNcLane{a.pos_line_.data(),
+                     a.vel_line_.data(),
+                     a.acc_line_.data(),
+                     &a.pos_head_,
+                     &a.ff_head_,
+                     static_cast<int>(a.pos_line_.size()),
+                     static_cast<int>(a.vel_line_.size()),
+                     a.params_.kv_per_s,
+                     a.params_.kf};
+  }
+  CbRows c{pack_.get(), lanes_.data(), rl, nc, lanes(), per_te_, per_velocity_, packed_, &packed_m_, &skipped_};
+  if (cb_use_avx2())
+    cb_rows_avx2(c, k0, k1, base, n_set, rows, te);
+  else
+    cb_rows_generic(c, k0, k1, base, n_set, rows, te);
 }
 
 const InnerSample* CascadeBatch::trace(int lane) const {

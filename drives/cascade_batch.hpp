@@ -39,6 +39,20 @@ struct CascadeLane {
 
 struct CascadePack;
 
+// One lane's side of CascadeBatch::run_rows, as simulate_axes' rows define it (drives/simulate.hpp): the NC's setpoint
+// and gain columns for the lane's axis, its response columns, and what the NC carries from one row to the next.
+struct CascadeRowLane {
+  const double* setpoints = nullptr;  // the axis' setpoint column (n_set rows)
+  const double *kv = nullptr,
+               *kf = nullptr;  // its gain schedule columns (setpoint rows; NaN: the drive's own), or null
+  // position, velocity, acceleration, jerk, current_A, current_mean_A, current_peak_A, current_setpoint_A; entry 0
+  // of each is row `base` of run_rows.
+  double* out[8] = {};
+  AxisSample s;                       // the sample at the next row's instant
+  double prev_x = 0.0, prev_v = 0.0;  // the NC's previous setpoint and velocity
+  double prev_acc = 0.0;              // the previous row's acceleration (the jerk's backward difference)
+};
+
 // Tests: step with the generic build's kernel even where the processor has AVX2 (both kernels must give the bits).
 bool& cascade_batch_generic_only();
 
@@ -62,6 +76,12 @@ class CascadeBatch {
   // After step() with trace on: lane l's inner_steps() current-loop samples of that period (as
   // CascadeAxis::step(command, trace) writes them).
   const InnerSample* trace(int lane) const;
+  // Rows [k0, k1) of a run of `rows` rows with n_set setpoints (the last one held beyond), NC period te: row k from
+  // lanes[l].s, then (unless k + 1 == rows) the command of setpoint row min(k, n_set - 1) and one Te, whose sample
+  // is row k + 1 (written when k + 1 < k1, and left in lanes[l].s for the next call). Bit for bit what step() gives
+  // one Te at a time, but the lanes' state stays in the vectors from one Te to the next. No trace (step() keeps one).
+  void run_rows(CascadeRowLane* lanes, long long k0, long long k1, long long base, long long n_set, long long rows,
+                double te);
   // Lane periods not stepped because they repeat the last one (a measure of the shortcut, for tests and benches).
   long long skipped_periods() const { return skipped_; }
   // Writes the lanes' state back into the axes: CascadeAxis::step then goes on from where the batch stopped.

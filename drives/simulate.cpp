@@ -128,6 +128,9 @@ void run_axis(AxisJob& job, const Eigen::MatrixXd& setpoints, Index axis, double
   const double x0 = setpoints(0, axis);
   if (!job.model && !job.other) {
     out.position.col(axis).setConstant(x0);
+    for (Eigen::MatrixXd* m : {&out.velocity, &out.acceleration, &out.jerk, &out.current_A, &out.current_setpoint_A,
+                               &out.current_mean_A, &out.current_peak_A})
+      m->col(axis).setZero();
     return;
   }
   AxisModel& m = job.other ? *job.other : static_cast<AxisModel&>(*job.model);
@@ -175,6 +178,30 @@ void run_batch(const std::vector<AxisJob*>& group, const std::vector<Index>& axi
     start_axis(job, setpoints(0, axis));
     samples[l] = job.s;
     cols[l] = ResponseColumns(out, setpoints, axis);
+  }
+  if (!traces) {
+    // The rows in runs of kPollRows, the batch keeping its lanes' state in its vectors within a run.
+    CascadeRowLane rl[CascadeBatch::kMaxLanes];
+    for (int l = 0; l < lanes; ++l) {
+      AxisJob& job = *group[static_cast<std::size_t>(l)];
+      const ResponseColumns& c = cols[l];
+      rl[l].setpoints = c.setpoints;
+      rl[l].kv = job.kv, rl[l].kf = job.kf;
+      double* o[8] = {c.position, c.velocity,     c.acceleration, c.jerk,
+                      c.current,  c.current_mean, c.current_peak, c.current_setpoint};
+      std::copy(o, o + 8, rl[l].out);
+      rl[l].s = job.s, rl[l].prev_x = job.prev_x, rl[l].prev_v = job.prev_v, rl[l].prev_acc = job.prev_acc;
+    }
+    for (Index c0 = k0; c0 < k1; c0 += kPollRows) {
+      if (!stop.go()) break;
+      batch.run_rows(rl, c0, std::min(k1, c0 + kPollRows), k0, n_set, rows, te);
+    }
+    batch.store();
+    for (int l = 0; l < lanes; ++l) {
+      AxisJob& job = *group[static_cast<std::size_t>(l)];
+      job.s = rl[l].s, job.prev_x = rl[l].prev_x, job.prev_v = rl[l].prev_v, job.prev_acc = rl[l].prev_acc;
+    }
+    return;
   }
   Index k = k0;
   for (; k < k1; ++k) {
@@ -364,9 +391,11 @@ void BlockSimulation::Impl::run(Index k1, AxisResponse& out) {
   const Index n_axes = static_cast<Index>(jobs.size());
   out.period_s = te;
   out.axis_names = axis_names;
+  // Sized, not zeroed: every unit of work writes every row of its axes' columns (an axis without a drive its zeros),
+  // and a stopped run returns no response.
   for (Eigen::MatrixXd* m : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
                              &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
-    m->setZero(k1 - k0, n_axes);
+    m->resize(k1 - k0, n_axes);
   // Axes are independent (no coupling in the model, the feed-drive simulation paper section 2.2): each thread runs
   // whole units of work (a batch or an axis), writing only their columns, so the results do not depend on the thread
   // count or the schedule.

@@ -2,7 +2,8 @@
 // replaces: each axis alone through CascadeAxis::step (drives/cascade_axis.cpp, unchanged), rows and commands as
 // simulate_axes documents them. Bit for bit on every machine in parts/machines, with friction (Coulomb, Stribeck),
 // gravity (none, constant, tilting with an offset), current and voltage saturation, sticking, gain schedules, axes at
-// rest (the batch's skipped periods), 1 and 2 threads, blocks of 1, 7 and all rows, and both kernels (the generic
+// rest (the batch's skipped periods), 1 and 2 threads, blocks of 1, 7, 255-257 and all rows, lanes leaving and
+// re-entering a fixed point within CascadeBatch::run_rows, and both kernels (the generic
 // build's and the AVX2 one the batch picks at run time).
 #include "drives/cascade_batch.hpp"
 #include "drives/simulate.hpp"
@@ -236,6 +237,12 @@ TEST(CascadeBatch, SimulateAxesBitForBitWithEachAxisAloneOnEveryMachine) {
         const std::string what = v.name + ", " + std::to_string(threads) + " thread(s)" + (generic ? ", generic" : "");
         cbt_expect_rows(got, ref, 0, what);
         cbt_expect_traces(got, ref, what);
+        // Without the full-rate trace the batch runs the rows itself (CascadeBatch::run_rows): the same rows.
+        SimulateOptions no_trace;
+        cascade_batch_generic_only() = generic;
+        const AxisResponse rows = simulate_axes(sp, v.machine, no_trace);
+        cascade_batch_generic_only() = false;
+        cbt_expect_rows(rows, ref, 0, what + ", rows without trace");
       }
   }
   omp_set_num_threads(saved);
@@ -248,15 +255,94 @@ TEST(CascadeBatch, BlocksOfOneSevenAndAllRowsBitForBit) {
   held[4] = true;  // C at rest all along: its periods are skipped within a block
   const core::Setpoints sp = cbt_profile(m, held);
   const AxisResponse ref = cbt_reference(sp, m, nullptr, 0.2);
-  for (Eigen::Index block : {Eigen::Index{1}, Eigen::Index{7}, Eigen::Index{1 << 20}}) {
-    BlockSimulation sim(sp, m);
-    ASSERT_EQ(sim.rows(), ref.samples());
-    while (!sim.done()) {
-      const Eigen::Index row0 = sim.next_row();
-      const AxisResponse r = sim.next(block);
-      cbt_expect_rows(r, ref, row0, "blocks of " + std::to_string(block));
+  // 255 / 256 / 257: a block ends just before, on and after the batch's runs of 256 rows (simulate.cpp's kPollRows).
+  for (bool generic : {false, true})
+    for (Eigen::Index block : {Eigen::Index{1}, Eigen::Index{7}, Eigen::Index{255}, Eigen::Index{256},
+                               Eigen::Index{257}, Eigen::Index{1 << 20}}) {
+      const std::string what = "blocks of " + std::to_string(block) + (generic ? ", generic" : "");
+      cascade_batch_generic_only() = generic;
+      BlockSimulation sim(sp, m);
+      ASSERT_EQ(sim.rows(), ref.samples());
+      while (!sim.done()) {
+        const Eigen::Index row0 = sim.next_row();
+        const AxisResponse r = sim.next(block);
+        cbt_expect_rows(r, ref, row0, what);
+        if (::testing::Test::HasFailure()) break;
+      }
+      cascade_batch_generic_only() = false;
       if (::testing::Test::HasFailure()) return;
     }
+}
+
+// CascadeBatch::run_rows directly, in runs of rows that start and end anywhere, on lanes that rest at a fixed point,
+// leave it and come back to one (frictionless X and Z: their linear loops settle onto a state that repeats itself
+// bit for bit, as the skipped counts show; Y, A, C rest all along), so that the set of lanes on the vectors changes
+// several times within a run.
+// Reference: each axis alone through CascadeAxis::step (cbt_reference).
+TEST(CascadeBatch, RunRowsAcrossFixedPointsLeftAndReentered) {
+  core::Machine m = test::mikron();
+  for (auto& ax : m.axes) ax.drive->coulomb_Nm = 0.0;
+  const Eigen::Index n_set = 6000;
+  const core::Setpoints sp = test::sampled(m, 1e-3, n_set, [&](double t, double* out) {
+    for (int a = 0; a < 5; ++a) out[a] = 0.0;
+    // X: 1 mm in a smooth 0.1 s step at 0.2 s, back at 3 s; Z: 0.5 mm at 0.25 s.
+    const auto smooth = [](double u) { return u <= 0.0 ? 0.0 : u >= 1.0 ? 1.0 : u * u * (3.0 - 2.0 * u); };
+    out[0] = smooth((t - 0.2) / 0.1) - smooth((t - 3.0) / 0.1);
+    out[2] = 0.5 * smooth((t - 0.25) / 0.1);
+  });
+  const AxisResponse ref = cbt_reference(sp, m, nullptr, 0.0);
+  for (bool generic : {false, true}) {
+    const std::string what = generic ? "run_rows, generic" : "run_rows";
+    std::vector<CascadeAxis> axes;
+    for (const auto& ax : m.axes) {
+      axes.emplace_back(*ax.drive, 1e-3, ax.kind);
+      axes.back().reset(0.0);
+    }
+    std::vector<CascadeAxis*> ptrs;
+    for (CascadeAxis& a : axes) ptrs.push_back(&a);
+    CascadeBatch batch(ptrs, false);
+    AxisResponse got;
+    for (Eigen::MatrixXd* c : {&got.position, &got.velocity, &got.acceleration, &got.jerk, &got.current_A,
+                               &got.current_setpoint_A, &got.current_mean_A, &got.current_peak_A})
+      c->setConstant(n_set, 5, std::numeric_limits<double>::quiet_NaN());
+    CascadeRowLane rl[5];
+    for (int l = 0; l < 5; ++l) {
+      rl[l].setpoints = sp.position.col(l).data();
+      double* o[8] = {got.position.col(l).data(),       got.velocity.col(l).data(),
+                      got.acceleration.col(l).data(),   got.jerk.col(l).data(),
+                      got.current_A.col(l).data(),      got.current_mean_A.col(l).data(),
+                      got.current_peak_A.col(l).data(), got.current_setpoint_A.col(l).data()};
+      std::copy(o, o + 8, rl[l].out);
+      rl[l].s = axes[static_cast<std::size_t>(l)].sample();
+    }
+    cascade_batch_generic_only() = generic;
+    // Runs of 1, 13, 256, 999 ... rows; the skipped periods counted in each phase of X's motion.
+    long long skipped_at_3000 = 0;
+    const long long runs[] = {1, 13, 256, 999};
+    long long k = 0;
+    for (int r = 0; k < n_set; ++r) {
+      const long long k1 = std::min<long long>(n_set, k + runs[r % 4]);
+      if (k < 3000 && k1 >= 3000) {
+        batch.run_rows(rl, k, 3000, 0, n_set, n_set, 1e-3);
+        skipped_at_3000 = batch.skipped_periods();
+        k = 3000;
+        continue;
+      }
+      batch.run_rows(rl, k, k1, 0, n_set, n_set, 1e-3);
+      k = k1;
+    }
+    cascade_batch_generic_only() = false;
+    cbt_expect_rows(got, ref, 0, what);
+    // Y, A and C are skipped all along but their first period (2 999 each in the first 3 000 rows). X and Z rest
+    // at first (at most 200 and 250 skipped periods), move, and re-enter a fixed point once settled: over 1 000 more.
+    // In the second half Z stays at its point (3 000 more skipped, and Y, A, C's 9 000).
+    EXPECT_GT(skipped_at_3000, 3 * 2999 + 200 + 250 + 1000) << what;
+    EXPECT_GT(batch.skipped_periods() - skipped_at_3000, 3 * 2999 + 2900) << what;
+    batch.store();
+    for (int a = 0; a < 5; ++a)
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(axes[static_cast<std::size_t>(a)].sample().position),
+                std::bit_cast<std::uint64_t>(ref.position(n_set - 1, a)))
+          << what << " axis " << a;
   }
 }
 
@@ -285,6 +371,12 @@ TEST(CascadeBatch, GainScheduleBitForBit) {
     cascade_batch_generic_only() = false;
     cbt_expect_rows(got, ref, 0, generic ? "gain schedule, generic" : "gain schedule");
     cbt_expect_traces(got, ref, generic ? "gain schedule, generic" : "gain schedule");
+    SimulateOptions rows_only;  // no trace: CascadeBatch::run_rows
+    rows_only.gains = &g;
+    cascade_batch_generic_only() = generic;
+    const AxisResponse rows = simulate_axes(sp, m, rows_only);
+    cascade_batch_generic_only() = false;
+    cbt_expect_rows(rows, ref, 0, generic ? "gain schedule, rows, generic" : "gain schedule, rows");
   }
 }
 
