@@ -345,14 +345,16 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
       step *= 2;
     }
     std::size_t lo = good, hi = std::min(last, good + step);  // lo ok, hi unknown or bad
+    bool hi_bad = good + step <= last;  // the doubling stopped at a run that failed (else hi is the last point)
     while (hi > lo + 1) {
       const std::size_t mid = (lo + hi) / 2;
       if (run_ok(a, mid))
         lo = mid;
       else
-        hi = mid;
+        hi = mid, hi_bad = true;
     }
-    if (hi <= last && hi > lo && run_ok(a, hi)) lo = hi;
+    // hi checked only when no check has failed it yet (checks are pure: asking again gives the same answer).
+    if (!hi_bad && hi > lo && run_ok(a, hi)) lo = hi;
     emit(a, lo);
     a = lo;
   }
