@@ -95,7 +95,9 @@ struct TileBound {
     shift = b.delta * b.R * b.inv_ee, half_inv_r = 0.5 / b.R;
     k8 = 1 / (8 * b.R * b.R * b.R), k16 = k8 / (2 * b.R * b.R);
   }
-  double k8, k16;  // the next terms of the section's series (row_cut.inc): p^2 / 8R^3 + p^3 / 16R^5
+  // The section's height R - sqrt(R^2 - r^2) is r^2/2R + r^4/8R^3 + r^6/16R^5 + ... (all terms positive), and r^2 >=
+  // p, the least squared distance across the move: p^2/8R^3 + p^3/16R^5 added keep a lower bound, a little tighter.
+  double k8, k16;
   double operator()(double qu0, double qu1) const {
     const double cr0 = std::min(qu0 * b.ev, qu1 * b.ev) + cr_v0, cr1 = std::max(qu0 * b.ev, qu1 * b.ev) + cr_v1;
     const double s0 = (std::min(qu0 * b.eu, qu1 * b.eu) + s_v0) * b.inv_ee;
