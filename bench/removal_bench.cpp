@@ -24,6 +24,8 @@
 #include "removal/cut_reference.hpp"
 #include "removal/fields.hpp"
 #include "removal/track.hpp"
+#include "sim/chain.hpp"
+#include "sim/pipeline.hpp"
 
 #include <benchmark/benchmark.h>
 #include <omp.h>
@@ -227,6 +229,28 @@ const Flower& flower() {
   return f;
 }
 
+// The track vmsim run cuts on flower_mold (its default, motion = "actual"): the drives' actual positions and tip
+// velocities (sim::motion_track, the streamed chain), ~3.7 M poses, and the job's sweeps (sim::sweeps_of: the
+// default 0.1 um tolerance, the stock box), ~22x the programmed moves. Built once per process; not timed.
+const Flower& flower_actual() {
+  static const Flower f = [] {
+    Flower r;
+    const std::filesystem::path job_file = std::filesystem::path(VMSIM_SOURCE_DIR) / "bench/flower_mold/job.toml";
+    try {
+      const vmsim::core::Job job = vmsim::core::load_job(job_file);
+      r.track = vmsim::sim::motion_track(vmsim::sim::Chain(job), vmsim::core::RemovalSpec::Motion::Actual,
+                                         vmsim::core::no_progress());
+      r.tool = make_tool(job.tool);
+      r.sweeps = vmsim::sim::sweeps_of(job, r.track).sweeps;
+      r.stock = Box{job.stock.min_mm, job.stock.max_mm};
+    } catch (const std::exception& e) {
+      r.error = std::string(e.what()) + " (the program is read from ../shared/data/real/cam)";
+    }
+    return r;
+  }();
+  return f;
+}
+
 // The track of flower_mold's setpoints to sweeps (default 0.1 um tolerance). Argument: 0 sweeps_from_track, 1 its
 // reference (removal/cut_reference.hpp).
 void BM_FlowerTrack(benchmark::State& state) {
@@ -282,6 +306,83 @@ BENCHMARK(BM_FlowerZmap)
     ->Args({10, 1})
     ->Args({40, 0})
     ->Args({40, 1})
+    ->Unit(benchmark::kMillisecond);
+
+// vmsim run's own removal on flower_mold at 0.1 mm: the actual motion's track to sweeps (track 1: timed with the
+// same options as sim::sweeps_of, the stock box, which a 3-axis track does not use) and those sweeps cut from the box
+// stock on the z-map (kernel as BM_ZmapBallRaster's), with `threads` OpenMP threads. What report.json's removal_cpu
+// holds, less the field's set-up. batch: the sweeps in one cut() call (0), in one call that reports its progress (-1:
+// bands of rows, as sim::cut_field calls it since issue 21's session 8), or in calls of that many sweeps (4096: how
+// sim::cut_field reported progress before).
+void BM_FlowerActualTrack(benchmark::State& state) {
+  const Flower& f = flower_actual();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  TrackOptions opt;
+  opt.material_box = Eigen::AlignedBox3d(f.stock.lo, f.stock.hi);
+  std::size_t sweeps = 0;
+  for (auto _ : state) sweeps = sweeps_from_track(f.tool, f.track, opt).sweeps.size();
+  state.counters["poses"] = static_cast<double>(f.track.tip_mm.rows());
+  state.counters["sweeps"] = static_cast<double>(sweeps);
+  state.counters["ns/pose"] =
+      benchmark::Counter(static_cast<double>(f.track.tip_mm.rows()) * 1e-9,
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_FlowerActualTrack)->Unit(benchmark::kMillisecond);
+
+void BM_FlowerActualZmap(benchmark::State& state) {
+  const Flower& f = flower_actual();
+  if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
+  const double h = 1.0 / static_cast<double>(state.range(0));
+  const int kernel = static_cast<int>(state.range(1));
+  omp_set_num_threads(static_cast<int>(state.range(2)));
+  const long batch = static_cast<long>(state.range(3));
+  detail::generic_kernels_only() = kernel == 2;
+  CutStats stats;
+  for (auto _ : state) {
+    state.PauseTiming();
+    DexelGrid z = make_zmap(f.stock, h);
+    fill_box(z, f.stock);
+    state.ResumeTiming();
+    if (batch <= 0) {
+      stats = kernel == 1 ? cut_reference(z, f.sweeps)
+                          : (batch == 0 ? cut(z, f.sweeps) : cut(z, f.sweeps, &vmsim::core::no_progress(), 0));
+      continue;
+    }
+    stats = CutStats{};
+    for (std::size_t b = 0; b < f.sweeps.size(); b += static_cast<std::size_t>(batch)) {
+      const std::size_t e = std::min(f.sweeps.size(), b + static_cast<std::size_t>(batch));
+      const std::vector<SweptTool> part(f.sweeps.begin() + static_cast<std::ptrdiff_t>(b),
+                                        f.sweeps.begin() + static_cast<std::ptrdiff_t>(e));
+      const CutStats s = kernel == 1 ? cut_reference(z, part) : cut(z, part);
+      stats.ray_tests += s.ray_tests, stats.cuts += s.cuts, stats.tile_skipped += s.tile_skipped;
+      stats.bound_skipped += s.bound_skipped, stats.exact_nothing += s.exact_nothing;
+      stats.order_free_blocks += s.order_free_blocks, stats.chunk_skipped += s.chunk_skipped,
+          stats.replayed += s.replayed;
+    }
+  }
+  omp_set_num_threads(omp_get_num_procs());
+  detail::generic_kernels_only() = false;
+  state.counters["sweeps"] = static_cast<double>(f.sweeps.size());
+  state.counters["ray_tests"] = static_cast<double>(stats.ray_tests);
+  if (kernel != 1) {
+    const double t = static_cast<double>(stats.ray_tests);
+    state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
+    state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
+    state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
+    state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
+    state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
+    state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
+    state.counters["replayed"] = static_cast<double>(stats.replayed);
+  }
+}
+BENCHMARK(BM_FlowerActualZmap)
+    ->ArgNames({"n", "kernel", "threads", "batch"})
+    ->Args({10, 0, 1, 0})
+    ->Args({10, 0, 1, -1})
+    ->Args({10, 0, 1, 4096})
+    ->Args({10, 2, 1, 0})
+    ->Args({10, 0, 2, -1})
+    ->Args({10, 0, 2, 4096})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <omp.h>
 
 namespace vmsim::removal {
 
@@ -92,7 +93,11 @@ struct TileBound {
     cr_v0 = std::min(-qv0 * b.eu, -qv1 * b.eu), cr_v1 = std::max(-qv0 * b.eu, -qv1 * b.eu);
     s_v0 = std::min(qv0 * b.ev, qv1 * b.ev), s_v1 = std::max(qv0 * b.ev, qv1 * b.ev);
     shift = b.delta * b.R * b.inv_ee, half_inv_r = 0.5 / b.R;
+    k8 = 1 / (8 * b.R * b.R * b.R), k16 = k8 / (2 * b.R * b.R);
   }
+  // The section's height R - sqrt(R^2 - r^2) is r^2/2R + r^4/8R^3 + r^6/16R^5 + ... (all terms positive), and r^2 >=
+  // p, the least squared distance across the move: p^2/8R^3 + p^3/16R^5 added keep a lower bound, a little tighter.
+  double k8, k16;
   double operator()(double qu0, double qu1) const {
     const double cr0 = std::min(qu0 * b.ev, qu1 * b.ev) + cr_v0, cr1 = std::max(qu0 * b.ev, qu1 * b.ev) + cr_v1;
     const double s0 = (std::min(qu0 * b.eu, qu1 * b.eu) + s_v0) * b.inv_ee;
@@ -100,7 +105,8 @@ struct TileBound {
     const double c = cr0 > 0 ? cr0 : (cr1 < 0 ? -cr1 : 0.0);
     const double l = std::clamp(b.delta >= 0 ? s0 - shift : s1 - shift, 0.0, 1.0);
     const double d = l < s0 ? s0 - l : (l > s1 ? l - s1 : 0.0);
-    return (b.cw - b.R) + b.delta * l + (c * c * b.inv_ee + b.ee * d * d) * half_inv_r;
+    const double p = c * c * b.inv_ee;  // the least squared distance across the move over the rectangle
+    return (b.cw - b.R) + b.delta * l + (p + b.ee * d * d) * half_inv_r + p * p * (k8 + p * k16);
   }
 };
 
@@ -493,7 +499,9 @@ std::vector<SweptTool> sweeps_reaching(const DexelGrid& grid, const std::vector<
   return out;
 }
 
-CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
+CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) { return cut(grid, sweeps, nullptr, 0); }
+
+CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps, core::Progress* progress, double done) {
   const int nblocks = (grid.nv() + kBlock - 1) / kBlock;
   // Each sweep's footprint on the grid (the rays whose line can meet its bounding box), binned by row block.
   std::vector<Footprint> fp(sweeps.size());
@@ -514,6 +522,12 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
   const int tile_shift =
       sweeps.empty() ? 5 : std::clamp(static_cast<int>(std::lround(std::log2(r_min / (2 * grid.du())))), 2, 5);
   std::size_t tests = 0, cuts = 0, tile = 0, bound = 0, nothing = 0, blocks = 0, replayed = 0, chunked = 0;
+  // With a progress, the blocks in bands of about a sixteenth of the grid (at least a few blocks per thread, so that
+  // the threads stay busy between reports), each band its own parallel region: progress.update() is called between
+  // them, on the calling thread (it may throw). Blocks are independent, so the bands change nothing in the result.
+  const int band = progress ? std::max(4 * omp_get_max_threads(), (nblocks + 15) / 16) : std::max(nblocks, 1);
+  for (int band0 = 0; band0 < nblocks; band0 += band) {
+    const int band1 = std::min(nblocks, band0 + band);
 #pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing, blocks, replayed, chunked)
   {
     Tiles tiles;
@@ -525,7 +539,7 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
     std::vector<Interval> before;
     std::vector<Flagged> flagged;
 #pragma omp for schedule(dynamic, 1)
-    for (int b = 0; b < nblocks; ++b) {
+    for (int b = band0; b < band1; ++b) {
       const int jb0 = b * kBlock, jb1 = std::min(grid.nv() - 1, jb0 + kBlock - 1);
       const std::vector<int>& bin = bins[static_cast<std::size_t>(b)];
       tiles.reset(grid, jb0, jb1, tile_shift);
@@ -621,6 +635,8 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps) {
     }
     tests += c.tests, cuts += c.cuts, tile += c.tile, bound += c.bound, nothing += c.nothing, blocks += c.blocks,
         replayed += c.replayed, chunked += c.chunk_skipped;
+  }
+  if (progress) progress->update(done + static_cast<double>(sweeps.size()) * band1 / nblocks);
   }
   CutStats s;
   s.ray_tests = tests;

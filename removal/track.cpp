@@ -50,6 +50,37 @@ double highest_in_box(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p, 
   return h0 <= h1 ? h1 : -1;
 }
 
+// The Hermite sub-sampling of a 3-axis track (a constant axis) in one pass over its columns: each interval's count
+// of chords m (the sub-sampling loop in sweeps_from_track: |p''|max <= 8 eps m^2), with the very operations of that
+// loop, so the same m and the same bits of e_hermite (the larger of two norms is the square root of the larger squared
+// norm: the square root is correctly rounded and monotone). Returns the intervals with m > 1 (few on a real machine's
+// actual motion at 1 ms, none on most tracks) as (interval, m), and the largest bow left in e_hermite.
+std::vector<std::pair<Eigen::Index, int>> hermite_substeps(const PoseTrack& track, double eps, double& e_hermite) {
+  const Eigen::Index n = track.tip_mm.rows();
+  const double* tx = track.tip_mm.col(0).data();
+  const double* ty = track.tip_mm.col(1).data();
+  const double* tz = track.tip_mm.col(2).data();
+  const double* vx = track.tip_velocity_mm_per_s.col(0).data();
+  const double* vy = track.tip_velocity_mm_per_s.col(1).data();
+  const double* vz = track.tip_velocity_mm_per_s.col(2).data();
+  const double T = track.period_s;
+  std::vector<std::pair<Eigen::Index, int>> out;
+  double e = 0;
+  for (Eigen::Index k = 0; k + 1 < n; ++k) {
+    const Eigen::Vector3d p0(tx[k], ty[k], tz[k]), p1(tx[k + 1], ty[k + 1], tz[k + 1]);
+    const Eigen::Vector3d m0 = Eigen::Vector3d(vx[k], vy[k], vz[k]) * T;
+    const Eigen::Vector3d m1 = Eigen::Vector3d(vx[k + 1], vy[k + 1], vz[k + 1]) * T;
+    const double s0 = (6 * (p1 - p0) - 4 * m0 - 2 * m1).squaredNorm();
+    const double s1 = (-6 * (p1 - p0) + 2 * m0 + 4 * m1).squaredNorm();
+    const double a = std::sqrt(std::max(s0, s1));
+    const int m = std::clamp(static_cast<int>(std::ceil(std::sqrt(a / (8 * eps)))), 1, 1000);
+    e = std::max(e, (a / 8) / (double(m) * m));
+    if (m > 1) out.emplace_back(k, m);
+  }
+  e_hermite = e;
+  return out;
+}
+
 }  // namespace
 
 double orientation_error_bound_mm(const Tool& tool, double phi_rad) { return 2 * tool.reach() * std::sin(phi_rad / 4); }
@@ -140,9 +171,40 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   std::vector<double> bx, by, bz;
   std::vector<Eigen::Vector3d> axs;
   std::vector<double> rch;  // per point (turning only): the reach its sweeps answer to
-  const bool samples_only = !hermite && !turning;
   double e_hermite = 0;
-  if (!samples_only) {
+  // A constant axis on a Hermite track: one pass over the columns finds the intervals that need sub-samples
+  // (hermite_substeps); without any, the points are the samples and the merge reads the track's columns.
+  bool samples_only = !hermite && !turning;
+  if (hermite && !turning) {
+    const std::vector<std::pair<Eigen::Index, int>> subs = hermite_substeps(track, eps, e_hermite);
+    samples_only = subs.empty();
+    if (!samples_only) {  // the samples, and the sub-samples of those intervals (the loop below's expressions)
+      std::size_t extra = 0;
+      for (const auto& [k, m] : subs) extra += static_cast<std::size_t>(m - 1);
+      const std::size_t total = static_cast<std::size_t>(n) + extra;
+      bx.resize(total), by.resize(total), bz.resize(total);
+      const double* tx = track.tip_mm.col(0).data();
+      const double* ty = track.tip_mm.col(1).data();
+      const double* tz = track.tip_mm.col(2).data();
+      std::size_t q = 0, next = 0;
+      bx[q] = tx[0], by[q] = ty[0], bz[q] = tz[0], ++q;
+      for (Eigen::Index k = 0; k + 1 < n; ++k) {
+        if (next < subs.size() && subs[next].first == k) {
+          const int m = subs[next++].second;
+          const Eigen::Vector3d p0 = track.tip_mm.row(k).transpose(), p1 = track.tip_mm.row(k + 1).transpose();
+          const Eigen::Vector3d m0 = track.tip_velocity_mm_per_s.row(k).transpose() * track.period_s;
+          const Eigen::Vector3d m1 = track.tip_velocity_mm_per_s.row(k + 1).transpose() * track.period_s;
+          for (int s = 1; s < m; ++s) {
+            const double u = double(s) / m, u2 = u * u, u3 = u2 * u;
+            const Eigen::Vector3d p =
+                (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+            bx[q] = p.x(), by[q] = p.y(), bz[q] = p.z(), ++q;
+          }
+        }
+        bx[q] = tx[k + 1], by[q] = ty[k + 1], bz[q] = tz[k + 1], ++q;
+      }
+    }
+  } else if (!samples_only) {
     bx.reserve(static_cast<std::size_t>(n)), by.reserve(static_cast<std::size_t>(n)),
         bz.reserve(static_cast<std::size_t>(n));
     auto push = [&](const Eigen::Vector3d& p) { bx.push_back(p.x()), by.push_back(p.y()), bz.push_back(p.z()); };
@@ -283,14 +345,16 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
       step *= 2;
     }
     std::size_t lo = good, hi = std::min(last, good + step);  // lo ok, hi unknown or bad
+    bool hi_bad = good + step <= last;  // the doubling stopped at a run that failed (else hi is the last point)
     while (hi > lo + 1) {
       const std::size_t mid = (lo + hi) / 2;
       if (run_ok(a, mid))
         lo = mid;
       else
-        hi = mid;
+        hi = mid, hi_bad = true;
     }
-    if (hi <= last && hi > lo && run_ok(a, hi)) lo = hi;
+    // hi checked only when no check has failed it yet (checks are pure: asking again gives the same answer).
+    if (!hi_bad && hi > lo && run_ok(a, hi)) lo = hi;
     emit(a, lo);
     a = lo;
   }
