@@ -6,6 +6,7 @@
 #include "core/memory.hpp"
 #include "core/csv.hpp"
 #include "core/error.hpp"
+#include "removal/cut.hpp"
 #include "removal/dexel_grid.hpp"
 #include "removal/fields.hpp"
 #include "removal/vdb_part.hpp"
@@ -40,6 +41,9 @@ namespace {
 
 constexpr double kBaseBytes = 70e6;  // the process: code and libraries (bench/README.md, measured)
 constexpr double kSweepBytes = sizeof(removal::SweptTool);
+// removal::cut's index of one call (all of a grid's sweeps at once): each sweep's footprint and its extent along the
+// rays, and its entry in a row block's bin (a few blocks for a tall one: two ints counted).
+constexpr double kCutIndexBytes = sizeof(removal::Footprint) + 2 * sizeof(double) + 2 * sizeof(int);
 constexpr double kZmapOutputBytesPerNode = 136;  // 3 height grids (24) + part mesh with deviation (56) + writer (56)
 constexpr double kGridsBytesPerNode = 24;        // the 3 height grids without the part mesh
 constexpr double kTileOutputBytesPerNode = 24;   // a tile's surface, reference and deviation grids
@@ -159,7 +163,8 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
   }
   const int axes = static_cast<int>(job.machine.axes.size());
   const double b_motion = motion_bytes(own, axes) + motion_bytes(refm, axes);
-  const double b_sweeps = kSweepBytes * (sweep_count(own) + sweep_count(refm));
+  const double b_sweeps = kSweepBytes * (sweep_count(own) + sweep_count(refm)) +
+                          kCutIndexBytes * std::max(sweep_count(own), sweep_count(refm));
 
   // Outputs of the whole part (one process, or rank 0 when gathered).
   double b_outputs_whole = 0;
@@ -301,7 +306,7 @@ nlohmann::json plan_memory(const core::Job& job, const MemoryPlanOptions& option
       "motion, other (setpoints, the programmed path, a reference job's or feed reference's actual motion): per "
       "setpoint "
       "8 a + 20 (setpoints) + 64 a (drives) + 60 (contour) + 48 (track) + 8 (4 a + 6) (signals)",
-      "sweeps: 96 bytes each; the job's and the reference's",
+      "sweeps: 96 bytes each, the job's and the reference's, + 56 bytes each of the larger cut's index",
       "outputs: 136 bytes per height-grid node (z-map); tri-dexel and vdb: OpenVDB level set and mesh estimates",
       "base: 70 MB per process (code and libraries)"};
   return plan;
