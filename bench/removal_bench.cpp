@@ -271,6 +271,21 @@ void BM_FlowerTrack(benchmark::State& state) {
 BENCHMARK(BM_FlowerTrack)->ArgNames({"kernel"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // Those sweeps cut from the box stock on a z-map at 1/n mm, one thread. Kernel as BM_ZmapBallRaster's.
+// The cut's statistics as the bench's counters (the reference kernel counts only its ray tests).
+void put_cut_counters(benchmark::State& state, std::size_t sweeps, const CutStats& stats, bool fast, bool replayed) {
+  state.counters["sweeps"] = static_cast<double>(sweeps);
+  state.counters["ray_tests"] = static_cast<double>(stats.ray_tests);
+  if (!fast) return;
+  const double t = static_cast<double>(stats.ray_tests);
+  state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
+  state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
+  state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
+  state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
+  state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
+  state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
+  if (replayed) state.counters["replayed"] = static_cast<double>(stats.replayed);
+}
+
 void BM_FlowerZmap(benchmark::State& state) {
   const Flower& f = flower();
   if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
@@ -288,17 +303,7 @@ void BM_FlowerZmap(benchmark::State& state) {
   }
   omp_set_num_threads(omp_get_num_procs());
   detail::generic_kernels_only() = false;
-  state.counters["sweeps"] = static_cast<double>(f.sweeps.size());
-  state.counters["ray_tests"] = static_cast<double>(stats.ray_tests);
-  if (kernel != 1) {
-    const double t = static_cast<double>(stats.ray_tests);
-    state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
-    state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
-    state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
-    state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
-    state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
-    state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
-  }
+  put_cut_counters(state, f.sweeps.size(), stats, kernel != 1, false);
 }
 BENCHMARK(BM_FlowerZmap)
     ->ArgNames({"n", "kernel"})
@@ -362,18 +367,7 @@ void BM_FlowerActualZmap(benchmark::State& state) {
   }
   omp_set_num_threads(omp_get_num_procs());
   detail::generic_kernels_only() = false;
-  state.counters["sweeps"] = static_cast<double>(f.sweeps.size());
-  state.counters["ray_tests"] = static_cast<double>(stats.ray_tests);
-  if (kernel != 1) {
-    const double t = static_cast<double>(stats.ray_tests);
-    state.counters["tile_skip_%"] = 100.0 * static_cast<double>(stats.tile_skipped) / t;
-    state.counters["bound_skip_%"] = 100.0 * static_cast<double>(stats.bound_skipped) / t;
-    state.counters["exact_nil_%"] = 100.0 * static_cast<double>(stats.exact_nothing) / t;
-    state.counters["cut_%"] = 100.0 * static_cast<double>(stats.cuts) / t;
-    state.counters["order_free_blocks"] = static_cast<double>(stats.order_free_blocks);
-    state.counters["chunk_skipped"] = static_cast<double>(stats.chunk_skipped);
-    state.counters["replayed"] = static_cast<double>(stats.replayed);
-  }
+  put_cut_counters(state, f.sweeps.size(), stats, kernel != 1, true);
 }
 BENCHMARK(BM_FlowerActualZmap)
     ->ArgNames({"n", "kernel", "threads", "batch"})
