@@ -185,7 +185,7 @@ last cut it (-1: uncut), what images/tools.png draws; else None; out, files: whe
                                const metrology::IndexGrid index = sim::tool_index(*m);
                                py::array_t<std::int8_t> a({index.rows(), index.cols()});
                                std::copy(index.data(), index.data() + index.size(), a.mutable_data());
-                               return std::move(a);
+                               return a;
                              })
       .def_property_readonly(
           "tools",
