@@ -102,7 +102,9 @@ void expect_rows_equal_single(const core::Machine& m) {
     if ((p.axis - Eigen::Vector3d::UnitZ()).norm() > 1e-3) ++turned;
   }
   // The rows exercise turned tools (not only the held zero angles) on the five-axis machines.
-  if (m.kinematics == "chain") EXPECT_GT(turned, n / 4);
+  if (m.kinematics == "chain") {
+    EXPECT_GT(turned, n / 4);
+  }
 
   // Rows of a block of a larger matrix (the run passes blocks of its whole arrays), written into a block.
   const Eigen::Index r0 = 123, rows = 700;

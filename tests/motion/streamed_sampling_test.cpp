@@ -78,7 +78,9 @@ TEST(StreamedSampling, SetpointsAreThePathsPointsAtTheirArcLengths) {
     // The path speed: the distance between consecutive points of the path over Te (the first and last rows are the
     // program's points, the same as the path's ends to within the program's rounding).
     const Eigen::Vector3d x = p.head<3>();
-    if (k > 1) EXPECT_NEAR(sp.path_speed_mm_per_s[k], (x - prev).norm() / sp.period_s, 1e-6) << k;
+    if (k > 1) {
+      EXPECT_NEAR(sp.path_speed_mm_per_s[k], (x - prev).norm() / sp.period_s, 1e-6) << k;
+    }
     prev = x;
     EXPECT_GE(sp.move_index[k], sp.move_index[k - 1]) << k;
     EXPECT_LT(sp.move_index[k], static_cast<int>(tp.moves.size()));
