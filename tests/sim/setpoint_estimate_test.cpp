@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 
 using namespace vmsim;
@@ -21,9 +22,16 @@ namespace {
 using vmsim::test::kPartsDir;
 
 TEST(SetpointEstimate, BoundsTheInterpolatorsCountOnTheParts) {
+  std::string missing;
   for (const std::string name : {"plane_cylinder/job_fast.toml", "plane_cylinder/job_reference.toml",
                                  "corner/job_fast.toml", "corner/job_reference.toml", "starfish/job.toml",
                                  "five_axis/job.toml", "oga_profile/job.toml", "boat_xyzac/job.toml"}) {
+    // boat_xyzac reads its program from ../shared (LinuxCNC's boat-xyzac.ngc, not copied into the project).
+    const std::filesystem::path boat = vmsim::test::kPartsPath / "../../shared/data/gcode/programs/boat-xyzac.ngc";
+    if (name == "boat_xyzac/job.toml" && !std::filesystem::exists(boat)) {
+      missing = boat.string();
+      continue;
+    }
     const core::Job job = core::load_job(kPartsDir + name);
     const sim::Chain chain(job);
     const core::ToolPath program = sim::read_job_program(job);
@@ -35,6 +43,9 @@ TEST(SetpointEstimate, BoundsTheInterpolatorsCountOnTheParts) {
     std::printf("%-36s estimate %10.0f  interpolated %10.0f  ratio %.3f\n", name.c_str(), e.setpoints, n,
                 n / e.setpoints);
   }
+  if (!missing.empty())
+    GTEST_SKIP() << "the other parts checked; boat_xyzac left out: " << missing
+                 << " not found (../shared is written outside the project; a fresh clone does not have it)";
 }
 
 // A job's max_setpoints refuses a program whose lower bound exceeds it, before interpolating, naming the key.
