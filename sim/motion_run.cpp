@@ -18,10 +18,14 @@ using core::Clock;
 using core::seconds_since;
 
 // Tool-tip path in the workpiece frame, sample by sample (rows past the setpoints: the last setpoint's offset).
+// forward_rows: the same bits as forward() row by row, without a pose object per row.
 Eigen::MatrixXd tip_path(const Eigen::MatrixXd& axes, const Eigen::VectorXd& tlo_mm, const motion::Kinematics& kin) {
-  Eigen::MatrixXd tip(axes.rows(), 3);
-  for (Eigen::Index k = 0; k < axes.rows(); ++k)
-    tip.row(k) = kin.forward(axes.row(k).transpose(), tlo_mm[std::min(k, tlo_mm.size() - 1)]).tip_mm.transpose();
+  const Eigen::Index n = axes.rows(), given = std::min(n, tlo_mm.size());
+  Eigen::VectorXd tlo(n);
+  tlo.head(given) = tlo_mm.head(given);
+  if (given < n) tlo.tail(n - given).setConstant(tlo_mm.size() > 0 ? tlo_mm[tlo_mm.size() - 1] : 0.0);
+  Eigen::MatrixXd tip(n, 3), no_axis;
+  kin.forward_rows(axes, tlo, tip, no_axis);
   return tip;
 }
 
