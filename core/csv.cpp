@@ -179,12 +179,6 @@ void append_general(std::string& out, double v, int precision) {
   out.append(buf, r.ptr);
 }
 
-void append_shortest(std::string& out, double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  out.append(buf, r.ptr);
-}
-
 void CsvWriter::comment(std::string_view text) {
   auto& s = out_.stream();
   s << "# " << text << '\n';

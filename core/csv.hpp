@@ -94,13 +94,11 @@ class CsvReader {
   bool pending_ = false;  // the first row was read while looking for a header
 };
 
-// Numbers appended to a row being built, through std::to_chars into the row's own buffer (issue 21: fmt::format per
-// number, a temporary string each, was most of the time spent writing signals). append_general(out, v, p) gives the
-// bytes of fmt's "{:.pg}" (printf's %.pg: p significant digits, trailing zeros dropped, two-digit exponents);
-// append_shortest the shortest digits that read back as the same double (std::to_chars' plain form). Values that are
-// not finite come out as to_chars writes them (inf, -inf, nan, -nan): files that write a token of their own test first.
+// A number appended to a row being built, through std::to_chars into the row's own buffer (issue 21: fmt::format per
+// number, a temporary string each, was most of the time spent writing signals): the bytes of fmt's "{:.pg}" (printf's
+// %.pg: p significant digits, trailing zeros dropped, two-digit exponents). Values that are not finite come out as
+// to_chars writes them (inf, -inf, nan, -nan): files that write a token of their own test first.
 void append_general(std::string& out, double v, int precision);
-void append_shortest(std::string& out, double v);
 
 // Writes a CSV file atomically (core/atomic_file): '#' comment lines, a header row, then rows the caller formats
 // (each file has its own number formats, chosen so that reading back gives the same values).

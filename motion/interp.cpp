@@ -592,9 +592,8 @@ struct SetpointWriter {
       if (k == 0) {
         out.path_speed_mm_per_s[k] = 0.0;
       } else {
-        // Summed as Eigen's norm() of the three differences did (x^2 + (y^2 + z^2)), bit for bit.
-        const double dx = x[0][0] - x[1][0], dy = x[0][1] - x[1][1], dz = x[0][2] - x[1][2];
-        out.path_speed_mm_per_s[k] = std::sqrt(dx * dx + (dy * dy + dz * dz)) / te;
+        out.path_speed_mm_per_s[k] =
+            (Eigen::Map<const Eigen::Vector3d>(x[0]) - Eigen::Map<const Eigen::Vector3d>(x[1])).norm() / te;
       }
       if (k >= 1) check(k);
     }

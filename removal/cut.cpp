@@ -529,114 +529,115 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps, core::Progre
   for (int band0 = 0; band0 < nblocks; band0 += band) {
     const int band1 = std::min(nblocks, band0 + band);
 #pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing, blocks, replayed, chunked)
-  {
-    Tiles tiles;
-    std::vector<RowFallback> fb(static_cast<std::size_t>(grid.nu()) + 4);
-    Counts c;
-    std::vector<AxialBall> balls;
-    std::vector<char> is_ball;
-    std::vector<Chunk> chunks;
-    std::vector<Interval> before;
-    std::vector<Flagged> flagged;
+    {
+      Tiles tiles;
+      std::vector<RowFallback> fb(static_cast<std::size_t>(grid.nu()) + 4);
+      Counts c;
+      std::vector<AxialBall> balls;
+      std::vector<char> is_ball;
+      std::vector<Chunk> chunks;
+      std::vector<Interval> before;
+      std::vector<Flagged> flagged;
 #pragma omp for schedule(dynamic, 1)
-    for (int b = band0; b < band1; ++b) {
-      const int jb0 = b * kBlock, jb1 = std::min(grid.nv() - 1, jb0 + kBlock - 1);
-      const std::vector<int>& bin = bins[static_cast<std::size_t>(b)];
-      tiles.reset(grid, jb0, jb1, tile_shift);
-      balls.resize(bin.size());
-      is_ball.resize(bin.size());
-      for (std::size_t q = 0; q < bin.size(); ++q)
-        is_ball[q] = axial_ball(grid, sweeps[static_cast<std::size_t>(bin[q])], balls[q]);
-      // Runs of consecutive ball sweeps along the rays, each followed by one other sweep (or the bin's end).
-      for (std::size_t q0 = 0; q0 < bin.size();) {
-        std::size_t q1 = q0;
-        while (q1 < bin.size() && is_ball[q1]) ++q1;
-        if (order_free(grid, fp, bin, q0, q1, jb0, jb1, balls, chunks, flagged)) {
-          // Every sweep of the run is a ball along the rays whose lowest top lies above all the block's material:
-          // each cut of a ray holding one interval takes its material above the cut's start t0, so such a ray ends
-          // the run as [lo, float(min t0)] (or empty) whatever the order, as long as the reference's bound never
-          // skipped a cut (it may only where a float lies between t0 and the bound above it; the kernel lists those
-          // rays). The sweeps run lowest first, in chunks: those that decide the surface cut it, and the tiles' bounds
-          // settle most of the rest, a chunk at a time where its fat ball's bound does.
-          const std::size_t nb = static_cast<std::size_t>(jb1 - jb0 + 1) * static_cast<std::size_t>(grid.nu());
-          before.assign(grid.head_row(jb0), grid.head_row(jb0) + nb);
-          tiles.skip_several = true;  // rays with several intervals: flagged (order_free), replayed, not in the tops
-          for (const Chunk& ch : chunks) {
-            const unsigned char* settled = nullptr;
-            int tc0 = 0, tc1 = -1;
-            if (ch.fat_ok) {
-              const TileBound bound(ch.fat, grid.v_of(ch.j0) - ch.fat.cv, grid.v_of(ch.j1) - ch.fat.cv);
-              const int shift = tiles.shift, cols = tiles.cols();
-              tc0 = ch.i0 >> shift, tc1 = ch.i1 >> shift;
-              bool all = true;
-              for (int tc = tc0; tc <= tc1; ++tc) {
-                const auto k = static_cast<std::size_t>(tc);
-                const int c0 = std::max(ch.i0, tc * cols), c1 = std::min(ch.i1, tc * cols + cols - 1);
-                const double lb = bound(c0 * grid.du() - ch.fat.cu, c1 * grid.du() - ch.fat.cu) - ch.margin;
-                bool skip = lb >= tiles.top[k];
-                if (!skip && tiles.stale_top[k]) {
-                  tiles.read(grid, tc, false);
-                  skip = lb >= tiles.top[k];
+      for (int b = band0; b < band1; ++b) {
+        const int jb0 = b * kBlock, jb1 = std::min(grid.nv() - 1, jb0 + kBlock - 1);
+        const std::vector<int>& bin = bins[static_cast<std::size_t>(b)];
+        tiles.reset(grid, jb0, jb1, tile_shift);
+        balls.resize(bin.size());
+        is_ball.resize(bin.size());
+        for (std::size_t q = 0; q < bin.size(); ++q)
+          is_ball[q] = axial_ball(grid, sweeps[static_cast<std::size_t>(bin[q])], balls[q]);
+        // Runs of consecutive ball sweeps along the rays, each followed by one other sweep (or the bin's end).
+        for (std::size_t q0 = 0; q0 < bin.size();) {
+          std::size_t q1 = q0;
+          while (q1 < bin.size() && is_ball[q1]) ++q1;
+          if (order_free(grid, fp, bin, q0, q1, jb0, jb1, balls, chunks, flagged)) {
+            // Every sweep of the run is a ball along the rays whose lowest top lies above all the block's material:
+            // each cut of a ray holding one interval takes its material above the cut's start t0, so such a ray ends
+            // the run as [lo, float(min t0)] (or empty) whatever the order, as long as the reference's bound never
+            // skipped a cut (it may only where a float lies between t0 and the bound above it; the kernel lists those
+            // rays). The sweeps run lowest first, in chunks: those that decide the surface cut it, and the tiles'
+            // bounds settle most of the rest, a chunk at a time where its fat ball's bound does.
+            const std::size_t nb = static_cast<std::size_t>(jb1 - jb0 + 1) * static_cast<std::size_t>(grid.nu());
+            before.assign(grid.head_row(jb0), grid.head_row(jb0) + nb);
+            tiles.skip_several = true;  // rays with several intervals: flagged (order_free), replayed, not in the tops
+            for (const Chunk& ch : chunks) {
+              const unsigned char* settled = nullptr;
+              int tc0 = 0, tc1 = -1;
+              if (ch.fat_ok) {
+                const TileBound bound(ch.fat, grid.v_of(ch.j0) - ch.fat.cv, grid.v_of(ch.j1) - ch.fat.cv);
+                const int shift = tiles.shift, cols = tiles.cols();
+                tc0 = ch.i0 >> shift, tc1 = ch.i1 >> shift;
+                bool all = true;
+                for (int tc = tc0; tc <= tc1; ++tc) {
+                  const auto k = static_cast<std::size_t>(tc);
+                  const int c0 = std::max(ch.i0, tc * cols), c1 = std::min(ch.i1, tc * cols + cols - 1);
+                  const double lb = bound(c0 * grid.du() - ch.fat.cu, c1 * grid.du() - ch.fat.cu) - ch.margin;
+                  bool skip = lb >= tiles.top[k];
+                  if (!skip && tiles.stale_top[k]) {
+                    tiles.read(grid, tc, false);
+                    skip = lb >= tiles.top[k];
+                  }
+                  tiles.settled[k] = skip;
+                  all = all && skip;
                 }
-                tiles.settled[k] = skip;
-                all = all && skip;
+                if (all) {
+                  c.chunk_skipped += ch.q1 - ch.q0;
+                  for (int tc = tc0; tc <= tc1; ++tc) tiles.settled[static_cast<std::size_t>(tc)] = 0;
+                  continue;
+                }
+                settled = tiles.settled.data();
               }
-              if (all) {
-                c.chunk_skipped += ch.q1 - ch.q0;
-                for (int tc = tc0; tc <= tc1; ++tc) tiles.settled[static_cast<std::size_t>(tc)] = 0;
-                continue;
+              for (std::size_t q = ch.q0; q < ch.q1; ++q) {
+                const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
+                cut_block_axial_ball(grid, balls[q], f, std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, fb, c, true,
+                                     flagged, settled);
               }
-              settled = tiles.settled.data();
+              for (int tc = tc0; tc <= tc1; ++tc) tiles.settled[static_cast<std::size_t>(tc)] = 0;
             }
-            for (std::size_t q = ch.q0; q < ch.q1; ++q) {
-              const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
-              cut_block_axial_ball(grid, balls[q], f, std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, fb, c, true,
-                                   flagged, settled);
+            // The flagged rays again from the run's start, its sweeps in program order (the reference's steps).
+            std::sort(flagged.begin(), flagged.end());
+            flagged.erase(std::unique(flagged.begin(), flagged.end()), flagged.end());
+            for (const Flagged& r : flagged) {
+              grid.head_row(r.j)[r.i] =
+                  before[static_cast<std::size_t>(r.j - jb0) * static_cast<std::size_t>(grid.nu()) +
+                         static_cast<std::size_t>(r.i)];
+              for (std::size_t q = q0; q < q1; ++q) {
+                const AxialBall& ab = balls[q];
+                const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
+                int ia, ib;
+                if (r.j < f.j0 || r.j > f.j1 || !axial_ball_columns(grid, ab, r.j, f.i0, f.i1, ia, ib) || r.i < ia ||
+                    r.i > ib)
+                  continue;
+                Counts scratch;
+                cut_segment(grid, ab, row_params(grid, ab), r.j, r.i, r.i, tiles.cut_mark.data(), tiles.shift,
+                            fb.data(), scratch);
+              }
             }
-            for (int tc = tc0; tc <= tc1; ++tc) tiles.settled[static_cast<std::size_t>(tc)] = 0;
-          }
-          // The flagged rays again from the run's start, its sweeps in program order (the reference's steps).
-          std::sort(flagged.begin(), flagged.end());
-          flagged.erase(std::unique(flagged.begin(), flagged.end()), flagged.end());
-          for (const Flagged& r : flagged) {
-            grid.head_row(r.j)[r.i] = before[static_cast<std::size_t>(r.j - jb0) * static_cast<std::size_t>(grid.nu()) +
-                                             static_cast<std::size_t>(r.i)];
+            c.replayed += flagged.size();
+            ++c.blocks;
+            tiles.reset(grid, jb0, jb1,
+                        tile_shift);  // the replay may have raised tops the pass had lowered; and rays left out
+          } else {
             for (std::size_t q = q0; q < q1; ++q) {
-              const AxialBall& ab = balls[q];
               const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
-              int ia, ib;
-              if (r.j < f.j0 || r.j > f.j1 || !axial_ball_columns(grid, ab, r.j, f.i0, f.i1, ia, ib) || r.i < ia ||
-                  r.i > ib)
-                continue;
-              Counts scratch;
-              cut_segment(grid, ab, row_params(grid, ab), r.j, r.i, r.i, tiles.cut_mark.data(), tiles.shift, fb.data(),
-                          scratch);
+              cut_block_axial_ball(grid, balls[q], f, std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, fb, c, false,
+                                   flagged);
             }
           }
-          c.replayed += flagged.size();
-          ++c.blocks;
-          tiles.reset(grid, jb0, jb1,
-                      tile_shift);  // the replay may have raised tops the pass had lowered; and rays left out
-        } else {
-          for (std::size_t q = q0; q < q1; ++q) {
-            const Footprint& f = fp[static_cast<std::size_t>(bin[q])];
-            cut_block_axial_ball(grid, balls[q], f, std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, fb, c, false,
-                                 flagged);
+          if (q1 < bin.size()) {
+            const int k = bin[q1];
+            const Footprint& f = fp[static_cast<std::size_t>(k)];
+            cut_block_general(grid, sweeps[static_cast<std::size_t>(k)], f, wext[static_cast<std::size_t>(k)],
+                              std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, c);
           }
+          q0 = q1 + 1;
         }
-        if (q1 < bin.size()) {
-          const int k = bin[q1];
-          const Footprint& f = fp[static_cast<std::size_t>(k)];
-          cut_block_general(grid, sweeps[static_cast<std::size_t>(k)], f, wext[static_cast<std::size_t>(k)],
-                            std::max(jb0, f.j0), std::min(jb1, f.j1), tiles, c);
-        }
-        q0 = q1 + 1;
       }
+      tests += c.tests, cuts += c.cuts, tile += c.tile, bound += c.bound, nothing += c.nothing, blocks += c.blocks,
+          replayed += c.replayed, chunked += c.chunk_skipped;
     }
-    tests += c.tests, cuts += c.cuts, tile += c.tile, bound += c.bound, nothing += c.nothing, blocks += c.blocks,
-        replayed += c.replayed, chunked += c.chunk_skipped;
-  }
-  if (progress) progress->update(done + static_cast<double>(sweeps.size()) * band1 / nblocks);
+    if (progress) progress->update(done + static_cast<double>(sweeps.size()) * band1 / nblocks);
   }
   CutStats s;
   s.ray_tests = tests;

@@ -1,7 +1,6 @@
 // The writers' number and record encodings made cheaper in issue 21, against references written elsewhere:
 //  - core::append_general(v, 7) against fmt's "{:.7g}" (fmt's own float formatter, which signals.csv used before) and
 //    against the value read back (7 significant digits: within half a unit of the 7th digit);
-//  - core::append_shortest against std::from_chars: the shortest digits read back as the same double;
 //  - write_stl_binary's bytes against the format as the STL specification gives it (80-byte header, little-endian
 //    uint32 count, per facet 12 little-endian float32 and a zero uint16), encoded here byte by byte.
 #include "core/csv.hpp"
@@ -83,19 +82,6 @@ TEST(WriterBytes, GeneralSevenDigitsAreFmtsBytes) {
   line = "a,";
   append_general(line, 0.25, 7);
   EXPECT_EQ(line, "a,0.25");
-}
-
-TEST(WriterBytes, ShortestReadsBackExactly) {
-  std::string line;
-  for (const double v : writer_bytes_values()) {
-    line.clear();
-    append_shortest(line, v);
-    double back = 1.0;
-    const auto r = std::from_chars(line.data(), line.data() + line.size(), back);
-    ASSERT_EQ(r.ec, std::errc()) << line;
-    ASSERT_EQ(r.ptr, line.data() + line.size()) << line;
-    ASSERT_EQ(std::bit_cast<std::uint64_t>(back), std::bit_cast<std::uint64_t>(v)) << line;
-  }
 }
 
 void writer_bytes_le32(std::string& out, std::uint32_t v) {
