@@ -39,22 +39,24 @@ V3 closest_on_triangle(const V3& p, const V3& a, const V3& b, const V3& c) {
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
-struct Box {
-  V3 lo = V3::Constant(HUGE_VAL), hi = V3::Constant(-HUGE_VAL);
-  void grow(const V3& p) { lo = lo.cwiseMin(p), hi = hi.cwiseMax(p); }
-  void grow(const Box& b) { lo = lo.cwiseMin(b.lo), hi = hi.cwiseMax(b.hi); }
-  double dist2(const V3& p) const { return (lo - p).cwiseMax(p - hi).cwiseMax(0.0).squaredNorm(); }
-};
-
-struct Node {
-  Box box;
-  int left = -1, right = -1;  // children, or -1 for a leaf
-  int first = 0, count = 0;   // leaf: triangles order[first, first + count)
-};
-
 }  // namespace
 
+// Box and Node are Impl's own (not in the anonymous namespace: a member of a class with linkage cannot have such a
+// type, and GCC warns in unity builds).
 struct MeshDistance::Impl {
+  struct Box {
+    V3 lo = V3::Constant(HUGE_VAL), hi = V3::Constant(-HUGE_VAL);
+    void grow(const V3& p) { lo = lo.cwiseMin(p), hi = hi.cwiseMax(p); }
+    void grow(const Box& b) { lo = lo.cwiseMin(b.lo), hi = hi.cwiseMax(b.hi); }
+    double dist2(const V3& p) const { return (lo - p).cwiseMax(p - hi).cwiseMax(0.0).squaredNorm(); }
+  };
+
+  struct Node {
+    Box box;
+    int left = -1, right = -1;  // children, or -1 for a leaf
+    int first = 0, count = 0;   // leaf: triangles order[first, first + count)
+  };
+
   std::vector<V3> a, b, c, n;  // per triangle: corners and unit normal
   std::vector<int> order;
   std::vector<Node> nodes;
@@ -123,7 +125,7 @@ MeshDistance::Hit MeshDistance::closest(const V3& p) const {
   int sp = 0;
   stack[static_cast<std::size_t>(sp++)] = 0;
   while (sp > 0) {
-    const Node& nd = I.nodes[static_cast<std::size_t>(stack[static_cast<std::size_t>(--sp)])];
+    const Impl::Node& nd = I.nodes[static_cast<std::size_t>(stack[static_cast<std::size_t>(--sp)])];
     if (nd.box.dist2(p) > best) continue;
     if (nd.left < 0) {
       for (int k = nd.first; k < nd.first + nd.count; ++k) {
