@@ -278,10 +278,15 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
                           const unsigned char* settled = nullptr) {
   int ia[kBlock], ib[kBlock];
   int umin = g.nu(), umax = -1, r0 = -1, r1 = -1;
+  // The shadow's columns on the block's rows (axial_ball_columns' operations, the rows side by side).
+  double qv[kBlock];
+  for (int j = j0; j <= j1; ++j) qv[j - j0] = g.v_of(j) - b.cv;
+  const BallColumns bc{b.eu, b.ev, b.ee, b.cu, g.du(), b.R * b.el, f.i0, f.i1};
+  (use_avx2() ? row_columns_avx2 : row_columns_generic)(bc, qv, j1 - j0 + 1, ia, ib);
   for (int j = j0; j <= j1; ++j) {
     int& a = ia[j - j0];
     int& e = ib[j - j0];
-    if (!axial_ball_columns(g, b, j, f.i0, f.i1, a, e)) {
+    if (a > e) {
       a = 1, e = 0;
       continue;
     }

@@ -52,11 +52,31 @@ int row_cut_pure_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval
 bool tile_top_generic(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
 bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
 
+// What axial_ball_columns (removal/cut_internal.hpp) needs of a ball sweep along the rays, for a row range of columns
+// [i0, i1]: the move across the grid (eu, ev, ee), the ball centre's column offset cu, R el, the column spacing.
+struct BallColumns {
+  double eu, ev, ee, cu, du, Rel;
+  int i0, i1;
+};
+// axial_ball_columns on the rows whose offsets from the ball centre's start are qv[0..n): columns [ia[k], ib[k]] of
+// row k (ia > ib: the shadow misses it), bit for bit the scalar function's.
+void row_columns_generic(const BallColumns& c, const double* qv, int n, int* ia, int* ib);
+void row_columns_avx2(const BallColumns& c, const double* qv, int n, int* ia, int* ib);
+
 // The largest squared distance from the points (px, py, pz)[k], k in [k0, k1), to the segment from a along d
 // (inv = 1 / d.d, or 0 when d = 0): the track's merge (removal/track.cpp), vectorised.
 double chord_dist2_generic(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1,
                            double ax, double ay, double az, double dx, double dy, double dz, double inv);
 double chord_dist2_avx2(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1, double ax,
                         double ay, double az, double dx, double dy, double dz, double inv);
+
+// hermite_substeps' |p''|max and sqrt(|p''|max / (8 eps)) of the track intervals k -> k + 1, k in [k0, k1) (tips t, tip
+// velocities v, columns of the track), written to a[k - k0], r[k - k0] (removal/track.cpp).
+void hermite_bow_generic(const double* tx, const double* ty, const double* tz, const double* vx, const double* vy,
+                         const double* vz, std::size_t k0, std::size_t k1, double period_s, double eps, double* a,
+                         double* r);
+void hermite_bow_avx2(const double* tx, const double* ty, const double* tz, const double* vx, const double* vy,
+                      const double* vz, std::size_t k0, std::size_t k1, double period_s, double eps, double* a,
+                      double* r);
 
 }  // namespace vmsim::removal
