@@ -23,6 +23,7 @@ void row_bounds_avx2(const RowCutParams& p, double qv, int ia, const int* idx, i
 // start of the cut t0 and the lower bound t1 of its end, as row_bounds gives them.
 struct RowFallback {
   int i;
+  int j = 0;          // the ray's row (row_cut_pure_rows: the segment's `row`)
   double t0, t1, lb;  // lb: the ray's square-root-free bound
 };
 struct RowCutCounts {
@@ -46,6 +47,23 @@ int row_cut_pure_generic(const RowCutParams& p, double qv, int i0, int i1, Inter
                          unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
 int row_cut_pure_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, double margin,
                       unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
+
+// The rays [i0, i1] of one row for row_cut_pure_rows: the row's in-place intervals (head, indexed by column, nu of them
+// in memory), its offset qv from the ball centre's start, its row number (copied to the fallbacks).
+struct RowSegment {
+  Interval* head;
+  double qv;
+  int i0, i1, row;
+};
+// row_cut_pure on several segments (a sweep's rows and runs in a block) in one call: the constants set once, a
+// segment's last group read whole from its row where the row holds it (lanes past the segment masked, left as they
+// are). The same bits and counts as row_cut_pure on each segment in turn; fallbacks carry their row.
+int row_cut_pure_rows_generic(const RowCutParams& p, const RowSegment* segs, int nsegs, int nu, double length,
+                              double margin, unsigned char* cut_tiles, int tile_shift, RowFallback* fb,
+                              RowCutCounts& count);
+int row_cut_pure_rows_avx2(const RowCutParams& p, const RowSegment* segs, int nsegs, int nu, double length,
+                           double margin, unsigned char* cut_tiles, int tile_shift, RowFallback* fb,
+                           RowCutCounts& count);
 
 // The highest top of the rays in `rows` rows x n columns from head (rows `stride` intervals apart), or false when one
 // of them holds several intervals (unless skip_several: then the top of the others).

@@ -4,6 +4,7 @@
 #define ROW_PREFILTER_NAME row_prefilter_avx2
 #define ROW_CUT_NAME row_cut_avx2
 #define ROW_CUT_PURE_NAME row_cut_pure_avx2
+#define ROW_CUT_PURE_ROWS_NAME row_cut_pure_rows_avx2
 #define TILE_TOP_NAME tile_top_avx2
 #define CHORD_DIST2_NAME chord_dist2_avx2
 #define ROW_COLUMNS_NAME row_columns_avx2

@@ -3,6 +3,7 @@
 #define ROW_PREFILTER_NAME row_prefilter_generic
 #define ROW_CUT_NAME row_cut_generic
 #define ROW_CUT_PURE_NAME row_cut_pure_generic
+#define ROW_CUT_PURE_ROWS_NAME row_cut_pure_rows_generic
 #define TILE_TOP_NAME tile_top_generic
 #define CHORD_DIST2_NAME chord_dist2_generic
 #define ROW_COLUMNS_NAME row_columns_generic
