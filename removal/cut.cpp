@@ -278,10 +278,15 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
                           const unsigned char* settled = nullptr) {
   int ia[kBlock], ib[kBlock];
   int umin = g.nu(), umax = -1, r0 = -1, r1 = -1;
+  // The shadow's columns on the block's rows (axial_ball_columns' operations, the rows side by side).
+  double qv[kBlock];
+  for (int j = j0; j <= j1; ++j) qv[j - j0] = g.v_of(j) - b.cv;
+  const BallColumns bc{b.eu, b.ev, b.ee, b.cu, g.du(), b.R * b.el, f.i0, f.i1};
+  (use_avx2() ? row_columns_avx2 : row_columns_generic)(bc, qv, j1 - j0 + 1, ia, ib);
   for (int j = j0; j <= j1; ++j) {
     int& a = ia[j - j0];
     int& e = ib[j - j0];
-    if (!axial_ball_columns(g, b, j, f.i0, f.i1, a, e)) {
+    if (a > e) {
       a = 1, e = 0;
       continue;
     }
@@ -320,8 +325,10 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
     }
   }
   const RowCutParams p = row_params(g, b);
-  const bool avx2 = use_avx2();
   unsigned char* cut_tiles = tiles.cut_mark.data();
+  // The order-free form: every row's runs in one kernel call (its constants set once), then the fallbacks.
+  RowSegment segs[kBlock * 64];
+  int nsegs = 0;
   for (int j = j0; j <= j1; ++j) {
     const int a = ia[j - j0], e = ib[j - j0];
     if (a > e) continue;
@@ -336,23 +343,25 @@ void cut_block_axial_ball(DexelGrid& g, const AxialBall& b, const Footprint& f, 
         cut_segment(g, b, p, j, s0, s1, cut_tiles, shift, fb.data(), c);
         continue;
       }
-      RowCutCounts rc;
-      Interval* head = g.head_row(j);
-      const int nfb = (avx2 ? row_cut_pure_avx2 : row_cut_pure_generic)(p, g.v_of(j) - b.cv, s0, s1, head, g.length(),
-                                                                        margin, cut_tiles, shift, fb.data(), rc);
-      c.bound += static_cast<std::size_t>(rc.bound_skipped);
-      c.nothing += static_cast<std::size_t>(rc.exact_nothing);
-      c.cuts += static_cast<std::size_t>(rc.cut);
-      for (int q = 0; q < nfb; ++q) {
-        const RowFallback& rf = fb[static_cast<std::size_t>(q)];
-        const Interval h = head[rf.i];
-        // Several intervals, a cut that would not go through the top (neither happens when cut() chose this form),
-        // or a bound above t0 with a float between them: the replay redoes the ray in program order.
-        const bool anomaly = std::isfinite(rf.t0) && rf.lb > rf.t0 && float_between(rf.t0, rf.lb);
-        if (std::isnan(h.lo) || (h.lo <= h.hi && rf.t1 < h.hi) || anomaly) flagged.push_back({j, rf.i});
-      }
+      segs[nsegs++] = RowSegment{g.head_row(j), g.v_of(j) - b.cv, s0, s1, j};
     }
     c.tile += static_cast<std::size_t>(e - a + 1) - done;
+  }
+  if (nsegs > 0) {
+    RowCutCounts rc;
+    const int nfb = (use_avx2() ? row_cut_pure_rows_avx2 : row_cut_pure_rows_generic)(
+        p, segs, nsegs, g.nu(), g.length(), margin, cut_tiles, shift, fb.data(), rc);
+    c.bound += static_cast<std::size_t>(rc.bound_skipped);
+    c.nothing += static_cast<std::size_t>(rc.exact_nothing);
+    c.cuts += static_cast<std::size_t>(rc.cut);
+    for (int q = 0; q < nfb; ++q) {
+      const RowFallback& rf = fb[static_cast<std::size_t>(q)];
+      const Interval h = g.head_row(rf.j)[rf.i];
+      // Several intervals, a cut that would not go through the top (neither happens when cut() chose this form),
+      // or a bound above t0 with a float between them: the replay redoes the ray in program order.
+      const bool anomaly = std::isfinite(rf.t0) && rf.lb > rf.t0 && float_between(rf.t0, rf.lb);
+      if (std::isnan(h.lo) || (h.lo <= h.hi && rf.t1 < h.hi) || anomaly) flagged.push_back({rf.j, rf.i});
+    }
   }
   // Tiles a cut touched: their tops may have fallen.
   for (int tc = tc0; tc <= tc1 + 1 && tc < static_cast<int>(tiles.top.size()); ++tc)
@@ -531,7 +540,8 @@ CutStats cut(DexelGrid& grid, const std::vector<SweptTool>& sweeps, core::Progre
 #pragma omp parallel reduction(+ : tests, cuts, tile, bound, nothing, blocks, replayed, chunked)
     {
       Tiles tiles;
-      std::vector<RowFallback> fb(static_cast<std::size_t>(grid.nu()) + 4);
+      // A kernel call's fallbacks: at most one per ray of a block's rows.
+      std::vector<RowFallback> fb(static_cast<std::size_t>(kBlock) * static_cast<std::size_t>(grid.nu()) + 4);
       Counts c;
       std::vector<AxialBall> balls;
       std::vector<char> is_ball;

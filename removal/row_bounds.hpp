@@ -23,6 +23,7 @@ void row_bounds_avx2(const RowCutParams& p, double qv, int ia, const int* idx, i
 // start of the cut t0 and the lower bound t1 of its end, as row_bounds gives them.
 struct RowFallback {
   int i;
+  int j = 0;          // the ray's row (row_cut_pure_rows: the segment's `row`)
   double t0, t1, lb;  // lb: the ray's square-root-free bound
 };
 struct RowCutCounts {
@@ -47,10 +48,38 @@ int row_cut_pure_generic(const RowCutParams& p, double qv, int i0, int i1, Inter
 int row_cut_pure_avx2(const RowCutParams& p, double qv, int i0, int i1, Interval* head, double length, double margin,
                       unsigned char* cut_tiles, int tile_shift, RowFallback* fb, RowCutCounts& count);
 
+// The rays [i0, i1] of one row for row_cut_pure_rows: the row's in-place intervals (head, indexed by column, nu of them
+// in memory), its offset qv from the ball centre's start, its row number (copied to the fallbacks).
+struct RowSegment {
+  Interval* head;
+  double qv;
+  int i0, i1, row;
+};
+// row_cut_pure on several segments (a sweep's rows and runs in a block) in one call: the constants set once, a
+// segment's last group read whole from its row where the row holds it (lanes past the segment masked, left as they
+// are). The same bits and counts as row_cut_pure on each segment in turn; fallbacks carry their row.
+int row_cut_pure_rows_generic(const RowCutParams& p, const RowSegment* segs, int nsegs, int nu, double length,
+                              double margin, unsigned char* cut_tiles, int tile_shift, RowFallback* fb,
+                              RowCutCounts& count);
+int row_cut_pure_rows_avx2(const RowCutParams& p, const RowSegment* segs, int nsegs, int nu, double length,
+                           double margin, unsigned char* cut_tiles, int tile_shift, RowFallback* fb,
+                           RowCutCounts& count);
+
 // The highest top of the rays in `rows` rows x n columns from head (rows `stride` intervals apart), or false when one
 // of them holds several intervals (unless skip_several: then the top of the others).
 bool tile_top_generic(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
 bool tile_top_avx2(const Interval* head, std::size_t stride, int rows, int n, bool skip_several, float& top);
+
+// What axial_ball_columns (removal/cut_internal.hpp) needs of a ball sweep along the rays, for a row range of columns
+// [i0, i1]: the move across the grid (eu, ev, ee), the ball centre's column offset cu, R el, the column spacing.
+struct BallColumns {
+  double eu, ev, ee, cu, du, Rel;
+  int i0, i1;
+};
+// axial_ball_columns on the rows whose offsets from the ball centre's start are qv[0..n): columns [ia[k], ib[k]] of
+// row k (ia > ib: the shadow misses it), bit for bit the scalar function's.
+void row_columns_generic(const BallColumns& c, const double* qv, int n, int* ia, int* ib);
+void row_columns_avx2(const BallColumns& c, const double* qv, int n, int* ia, int* ib);
 
 // The largest squared distance from the points (px, py, pz)[k], k in [k0, k1), to the segment from a along d
 // (inv = 1 / d.d, or 0 when d = 0): the track's merge (removal/track.cpp), vectorised.
@@ -58,5 +87,14 @@ double chord_dist2_generic(const double* px, const double* py, const double* pz,
                            double ax, double ay, double az, double dx, double dy, double dz, double inv);
 double chord_dist2_avx2(const double* px, const double* py, const double* pz, std::size_t k0, std::size_t k1, double ax,
                         double ay, double az, double dx, double dy, double dz, double inv);
+
+// hermite_substeps' |p''|max and sqrt(|p''|max / (8 eps)) of the track intervals k -> k + 1, k in [k0, k1) (tips t, tip
+// velocities v, columns of the track), written to a[k - k0], r[k - k0] (removal/track.cpp).
+void hermite_bow_generic(const double* tx, const double* ty, const double* tz, const double* vx, const double* vy,
+                         const double* vz, std::size_t k0, std::size_t k1, double period_s, double eps, double* a,
+                         double* r);
+void hermite_bow_avx2(const double* tx, const double* ty, const double* tz, const double* vx, const double* vy,
+                      const double* vz, std::size_t k0, std::size_t k1, double period_s, double eps, double* a,
+                      double* r);
 
 }  // namespace vmsim::removal

@@ -4,8 +4,11 @@
 #define ROW_PREFILTER_NAME row_prefilter_avx2
 #define ROW_CUT_NAME row_cut_avx2
 #define ROW_CUT_PURE_NAME row_cut_pure_avx2
+#define ROW_CUT_PURE_ROWS_NAME row_cut_pure_rows_avx2
 #define TILE_TOP_NAME tile_top_avx2
 #define CHORD_DIST2_NAME chord_dist2_avx2
+#define ROW_COLUMNS_NAME row_columns_avx2
+#define HERMITE_BOW_NAME hermite_bow_avx2
 #include "removal/row_bounds.inc"
 #include "removal/row_cut.inc"
 #include "removal/track_kernel.inc"

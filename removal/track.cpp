@@ -63,19 +63,26 @@ std::vector<std::pair<Eigen::Index, int>> hermite_substeps(const PoseTrack& trac
   const double* vx = track.tip_velocity_mm_per_s.col(0).data();
   const double* vy = track.tip_velocity_mm_per_s.col(1).data();
   const double* vz = track.tip_velocity_mm_per_s.col(2).data();
-  const double T = track.period_s;
+  const auto bow = detail::use_avx2() ? hermite_bow_avx2 : hermite_bow_generic;
   std::vector<std::pair<Eigen::Index, int>> out;
   double e = 0;
-  for (Eigen::Index k = 0; k + 1 < n; ++k) {
-    const Eigen::Vector3d p0(tx[k], ty[k], tz[k]), p1(tx[k + 1], ty[k + 1], tz[k + 1]);
-    const Eigen::Vector3d m0 = Eigen::Vector3d(vx[k], vy[k], vz[k]) * T;
-    const Eigen::Vector3d m1 = Eigen::Vector3d(vx[k + 1], vy[k + 1], vz[k + 1]) * T;
-    const double s0 = (6 * (p1 - p0) - 4 * m0 - 2 * m1).squaredNorm();
-    const double s1 = (-6 * (p1 - p0) + 2 * m0 + 4 * m1).squaredNorm();
-    const double a = std::sqrt(std::max(s0, s1));
-    const int m = std::clamp(static_cast<int>(std::ceil(std::sqrt(a / (8 * eps)))), 1, 1000);
-    e = std::max(e, (a / 8) / (double(m) * m));
-    if (m > 1) out.emplace_back(k, m);
+  // The square roots and divisions vectorised a block of intervals at a time (hermite_bow); m and e from them here.
+  constexpr std::size_t kBowBlock = 256;
+  double a_of[kBowBlock], r_of[kBowBlock];
+  const std::size_t intervals = n > 0 ? static_cast<std::size_t>(n - 1) : 0;
+  for (std::size_t k0 = 0; k0 < intervals; k0 += kBowBlock) {
+    const std::size_t k1 = std::min(intervals, k0 + kBowBlock);
+    bow(tx, ty, tz, vx, vy, vz, k0, k1, track.period_s, eps, a_of, r_of);
+    for (std::size_t k = k0; k < k1; ++k) {
+      const double a = a_of[k - k0], r = r_of[k - k0];
+      if (!(r > 1)) {  // m = 1 (a NaN too, as the clamp made it): (a / 8) / 1.0 is a / 8
+        e = std::max(e, a / 8);
+        continue;
+      }
+      const int m = std::clamp(static_cast<int>(std::ceil(r)), 1, 1000);
+      e = std::max(e, (a / 8) / (double(m) * m));
+      if (m > 1) out.emplace_back(static_cast<Eigen::Index>(k), m);
+    }
   }
   e_hermite = e;
   return out;
