@@ -594,7 +594,6 @@ void add_scale_bar(vtkRenderer* overlay, double mm_per_px, const double vp[4], i
   overlay->AddActor2D(t);
 }
 
-
 // ---- flat maps drawn as an image --------------------------------------------------------------------------------
 
 // Whether a flat map of this grid can be drawn as an image: every drawn node valid with a finite deviation (holes,
@@ -643,14 +642,15 @@ vtkSmartPointer<vtkImageActor> map_image(vtkRenderer* ren, const Geometry& g, vt
   // Pixel k's centre at NDC 2 (k + 0.5) / n - 1.
   const double x0 = ((1.0 / vw - 1) - m03) / m00, sx = 2.0 / vw / m00;
   const double y0 = ((1.0 / vh - 1) - m13) / m11, sy = 2.0 / vh / m11;
-  const std::vector<CellFraction> cx = cell_fractions(g.node_x_mm, x0, sx, vw), cy = cell_fractions(g.node_y_mm, y0, sy, vh);
+  const std::vector<CellFraction> cx = cell_fractions(g.node_x_mm, x0, sx, vw),
+                                  cy = cell_fractions(g.node_y_mm, y0, sy, vh);
   const auto first = [](const std::vector<CellFraction>& v) {
     return static_cast<int>(std::find_if(v.begin(), v.end(), [](const CellFraction& c) { return c.cell >= 0; }) -
                             v.begin());
   };
   const auto last = [](const std::vector<CellFraction>& v) {
-    return static_cast<int>(
-        v.rend() - std::find_if(v.rbegin(), v.rend(), [](const CellFraction& c) { return c.cell >= 0; }) - 1);
+    return static_cast<int>(v.rend() -
+                            std::find_if(v.rbegin(), v.rend(), [](const CellFraction& c) { return c.cell >= 0; }) - 1);
   };
   const int i0 = first(cx), i1 = last(cx), j0 = first(cy), j1 = last(cy);
   if (i0 > i1 || j0 > j1) return nullptr;
