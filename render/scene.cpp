@@ -630,7 +630,8 @@ std::vector<CellFraction> cell_fractions(const std::vector<double>& nodes, doubl
 // interpolated there linearly over the triangles (a, b, c) and (a, c, d) of its cell, as the triangles are split
 // (grid_geometry): what the rasteriser computes per pixel for InterpolateScalarsBeforeMapping. It lies at z_mm
 // (below the surface, so the iso-lines drawn at the surface's heights stay in front). Null when no pixel centre
-// falls on the grid.
+// falls on the grid, or for a viewport over 4096 x 4096 pixels: the image and its texture (~7 B a pixel) would then
+// outgrow what detail::check_size allows a picture, and the triangles are drawn instead.
 vtkSmartPointer<vtkImageActor> map_image(vtkRenderer* ren, const Geometry& g, vtkLookupTable* lut, double z_mm) {
   int vw = 0, vh = 0, vx = 0, vy = 0;
   ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
@@ -638,7 +639,7 @@ vtkSmartPointer<vtkImageActor> map_image(vtkRenderer* ren, const Geometry& g, vt
   // Straight down with +Y up: x depends on the NDC x only, y on the NDC y only.
   const double m00 = m->GetElement(0, 0), m03 = m->GetElement(0, 3), m11 = m->GetElement(1, 1),
                m13 = m->GetElement(1, 3);
-  if (vw < 1 || vh < 1 || !(m00 > 0) || !(m11 > 0)) return nullptr;
+  if (vw < 1 || vh < 1 || !(m00 > 0) || !(m11 > 0) || static_cast<double>(vw) * vh > 4096.0 * 4096.0) return nullptr;
   // Pixel k's centre at NDC 2 (k + 0.5) / n - 1.
   const double x0 = ((1.0 / vw - 1) - m03) / m00, sx = 2.0 / vw / m00;
   const double y0 = ((1.0 / vh - 1) - m13) / m11, sy = 2.0 / vh / m11;
@@ -815,7 +816,10 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   vtkCamera* cam = ren->GetActiveCamera();
   frame_camera(cam, frame, b, aspect, pic.view.direction == ViewDirection::Top, 30.0);
   vtkSmartPointer<vtkImageActor> map;
-  if (as_image && (map = map_image(ren, g, lut, g.bounds[4]))) ren->AddActor(map);
+  if (as_image) {
+    map = map_image(ren, g, lut, g.bounds[4]);
+    ren->AddActor(map ? static_cast<vtkProp*>(map) : surface.Get());
+  }
   add_lights(ren, frame, pic.light, b);
 
   // Annotations.

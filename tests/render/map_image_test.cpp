@@ -135,3 +135,22 @@ TEST(MapImage, HolesAndMissingDeviationsKeepTheTriangles) {
   const PartImage triangles = render_part(shared_window(), f.surface, &f.deviation, pic);
   EXPECT_EQ(map_image_difference(image.image, triangles.image).differing, 0u);
 }
+
+// A viewport over 4096 x 4096 pixels draws the triangles (the image would outgrow a picture's memory budget): the
+// map is there, and the same as with map_as_image = false.
+TEST(MapImage, HugePictureFallsBackToTheTriangles) {
+  const MapImageFields f = map_image_fields(61, 41, 0.2, 0.2);
+  PartPicture pic = map_picture(4700, 4700);
+  pic.deviation->isolines = 0;
+  const PartImage image = render_part(shared_window(), f.surface, &f.deviation, pic);
+  pic.map_as_image = false;
+  const PartImage triangles = render_part(shared_window(), f.surface, &f.deviation, pic);
+  EXPECT_EQ(map_image_difference(image.image, triangles.image).differing, 0u);
+  // The map is drawn: the grid's centre has the colour of its deviation there, not the background's.
+  const double x = f.surface.x(30), y = f.surface.y(20);
+  const Eigen::Vector2d p = image.pixel({x, y, f.surface.z_mm(20, 30)});
+  const Rgb c = table_colour(f.deviation.z_mm(20, 30), 0.010);
+  EXPECT_LE(test::colour_distance(image.image.at(static_cast<int>(p.x()), static_cast<int>(p.y())),
+                                  test::to8(c[0], c[1], c[2])),
+            6);
+}
