@@ -158,6 +158,25 @@ BENCHMARK(BM_GridToPng)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// The flat top map (deviation colours, 3 iso-lines per side, no lighting) of the million-triangle grid: drawn as
+// one image coloured per pixel on the CPU (1) or as its triangles (0, every map before).
+void BM_MapToPng(benchmark::State& state) {
+  auto pic = picture(true, render::ViewDirection::Top);
+  pic.map_as_image = state.range(0) != 0;
+  pic.deviation->isolines = static_cast<int>(state.range(1));
+  render::Window& w = window();
+  render::render_part(w, grid(), &deviation(), pic);  // shaders compiled outside the timing
+  const ProcessCpu cpu;
+  for (auto _ : state) {
+    const render::PartImage img = render::render_part(w, grid(), &deviation(), pic);
+    render::write_png(png, img.image);
+  }
+  cpu.report(state);
+  state.SetLabel(std::string("top map, ") + (pic.map_as_image ? "image" : "triangles") + ", " +
+                 std::to_string(pic.deviation->isolines) + " iso-lines per side");
+}
+BENCHMARK(BM_MapToPng)->ArgsProduct({{0, 1}, {0, 3}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
 const char* filter_name(std::int64_t f) {
   static const char* names[] = {"none", "sub", "up", "paeth", "adaptive"};
   return names[f];

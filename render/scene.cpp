@@ -15,6 +15,9 @@
 #include <vtkCellArray.h>
 #include <vtkContourFilter.h>
 #include <vtkFloatArray.h>
+#include <vtkImageActor.h>
+#include <vtkImageData.h>
+#include <vtkImageSliceMapper.h>
 #include <vtkLight.h>
 #include <vtkLookupTable.h>
 #include <vtkMatrix4x4.h>
@@ -591,6 +594,97 @@ void add_scale_bar(vtkRenderer* overlay, double mm_per_px, const double vp[4], i
   overlay->AddActor2D(t);
 }
 
+// ---- flat maps drawn as an image --------------------------------------------------------------------------------
+
+// Whether a flat map of this grid can be drawn as an image: every drawn node valid with a finite deviation (holes,
+// and VTK's own way of colouring next to a NaN, stay with the triangles).
+bool map_image_possible(const Geometry& g) {
+  if (g.node_deviation_um.empty() || g.node_x_mm.size() < 2 || g.node_y_mm.size() < 2) return false;
+  for (std::size_t k = 0; k < g.node_deviation_um.size(); ++k)
+    if (!std::isfinite(g.node_deviation_um[k]) || !std::isfinite(g.node_z_mm[k])) return false;
+  return true;
+}
+
+// Where the centre of each pixel column (or row) of the viewport falls among the drawn nodes' coordinates
+// (ascending): the cell and the fraction across it; cell -1 outside their span.
+struct CellFraction {
+  std::int32_t cell = -1;
+  double t = 0;
+};
+std::vector<CellFraction> cell_fractions(const std::vector<double>& nodes, double first_centre, double step, int n) {
+  std::vector<CellFraction> out(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    const double x = first_centre + k * step;
+    if (!(x >= nodes.front() && x <= nodes.back())) continue;
+    const auto it = std::upper_bound(nodes.begin(), nodes.end(), x);
+    const auto c = std::min<std::ptrdiff_t>(std::max<std::ptrdiff_t>(it - nodes.begin() - 1, 0),
+                                            static_cast<std::ptrdiff_t>(nodes.size()) - 2);
+    const double a = nodes[static_cast<std::size_t>(c)], b = nodes[static_cast<std::size_t>(c) + 1];
+    out[static_cast<std::size_t>(k)] = {static_cast<std::int32_t>(c), (x - a) / (b - a)};
+  }
+  return out;
+}
+
+// The flat map as an image actor, one texel per pixel of the renderer's viewport, each texel centred on its pixel's
+// centre (parallel projection straight down, the camera already framed) and coloured by `lut` at the deviation
+// interpolated there linearly over the triangles (a, b, c) and (a, c, d) of its cell, as the triangles are split
+// (grid_geometry): what the rasteriser computes per pixel for InterpolateScalarsBeforeMapping. It lies at z_mm
+// (below the surface, so the iso-lines drawn at the surface's heights stay in front). Null when no pixel centre
+// falls on the grid, or for a viewport over 4096 x 4096 pixels: the image and its texture (~7 B a pixel) would then
+// outgrow what detail::check_size allows a picture, and the triangles are drawn instead.
+vtkSmartPointer<vtkImageActor> map_image(vtkRenderer* ren, const Geometry& g, vtkLookupTable* lut, double z_mm) {
+  int vw = 0, vh = 0, vx = 0, vy = 0;
+  ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
+  vtkMatrix4x4* m = ren->GetActiveCamera()->GetCompositeProjectionTransformMatrix(ren->GetTiledAspectRatio(), -1, 1);
+  // Straight down with +Y up: x depends on the NDC x only, y on the NDC y only.
+  const double m00 = m->GetElement(0, 0), m03 = m->GetElement(0, 3), m11 = m->GetElement(1, 1),
+               m13 = m->GetElement(1, 3);
+  if (vw < 1 || vh < 1 || !(m00 > 0) || !(m11 > 0) || static_cast<double>(vw) * vh > 4096.0 * 4096.0) return nullptr;
+  // Pixel k's centre at NDC 2 (k + 0.5) / n - 1.
+  const double x0 = ((1.0 / vw - 1) - m03) / m00, sx = 2.0 / vw / m00;
+  const double y0 = ((1.0 / vh - 1) - m13) / m11, sy = 2.0 / vh / m11;
+  const std::vector<CellFraction> cx = cell_fractions(g.node_x_mm, x0, sx, vw),
+                                  cy = cell_fractions(g.node_y_mm, y0, sy, vh);
+  const auto first = [](const std::vector<CellFraction>& v) {
+    return static_cast<int>(std::find_if(v.begin(), v.end(), [](const CellFraction& c) { return c.cell >= 0; }) -
+                            v.begin());
+  };
+  const auto last = [](const std::vector<CellFraction>& v) {
+    return static_cast<int>(v.rend() -
+                            std::find_if(v.rbegin(), v.rend(), [](const CellFraction& c) { return c.cell >= 0; }) - 1);
+  };
+  const int i0 = first(cx), i1 = last(cx), j0 = first(cy), j1 = last(cy);
+  if (i0 > i1 || j0 > j1) return nullptr;
+  const int nx = i1 - i0 + 1, ny = j1 - j0 + 1;
+  vtkNew<vtkImageData> image;
+  image->SetDimensions(nx, ny, 1);
+  image->SetOrigin(x0 + i0 * sx, y0 + j0 * sy, z_mm);
+  image->SetSpacing(sx, sy, 1);
+  image->AllocateScalars(VTK_UNSIGNED_CHAR, 3);
+  auto* px = static_cast<unsigned char*>(image->GetScalarPointer());
+  const std::size_t stride = g.node_x_mm.size();
+  const float* d = g.node_deviation_um.data();
+  for (int j = 0; j < ny; ++j) {
+    const CellFraction& fy = cy[static_cast<std::size_t>(j0 + j)];
+    const float* row = d + static_cast<std::size_t>(fy.cell) * stride;  // nodes a, b at row j, d, c at row j + 1
+    for (int i = 0; i < nx; ++i, px += 3) {
+      const CellFraction& fx = cx[static_cast<std::size_t>(i0 + i)];
+      const std::size_t c = static_cast<std::size_t>(fx.cell);
+      const double u = fx.t, v = fy.t;
+      const double a = row[c], b = row[c + 1], cc = row[stride + c + 1], dd = row[stride + c];
+      const double value = u >= v ? a * (1 - u) + b * (u - v) + cc * v : a * (1 - v) + cc * u + dd * (v - u);
+      const unsigned char* rgba = lut->MapValue(value);
+      px[0] = rgba[0], px[1] = rgba[1], px[2] = rgba[2];
+    }
+  }
+  auto actor = vtkSmartPointer<vtkImageActor>::New();
+  actor->SetInputData(image);
+  actor->InterpolateOff();  // nearest texel: each pixel its own
+  actor->ForceOpaqueOn();
+  actor->GetMapper()->BorderOn();  // texels are squares around their centres: the edge pixels are drawn too
+  return actor;
+}
+
 PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   const int W = pic.width, H = pic.height;
   const bool coloured = pic.deviation.has_value();
@@ -670,7 +764,9 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
     sm->ScalarVisibilityOff();
     metal(surface->GetProperty(), 1.0);
   }
-  ren->AddActor(surface);
+  // Flat Top maps as an image (PartPicture::map_as_image), made once the camera is framed.
+  const bool as_image = coloured && top && !pic.deviation->lit && pic.map_as_image && map_image_possible(g);
+  if (!as_image) ren->AddActor(surface);
   vtkNew<vtkPolyDataMapper> wm;
   vtkNew<vtkActor> walls;
   if (g.walls && g.walls->GetNumberOfCells() > 0) {
@@ -719,6 +815,11 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   const double aspect = vp[2] / vp[3];
   vtkCamera* cam = ren->GetActiveCamera();
   frame_camera(cam, frame, b, aspect, pic.view.direction == ViewDirection::Top, 30.0);
+  vtkSmartPointer<vtkImageActor> map;
+  if (as_image) {
+    map = map_image(ren, g, lut, g.bounds[4]);
+    ren->AddActor(map ? static_cast<vtkProp*>(map) : surface.Get());
+  }
   add_lights(ren, frame, pic.light, b);
 
   // Annotations.

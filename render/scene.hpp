@@ -81,6 +81,11 @@ struct PartPicture {
   // Height grids: draw every node. By default a grid finer than about one node per pixel of the picture's larger
   // side is drawn at every k-th node (k the smallest that fits), which the picture cannot tell apart.
   bool full_resolution = false;
+  // Flat (unlit) Top maps of a height grid without holes: each pixel's colour computed on the CPU from the deviation
+  // interpolated at the pixel's centre over the same two triangles per cell the triangles would be drawn with (so
+  // the same colour of the same table), drawn as one image under the iso-lines; a few ms instead of rasterising a
+  // triangle or two per pixel. False draws the triangles (as do lit maps and grids with holes).
+  bool map_as_image = true;
 };
 
 struct PartImage {
