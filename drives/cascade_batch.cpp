@@ -43,6 +43,11 @@ struct alignas(32) CascadePack {
   alignas(32) double te[kSlots];
   alignas(32) double o_vel[kSlots], o_acc[kSlots], o_mean[kSlots];
   alignas(32) long long o_fixed[kSlots];
+  // run_rows: the NC's commands of up to kChunk rows, computed before those rows are stepped. Per lane (not slot):
+  // the delayed position command, the gain Kv, the product KF v_d and the current feedforward of each row.
+  static constexpr int kChunk = 64;
+  alignas(32) double c_pos[kChunk], c_vel[kChunk], c_acc[kChunk];
+  alignas(32) double c_xd[kSlots][kChunk], c_kv[kSlots][kChunk], c_kfvd[kSlots][kChunk], c_ff[kSlots][kChunk];
 };
 
 namespace {
@@ -113,12 +118,6 @@ void cb_flush_state(const CascadePack& P, CascadeLane* lanes, const int* active,
     CascadeLane& L = lanes[active[j]];
     L.i = P.i[j], L.w = P.w[j], L.x = P.x[j], L.ic = P.ic[j], L.iv = P.iv[j], L.iset = P.iset[j], L.u = P.u[j];
   }
-}
-
-// d / te for te > 0, without the division when d is +0 (an axis at rest: its setpoint, speed or acceleration
-// repeats), where the quotient is +0 exactly.
-[[gnu::always_inline]] inline double cb_over_te(double d, double te) {
-  return std::bit_cast<std::uint64_t>(d) == 0 ? 0.0 : d / te;
 }
 
 // A lane's position loop as CascadeAxis::advance runs it: the axis' own delay lines (by address) and gains.
