@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -41,6 +43,11 @@ struct alignas(32) CascadePack {
   alignas(32) double te[kSlots];
   alignas(32) double o_vel[kSlots], o_acc[kSlots], o_mean[kSlots];
   alignas(32) long long o_fixed[kSlots];
+  // run_rows: the NC's commands of up to kChunk rows, computed before those rows are stepped. Per lane (not slot):
+  // the delayed position command, the gain Kv, the product KF v_d and the current feedforward of each row.
+  static constexpr int kChunk = 64;
+  alignas(32) double c_pos[kChunk], c_vel[kChunk], c_acc[kChunk];
+  alignas(32) double c_xd[kSlots][kChunk], c_kv[kSlots][kChunk], c_kfvd[kSlots][kChunk], c_ff[kSlots][kChunk];
 };
 
 namespace {
@@ -72,177 +79,6 @@ inline double cb_friction_level(const CascadeLane& L, double abs_w) {
   return v;
 }
 [[gnu::always_inline]] inline void cb_store(double* p, CbV v) { __builtin_memcpy(p, &v, sizeof v); }
-
-// Whether any lane's mask is set.
-[[gnu::always_inline]] inline bool cb_any(CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
-
-// A PI with its output saturated at +-lim and the integrator stopped while saturated and pushed further out
-// (CascadeAxis::velocity_loop, with the current feedforward ff added, and current_loop, without), lane by lane.
-template <bool kFeedforward>
-[[gnu::always_inline]] inline void cb_saturated_pi(CbV err, CbV kp, CbV ki, CbV ff, CbV lim, CbV& integ_state,
-                                                   CbV& out_held) {
-  const CbV integ = integ_state + ki * err;
-  CbV out = kp * err + integ;
-  if constexpr (kFeedforward) out = out + ff;
-  const CbM hi = out > lim, lo = out < -lim;
-  const CbM sat = hi | lo;
-  if (!cb_any(sat)) {  // the common case: no lane saturates
-    out_held = out;
-    integ_state = integ;
-  } else {
-    out_held = hi ? lim : (lo ? -lim : out);
-    const CbV zero = CbV{};
-    const CbM keep = hi ? (err < zero) : (lo ? (err > zero) : (CbM{} == CbM{}));
-    integ_state = keep ? integ : integ_state;
-  }
-}
-
-// One period (per_te current periods) of the four lanes in slots [q0, q0 + 4): CascadeAxis::advance's inner loops,
-// lane by lane the same operations. trace: slot-major, per_te samples a slot; `real` lanes of the four are traced.
-template <bool kTrace, bool kOutputs>
-[[gnu::always_inline]] inline void cb_period(CascadePack& P, int q0, int per_te, int per_vel, InnerSample* trace,
-                                             int real) {
-  const CbM abs_mask = CbM{} + 0x7fffffffffffffffLL;
-  const CbV zero = CbV{}, one = zero + 1.0, minus_one = zero - 1.0;
-  const CbV kpv = cb_load(P.kpv + q0), kiv = cb_load(P.kiv + q0), ilim = cb_load(P.ilim + q0);
-  const CbV kpc = cb_load(P.kpc + q0), kic = cb_load(P.kic + q0), ulim = cb_load(P.ulim + q0);
-  const CbV w_cmd = cb_load(P.w_cmd + q0), i_ff = cb_load(P.i_ff + q0);
-  const CbV kt = cb_load(P.kt + q0), brk = cb_load(P.brk + q0), win = cb_load(P.win + q0);
-  const CbV coul = cb_load(P.coul + q0), gconst = cb_load(P.gconst + q0);
-  CbM fr;
-  __builtin_memcpy(&fr, P.fr + q0, sizeof fr);
-  bool any_tilt = false, any_strib = false;
-  for (int j = 0; j < 4; ++j) any_tilt |= P.tilt[q0 + j], any_strib |= P.strib[q0 + j];
-  CbV i = cb_load(P.i + q0), w = cb_load(P.w + q0), x = cb_load(P.x + q0), ic = cb_load(P.ic + q0);
-  CbV iv = cb_load(P.iv + q0), iset = cb_load(P.iset + q0), u = cb_load(P.u + q0);
-  CbV i_sum = zero, i_peak = zero;
-  const CbV i0 = i, w0 = w, x0 = x, ic0 = ic, iv0 = iv, iset0 = iset, u0 = u;
-  const auto gravity_at = [&](CbV at) {
-    CbV g = gconst;
-    if (any_tilt)
-      for (int j = 0; j < 4; ++j)
-        if (P.tilt[q0 + j]) g[j] = P.g_nm[q0 + j] * std::sin(at[j] - P.g_off[q0 + j]);
-    return g;
-  };
-  // The friction while sliding at w (CascadeAxis::friction_level): Coulomb, with the Stribeck hump in the sliding
-  // lanes that have one.
-  const auto sliding_level = [&](CbM slides) {
-    CbV level = coul;
-    if (any_strib)
-      for (int j = 0; j < 4; ++j)
-        if (P.strib[q0 + j] && slides[j]) {
-          const double q = std::abs(w[j]) / P.s_vel[q0 + j];
-          level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
-        }
-    return level;
-  };
-  // The common case takes branches on whole-vector conditions (no lane saturates, every lane slides and none
-  // reverses or nears a stop): the core predicts them, so the masks leave the loop-carried chains. Where a condition
-  // fails, the selects below give every lane the scalar code's branch; both ways compute the same values.
-  const auto any = [](CbM m) { return cb_any(m); };
-  const bool all_friction = (fr[0] & fr[1] & fr[2] & fr[3]) != 0;
-  int n = 0;
-  for (int vs = 0; vs < per_te; vs += per_vel) {
-    cb_saturated_pi<true>(w_cmd - w, kpv, kiv, i_ff, ilim, iv, iset);  // velocity PI (CascadeAxis::velocity_loop)
-    for (int k = 0; k < per_vel; ++k, ++n) {
-      cb_saturated_pi<false>(iset - i, kpc, kic, zero, ulim, ic, u);  // current PI (CascadeAxis::current_loop)
-      if constexpr (kTrace) {
-        const CbV rw = cb_load(P.r + q0) * w;
-        for (int j = 0; j < real; ++j)
-          trace[static_cast<std::size_t>(q0 + j) * static_cast<std::size_t>(per_te) + static_cast<std::size_t>(n)] =
-              InnerSample{x[j], rw[j], i[j], iset[j], u[j]};
-      }
-      // Plant (CascadeAxis::plant): Karnopp friction as masks.
-      CbV tau = -gravity_at(x);
-      const CbM wz = w == zero;
-      CbV dir;
-      CbM stuck = CbM{};
-      bool any_stuck = false;
-      if (all_friction && !any(wz)) {  // every lane slides
-        dir = w > zero ? one : minus_one;
-        CbV level = coul;
-        if (any_strib)
-          for (int j = 0; j < 4; ++j)
-            if (P.strib[q0 + j]) {
-              const double q = std::abs(w[j]) / P.s_vel[q0 + j];
-              level[j] = P.coul[q0 + j] + (P.s_static[q0 + j] - P.coul[q0 + j]) * std::exp(-q * q);
-            }
-        tau = tau - dir * level;
-      } else {
-        const CbV drive = kt * i + tau;
-        stuck = fr & wz & ((CbV)((CbM)drive & abs_mask) <= brk);
-        any_stuck = any(stuck);
-        const CbM breaks = fr & wz & ~stuck;
-        const CbM slides = fr & ~wz;
-        if (all_friction && !any(breaks)) {
-          // Every lane slides or stays stuck: the sliding lanes' torque as above; a stuck lane's linear step is
-          // computed and then dropped (it keeps w and x, its current follows the winding alone).
-          dir = w > zero ? one : minus_one;
-          const CbV level = sliding_level(slides);
-          tau = tau - dir * level;
-        } else {
-          dir = breaks ? (drive > zero ? one : minus_one) : (slides ? (w > zero ? one : minus_one) : zero);
-          const CbV level = sliding_level(slides);
-          tau = (breaks | slides) ? tau - dir * (breaks ? brk : level) : tau;
-        }
-      }
-      const CbV p00 = cb_load(P.p00 + q0), p01 = cb_load(P.p01 + q0), gu0 = cb_load(P.gu0 + q0);
-      const CbV gt0 = cb_load(P.gt0 + q0), p10 = cb_load(P.p10 + q0), p11 = cb_load(P.p11 + q0);
-      const CbV gu1 = cb_load(P.gu1 + q0), gt1 = cb_load(P.gt1 + q0), p20 = cb_load(P.p20 + q0);
-      const CbV p21 = cb_load(P.p21 + q0), gu2 = cb_load(P.gu2 + q0), gt2 = cb_load(P.gt2 + q0);
-      const CbV i1 = p00 * i + p01 * w + gu0 * u + gt0 * tau;
-      CbV w1 = p10 * i + p11 * w + gu1 * u + gt1 * tau;
-      const CbV x1 = x + (p20 * i + p21 * w + gu2 * u + gt2 * tau);
-      const CbM reverses = dir * w1 < zero;
-      const CbM near = ~reverses & ((CbV)((CbM)w1 & abs_mask) < win);
-      if (!any((reverses | near) & ~stuck)) {  // no sliding lane stops: the stuck ones keep w and x
-        if (!any_stuck) {
-          i = i1, w = w1, x = x1;
-        } else {
-          i = stuck ? (cb_load(P.sa + q0) * i + cb_load(P.sb + q0) * u) : i1;
-          w = stuck ? w : w1;
-          x = stuck ? x : x1;
-        }
-      } else {
-        CbM sticks = reverses;
-        if (any(near)) sticks |= near & ((CbV)((CbM)(kt * i1 - gravity_at(x1)) & abs_mask) <= brk);
-        w1 = sticks ? zero : w1;
-        i = stuck ? (cb_load(P.sa + q0) * i + cb_load(P.sb + q0) * u) : i1;
-        w = stuck ? w : w1;
-        x = stuck ? x : x1;
-      }
-      i_sum += i;
-      const CbV ai = (CbV)((CbM)i & abs_mask);
-      i_peak = i_peak < ai ? ai : i_peak;
-    }
-  }
-  cb_store(P.i + q0, i), cb_store(P.w + q0, w), cb_store(P.x + q0, x), cb_store(P.ic + q0, ic);
-  cb_store(P.iv + q0, iv), cb_store(P.iset + q0, iset), cb_store(P.u + q0, u);
-  cb_store(P.i_sum + q0, i_sum), cb_store(P.i_peak + q0, i_peak);
-  if constexpr (kOutputs) {
-    // CascadeBatch::advance's sample (CascadeAxis::sample() and the end of CascadeAxis::advance), and whether every
-    // state variable kept its bits.
-    const CbV r = cb_load(P.r + q0), te = cb_load(P.te + q0);
-    cb_store(P.o_vel + q0, r * w);
-    cb_store(P.o_acc + q0, r * (w - w0) / te);
-    cb_store(P.o_mean + q0, i_sum / (zero + static_cast<double>(per_te)));
-    const CbM fixed = ((CbM)i == (CbM)i0) & ((CbM)w == (CbM)w0) & ((CbM)x == (CbM)x0) & ((CbM)ic == (CbM)ic0) &
-                      ((CbM)iv == (CbM)iv0) & ((CbM)iset == (CbM)iset0) & ((CbM)u == (CbM)u0);
-    __builtin_memcpy(P.o_fixed + q0, &fixed, sizeof fixed);
-  }
-}
-
-template <bool kTrace>
-void cb_periods_generic(CascadePack& P, int m, int per_te, int per_vel, InnerSample* trace) {
-  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace, false>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
-}
-
-// The same code compiled for AVX2 (no FMA: nothing can fuse), chosen at run time.
-template <bool kTrace>
-__attribute__((target("avx2"))) void cb_periods_avx2(CascadePack& P, int m, int per_te, int per_vel,
-                                                     InnerSample* trace) {
-  for (int q0 = 0; q0 < m; q0 += 4) cb_period<kTrace, false>(P, q0, per_te, per_vel, trace, std::min(4, m - q0));
-}
 
 // The constants of lanes active[0 .. m) into the pack's slots 0 .. m, and of lane active[0] into the slots that
 // fill the last vector (computed, never read).
@@ -284,12 +120,6 @@ void cb_flush_state(const CascadePack& P, CascadeLane* lanes, const int* active,
   }
 }
 
-// d / te for te > 0, without the division when d is +0 (an axis at rest: its setpoint, speed or acceleration
-// repeats), where the quotient is +0 exactly.
-[[gnu::always_inline]] inline double cb_over_te(double d, double te) {
-  return std::bit_cast<std::uint64_t>(d) == 0 ? 0.0 : d / te;
-}
-
 // A lane's position loop as CascadeAxis::advance runs it: the axis' own delay lines (by address) and gains.
 struct CbNcLane {
   double *pos_line, *vel_line, *acc_line;
@@ -310,114 +140,19 @@ struct CbRows {
   long long* skipped;
 };
 
-// CascadeBatch::run_rows, Te by Te: the NC's command and the position loop per lane (scalar: simulate.cpp's
-// next_command, CascadeBatch::advance), the inner loops of the lanes that run on the slots' vectors, whose state
-// stays in the pack while the same lanes run (the slots are re-filled only when that set changes: a lane reaches
-// or leaves its fixed point), and the rows written per lane.
-[[gnu::always_inline]] inline void cb_rows_loop(CbRows& c, long long k0, long long k1, long long base, long long n_set,
-                                                long long rows, double te) {
-  CascadePack& P = *c.P;
-  const int n_lanes = c.n_lanes;
-  int cur[CascadeBatch::kMaxLanes];  // the lanes whose state is in the slots (cur_m < 0: none)
-  int cur_m = -1;
-  const auto put = [&](CascadeRowLane& R, long long row, const AxisSample& s) {
-    const long long r = row - base;
-    R.out[0][r] = s.position;
-    R.out[1][r] = s.velocity;
-    R.out[2][r] = s.acceleration;
-    R.out[3][r] = cb_over_te(s.acceleration - R.prev_acc, te);
-    R.prev_acc = s.acceleration;
-    R.out[4][r] = s.current_A;
-    R.out[5][r] = s.current_mean_A;
-    R.out[6][r] = s.current_peak_A;
-    R.out[7][r] = s.current_setpoint_A;
-  };
-  if (k0 < k1)
-    for (int l = 0; l < n_lanes; ++l) put(c.rl[l], k0, c.rl[l].s);
-  for (long long k = k0; k < k1 && k + 1 < rows; ++k) {
-    const long long ks = k < n_set ? k : n_set - 1;
-    int run[CascadeBatch::kMaxLanes];
-    int m = 0;
-    for (int l = 0; l < n_lanes; ++l) {
-      CascadeRowLane& R = c.rl[l];
-      CascadeLane& L = c.lanes[l];
-      CbNcLane& N = c.nc[l];
-      // simulate.cpp's next_command.
-      const double position = R.setpoints[ks];
-      const double velocity = cb_over_te(position - R.prev_x, te);
-      const double acceleration = cb_over_te(velocity - R.prev_v, te);
-      R.prev_x = position, R.prev_v = velocity;
-      double kv = N.kv, kf = N.kf;
-      if (R.kv && !std::isnan(R.kv[ks])) kv = R.kv[ks];
-      if (R.kf && !std::isnan(R.kf[ks])) kf = R.kf[ks];
-      // CascadeBatch::advance's position loop.
-      N.pos_line[*N.pos_head] = position;
-      *N.pos_head = *N.pos_head + 1 == N.pos_n ? 0 : *N.pos_head + 1;
-      const double xd = N.pos_line[*N.pos_head];
-      N.vel_line[*N.ff_head] = velocity;
-      N.acc_line[*N.ff_head] = acceleration;
-      *N.ff_head = *N.ff_head + 1 == N.ff_n ? 0 : *N.ff_head + 1;
-      const double vd = N.vel_line[*N.ff_head], ad = N.acc_line[*N.ff_head];
-      int slot = -1;
-      for (int j = 0; j < cur_m; ++j)
-        if (cur[j] == l) slot = j;
-      const double x = slot >= 0 ? P.x[slot] : L.x;
-      L.w_cmd = (kv * (xd - x) + kf * vd) * L.inv_r;
-      L.i_ff = L.ff_current_per_accel * ad;
-      if (L.fixed && cb_same_bits(L.w_cmd, L.last_w_cmd) && cb_same_bits(L.i_ff, L.last_i_ff)) {
-        R.s = L.last;
-        ++*c.skipped;
-        continue;
-      }
-      L.last_w_cmd = L.w_cmd, L.last_i_ff = L.i_ff;
-      run[m++] = l;
-    }
-    if (m > 0) {
-      if (m != cur_m || !std::equal(run, run + m, cur)) {
-        if (cur_m > 0) cb_flush_state(P, c.lanes, cur, cur_m);
-        if (m != *c.packed_m || !std::equal(run, run + m, c.packed)) {
-          cb_pack_constants(P, c.lanes, run, m);
-          std::copy(run, run + m, c.packed);
-          *c.packed_m = m;
-        }
-        cb_load_state(P, c.lanes, run, m);
-        std::copy(run, run + m, cur);
-        cur_m = m;
-      }
-      const int slots = (m + 3) / 4 * 4;
-      for (int j = 0; j < slots; ++j) {
-        const CascadeLane& L = c.lanes[run[j < m ? j : 0]];
-        P.w_cmd[j] = L.w_cmd, P.i_ff[j] = L.i_ff;
-      }
-      for (int q0 = 0; q0 < m; q0 += 4) cb_period<false, true>(P, q0, c.per_te, c.per_vel, nullptr, 0);
-      for (int j = 0; j < m; ++j) {
-        CascadeLane& L = c.lanes[run[j]];
-        AxisSample& s = c.rl[run[j]].s;
-        s.position = P.x[j];
-        s.velocity = P.o_vel[j];
-        s.acceleration = P.o_acc[j];
-        s.current_A = P.i[j];
-        s.current_mean_A = P.o_mean[j];
-        s.current_peak_A = P.i_peak[j];
-        s.current_setpoint_A = P.iset[j];
-        L.last = s;
-        L.fixed = P.o_fixed[j] != 0;
-      }
-    }
-    if (k + 1 < k1)
-      for (int l = 0; l < n_lanes; ++l) put(c.rl[l], k + 1, c.rl[l].s);
-  }
-  if (cur_m > 0) cb_flush_state(P, c.lanes, cur, cur_m);
-}
-
-void cb_rows_generic(CbRows& c, long long k0, long long k1, long long base, long long n_set, long long rows,
-                     double te) {
-  cb_rows_loop(c, k0, k1, base, n_set, rows, te);
-}
-__attribute__((target("avx2"))) void cb_rows_avx2(CbRows& c, long long k0, long long k1, long long base,
-                                                  long long n_set, long long rows, double te) {
-  cb_rows_loop(c, k0, k1, base, n_set, rows, te);
-}
+// The kernel twice (drives/cascade_batch_kernel.inc): generic, and for AVX2, where a whole-vector test is one
+// vmovmskpd (GCC inlines the intrinsic only into code compiled for AVX, hence the second copy under the pragma).
+namespace cb_generic {
+[[gnu::always_inline]] inline bool cb_any(CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+#include "drives/cascade_batch_kernel.inc"
+}  // namespace cb_generic
+#pragma GCC push_options
+#pragma GCC target("avx2")
+namespace cb_avx2 {
+[[gnu::always_inline]] inline bool cb_any(CbM m) { return _mm256_movemask_pd(reinterpret_cast<__m256d>(m)) != 0; }
+#include "drives/cascade_batch_kernel.inc"
+}  // namespace cb_avx2
+#pragma GCC pop_options
 
 bool cb_use_avx2() {
   static const bool cpu = __builtin_cpu_supports("avx2");
@@ -505,9 +240,9 @@ void CascadeBatch::run_rows(CascadeRowLane* rl, long long k0, long long k1, long
   }
   CbRows c{pack_.get(), lanes_.data(), rl, nc, lanes(), per_te_, per_velocity_, packed_, &packed_m_, &skipped_};
   if (cb_use_avx2())
-    cb_rows_avx2(c, k0, k1, base, n_set, rows, te);
+    cb_avx2::cb_rows(c, k0, k1, base, n_set, rows, te);
   else
-    cb_rows_generic(c, k0, k1, base, n_set, rows, te);
+    cb_generic::cb_rows(c, k0, k1, base, n_set, rows, te);
 }
 
 const InnerSample* CascadeBatch::trace(int lane) const {
@@ -584,9 +319,9 @@ void CascadeBatch::advance(const AxisCommand* commands, AxisSample* samples) {
   }
   InnerSample* trace = kTrace ? trace_slots_.data() : nullptr;
   if (cb_use_avx2())
-    cb_periods_avx2<kTrace>(P, m, per_te_, per_velocity_, trace);
+    cb_avx2::cb_periods<kTrace>(P, m, per_te_, per_velocity_, trace);
   else
-    cb_periods_generic<kTrace>(P, m, per_te_, per_velocity_, trace);
+    cb_generic::cb_periods<kTrace>(P, m, per_te_, per_velocity_, trace);
   const int n = per_te_;
   for (int j = 0; j < m; ++j) {
     CascadeLane& L = lanes[active[j]];
