@@ -533,28 +533,13 @@ struct SetpointWriter {
     const double inv_te = 1 / te, inv_te2 = 1 / (te * te), inv_te3 = 1 / (te * te * te);
     double tv[6], ta[6], tj[6], sv[6], sa[6], sj[6];
     bool checked[6];
-    // The cheap bound of all six axes at once: an unchecked axis' bounds are +inf (it never stops a sample there; a
-    // NaN difference does, and the axis by axis test then skips that axis as before).
-    double wv[6], wa[6], wj[6];
     for (int i = 0; i < 6; ++i) {
       checked[i] = std::isfinite(lim.v[i]);
       tv[i] = lim.v[i] * kSlack, ta[i] = lim.a[i] * kSlack, tj[i] = lim.j[i] * kSlack;
       sv[i] = tv[i] * kSure, sa[i] = ta[i] * kSure, sj[i] = tj[i] * kSure;
-      wv[i] = checked[i] ? sv[i] : kInf, wa[i] = checked[i] ? sa[i] : kInf, wj[i] = checked[i] ? sj[i] : kInf;
     }
     // The differences ending at sample k (k up to n + 2: the axes come to rest after the last sample).
     auto check = [&](Eigen::Index k) {
-      // First the cheap bound of every axis at once, without a branch per axis (nearly every sample is within every
-      // limit, and this decides it alone); only a sample it does not clear goes through the axes one by one below,
-      // which test it again and decide exactly as before.
-      bool clear = true;
-      for (int i = 0; i < 6; ++i) {
-        const double x0 = x[0][i], x1 = x[1][i], x2 = x[2][i], x3 = x[3][i];
-        const double d1 = x0 - x1, d2 = x0 - 2 * x1 + x2, d3 = x0 - 3 * x1 + 3 * x2 - x3;
-        clear = clear & (std::abs(d1) * inv_te <= wv[i]) & (std::abs(d2) * inv_te2 <= wa[i]) &
-                (std::abs(d3) * inv_te3 <= wj[i]);
-      }
-      if (clear) return;
       for (int i = 0; i < 6; ++i) {
         if (!checked[i] || per_axis[i].size() >= max_report) continue;
         const double x0 = x[0][i], x1 = x[1][i], x2 = x[2][i], x3 = x[3][i];
