@@ -243,7 +243,7 @@ nlohmann::json write_compare_pictures(const std::filesystem::path& dir, const Co
   const bool mesh = prediction.mesh.has_value();
   nlohmann::json out = {{"files", nlohmann::json::array()}};
   try {
-    std::filesystem::create_directories(dir / "images");
+    core::create_result_subdir(dir / "images");
     render::Window window;
     render::PartPicture pic;
     pic.view.direction = render::ViewDirection::Top;

@@ -81,7 +81,7 @@ nlohmann::json report_json(const CompareArgs& a, const metrology::SurfaceFile& m
 nlohmann::json write_picture(const std::filesystem::path& dir, const CompareArgs& a, const std::vector<double>& v,
                              const metrology::ProfileComparison& c) {
   try {
-    std::filesystem::create_directories(dir / "images");
+    core::create_result_subdir(dir / "images");
     render::Window window;
     render::ChartPicture cp;
     cp.caption = {"Measured profile along the line across the prediction",

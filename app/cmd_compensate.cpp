@@ -82,7 +82,7 @@ std::vector<std::string> write_results(const fs::path& dir, const core::Job& job
 void draw_chart(const fs::path& dir, const core::Job& job, const sim::CompensateJobResult& r) {
   const double te = r.interp.setpoints.period_s;
   render::Window window;
-  fs::create_directories(dir / "images");
+  core::create_result_subdir(dir / "images");
   auto um = [](const Eigen::VectorXd& mm) { return Eigen::ArrayXd(mm.array() * 1e3); };
   auto deg = [](const Eigen::VectorXd& rad) { return Eigen::ArrayXd(rad.array() * core::units::kRadToDeg); };
   auto time = [te](Index n) {

@@ -234,9 +234,7 @@ nlohmann::json print_axis(const sysid::AxisIdentification& a, const sysid::AxisD
 }
 
 void write_model_file(const std::filesystem::path& dir, const sysid::AxisModelFile& file) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
+  core::create_result_subdir(dir);
   const std::vector<std::string> comments = {
       "Identified axis models (the predictive-compensation paper): discrete transfer functions from command to "
       "encoder position,",

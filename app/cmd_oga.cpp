@@ -384,9 +384,7 @@ void draw_charts(const fs::path& dir, const core::Job& job, const sim::OgaJobRes
   const methods::OgaVerification& v = *o.verification;
   render::Window window;
   const fs::path idir = dir / "images";
-  std::error_code ec;
-  fs::create_directories(idir, ec);
-  if (ec) throw core::Error(idir.string() + ": cannot create the directory: " + ec.message());
+  core::create_result_subdir(idir);
   const std::string title = fmt::format("{}: OGA (Duong et al.), MSE(CE) {:.3g} → {:.3g} µm² ({:+.1f} %)", job.name,
                                         v.mse_c1_um2, v.mse_c2_um2, o.change_percent);
   auto save = [&](const std::string& name, render::ChartPicture pic) {

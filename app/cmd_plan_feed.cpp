@@ -191,9 +191,7 @@ std::vector<std::string> draw_charts(const fs::path& dir, const core::Job& job, 
   const core::FeedPlanSpec& spec = *job.feedplan;
   render::Window window;
   const fs::path idir = dir / "images";
-  std::error_code ec;
-  fs::create_directories(idir, ec);
-  if (ec) throw core::Error(idir.string() + ": cannot create the directory: " + ec.message());
+  core::create_result_subdir(idir);
   const std::string title =
       job.name + fmt::format(": T {} ms, chord {} µm, contour {} µm, f_max {} mm/s", ax.te * 1e3,
                              spec.chord_error_mm * 1e3, spec.contour_error_mm * 1e3, r.max_feed_mm_per_s);

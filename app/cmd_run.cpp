@@ -38,12 +38,6 @@ using core::Clock;
 using core::seconds_since;
 namespace fs = std::filesystem;
 
-void create_out_dir(const fs::path& dir) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw core::Error(dir.string() + ": cannot create the output directory: " + ec.message());
-}
-
 // --tiles-out, rank 0: report.json without the whole-part results (marks, meshes, pictures need the whole grid):
 // the motion's figures, the removal's, and every rank's tile.
 void write_tiles_report(const core::Job& job, const fs::path& dir, const fs::path& shown, const sim::Cut& cut,
@@ -101,7 +95,7 @@ bool gather_tiles(const core::Job& job, const RunArgs& args, const fs::path& dir
   mine.removal_cpu_s = cut.timings["removal_cpu"].get<double>();
   std::optional<TileFiles> files;
   if (args.tiles_out) {
-    create_out_dir(dir);
+    core::create_result_subdir(dir);  // rank 0's staging directory, seen by every rank (one file system)
     progress.stage(job.name + ": writing the tiles");
     files = write_tile(dir, job.name, cut.field, cut.reference.field ? &*cut.reference.field : nullptr);
     progress.done();
@@ -275,7 +269,6 @@ int run_run(const RunArgs& args) {
   sim::RunResult result = sim::finish_run(job, std::move(cut), progress);
 
   auto t0 = Clock::now();
-  create_out_dir(dir);
   const double cpu0 = core::process_cpu_s();
   nlohmann::json outputs;
   std::vector<std::string> files = sim::write_run_outputs(job, result, dir, render::write_vtp, &outputs);

@@ -179,8 +179,8 @@ sim::StudyResult run_variation(const nlohmann::json& task, int rank) {
     const fs::path dir = task.at("dir").get<std::string>();
     std::error_code ec;
     fs::remove_all(dir, ec);  // a previous study's files in this variation's directory would pass for its own
-    fs::create_directories(dir, ec);
-    if (ec) throw core::Error(dir.string() + ": cannot create the variation's directory: " + ec.message());
+    core::create_result_subdir(dir.parent_path());  // variations/ (every rank's first variation tries)
+    core::create_result_subdir(dir);
     core::write_file_atomic(dir / "job.toml", task.at("job_toml").get<std::string>());
     if (task.contains("machine_toml"))
       core::write_file_atomic(dir / "machine.toml", task["machine_toml"].get<std::string>());

@@ -6,6 +6,7 @@
 #include "app/report.hpp"
 
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "metrology/grid_io.hpp"
 #include "metrology/x3p.hpp"
 #include "render/chart.hpp"
@@ -458,9 +459,8 @@ ResultData load_results(const fs::path& dir) {
 
 std::vector<std::string> write_result_images(const ResultData& d, const fs::path& image_dir, const ImageOptions& o) {
   if (o.isolines < 0 || o.isolines > 20) throw core::Error("--isolines must be in 0..20");
+  core::create_result_subdir(image_dir);
   std::error_code ec;
-  fs::create_directories(image_dir, ec);
-  if (ec) throw core::Error(image_dir.string() + ": cannot create the image directory: " + ec.message());
   Writer w{render::Window(), image_dir, {}};
   double path_deg = 0;
   if (o.path_direction_deg) {

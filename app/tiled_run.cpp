@@ -3,6 +3,7 @@
 #include "app/mpi_session.hpp"
 #include "app/report.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "metrology/marks.hpp"
 #include "metrology/x3p.hpp"
 
@@ -305,9 +306,7 @@ TileFiles write_tile(const std::filesystem::path& dir, const std::string& job_na
   t.surface = fmt::format("tiles/surface_{:04d}.x3p", rank);
   t.first_row = g.v_first(), t.rows = g.nv(), t.nx = g.nu();
   t.x0_mm = s.x0_mm, t.y0_mm = s.y0_mm, t.x1_mm = s.x(s.nx() - 1), t.y1_mm = s.y(s.ny() - 1);
-  std::error_code ec;
-  std::filesystem::create_directories(dir / "tiles", ec);
-  if (ec) throw core::Error((dir / "tiles").string() + ": cannot create the directory: " + ec.message());
+  core::create_result_subdir(dir / "tiles");
   // Test hook (tests/app/tiled_run_cli_test.cpp, README "What you can rely on"): this rank's tile cannot be written.
   // (The output directory is a fresh staging directory, so no obstacle can be planted in it beforehand.)
   if (const char* h = std::getenv("VMSIM_TEST_FAIL_TILE"); h && std::atoi(h) == rank)

@@ -55,20 +55,22 @@ void cleanup_thread() {
     if (errno != EINTR) return;
   }
   Registry& r = registry();
-  {
-    std::lock_guard<std::mutex> lock(r.mutex);
-    r.dying = true;
-  }
-  // Files may still be appearing in a staging directory (other threads write on): a few passes.
-  for (int pass = 0; pass < 5; ++pass) {
-    bool left = false;
-    std::lock_guard<std::mutex> lock(r.mutex);
-    for (const fs::path& p : r.staging) {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-      if (ec || fs::exists(p, ec)) left = true;
+  std::lock_guard<std::mutex> lock(r.mutex);
+  r.dying = true;
+  // Other threads write on while this one cleans. Each staging directory is first renamed aside (a name the next
+  // run removes too), so no new file or directory can appear in it by its path; then removed, retrying while files
+  // opened before the rename are still being closed into it. (Removing it in place lost the race to writers that
+  // kept adding files: the CI's KilledRunsLeaveThePreviousResultOrTheNewOne, and the test in output_dir_test.)
+  for (const fs::path& p : r.staging) {
+    std::error_code ec;
+    const fs::path dead = p.string() + "-dead";
+    const fs::path& gone = ::rename(p.c_str(), dead.c_str()) == 0 ? dead : p;
+    for (int pass = 0; pass < 50; ++pass) {
+      fs::remove_all(gone, ec);
+      if (!fs::exists(fs::symlink_status(gone, ec))) break;
+      ::usleep(2000);
     }
-    if (!left) break;
+    fs::remove_all(p, ec);  // in case a create_directories brought it back before the rename
   }
   ::_exit(128 + sig);
 }
@@ -87,8 +89,15 @@ void install_signal_cleanup() {
   });
 }
 
-void register_staging(const fs::path& p) {
+// Creates staging directory P and registers it, under the mutex: once the cleanup thread has begun (dying), no
+// staging directory can appear that it would not remove.
+void create_staging(const fs::path& target, const fs::path& p) {
   std::lock_guard<std::mutex> lock(registry().mutex);
+  if (registry().dying) throw Error(target.string() + ": interrupted by a signal before writing began");
+  std::error_code ec;
+  if (!fs::create_directory(p, ec) || ec)
+    throw Error(fmt::format("{}: cannot create the staging directory {}: {}", target.string(), p.string(),
+                            ec ? ec.message() : "it exists"));
   registry().staging.push_back(p);
 }
 void unregister_staging(const fs::path& p) {
@@ -219,10 +228,7 @@ OutputDir::OutputDir(const fs::path& target, std::string_view command, Signals s
     }
     if (signals == Signals::CleanUpAndExit) install_signal_cleanup();
     staging_ = parent / (prefix + std::to_string(::getpid()) + "-" + random_hex());
-    register_staging(staging_);
-    if (!fs::create_directory(staging_, ec) || ec)
-      throw Error(fmt::format("{}: cannot create the staging directory {}: {}", target_.string(), staging_.string(),
-                              ec ? ec.message() : "it exists"));
+    create_staging(target_, staging_);
     write_file_atomic(staging_ / kOutputMarker, std::string(command) + "\n");
   } catch (...) {
     if (!staging_.empty()) {
@@ -286,6 +292,12 @@ void OutputDir::commit() {
   // After the exchange the staging name holds the previous result; a failure here leaves it for the next run.
   std::error_code ec;
   fs::remove_all(staging_, ec);
+}
+
+void create_result_subdir(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directory(dir, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the directory: " + ec.message());
 }
 
 OutputLock::OutputLock(const fs::path& dir, std::string_view command) {

@@ -57,6 +57,11 @@ class OutputLock {
   int fd_ = -1;
 };
 
+// Creates DIR, one level: its parent must exist (core::Error naming DIR otherwise). Directories inside a staging
+// directory are made with this, never create_directories: after a signal's cleanup removed the staging directory, a
+// thread still writing would bring it back through create_directories, and it would be left behind.
+void create_result_subdir(const std::filesystem::path& dir);
+
 // The marker file in every result directory OutputDir writes (hidden; what makes a later run replace it).
 inline constexpr const char* kOutputMarker = ".vmsim-output";
 

@@ -8,14 +8,18 @@
 
 #include <gtest/gtest.h>
 
+#include <signal.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 
 namespace fs = std::filesystem;
 using vmsim::core::AtomicFile;
@@ -63,6 +67,38 @@ std::string output_dir_error_of(F&& f) {
   }
   return "";
 }
+
+// The signal tests' directory. A threadsafe death test (a fresh process each: the handler and its thread are set up
+// once a process) re-runs the test's body from the start in its child; the child finds the parent's directory through
+// the environment, and skips what only the parent does (setting up, checking).
+struct SignalScratch {
+  fs::path dir;
+  bool child = false;
+  explicit SignalScratch(const std::string& name) {
+    const char* inherited = std::getenv("VMSIM_SIGNAL_TEST_DIR");
+    child = inherited != nullptr;
+    dir = child ? fs::path(inherited)
+                : fs::temp_directory_path() / ("vmsim_signal_" + name + "_" + std::to_string(::getpid()));
+    if (child) return;
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    ::setenv("VMSIM_SIGNAL_TEST_DIR", dir.c_str(), 1);
+  }
+  ~SignalScratch() {
+    if (child) return;
+    ::unsetenv("VMSIM_SIGNAL_TEST_DIR");
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  // The first staging directory of out left in DIR, or "".
+  std::string staging_left() const {
+    for (const std::string& n : names(dir))
+      if (n.find(".out.vmsim-staging-") != std::string::npos) return n;
+    return "";
+  }
+};
+
+std::string fmt_name(int writer, long i) { return "w" + std::to_string(writer) + "_" + std::to_string(i % 50); }
 
 }  // namespace
 
@@ -153,6 +189,117 @@ TEST(OutputDir, StagingDirectoriesOfDeadProcessesAreRemoved) {
     o.commit();
   }
   EXPECT_TRUE(fs::exists(other));
+}
+
+// SIGTERM while threads are still writing into the staging directory (what `vmsim run` does when killed while it
+// writes its outputs: files appear while the cleanup thread removes them). The process exits with 128 + SIGTERM,
+// leaves no staging directory behind, and the previous result stays. Ten signals, at 0-9 ms of the writing.
+TEST(OutputDir, SigtermWhileOtherThreadsWriteLeavesNoStaging) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  SignalScratch s("writers");
+  const fs::path out = s.dir / "out";
+  if (!s.child) {
+    OutputDir o(out, "test");
+    put(o.path() / "report.json", "previous");
+    o.commit();
+  }
+  for (int k = 0; k < 10; ++k) {
+    EXPECT_EXIT(
+        {
+          OutputDir o(out, "test");
+          auto writer = [&o](int w) {
+            for (long i = 0;; ++i) {  // as fast as files can be made, each call failing or not once the cleanup runs
+              try {
+                vmsim::core::create_result_subdir(o.path() / "images");
+              } catch (const Error&) {
+              }
+              std::ofstream(o.path() / fmt_name(w, i)) << "data";
+              std::ofstream(o.path() / "images" / fmt_name(w, i)) << "data";
+            }
+          };
+          std::thread(writer, 0).detach();
+          std::thread(writer, 1).detach();
+          std::this_thread::sleep_for(std::chrono::milliseconds(k));
+          ::kill(::getpid(), SIGTERM);
+          std::this_thread::sleep_for(std::chrono::seconds(10));
+          std::exit(0);  // the signal's exit never came
+        },
+        ::testing::ExitedWithCode(128 + SIGTERM), "")
+        << "signal " << k;
+    if (s.child) continue;
+    EXPECT_EQ(s.staging_left(), "") << "signal " << k;
+    EXPECT_EQ(slurp(out / "report.json"), "previous");
+  }
+}
+
+// SIGTERM while staging directories are being made: runs into OUT one after another (each makes its staging
+// directory, writes a file and gives up without commit), the signal at 0-2.7 ms. None may be left, whichever step the
+// signal meets: the cleanup thread and the making of a staging directory exclude each other.
+TEST(OutputDir, SigtermWhileAStagingDirectoryIsMadeLeavesNone) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  SignalScratch s("making");
+  const fs::path out = s.dir / "out";
+  for (int k = 0; k < 10; ++k) {
+    EXPECT_EXIT(
+        {
+          { OutputDir first(out, "test"); }  // the handler is installed with the first one
+          std::thread([k] {
+            std::this_thread::sleep_for(std::chrono::microseconds(300 * k));
+            ::kill(::getpid(), SIGTERM);
+          }).detach();
+          const auto t0 = std::chrono::steady_clock::now();
+          while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
+            try {
+              OutputDir o(out, "test");
+              put(o.path() / "report.json", "new");
+            } catch (const Error&) {
+            }
+          }
+          std::exit(0);  // the signal's exit never came
+        },
+        ::testing::ExitedWithCode(128 + SIGTERM), "")
+        << "signal " << k;
+    if (!s.child) EXPECT_EQ(s.staging_left(), "") << "signal " << k;
+  }
+}
+
+// SIGTERM while commit() removes the previous result (after the swap, the staging name holds it): the cleanup
+// thread and commit() remove the same tree at once. The process exits with 128 + SIGTERM, the new result is in
+// place and nothing is left. The previous result has 300 files (a few ms to remove); the signal comes 0-9 ms
+// into commit().
+TEST(OutputDir, SigtermWhileTheCommitRemovesThePreviousResultLeavesNoStaging) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  SignalScratch s("commit");
+  const fs::path out = s.dir / "out";
+  for (int k = 0; k < 10; ++k) {
+    if (!s.child) {
+      OutputDir o(out, "test");
+      for (int i = 0; i < 300; ++i) put(o.path() / ("f" + std::to_string(i)), "previous");
+      put(o.path() / "report.json", "previous");
+      o.commit();
+    }
+    EXPECT_EXIT(
+        {
+          OutputDir o(out, "test");
+          put(o.path() / "report.json", "new");
+          std::thread([k] {
+            std::this_thread::sleep_for(std::chrono::milliseconds(k));
+            ::kill(::getpid(), SIGTERM);
+          }).detach();
+          try {
+            o.commit();
+          } catch (const Error&) {
+          }
+          std::this_thread::sleep_for(std::chrono::seconds(10));
+          std::exit(0);  // the signal's exit never came
+        },
+        ::testing::ExitedWithCode(128 + SIGTERM), "")
+        << "signal " << k;
+    if (s.child) continue;
+    EXPECT_EQ(s.staging_left(), "") << "signal " << k;
+    const std::string report = slurp(out / "report.json");
+    EXPECT_TRUE(report == "new" || report == "previous") << report;
+  }
 }
 
 TEST(OutputDir, RefusesDirectoriesItWouldDestroy) {

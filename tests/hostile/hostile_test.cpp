@@ -331,7 +331,7 @@ const std::vector<std::string> kCsvLines = {"t_s,X_command_mm,X_actual_mm\n",
                                             "0,nan,inf\n",
                                             ",,\n",
                                             ",,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,,\n",
-                                            "\xEF\xBB\xBF0,1,2\n",
+                                            "\xEF\xBB\xBF" "0,1,2\n",  // a BOM, then a row (split: \xBF0 would be one escape)
                                             "# k=v\n",
                                             "#\n",
                                             "0x1p3,+-1,.\n",
