@@ -87,6 +87,25 @@ class CartesianXyz final : public Kinematics {
   Eigen::Vector3d tip_velocity(const Eigen::VectorXd&, const Eigen::VectorXd& v, double) const override {
     return {v[x_], v[y_], v[z_]};
   }
+  // forward() and tip_velocity() of every row, column by column (the same values: copies and Z - tlo).
+  void forward_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::VectorXd>& tlo,
+                    Eigen::Ref<Eigen::MatrixXd> tip, Eigen::Ref<Eigen::MatrixXd> axis) const override {
+    require_rows(q.rows(), q.cols(), n_, tlo.size(), tip.rows(), tip.cols(), axis.rows(), axis.cols());
+    tip.col(0) = q.col(x_);
+    tip.col(1) = q.col(y_);
+    tip.col(2) = q.col(z_) - tlo;
+    if (axis.size() > 0) axis.rowwise() = Eigen::RowVector3d(0.0, 0.0, 1.0);
+  }
+  void tip_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::MatrixXd>& qd,
+                         const Eigen::Ref<const Eigen::VectorXd>& tlo, Eigen::Ref<Eigen::MatrixXd> out) const override {
+    require_rows(q.rows(), q.cols(), n_, tlo.size(), out.rows(), out.cols());
+    if (qd.rows() != q.rows() || qd.cols() != q.cols())
+      throw core::Error(fmt::format("kinematics: {} x {} axis velocities for {} x {} axis positions", qd.rows(),
+                                    qd.cols(), q.rows(), q.cols()));
+    out.col(0) = qd.col(x_);
+    out.col(1) = qd.col(y_);
+    out.col(2) = qd.col(z_);
+  }
   KinematicFamily family() const override { return KinematicFamily::Cartesian; }
 
  private:

@@ -3,7 +3,7 @@
 // functions, unchanged), bit for bit, on random rows whose rotary axes hold for long runs (longer than a chunk of
 // 256 rows, shorter than the 16 rows a column run needs, and in between) at +0, -0 or a random angle, with exact
 // zeros, negative zeros and a few infinities among the linear axes and tool length offsets, in blocks of 1, 7 and
-// all rows.
+// all rows. The Cartesian machine's rows are columns copied (and Z - tlo): the same test.
 #include "core/machine.hpp"
 #include "motion/kinematics.hpp"
 
@@ -144,6 +144,13 @@ TEST(KinematicsColumns, XyzacTrtEqualsPerRow) {
   expect_columns_equal_rows(core::load_machine(kColMachines / "xyzac_trt.toml"), false);
 }
 TEST(KinematicsColumns, HeadHeadEqualsPerRow) { expect_columns_equal_rows(col_head_head_machine(), false); }
+TEST(KinematicsColumns, CartesianXyzEqualsPerRow) {
+  core::Machine m = core::load_machine(kColMachines / "mikron_ucp710.toml");
+  m.kinematics = "xyz";
+  m.chain.reset();
+  expect_columns_equal_rows(m, false);
+  expect_columns_equal_rows(m, true);
+}
 TEST(KinematicsColumns, OffsetChainEqualsPerRow) {
   expect_columns_equal_rows(col_offset_machine(), false);
   expect_columns_equal_rows(col_offset_machine(), true);
