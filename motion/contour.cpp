@@ -140,8 +140,24 @@ void principal_normals(DistinctPath& path) {
   // Rounding of coordinates of magnitude `scale` perturbs a unit tangent over a step h by ~eps * scale / h.
   path.noise = 64.0 * std::numeric_limits<double>::epsilon() * scale;
   int first_defined = -1, carry = -1;
+  // turn_at's test, each segment's unit tangent computed once: point q's outgoing tangent (c - b) / l2 is point
+  // q + 1's incoming one (b - a) / l1, the same operands, so the same bits (three divisions per point, not six).
+  const double* P = path.p.data();
+  const double* S = path.s.data();
+  double t_in[3];
+  {
+    const double l = S[1] - S[0];
+    for (int i = 0; i < 3; ++i) t_in[i] = (P[3 + i] - P[i]) / l;
+  }
   for (Eigen::Index q = 1; q + 1 < q_n; ++q) {
-    if (turn_at<false>(path, q, nullptr)) {
+    const double* b = P + 3 * q;
+    const double* c = b + 3;
+    const double l1 = S[q] - S[q - 1], l2 = S[q + 1] - S[q];
+    double t_out[3];
+    for (int i = 0; i < 3; ++i) t_out[i] = (c[i] - b[i]) / l2;
+    const Eigen::Vector3d dt(t_out[0] - t_in[0], t_out[1] - t_in[1], t_out[2] - t_in[2]);
+    for (int i = 0; i < 3; ++i) t_in[i] = t_out[i];
+    if (dt.norm() > std::max(1e-12, path.noise / std::min(l1, l2))) {
       carry = static_cast<int>(q);
       if (first_defined < 0) first_defined = carry;
     }

@@ -16,6 +16,10 @@
 #include <string>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace vmsim::motion {
 
 const char* family_name(KinematicFamily family) {
@@ -83,6 +87,25 @@ class CartesianXyz final : public Kinematics {
   Eigen::Vector3d tip_velocity(const Eigen::VectorXd&, const Eigen::VectorXd& v, double) const override {
     return {v[x_], v[y_], v[z_]};
   }
+  // forward() and tip_velocity() of every row, column by column (the same values: copies and Z - tlo).
+  void forward_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::VectorXd>& tlo,
+                    Eigen::Ref<Eigen::MatrixXd> tip, Eigen::Ref<Eigen::MatrixXd> axis) const override {
+    require_rows(q.rows(), q.cols(), n_, tlo.size(), tip.rows(), tip.cols(), axis.rows(), axis.cols());
+    tip.col(0) = q.col(x_);
+    tip.col(1) = q.col(y_);
+    tip.col(2) = q.col(z_) - tlo;
+    if (axis.size() > 0) axis.rowwise() = Eigen::RowVector3d(0.0, 0.0, 1.0);
+  }
+  void tip_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::MatrixXd>& qd,
+                         const Eigen::Ref<const Eigen::VectorXd>& tlo, Eigen::Ref<Eigen::MatrixXd> out) const override {
+    require_rows(q.rows(), q.cols(), n_, tlo.size(), out.rows(), out.cols());
+    if (qd.rows() != q.rows() || qd.cols() != q.cols())
+      throw core::Error(fmt::format("kinematics: {} x {} axis velocities for {} x {} axis positions", qd.rows(),
+                                    qd.cols(), q.rows(), q.cols()));
+    out.col(0) = qd.col(x_);
+    out.col(1) = qd.col(y_);
+    out.col(2) = qd.col(z_);
+  }
   KinematicFamily family() const override { return KinematicFamily::Cartesian; }
 
  private:
@@ -146,6 +169,7 @@ class ChainKinematics final : public Kinematics {
     for (int k = 0; k < 3; ++k)
       if (lin_[k] < 0) throw core::Error(fmt::format("{}: the chain has no joint for axis {}", file_, kAxisNames[k]));
     classify();
+    for (const Joint& j : tool_) tool_linear_ = tool_linear_ && !j.rotary;
   }
   // rot_, ja_ and jb_ point into wp_ and tool_.
   ChainKinematics(const ChainKinematics&) = delete;
@@ -207,10 +231,22 @@ class ChainKinematics final : public Kinematics {
     require_rows(q.rows(), q.cols(), n_, tlo.size(), tip.rows(), tip.cols(), axis.rows(), axis.cols());
     const bool axes_wanted = axis.size() > 0;
     std::vector<Trig> trig(tool_.size() + wp_.size());
-    for (Eigen::Index k = 0; k < q.rows(); ++k) {
-      const ToolPose pose = pose_at(q.row(k), tlo[k], trig.data());
-      tip.row(k) = pose.tip_mm.transpose();
-      if (axes_wanted) axis.row(k) = pose.axis.transpose();
+    const Eigen::Index n = q.rows();
+    for (Eigen::Index k = 0; k < n;) {
+      // A run of rows whose rotary joints all stand at zero (a three-axis program on a five-axis machine): every
+      // rotary apply() returns at once there, so the rows go column by column through the linear joints' sums alone.
+      Eigen::Index e = k;
+      while (e < n && rotaries_at_zero(q, e)) ++e;
+      if (e - k >= kMinRun) {
+        forward_linear_rows(q, tlo, k, e, tip, axis);
+        k = e;
+        continue;
+      }
+      for (e = std::max(e, k + 1); k < e; ++k) {
+        const ToolPose pose = pose_at(q.row(k), tlo[k], trig.data());
+        tip.row(k) = pose.tip_mm.transpose();
+        if (axes_wanted) axis.row(k) = pose.axis.transpose();
+      }
     }
   }
 
@@ -229,7 +265,21 @@ class ChainKinematics final : public Kinematics {
     std::vector<std::uint64_t> wp_bits(wp_.size());
     std::vector<Eigen::Vector3d> wp_u(wp_.size()), wp_p(wp_.size());
     Eigen::Matrix3d wp_r;
-    for (Eigen::Index k = 0; k < q.rows(); ++k) {
+    const Eigen::Index n = q.rows();
+    Eigen::Index run_end = 0;  // rows before it were checked for a run of the linear tool chain's path
+    for (Eigen::Index k = 0; k < n; ++k) {
+      if (tool_linear_ && wp_valid && k >= run_end) {
+        // A run of rows with the workpiece chain's values of the row before (its cached rotation) and finite linear
+        // tool joints and offsets: column by column (tip_velocity_linear_rows); shorter runs row by row below.
+        Eigen::Index e = k;
+        while (e < n && wp_same(q, e, wp_bits) && linear_finite(q, tlo, e)) ++e;
+        run_end = e;
+        if (e - k >= kMinRun) {
+          tip_velocity_linear_rows(q, qd, tlo, k, e, wp_u, wp_p, wp_r, out);
+          k = e - 1;
+          continue;
+        }
+      }
       Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
       Eigen::Vector3d t = Eigen::Vector3d::Zero();
       for (std::size_t i = 0; i < tool_.size(); ++i) {
@@ -475,6 +525,158 @@ class ChainKinematics final : public Kinematics {
     return rotary ? Eigen::Vector3d(u.cross(x - p)) : u;
   }
 
+  // The column-by-column paths of forward_rows and tip_velocity_rows (issue 21: a three-axis program on a five-axis
+  // machine, every row the same rotation). They make each output value by the same operations in the same order as
+  // the row-by-row code, so the same bits; a run shorter than kMinRun rows is not worth its set-up. Chunks of kChunk
+  // rows on the stack: no allocation per call.
+  static constexpr Eigen::Index kMinRun = 16, kChunk = 256;
+
+  // Whether every rotary joint's value on row k is zero (+0 or -0: apply() leaves the pose as it is).
+  bool rotaries_at_zero(const Eigen::Ref<const Eigen::MatrixXd>& q, Eigen::Index k) const {
+    for (const Joint* j : rot_)
+      if (q(k, j->index) != 0.0) return false;
+    return true;
+  }
+
+  // p[r] += x[r] u (x[r] negated first when `negate`) unless x[r] is zero, apply()'s linear joint on each row. Two rows
+  // at a time with SSE2 (GCC does not vectorise the select): the same product and sum on each lane, then the select.
+  static void add_unless_zero(double* p, const double* x, double u, Eigen::Index m, bool negate) {
+    Eigen::Index r = 0;
+#if defined(__SSE2__)
+    const __m128d vu = _mm_set1_pd(u), zero = _mm_setzero_pd(), sign = _mm_set1_pd(negate ? -0.0 : 0.0);
+    for (; r + 2 <= m; r += 2) {
+      const __m128d xr = _mm_xor_pd(_mm_loadu_pd(x + r), sign), pr = _mm_loadu_pd(p + r);
+      const __m128d sum = _mm_add_pd(pr, _mm_mul_pd(xr, vu));
+      const __m128d is_zero = _mm_cmpeq_pd(xr, zero);
+      _mm_storeu_pd(p + r, _mm_or_pd(_mm_and_pd(is_zero, pr), _mm_andnot_pd(is_zero, sum)));
+    }
+#endif
+    for (; r < m; ++r) {
+      const double xr = negate ? -x[r] : x[r];
+      if (xr != 0.0) p[r] = p[r] + xr * u;
+    }
+  }
+
+  // Rows [k0, k1) of forward_rows, every rotary joint at zero there: pose_at's linear sums, column by column. A joint
+  // at exactly zero leaves the point as it is (apply()'s early return), hence the select rather than the sum.
+  void forward_linear_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::VectorXd>& tlo,
+                           Eigen::Index k0, Eigen::Index k1, Eigen::Ref<Eigen::MatrixXd> tip,
+                           Eigen::Ref<Eigen::MatrixXd> axis) const {
+    const bool axes_wanted = axis.size() > 0;
+    for (Eigen::Index c0 = k0; c0 < k1; c0 += kChunk) {
+      const Eigen::Index m = std::min(kChunk, k1 - c0);
+      const double* l = tlo.data() + c0;
+      for (int c = 0; c < 3; ++c) {
+        double p[kChunk];
+        for (Eigen::Index r = 0; r < m; ++r) p[r] = gauge_[c] - l[r] * d_[c];
+        for (auto it = tool_.rbegin(); it != tool_.rend(); ++it) {
+          if (it->rotary) continue;
+          const double* x = q.col(it->index).data() + c0;
+          const double u = it->u[c];
+          add_unless_zero(p, x, u, m, false);
+        }
+        for (const Joint& j : wp_) {
+          if (j.rotary) continue;
+          const double* x = q.col(j.index).data() + c0;
+          const double u = j.u[c];
+          add_unless_zero(p, x, u, m, true);
+        }
+        double* out = tip.col(c).data() + c0;
+        for (Eigen::Index r = 0; r < m; ++r) out[r] = p[r] - origin_[c];
+        if (axes_wanted) axis.col(c).segment(c0, m).setConstant(d_[c]);
+      }
+    }
+  }
+
+  // Whether row k's workpiece joints have the bits `bits` (the cached rotation's).
+  bool wp_same(const Eigen::Ref<const Eigen::MatrixXd>& q, Eigen::Index k,
+               const std::vector<std::uint64_t>& bits) const {
+    for (std::size_t i = 0; i < wp_.size(); ++i)
+      if (std::bit_cast<std::uint64_t>(q(k, wp_[i].index)) != bits[i]) return false;
+    return true;
+  }
+  // Whether row k's tool joints and tool length offset are finite (the column path's identity products below).
+  bool linear_finite(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::VectorXd>& tlo,
+                     Eigen::Index k) const {
+    bool ok = std::isfinite(tlo[k]);
+    for (const Joint& j : tool_) ok = ok && std::isfinite(q(k, j.index));
+    return ok;
+  }
+
+  // Rows [k0, k1) of tip_velocity_rows when the tool chain is linear only (its rotation r stays the identity) and the
+  // workpiece chain's values are those of the cached wp_u, wp_p, wp_r on every row. The row-by-row code's r * w with
+  // r the identity: the three products 1 w_c, 0 w_a, 0 w_b summed, which for finite w is w_c + 0 w_a + 0 w_b in any
+  // order (a sum of w_c and signed zeros is exact; its zero's sign does not depend on the order). The last product,
+  // wp_r^T v, takes Eigen's own expression per row (its summation order is Eigen's).
+  void tip_velocity_linear_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::MatrixXd>& qd,
+                                const Eigen::Ref<const Eigen::VectorXd>& tlo, Eigen::Index k0, Eigen::Index k1,
+                                const std::vector<Eigen::Vector3d>& wp_u, const std::vector<Eigen::Vector3d>& wp_p,
+                                const Eigen::Matrix3d& wp_r, Eigen::Ref<Eigen::MatrixXd> out) const {
+    // u_moved of the tool joints: r u with r the identity, as the row-by-row code computes it.
+    Eigen::Vector3d u_moved[6];
+    {
+      const Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+      for (std::size_t i = 0; i < tool_.size(); ++i) u_moved[i] = r * tool_[i].u;
+    }
+    const auto id_times = [](double wc, double wa, double wb) { return wc + 0.0 * wa + 0.0 * wb; };
+    for (Eigen::Index c0 = k0; c0 < k1; c0 += kChunk) {
+      const Eigen::Index m = std::min(kChunk, k1 - c0);
+      double t[3][kChunk], tip_b[3][kChunk], v[3][kChunk];
+      for (int c = 0; c < 3; ++c)
+        for (Eigen::Index r = 0; r < m; ++r) t[c][r] = 0.0;
+      // t += r (q u) joint by joint.
+      for (const Joint& j : tool_) {
+        const double* x = q.col(j.index).data() + c0;
+        for (Eigen::Index r = 0; r < m; ++r) {
+          const double w0 = x[r] * j.u[0], w1 = x[r] * j.u[1], w2 = x[r] * j.u[2];
+          t[0][r] = t[0][r] + id_times(w0, w1, w2);
+          t[1][r] = t[1][r] + id_times(w1, w0, w2);
+          t[2][r] = t[2][r] + id_times(w2, w0, w1);
+        }
+      }
+      // tip_b = r (gauge - tlo d) + t.
+      const double* l = tlo.data() + c0;
+      for (Eigen::Index r = 0; r < m; ++r) {
+        const double y0 = gauge_[0] - l[r] * d_[0], y1 = gauge_[1] - l[r] * d_[1], y2 = gauge_[2] - l[r] * d_[2];
+        tip_b[0][r] = id_times(y0, y1, y2) + t[0][r];
+        tip_b[1][r] = id_times(y1, y0, y2) + t[1][r];
+        tip_b[2][r] = id_times(y2, y0, y1) + t[2][r];
+      }
+      // v_rel: the tool joints' velocities, then minus the workpiece joints' at the tip.
+      for (int c = 0; c < 3; ++c)
+        for (Eigen::Index r = 0; r < m; ++r) v[c][r] = 0.0;
+      for (std::size_t i = 0; i < tool_.size(); ++i) {
+        const double* w = qd.col(tool_[i].index).data() + c0;
+        for (int c = 0; c < 3; ++c) {
+          const double u = u_moved[i][c];
+          for (Eigen::Index r = 0; r < m; ++r) v[c][r] = v[c][r] + w[r] * u;
+        }
+      }
+      for (std::size_t i = 0; i < wp_.size(); ++i) {
+        const double* w = qd.col(wp_[i].index).data() + c0;
+        const Eigen::Vector3d& a = wp_u[i];
+        if (!wp_[i].rotary) {
+          for (int c = 0; c < 3; ++c)
+            for (Eigen::Index r = 0; r < m; ++r) v[c][r] = v[c][r] - w[r] * a[c];
+          continue;
+        }
+        // u x (tip_b - p), Eigen's cross product's formula.
+        const Eigen::Vector3d& p = wp_p[i];
+        for (Eigen::Index r = 0; r < m; ++r) {
+          const double b0 = tip_b[0][r] - p[0], b1 = tip_b[1][r] - p[1], b2 = tip_b[2][r] - p[2];
+          const double x0 = a[1] * b2 - a[2] * b1, x1 = a[2] * b0 - a[0] * b2, x2 = a[0] * b1 - a[1] * b0;
+          v[0][r] = v[0][r] - w[r] * x0;
+          v[1][r] = v[1][r] - w[r] * x1;
+          v[2][r] = v[2][r] - w[r] * x2;
+        }
+      }
+      for (Eigen::Index r = 0; r < m; ++r) {
+        const Eigen::Vector3d v_rel(v[0][r], v[1][r], v[2][r]);
+        out.row(c0 + r) = (wp_r.transpose() * v_rel).transpose();
+      }
+    }
+  }
+
   // The family, and for the two-rotary families the form the tool axis takes in the workpiece frame:
   //   v = Rot(a, alpha) Rot(b, beta) d,  joint_a = sa * alpha, joint_b = sb * beta,
   // since v = Rw^T Rt d with Rw, Rt the products of the workpiece and tool chains' rotations:
@@ -609,6 +811,7 @@ class ChainKinematics final : public Kinematics {
   int lin_[3] = {-1, -1, -1};      // machine index of the linear joint of program axis X, Y, Z
   std::vector<const Joint*> rot_;  // rotary joints
   KinematicFamily family_ = KinematicFamily::ForwardOnly;
+  bool tool_linear_ = true;  // the tool chain has no rotary joint (its rotation stays the identity)
   std::string forward_only_reason_;
   const Joint* ja_ = nullptr;
   const Joint* jb_ = nullptr;

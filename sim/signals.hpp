@@ -128,6 +128,8 @@ class SignalBinner {
   Eigen::Vector3d prev_actual_ = Eigen::Vector3d::Zero(), prev_command_ = Eigen::Vector3d::Zero();
   double cutting_path_ = 0;
   std::vector<double> feed_, speed_, speed_actual_, path_, cutting_;  // add_rows' per-row values
+  std::vector<double> xs_;                                            // add_rows: an axis' setpoints k-3..k
+  std::array<std::vector<double>, 5> sv_;  // add_rows: an axis' setpoint, tracking error and differences per row
 };
 
 // The signals of one run through the drives, binned on the fly (no full-rate copy of the signals is made).
