@@ -7,6 +7,7 @@
 #include "drives/cascade_batch.hpp"
 #include "drives/simulate.hpp"
 
+#include "tests/drives/cascade_reference.hpp"
 #include "tests/drives/drive_test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -20,64 +21,6 @@
 
 namespace vmsim::drives {
 namespace {
-
-// Rows (all eight columns) and the full-rate trace of each axis alone, as simulate_axes defines them.
-AxisResponse cbp_reference(const core::Setpoints& sp, const core::Machine& m, double settle_s) {
-  const double te = sp.period_s;
-  const Eigen::Index n_set = sp.samples(), n_axes = sp.position.cols();
-  const Eigen::Index rows = n_set + static_cast<Eigen::Index>(std::llround(settle_s / te));
-  AxisResponse out;
-  out.period_s = te;
-  for (Eigen::MatrixXd* c : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
-                             &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
-    c->setZero(rows, n_axes);
-  out.trace.resize(static_cast<std::size_t>(n_axes));
-  for (Eigen::Index a = 0; a < n_axes; ++a) {
-    const core::MachineAxis& ax = m.axes[static_cast<std::size_t>(a)];
-    CascadeAxis model(*ax.drive, te, ax.kind);
-    model.reset(sp.position(0, a));
-    const Eigen::Index nin = model.inner_steps();
-    FullRateTrace& t = out.trace[static_cast<std::size_t>(a)];
-    t.period_s = ax.drive->current_period_s;
-    for (Eigen::ArrayXd* v : {&t.position, &t.velocity, &t.current_A, &t.current_setpoint_A, &t.voltage_V})
-      v->setZero((rows - 1) * nin + 1);
-    std::vector<InnerSample> inner(static_cast<std::size_t>(nin));
-    AxisSample s = model.sample();
-    double prev_x = sp.position(0, a), prev_v = 0.0, prev_acc = 0.0;
-    for (Eigen::Index k = 0; k < rows; ++k) {
-      out.position(k, a) = s.position;
-      out.velocity(k, a) = s.velocity;
-      out.acceleration(k, a) = s.acceleration;
-      out.jerk(k, a) = (s.acceleration - prev_acc) / te;
-      prev_acc = s.acceleration;
-      out.current_A(k, a) = s.current_A;
-      out.current_mean_A(k, a) = s.current_mean_A;
-      out.current_peak_A(k, a) = s.current_peak_A;
-      out.current_setpoint_A(k, a) = s.current_setpoint_A;
-      if (k + 1 == rows) break;
-      AxisCommand c;
-      c.position = sp.position(std::min(k, n_set - 1), a);
-      c.velocity = (c.position - prev_x) / te;
-      c.acceleration = (c.velocity - prev_v) / te;
-      prev_x = c.position;
-      prev_v = c.velocity;
-      s = model.step(c, inner.data());
-      for (Eigen::Index n = 0; n < nin; ++n) {
-        const InnerSample& q = inner[static_cast<std::size_t>(n)];
-        t.position[k * nin + n] = q.position;
-        t.velocity[k * nin + n] = q.velocity;
-        t.current_A[k * nin + n] = q.current_A;
-        t.current_setpoint_A[k * nin + n] = q.current_setpoint_A;
-        t.voltage_V[k * nin + n] = q.voltage_V;
-      }
-    }
-    const InnerSample last = model.inner_sample();
-    const Eigen::Index e = (rows - 1) * nin;
-    t.position[e] = last.position, t.velocity[e] = last.velocity, t.current_A[e] = last.current_A;
-    t.current_setpoint_A[e] = last.current_setpoint_A, t.voltage_V[e] = last.voltage_V;
-  }
-  return out;
-}
 
 bool cbp_same_bits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
 
@@ -168,7 +111,7 @@ TEST(CascadeBatchPaths, SticksBreaksAndStuckBlocksBitForBit) {
     ASSERT_NE(ax.drive->gravity, core::DriveParams::Gravity::Tilting);
   }
   const core::Setpoints sp = cbp_profile(m);
-  const AxisResponse ref = cbp_reference(sp, m, 0.2);
+  const AxisResponse ref = test::cascade_reference(sp, m, nullptr, 0.2);
   const CascadeAxis probe(*m.axes[0].drive, 1e-3, m.axes[0].kind);
   cbp_expect_exercised(ref, probe.inner_steps());
   for (bool generic : {false, true}) {

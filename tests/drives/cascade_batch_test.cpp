@@ -9,6 +9,7 @@
 #include "drives/simulate.hpp"
 
 #include "core/error.hpp"
+#include "tests/drives/cascade_reference.hpp"
 #include "tests/drives/drive_test_support.hpp"
 #include "tests/test_paths.hpp"
 
@@ -25,71 +26,6 @@
 
 namespace vmsim::drives {
 namespace {
-
-// Reference: simulate_axes' rows from each axis' own CascadeAxis::step (with the full-rate trace), as its header
-// documents them: row 0 at rest at the first setpoint, row k+1 after one Te on setpoint k, the feedforward the
-// backward differences of the setpoints, the last setpoint (and gains) held over the settling rows, jerk the backward
-// difference of the accelerations.
-AxisResponse cbt_reference(const core::Setpoints& sp, const core::Machine& m, const GainSchedule* gains,
-                           double settle_s) {
-  const double te = sp.period_s;
-  const Eigen::Index n_set = sp.samples(), n_axes = sp.position.cols();
-  const Eigen::Index rows = n_set + static_cast<Eigen::Index>(std::llround(settle_s / te));
-  AxisResponse out;
-  out.period_s = te;
-  for (Eigen::MatrixXd* c : {&out.position, &out.velocity, &out.acceleration, &out.jerk, &out.current_A,
-                             &out.current_setpoint_A, &out.current_mean_A, &out.current_peak_A})
-    c->setZero(rows, n_axes);
-  out.trace.resize(static_cast<std::size_t>(n_axes));
-  for (Eigen::Index a = 0; a < n_axes; ++a) {
-    const core::MachineAxis& ax = m.axes[static_cast<std::size_t>(a)];
-    CascadeAxis model(*ax.drive, te, ax.kind);
-    model.reset(sp.position(0, a));
-    const Eigen::Index nin = model.inner_steps();
-    FullRateTrace& t = out.trace[static_cast<std::size_t>(a)];
-    t.period_s = ax.drive->current_period_s;
-    for (Eigen::ArrayXd* v : {&t.position, &t.velocity, &t.current_A, &t.current_setpoint_A, &t.voltage_V})
-      v->setZero((rows - 1) * nin + 1);
-    std::vector<InnerSample> inner(static_cast<std::size_t>(nin));
-    AxisSample s = model.sample();
-    double prev_x = sp.position(0, a), prev_v = 0.0, prev_acc = 0.0;
-    for (Eigen::Index k = 0; k < rows; ++k) {
-      out.position(k, a) = s.position;
-      out.velocity(k, a) = s.velocity;
-      out.acceleration(k, a) = s.acceleration;
-      out.jerk(k, a) = (s.acceleration - prev_acc) / te;
-      prev_acc = s.acceleration;
-      out.current_A(k, a) = s.current_A;
-      out.current_mean_A(k, a) = s.current_mean_A;
-      out.current_peak_A(k, a) = s.current_peak_A;
-      out.current_setpoint_A(k, a) = s.current_setpoint_A;
-      if (k + 1 == rows) break;
-      const Eigen::Index ks = std::min(k, n_set - 1);
-      AxisCommand c;
-      c.position = sp.position(ks, a);
-      c.velocity = (c.position - prev_x) / te;
-      c.acceleration = (c.velocity - prev_v) / te;
-      prev_x = c.position;
-      prev_v = c.velocity;
-      if (gains && gains->kv_per_s.size()) c.kv_per_s = gains->kv_per_s(ks, a);
-      if (gains && gains->kf.size()) c.kf = gains->kf(ks, a);
-      s = model.step(c, inner.data());
-      for (Eigen::Index n = 0; n < nin; ++n) {
-        const InnerSample& q = inner[static_cast<std::size_t>(n)];
-        t.position[k * nin + n] = q.position;
-        t.velocity[k * nin + n] = q.velocity;
-        t.current_A[k * nin + n] = q.current_A;
-        t.current_setpoint_A[k * nin + n] = q.current_setpoint_A;
-        t.voltage_V[k * nin + n] = q.voltage_V;
-      }
-    }
-    const InnerSample q = model.inner_sample();
-    const Eigen::Index last = (rows - 1) * nin;
-    t.position[last] = q.position, t.velocity[last] = q.velocity, t.current_A[last] = q.current_A;
-    t.current_setpoint_A[last] = q.current_setpoint_A, t.voltage_V[last] = q.voltage_V;
-  }
-  return out;
-}
 
 // Index of the first entry whose bits differ (-1: none; sizes differ: 0). Bits, not ==: 0.0 and -0.0 differ.
 template <typename A, typename B>
@@ -224,7 +160,7 @@ TEST(CascadeBatch, SimulateAxesBitForBitWithEachAxisAloneOnEveryMachine) {
   for (const CbtVariant& v : cbt_variants()) {
     ++machines;
     const core::Setpoints sp = cbt_profile(v.machine, v.held);
-    const AxisResponse ref = cbt_reference(sp, v.machine, nullptr, 0.2);
+    const AxisResponse ref = test::cascade_reference(sp, v.machine, nullptr, 0.2);
     cbt_expect_exercised(v, ref);
     SimulateOptions o;
     o.full_rate_trace = true;
@@ -254,7 +190,7 @@ TEST(CascadeBatch, BlocksOfOneSevenAndAllRowsBitForBit) {
   std::vector<bool> held(m.axes.size(), false);
   held[4] = true;  // C at rest all along: its periods are skipped within a block
   const core::Setpoints sp = cbt_profile(m, held);
-  const AxisResponse ref = cbt_reference(sp, m, nullptr, 0.2);
+  const AxisResponse ref = test::cascade_reference(sp, m, nullptr, 0.2);
   // 255 / 256 / 257: a block ends just before, on and after the batch's runs of 256 rows (simulate.cpp's kPollRows).
   for (bool generic : {false, true})
     for (Eigen::Index block : {Eigen::Index{1}, Eigen::Index{7}, Eigen::Index{255}, Eigen::Index{256},
@@ -278,7 +214,7 @@ TEST(CascadeBatch, BlocksOfOneSevenAndAllRowsBitForBit) {
 // leave it and come back to one (frictionless X and Z: their linear loops settle onto a state that repeats itself
 // bit for bit, as the skipped counts show; Y, A, C rest all along), so that the set of lanes on the vectors changes
 // several times within a run.
-// Reference: each axis alone through CascadeAxis::step (cbt_reference).
+// Reference: each axis alone through CascadeAxis::step (test::cascade_reference).
 TEST(CascadeBatch, RunRowsAcrossFixedPointsLeftAndReentered) {
   core::Machine m = test::mikron();
   for (auto& ax : m.axes) ax.drive->coulomb_Nm = 0.0;
@@ -290,7 +226,7 @@ TEST(CascadeBatch, RunRowsAcrossFixedPointsLeftAndReentered) {
     out[0] = smooth((t - 0.2) / 0.1) - smooth((t - 3.0) / 0.1);
     out[2] = 0.5 * smooth((t - 0.25) / 0.1);
   });
-  const AxisResponse ref = cbt_reference(sp, m, nullptr, 0.0);
+  const AxisResponse ref = test::cascade_reference(sp, m, nullptr, 0.0);
   for (bool generic : {false, true}) {
     const std::string what = generic ? "run_rows, generic" : "run_rows";
     std::vector<CascadeAxis> axes;
@@ -361,7 +297,7 @@ TEST(CascadeBatch, GainScheduleBitForBit) {
           phase == 3 ? std::numeric_limits<double>::quiet_NaN() : 60.0 + 20.0 * static_cast<double>(phase);
       g.kf(k, a) = phase == 1 ? std::numeric_limits<double>::quiet_NaN() : 0.05 * static_cast<double>(phase);
     }
-  const AxisResponse ref = cbt_reference(sp, m, &g, 0.2);
+  const AxisResponse ref = test::cascade_reference(sp, m, &g, 0.2);
   SimulateOptions o;
   o.gains = &g;
   o.full_rate_trace = true;
@@ -386,7 +322,7 @@ TEST(CascadeBatch, AxesWithOtherLoopPeriodsRunInTheirOwnBatch) {
   core::Machine m = test::mikron();
   m.axes[0].drive->current_period_s = 31.25e-6;
   const core::Setpoints sp = cbt_profile(m, std::vector<bool>(m.axes.size(), false));
-  const AxisResponse ref = cbt_reference(sp, m, nullptr, 0.2);
+  const AxisResponse ref = test::cascade_reference(sp, m, nullptr, 0.2);
   SimulateOptions o;
   o.full_rate_trace = true;
   const AxisResponse got = simulate_axes(sp, m, o);
