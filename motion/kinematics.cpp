@@ -64,6 +64,13 @@ void require_rows(Eigen::Index rows, Eigen::Index axes, std::size_t n, Eigen::In
                                   out_rows, out_cols));
 }
 
+// tip_velocity_rows: one velocity row per position row, of the same axes.
+void require_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::MatrixXd>& qd) {
+  if (qd.rows() != q.rows() || qd.cols() != q.cols())
+    throw core::Error(fmt::format("kinematics: {} x {} axis velocities for {} x {} axis positions", qd.rows(), qd.cols(),
+                                  q.rows(), q.cols()));
+}
+
 class CartesianXyz final : public Kinematics {
  public:
   explicit CartesianXyz(const core::Machine& m)
@@ -99,9 +106,7 @@ class CartesianXyz final : public Kinematics {
   void tip_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::MatrixXd>& qd,
                          const Eigen::Ref<const Eigen::VectorXd>& tlo, Eigen::Ref<Eigen::MatrixXd> out) const override {
     require_rows(q.rows(), q.cols(), n_, tlo.size(), out.rows(), out.cols());
-    if (qd.rows() != q.rows() || qd.cols() != q.cols())
-      throw core::Error(fmt::format("kinematics: {} x {} axis velocities for {} x {} axis positions", qd.rows(),
-                                    qd.cols(), q.rows(), q.cols()));
+    require_velocity_rows(q, qd);
     out.col(0) = qd.col(x_);
     out.col(1) = qd.col(y_);
     out.col(2) = qd.col(z_);
@@ -254,9 +259,7 @@ class ChainKinematics final : public Kinematics {
   void tip_velocity_rows(const Eigen::Ref<const Eigen::MatrixXd>& q, const Eigen::Ref<const Eigen::MatrixXd>& qd,
                          const Eigen::Ref<const Eigen::VectorXd>& tlo, Eigen::Ref<Eigen::MatrixXd> out) const override {
     require_rows(q.rows(), q.cols(), n_, tlo.size(), out.rows(), out.cols());
-    if (qd.rows() != q.rows() || qd.cols() != q.cols())
-      throw core::Error(fmt::format("kinematics: {} x {} axis velocities for {} x {} axis positions", qd.rows(),
-                                    qd.cols(), q.rows(), q.cols()));
+    require_velocity_rows(q, qd);
     std::vector<Rotation> rot(tool_.size() + wp_.size());
     Eigen::Vector3d u_moved[6], p_moved[6];
     // The workpiece chain's moved axes and points and its rotation depend on its own joints only: kept while their
