@@ -69,20 +69,6 @@ std::vector<SweptTool> cut9_sweeps(unsigned seed, int count) {
   return s;
 }
 
-bool cut9_same(const DexelGrid& a, const DexelGrid& b, std::string& where) {
-  std::vector<Interval> x, y;
-  for (int j = 0; j < a.nv(); ++j)
-    for (int i = 0; i < a.nu(); ++i) {
-      a.intervals(i, j, x);
-      b.intervals(i, j, y);
-      if (!vmsim::removal::test::same_bits(x, y)) {
-        where = "ray (" + std::to_string(i) + ", " + std::to_string(j) + ")";
-        return false;
-      }
-    }
-  return true;
-}
-
 }  // namespace
 
 TEST(Cut9RowColumns, BothBuildsEqualTheScalarShadowBitForBit) {
@@ -236,9 +222,9 @@ TEST(Cut9Cut, RandomSweepsEqualTheReferenceThreadsAndBuildsBitForBit) {
     detail::generic_kernels_only() = false;
     omp_set_num_threads(threads);
     std::string where;
-    EXPECT_TRUE(cut9_same(ref, one, where)) << "h " << h << ", cut_reference vs cut: " << where;
-    EXPECT_TRUE(cut9_same(one, two, where)) << "h " << h << ", 1 vs 2 threads: " << where;
-    EXPECT_TRUE(cut9_same(one, generic, where)) << "h " << h << ", AVX2 vs generic: " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(ref, one, where)) << "h " << h << ", cut_reference vs cut: " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, two, where)) << "h " << h << ", 1 vs 2 threads: " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, generic, where)) << "h " << h << ", AVX2 vs generic: " << where;
     EXPECT_EQ(s1.ray_tests, sg.ray_tests);
     EXPECT_GT(s1.cuts, 10000u) << "too few cuts to test anything";
   }

@@ -66,21 +66,6 @@ DexelGrid bands_zmap(double h) {
   return z;
 }
 
-// Every ray's intervals, bit for bit.
-bool bands_same(const DexelGrid& a, const DexelGrid& b, std::string& where) {
-  std::vector<Interval> x, y;
-  for (int j = 0; j < a.nv(); ++j)
-    for (int i = 0; i < a.nu(); ++i) {
-      a.intervals(i, j, x);
-      b.intervals(i, j, y);
-      if (!vmsim::removal::test::same_bits(x, y)) {
-        where = "ray (" + std::to_string(i) + ", " + std::to_string(j) + ")";
-        return false;
-      }
-    }
-  return true;
-}
-
 // Records every report: increasing, ending at done + the sweeps.
 struct BandsProgress : vmsim::core::Progress {
   std::vector<double> seen;
@@ -104,9 +89,9 @@ TEST(CutBands, OneCallWithProgressEqualsOneCallBatchesAndTheReferenceBitForBit) 
                                  sweeps.begin() + static_cast<std::ptrdiff_t>(std::min(sweeps.size(), b + 4096))));
     cut_reference(ref, sweeps);
     std::string where;
-    EXPECT_TRUE(bands_same(plain, banded, where)) << "h " << h << ": one call vs with progress, " << where;
-    EXPECT_TRUE(bands_same(plain, batched, where)) << "h " << h << ": one call vs batches, " << where;
-    EXPECT_TRUE(bands_same(plain, ref, where)) << "h " << h << ": one call vs cut_reference, " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(plain, banded, where)) << "h " << h << ": one call vs with progress, " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(plain, batched, where)) << "h " << h << ": one call vs batches, " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(plain, ref, where)) << "h " << h << ": one call vs cut_reference, " << where;
     EXPECT_EQ(sp.ray_tests, sb.ray_tests);
     EXPECT_EQ(sp.cuts, sb.cuts);
     EXPECT_GT(sp.order_free_blocks, 0u) << "the order-free pass (lowest sweeps first) was not exercised";
@@ -132,8 +117,8 @@ TEST(CutBands, ThreadsAndBuildsAgreeBitForBitWithProgress) {
   vmsim::removal::detail::generic_kernels_only() = false;
   omp_set_num_threads(threads);
   std::string where;
-  EXPECT_TRUE(bands_same(one, two, where)) << "1 vs 2 threads: " << where;
-  EXPECT_TRUE(bands_same(two, generic, where)) << "AVX2 (where the CPU has it) vs generic: " << where;
+  EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, two, where)) << "1 vs 2 threads: " << where;
+  EXPECT_TRUE(vmsim::removal::test::same_grid_bits(two, generic, where)) << "AVX2 (where the CPU has it) vs generic: " << where;
 }
 
 // The heights against an independent envelope: on each ray, the lowest point of every ball sweep over it (the ball's
