@@ -111,10 +111,14 @@ DistinctPath merge_repeats(const Eigen::MatrixXd& c) {
   return path;
 }
 
-// The unit turn of the tangent at interior point q, when it is measurable (false: straight there); without n, only
-// whether it is (principal_normals asks that of every point and keeps no normal: three divisions fewer each).
-template <bool kWithNormal = true>
-bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d* n) {
+// Whether the tangent turns measurably at a point between segments of lengths l1 and l2 (turn: |dt|, the change of
+// the unit tangent): above what rounding of the coordinates gives. One test for principal_normals and turn_at.
+inline bool turns_measurably(double turn, double l1, double l2, double noise) {
+  return turn > std::max(1e-12, noise / std::min(l1, l2));
+}
+
+// The unit turn of the tangent at interior point q, when it is measurable (false: straight there).
+bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d& n) {
   const double* a = &path.p[3 * (q - 1)];
   const double* b = &path.p[3 * q];
   const double* c = &path.p[3 * (q + 1)];
@@ -122,8 +126,8 @@ bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d* n) {
   Eigen::Vector3d dt((c[0] - b[0]) / l2 - (b[0] - a[0]) / l1, (c[1] - b[1]) / l2 - (b[1] - a[1]) / l1,
                      (c[2] - b[2]) / l2 - (b[2] - a[2]) / l1);
   const double turn = dt.norm();
-  if (!(turn > std::max(1e-12, path.noise / std::min(l1, l2)))) return false;
-  if constexpr (kWithNormal) *n = dt / turn;
+  if (!turns_measurably(turn, l1, l2, path.noise)) return false;
+  n = dt / turn;
   return true;
 }
 
@@ -157,7 +161,7 @@ void principal_normals(DistinctPath& path) {
     for (int i = 0; i < 3; ++i) t_out[i] = (c[i] - b[i]) / l2;
     const Eigen::Vector3d dt(t_out[0] - t_in[0], t_out[1] - t_in[1], t_out[2] - t_in[2]);
     for (int i = 0; i < 3; ++i) t_in[i] = t_out[i];
-    if (dt.norm() > std::max(1e-12, path.noise / std::min(l1, l2))) {
+    if (turns_measurably(dt.norm(), l1, l2, path.noise)) {
       carry = static_cast<int>(q);
       if (first_defined < 0) first_defined = carry;
     }
@@ -172,7 +176,7 @@ void principal_normals(DistinctPath& path) {
 Eigen::Vector3d normal_at(const DistinctPath& path, Eigen::Index q) {
   const int from = path.n_from[static_cast<std::size_t>(q)];
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
-  if (from >= 0) turn_at(path, from, &n);
+  if (from >= 0) turn_at(path, from, n);
   return n;
 }
 

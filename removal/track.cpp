@@ -50,6 +50,14 @@ double highest_in_box(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p, 
   return h0 <= h1 ? h1 : -1;
 }
 
+// The cubic Hermite curve through p0 and p1 with end tangents m0 and m1 (a sample's velocity times Te) at u in [0, 1]:
+// the track's sub-samples between two of its samples (the fast path and the general loop of sweeps_from_track).
+inline Eigen::Vector3d hermite_point(const Eigen::Vector3d& p0, const Eigen::Vector3d& m0, const Eigen::Vector3d& p1,
+                                     const Eigen::Vector3d& m1, double u) {
+  const double u2 = u * u, u3 = u2 * u;
+  return (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+}
+
 // The Hermite sub-sampling of a 3-axis track (a constant axis) in one pass over its columns: each interval's count
 // of chords m (the sub-sampling loop in sweeps_from_track: |p''|max <= 8 eps m^2), with the very operations of that
 // loop, so the same m and the same bits of e_hermite (the larger of two norms is the square root of the larger squared
@@ -202,9 +210,7 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
           const Eigen::Vector3d m0 = track.tip_velocity_mm_per_s.row(k).transpose() * track.period_s;
           const Eigen::Vector3d m1 = track.tip_velocity_mm_per_s.row(k + 1).transpose() * track.period_s;
           for (int s = 1; s < m; ++s) {
-            const double u = double(s) / m, u2 = u * u, u3 = u2 * u;
-            const Eigen::Vector3d p =
-                (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+            const Eigen::Vector3d p = hermite_point(p0, m0, p1, m1, double(s) / m);
             bx[q] = p.x(), by[q] = p.y(), bz[q] = p.z(), ++q;
           }
         }
@@ -246,9 +252,9 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
       }
       e_hermite = std::max(e_hermite, bow / (double(m) * m));
       for (int s = 1; s < m; ++s) {
-        const double u = double(s) / m, u2 = u * u, u3 = u2 * u;
+        const double u = double(s) / m;
         if (hermite) {
-          push((2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1);
+          push(hermite_point(p0, m0, p1, m1, u));
         } else {
           push((1 - u) * p0 + u * p1);
         }
