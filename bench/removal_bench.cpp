@@ -35,6 +35,7 @@
 #include <filesystem>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <string>
 
@@ -229,6 +230,40 @@ const Flower& flower() {
   return f;
 }
 
+// VMSIM_FLOWER_TRACK=file: the actual track below read from that file when it exists, else built and written there
+// (raw doubles: period, rows, tips, tip velocities; a scratch file for repeated runs of one build's benches, which
+// spares the ~20 s of drive simulation per process; delete it when the motion chain changes).
+bool load_track_cache(PoseTrack& t) {
+  const char* path = std::getenv("VMSIM_FLOWER_TRACK");
+  if (!path) return false;
+  std::FILE* f = std::fopen(path, "rb");
+  if (!f) return false;
+  double head[2];
+  bool ok = std::fread(head, sizeof head, 1, f) == 1 && head[1] > 0;
+  if (ok) {
+    const auto rows = static_cast<Eigen::Index>(head[1]);
+    t.period_s = head[0];
+    t.tip_mm.resize(rows, 3);
+    t.tip_velocity_mm_per_s.resize(rows, 3);
+    const std::size_t n = static_cast<std::size_t>(rows) * 3;
+    ok = std::fread(t.tip_mm.data(), sizeof(double), n, f) == n &&
+         std::fread(t.tip_velocity_mm_per_s.data(), sizeof(double), n, f) == n;
+  }
+  std::fclose(f);
+  return ok;
+}
+void save_track_cache(const PoseTrack& t) {
+  const char* path = std::getenv("VMSIM_FLOWER_TRACK");
+  if (!path || t.tip_velocity_mm_per_s.rows() != t.tip_mm.rows() || t.axis_per_sample.size() > 0) return;
+  std::FILE* f = std::fopen(path, "wb");
+  if (!f) return;
+  const double head[2] = {t.period_s, static_cast<double>(t.tip_mm.rows())};
+  const std::size_t n = static_cast<std::size_t>(t.tip_mm.size());
+  const bool ok = std::fwrite(head, sizeof head, 1, f) == 1 && std::fwrite(t.tip_mm.data(), sizeof(double), n, f) == n &&
+                  std::fwrite(t.tip_velocity_mm_per_s.data(), sizeof(double), n, f) == n;
+  if (std::fclose(f) != 0 || !ok) std::remove(path);
+}
+
 // The track vmsim run cuts on flower_mold (its default, motion = "actual"): the drives' actual positions and tip
 // velocities (sim::motion_track, the streamed chain), ~3.7 M poses, and the job's sweeps (sim::sweeps_of: the
 // default 0.1 um tolerance, the stock box), ~22x the programmed moves. Built once per process; not timed.
@@ -238,8 +273,11 @@ const Flower& flower_actual() {
     const std::filesystem::path job_file = std::filesystem::path(VMSIM_SOURCE_DIR) / "bench/flower_mold/job.toml";
     try {
       const vmsim::core::Job job = vmsim::core::load_job(job_file);
-      r.track = vmsim::sim::motion_track(vmsim::sim::Chain(job), vmsim::core::RemovalSpec::Motion::Actual,
-                                         vmsim::core::no_progress());
+      if (!load_track_cache(r.track)) {
+        r.track = vmsim::sim::motion_track(vmsim::sim::Chain(job), vmsim::core::RemovalSpec::Motion::Actual,
+                                           vmsim::core::no_progress());
+        save_track_cache(r.track);
+      }
       r.tool = make_tool(job.tool);
       r.sweeps = vmsim::sim::sweeps_of(job, r.track).sweeps;
       r.stock = Box{job.stock.min_mm, job.stock.max_mm};
@@ -334,6 +372,20 @@ void BM_FlowerActualTrack(benchmark::State& state) {
 }
 BENCHMARK(BM_FlowerActualTrack)->Unit(benchmark::kMillisecond);
 
+// A checksum of every ray's top and bottom (FNV-1a over their bits, 48 bits: a counter holds it exactly), so that
+// two builds' benches show whether their cuts agree bit for bit.
+double heights_checksum(const DexelGrid& z) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (int j = 0; j < z.nv(); ++j)
+    for (int i = 0; i < z.nu(); ++i) {
+      const double v[2] = {z.top(i, j), z.bottom(i, j)};
+      unsigned char b[sizeof v];
+      std::memcpy(b, v, sizeof v);
+      for (unsigned char c : b) h = (h ^ c) * 1099511628211ull;
+    }
+  return static_cast<double>(h & ((std::uint64_t{1} << 48) - 1));
+}
+
 void BM_FlowerActualZmap(benchmark::State& state) {
   const Flower& f = flower_actual();
   if (!f.error.empty()) return state.SkipWithError(f.error.c_str());
@@ -343,11 +395,22 @@ void BM_FlowerActualZmap(benchmark::State& state) {
   const long batch = static_cast<long>(state.range(3));
   detail::generic_kernels_only() = kernel == 2;
   CutStats stats;
+  double checksum = 0;
   for (auto _ : state) {
     state.PauseTiming();
     DexelGrid z = make_zmap(f.stock, h);
     fill_box(z, f.stock);
     state.ResumeTiming();
+    struct Sum {  // the checksum after each timed cut, outside the timed region
+      benchmark::State& st;
+      const DexelGrid& g;
+      double& out;
+      ~Sum() {
+        st.PauseTiming();
+        out = heights_checksum(g);
+        st.ResumeTiming();
+      }
+    } sum{state, z, checksum};
     if (batch <= 0) {
       stats = kernel == 1 ? cut_reference(z, f.sweeps)
                           : (batch == 0 ? cut(z, f.sweeps) : cut(z, f.sweeps, &vmsim::core::no_progress(), 0));
@@ -368,6 +431,7 @@ void BM_FlowerActualZmap(benchmark::State& state) {
   omp_set_num_threads(omp_get_num_procs());
   detail::generic_kernels_only() = false;
   put_cut_counters(state, f.sweeps.size(), stats, kernel != 1, true);
+  state.counters["checksum"] = checksum;
 }
 BENCHMARK(BM_FlowerActualZmap)
     ->ArgNames({"n", "kernel", "threads", "batch"})
