@@ -99,6 +99,12 @@ inline bool& reference_bull_solver() {
   static bool ref = false;
   return ref;
 }
+// Tests: sweeps_from_track merges a constant-axis track with its general loop (run_ok, one check a call) instead of
+// merge_runs, so that the two can be compared.
+inline bool& merge_in_place_only() {
+  static bool only = false;
+  return only;
+}
 inline bool use_avx2() {
   static const bool cpu = __builtin_cpu_supports("avx2");
   return cpu && !generic_kernels_only();

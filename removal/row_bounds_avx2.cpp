@@ -9,6 +9,7 @@
 #define CHORD_DIST2_NAME chord_dist2_avx2
 #define ROW_COLUMNS_NAME row_columns_avx2
 #define HERMITE_BOW_NAME hermite_bow_avx2
+#define MERGE_RUNS_NAME merge_runs_avx2
 #include "removal/row_bounds.inc"
 #include "removal/row_cut.inc"
 #include "removal/track_kernel.inc"

@@ -8,6 +8,7 @@
 #define CHORD_DIST2_NAME chord_dist2_generic
 #define ROW_COLUMNS_NAME row_columns_generic
 #define HERMITE_BOW_NAME hermite_bow_generic
+#define MERGE_RUNS_NAME merge_runs_generic
 #include "removal/row_bounds.inc"
 #include "removal/row_cut.inc"
 #include "removal/track_kernel.inc"

@@ -351,6 +351,25 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   std::size_t a = 0;
   const std::size_t last = np - 1;
   if (last == 0) emit(0, 0);
+  if (!turning && !detail::merge_in_place_only()) {
+    // A constant axis: the same search with its checks inlined (merge_runs, removal/track_kernel.inc), a batch of
+    // runs at a time; the tips in the band go to the exact test here.
+    struct Exact {
+      const double *x, *y, *z;
+      double eps;
+    } const ex{px, py, pz, eps};
+    const MergeExactTest far = [](const void* ctx, std::size_t k, std::size_t s, std::size_t e) {
+      const Exact& c = *static_cast<const Exact*>(ctx);
+      auto p = [&](std::size_t q) { return Eigen::Vector3d(c.x[q], c.y[q], c.z[q]); };
+      return point_segment_distance(p(k), p(s), p(e)) > c.eps;
+    };
+    const auto merge = detail::use_avx2() ? merge_runs_avx2 : merge_runs_generic;
+    std::size_t ends[512];
+    while (a < last) {
+      const std::size_t n = merge(px, py, pz, np, eps, far, &ex, a, ends, 512);
+      for (std::size_t q = 0; q < n; ++q) emit(a, ends[q]), a = ends[q];
+    }
+  }
   while (a < last) {
     std::size_t good = a + 1, step = 1;
     while (good + step <= last && run_ok(a, good + step)) {
