@@ -89,13 +89,16 @@ double chord_dist2_avx2(const double* px, const double* py, const double* pz, st
                         double ay, double az, double dx, double dy, double dz, double inv);
 
 // sweeps_from_track's merge for a track with a constant axis (removal/track.cpp), from point a on: the greedy runs'
-// last points, written to ends[0..) until `cap` of them or the track's last point; returns how many. far(ctx, k, s, e):
-// the exact test, whether tip k lies farther than eps from the chord s -> e (for tips within round-off of eps).
+// last points, written to ends[0..) until `cap` of them or the track's last point, and their tips' largest squared
+// distance to the run's chord (chord_dist2's) to max_d2[0..); returns how many. far(ctx, k, s, e): the exact test,
+// whether tip k lies farther than eps from the chord s -> e (for tips within round-off of eps).
 using MergeExactTest = bool (*)(const void* ctx, std::size_t k, std::size_t s, std::size_t e);
 std::size_t merge_runs_generic(const double* px, const double* py, const double* pz, std::size_t np, double eps,
-                               MergeExactTest far, const void* ctx, std::size_t a, std::size_t* ends, std::size_t cap);
+                               MergeExactTest far, const void* ctx, std::size_t a, std::size_t* ends, double* max_d2,
+                               std::size_t cap);
 std::size_t merge_runs_avx2(const double* px, const double* py, const double* pz, std::size_t np, double eps,
-                            MergeExactTest far, const void* ctx, std::size_t a, std::size_t* ends, std::size_t cap);
+                            MergeExactTest far, const void* ctx, std::size_t a, std::size_t* ends, double* max_d2,
+                            std::size_t cap);
 
 // hermite_substeps' |p''|max and sqrt(|p''|max / (8 eps)) of the track intervals k -> k + 1, k in [k0, k1) (tips t, tip
 // velocities v, columns of the track), written to a[k - k0], r[k - k0] (removal/track.cpp).

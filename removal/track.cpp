@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace vmsim::removal {
 
@@ -327,14 +328,16 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
     return true;
   };
   double e_merge = 0, e_orient_left = 0;
-  auto emit = [&](std::size_t a, std::size_t b) {
+  const double kNoBound = std::numeric_limits<double>::infinity();
+  // max_d2: a bound the caller has on the run's tips' squared distances to its chord (chord_dist2's), or infinity.
+  auto emit = [&](std::size_t a, std::size_t b, double max_d2) {
     SweptTool s;
     s.tool = tool;
     s.tip0 = pts(a);
     s.axis = run_axis(a, b);
     s.d = pts(b) - pts(a);
     // The largest tip distance, exactly as before: only tips whose squared distance may reach the largest so far.
-    if (b > a + 1) {
+    if (b > a + 1 && !(std::sqrt(max_d2) + chord_of(a, b).band < e_merge)) {
       const Chord c = chord_of(a, b);
       for (std::size_t k0 = a + 1; k0 < b; k0 += 32) {
         const std::size_t k1 = std::min(b, k0 + 32);
@@ -350,7 +353,7 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
   };
   std::size_t a = 0;
   const std::size_t last = np - 1;
-  if (last == 0) emit(0, 0);
+  if (last == 0) emit(0, 0, kNoBound);
   if (!turning && !detail::merge_in_place_only()) {
     // A constant axis: the same search with its checks inlined (merge_runs, removal/track_kernel.inc), a batch of
     // runs at a time; the tips in the band go to the exact test here.
@@ -364,10 +367,14 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
       return point_segment_distance(p(k), p(s), p(e)) > c.eps;
     };
     const auto merge = detail::use_avx2() ? merge_runs_avx2 : merge_runs_generic;
+    // Room for runs of four points on average (flower_mold's actual motion: ~11), so that the sweeps are not copied as
+    // they grow; the pages beyond the sweeps made are never touched.
+    out.sweeps.reserve(np / 4 + 1);
     std::size_t ends[512];
+    double max_d2[512];
     while (a < last) {
-      const std::size_t n = merge(px, py, pz, np, eps, far, &ex, a, ends, 512);
-      for (std::size_t q = 0; q < n; ++q) emit(a, ends[q]), a = ends[q];
+      const std::size_t n = merge(px, py, pz, np, eps, far, &ex, a, ends, max_d2, 512);
+      for (std::size_t q = 0; q < n; ++q) emit(a, ends[q], max_d2[q]), a = ends[q];
     }
   }
   while (a < last) {
@@ -387,7 +394,7 @@ TrackSweeps sweeps_from_track(const Tool& tool, const PoseTrack& track, const Tr
     }
     // hi checked only when no check has failed it yet (checks are pure: asking again gives the same answer).
     if (!hi_bad && hi > lo && run_ok(a, hi)) lo = hi;
-    emit(a, lo);
+    emit(a, lo, kNoBound);
     a = lo;
   }
   out.orientation_error_mm = e_orient_left;

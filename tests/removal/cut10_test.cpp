@@ -143,8 +143,8 @@ TEST(Cut10Merge, TipsAtTheToleranceFollowTheExactTest) {
         detail::merge_in_place_only() = false;
         const TrackSweeps r = sweeps_from_track_reference(t, tr, o);
         std::string where;
-        ASSERT_TRUE(cut10_same_sweeps(r, s, where)) << "offset step " << q << (generic ? ", generic" : "")
-                                                    << (loop ? ", general loop" : "") << ": " << where;
+        ASSERT_TRUE(cut10_same_sweeps(r, s, where))
+            << "offset step " << q << (generic ? ", generic" : "") << (loop ? ", general loop" : "") << ": " << where;
         if (!generic && !loop) (s.sweeps.size() == 1 ? merged : split) += 1;
       }
   }
@@ -208,9 +208,11 @@ TEST(Cut10Cut, FinishingPassesEqualTheReferenceThreadsAndBuildsBitForBit) {
     detail::generic_kernels_only() = false;
     omp_set_num_threads(threads);
     std::string where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(ref, one, where)) << "h " << h << ", cut_reference vs cut: " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(ref, one, where))
+        << "h " << h << ", cut_reference vs cut: " << where;
     EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, two, where)) << "h " << h << ", 1 vs 2 threads: " << where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, generic, where)) << "h " << h << ", AVX2 vs generic: " << where;
+    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, generic, where))
+        << "h " << h << ", AVX2 vs generic: " << where;
     EXPECT_EQ(s1.bound_skipped, sg.bound_skipped);
     EXPECT_GT(s1.order_free_blocks, 0u) << "no block took the order-free kernel";
     EXPECT_GT(s1.bound_skipped, s1.ray_tests / 20) << "the ray bound settled too little to test it";
