@@ -259,7 +259,8 @@ void save_track_cache(const PoseTrack& t) {
   if (!f) return;
   const double head[2] = {t.period_s, static_cast<double>(t.tip_mm.rows())};
   const std::size_t n = static_cast<std::size_t>(t.tip_mm.size());
-  const bool ok = std::fwrite(head, sizeof head, 1, f) == 1 && std::fwrite(t.tip_mm.data(), sizeof(double), n, f) == n &&
+  const bool ok = std::fwrite(head, sizeof head, 1, f) == 1 &&
+                  std::fwrite(t.tip_mm.data(), sizeof(double), n, f) == n &&
                   std::fwrite(t.tip_velocity_mm_per_s.data(), sizeof(double), n, f) == n;
   if (std::fclose(f) != 0 || !ok) std::remove(path);
 }

@@ -1,6 +1,6 @@
 // Issue 21, session 10: the track merge's checks inlined (merge_runs, removal/track_kernel.inc, both builds) and the
-// ball kernel's intervals read by a lane permute (removal/row_cut.inc) on a finishing pattern. References: the merge's general loop in
-// sweeps_from_track (one run_ok call a check, kept for turning tools; detail::merge_in_place_only) and
+// ball kernel's intervals read by a lane permute (removal/row_cut.inc) on a finishing pattern. References: the merge's
+// general loop in sweeps_from_track (one run_ok call a check, kept for turning tools; detail::merge_in_place_only) and
 // sweeps_from_track_reference (the track code before issue 21), every sweep bit for bit; cut_reference (the kernel
 // before issue 21), every ray bit for bit, 1 vs 2 threads and the generic vs the AVX2 build. flower_mold's own track
 // against both references: tests/sim/flower_removal_test.cpp.
