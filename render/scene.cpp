@@ -7,6 +7,7 @@
 #include "core/error.hpp"
 #include "render/colormap.hpp"
 #include "render/detail.hpp"
+#include "render/fxaa.hpp"
 #include "render/isolines.hpp"
 
 #include <vtkActor.h>
@@ -713,7 +714,8 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   ren->SetViewport(vp[0] / W, 1 - (vp[1] + vp[3]) / H, (vp[0] + vp[2]) / W, 1 - vp[1] / H);
   // Maps stay exact (every pixel one colour of the table); 3-D views get smooth silhouettes. FXAA works on the
   // scene's viewport only: the annotations around it stay as drawn.
-  detail::set_antialiasing(rw, ren, top ? Antialiasing::None : pic.antialiasing);
+  const Antialiasing aa = top ? Antialiasing::None : pic.antialiasing;
+  detail::set_antialiasing(rw, ren, aa);
   rw->AddRenderer(overlay);
   rw->AddRenderer(ren);
 
@@ -900,7 +902,11 @@ PartImage draw(Window& window, Geometry& g, const PartPicture& pic) {
   }
   if (top) add_scale_bar(overlay, 2 * cam->GetParallelScale() / vp[3], vp, static_cast<int>(small));
 
+  // The scene's viewport in pixels as VTK rounds it (lower-left origin), for FXAA on the CPU.
+  int vp_px[4];
+  ren->GetTiledSizeAndOrigin(&vp_px[2], &vp_px[3], &vp_px[0], &vp_px[1]);
   out.image = detail::finish_picture(window);
+  if (aa == Antialiasing::Fxaa) fxaa(out.image, PixelRect{vp_px[0], H - vp_px[1] - vp_px[3], vp_px[2], vp_px[3]});
   vtkMatrix4x4* mtx = cam->GetCompositeProjectionTransformMatrix(aspect, -1, 1);
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) out.world_to_ndc(r, c) = mtx->GetElement(r, c);
