@@ -218,19 +218,22 @@ void BM_EncodePng(benchmark::State& state) {
   const render::Image& img = *images[state.range(0)];
   render::PngEncoding enc;
   enc.filter = static_cast<render::PngFilter>(state.range(1));
-  enc.zlib_level = static_cast<int>(state.range(2));
+  enc.level = static_cast<int>(state.range(2));
   enc.rle = state.range(3) != 0;
+  enc.deflater = state.range(4) != 0 ? render::PngDeflater::Libdeflate : render::PngDeflater::Zlib;
   std::size_t bytes = 0;
   for (auto _ : state) bytes = render::encode_png(img, enc).size();
   state.counters["bytes"] = static_cast<double>(bytes);
   static const char* kinds[] = {"part", "map", "chart"};
-  state.SetLabel(std::string(kinds[state.range(0)]) + ", filter " + filter_name(state.range(1)) + ", zlib " +
-                 std::to_string(enc.zlib_level) + (enc.rle ? " RLE" : ""));
+  state.SetLabel(std::string(kinds[state.range(0)]) + ", filter " + filter_name(state.range(1)) +
+                 (state.range(4) ? ", libdeflate " : ", zlib ") + std::to_string(enc.level) + (enc.rle ? " RLE" : ""));
 }
+// Arguments: picture, filter, level, RLE, deflater (0 zlib through libpng, 1 libdeflate).
 BENCHMARK(BM_EncodePng)
-    ->ArgsProduct({{0, 1, 2}, {0, 1, 2, 4}, {1, 3}, {0}})
-    ->ArgsProduct({{0, 1, 2}, {0, 1, 2}, {1}, {1}})
-    ->ArgsProduct({{0, 1, 2}, {4}, {5}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2, 4}, {1, 3}, {0}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2}, {1}, {1}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {4}, {5}, {0}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {2}, {1, 2, 3, 4, 6}, {0}, {1}})
     ->Unit(benchmark::kMillisecond);
 
 void BM_ChartToPng(benchmark::State& state) {
