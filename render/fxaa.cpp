@@ -25,15 +25,23 @@ constexpr float kRelativeContrast = 1.f / 8.f, kHardContrast = 1.f / 16.f;
 constexpr float kSubpixelBlendLimit = 3.f / 4.f, kSubpixelContrast = 1.f / 4.f;
 constexpr int kSearchSteps = 12;
 
-// The rectangle's pixels as the filter reads them: 8-bit colours and their lumas, coordinates clamped to the edge.
+// The rectangle's pixels as the filter reads them, coordinates clamped to its edges: the original 8-bit colours of
+// the rows around the one being smoothed and the lumas of the rows the endpoint search can reach, in rings of rows
+// (a few rows' memory, not a copy of the picture: pictures go up to 16384 x 16384).
 struct Source {
+  static constexpr int kLumaRows = 2 * kSearchSteps + 5;  // rows y - 14 .. y + 14: the search reaches +-12
+  static constexpr int kRgbRows = 3;                      // rows y - 1 .. y + 1: the 3 x 3 mean, HC
   int w = 0, h = 0;
-  std::vector<std::uint8_t> rgb;
-  std::vector<float> luma;
+  std::vector<std::uint8_t> rgb;  // kRgbRows rows
+  std::vector<float> luma;        // kLumaRows rows
 
-  int index(int x, int y) const { return std::clamp(y, 0, h - 1) * w + std::clamp(x, 0, w - 1); }
-  float l(int x, int y) const { return luma[static_cast<std::size_t>(index(x, y))]; }
-  const std::uint8_t* c(int x, int y) const { return rgb.data() + 3 * static_cast<std::size_t>(index(x, y)); }
+  static int ring(int y, int n) { return ((y % n) + n) % n; }
+  std::size_t at(int x, int y, int rows) const {
+    return static_cast<std::size_t>(ring(std::clamp(y, 0, h - 1), rows)) * static_cast<std::size_t>(w) +
+           static_cast<std::size_t>(std::clamp(x, 0, w - 1));
+  }
+  float l(int x, int y) const { return luma[at(x, y, kLumaRows)]; }
+  const std::uint8_t* c(int x, int y) const { return rgb.data() + 3 * at(x, y, kRgbRows); }
 };
 
 float to_unit(std::uint8_t v) { return static_cast<float>(v) * (1.f / 255.f); }
@@ -121,27 +129,32 @@ void fxaa(Image& image, const PixelRect& r) {
                                   r.height, r.x, r.y, image.width, image.height));
   Source s;
   s.w = r.width, s.h = r.height;
-  s.rgb.resize(static_cast<std::size_t>(s.w) * static_cast<std::size_t>(s.h) * 3);
-  s.luma.resize(static_cast<std::size_t>(s.w) * static_cast<std::size_t>(s.h));
   const std::size_t row = static_cast<std::size_t>(s.w) * 3;
-  for (int y = 0; y < s.h; ++y)
-    std::memcpy(s.rgb.data() + static_cast<std::size_t>(y) * row,
-                image.rgb.data() + (static_cast<std::size_t>(r.y + y) * static_cast<std::size_t>(image.width) +
-                                    static_cast<std::size_t>(r.x)) *
-                                       3,
-                row);
-  for (std::size_t k = 0; k < s.luma.size(); ++k) {
-    const std::uint8_t* p = s.rgb.data() + 3 * k;
-    s.luma[k] = to_unit(p[0]) * 0.299f + to_unit(p[1]) * 0.587f + to_unit(p[2]) * 0.114f;
-  }
+  s.rgb.resize(Source::kRgbRows * row);
+  s.luma.resize(Source::kLumaRows * static_cast<std::size_t>(s.w));
+  auto pixels = [&](int y) {
+    return image.rgb.data() +
+           (static_cast<std::size_t>(r.y + y) * static_cast<std::size_t>(image.width) + static_cast<std::size_t>(r.x)) *
+               3;
+  };
+  // Rows are read (copied, their lumas computed) before any pixel of them is written: row y is written once the
+  // rows up to y + 1 are copied and the lumas up to y + kSearchSteps + 2 computed, and it is not read again.
+  int next_rgb = 0, next_luma = 0;
   std::uint8_t out[3];
-  for (int y = 0; y < s.h; ++y)
+  for (int y = 0; y < s.h; ++y) {
+    for (; next_rgb <= std::min(y + 1, s.h - 1); ++next_rgb)
+      std::memcpy(s.rgb.data() + static_cast<std::size_t>(Source::ring(next_rgb, Source::kRgbRows)) * row,
+                  pixels(next_rgb), row);
+    for (; next_luma <= std::min(y + kSearchSteps + 2, s.h - 1); ++next_luma) {
+      const std::uint8_t* p = pixels(next_luma);
+      float* l = s.luma.data() +
+                 static_cast<std::size_t>(Source::ring(next_luma, Source::kLumaRows)) * static_cast<std::size_t>(s.w);
+      for (int x = 0; x < s.w; ++x, p += 3)
+        l[x] = to_unit(p[0]) * 0.299f + to_unit(p[1]) * 0.587f + to_unit(p[2]) * 0.114f;
+    }
     for (int x = 0; x < s.w; ++x)
-      if (smooth_pixel(s, x, y, out))
-        std::memcpy(image.rgb.data() + (static_cast<std::size_t>(r.y + y) * static_cast<std::size_t>(image.width) +
-                                        static_cast<std::size_t>(r.x + x)) *
-                                           3,
-                    out, 3);
+      if (smooth_pixel(s, x, y, out)) std::memcpy(pixels(y) + 3 * static_cast<std::size_t>(x), out, 3);
+  }
 }
 
 }  // namespace vmsim::render
