@@ -9,8 +9,10 @@
 // BM_FirstPicture makes a new window (EGL context, shader compilation) every time.
 // Counters: triangles per second; the time of the PNG step alone is BM_EncodePng. cpu_ms_per_picture is the CPU of
 // the whole process (llvmpipe's render threads included; the benchmark's own CPU column counts the calling thread).
-// Antialiasing (last argument of BM_GridToPng and BM_ChartToPng): 0 none, 1 FXAA, 2 4x MSAA. Figures: bench/README.md.
+// Antialiasing (last argument of BM_GridToPng and BM_ChartToPng): 0 none, 1 FXAA (on the CPU), 2 4x MSAA, 3 FXAA as
+// VTK's shader. Figures: bench/README.md.
 #include "render/chart.hpp"
+#include "render/fxaa.hpp"
 #include "render/image.hpp"
 #include "render/scene.hpp"
 #include "render/window.hpp"
@@ -94,7 +96,9 @@ render::Window& window() {
 
 const std::filesystem::path png = std::filesystem::temp_directory_path() / "vmsim_render_bench.png";
 
-const char* aa_name(std::int64_t a) { return a == 0 ? "no AA" : a == 1 ? "FXAA" : "4x MSAA"; }
+const char* aa_name(std::int64_t a) {
+  return a == 0 ? "no AA" : a == 1 ? "FXAA (CPU)" : a == 2 ? "4x MSAA" : "FXAA (VTK's shader)";
+}
 
 // CPU of every thread of the process per iteration, from the first to the last.
 struct ProcessCpu {
@@ -154,6 +158,7 @@ BENCHMARK(BM_GridToPng)
     ->Args({0, 0, 0})
     ->Args({0, 0, 1})
     ->Args({0, 0, 2})
+    ->Args({0, 0, 3})
     ->Args({1, 1, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
@@ -213,19 +218,22 @@ void BM_EncodePng(benchmark::State& state) {
   const render::Image& img = *images[state.range(0)];
   render::PngEncoding enc;
   enc.filter = static_cast<render::PngFilter>(state.range(1));
-  enc.zlib_level = static_cast<int>(state.range(2));
+  enc.level = static_cast<int>(state.range(2));
   enc.rle = state.range(3) != 0;
+  enc.deflater = state.range(4) != 0 ? render::PngDeflater::Libdeflate : render::PngDeflater::Zlib;
   std::size_t bytes = 0;
   for (auto _ : state) bytes = render::encode_png(img, enc).size();
   state.counters["bytes"] = static_cast<double>(bytes);
   static const char* kinds[] = {"part", "map", "chart"};
-  state.SetLabel(std::string(kinds[state.range(0)]) + ", filter " + filter_name(state.range(1)) + ", zlib " +
-                 std::to_string(enc.zlib_level) + (enc.rle ? " RLE" : ""));
+  state.SetLabel(std::string(kinds[state.range(0)]) + ", filter " + filter_name(state.range(1)) +
+                 (state.range(4) ? ", libdeflate " : ", zlib ") + std::to_string(enc.level) + (enc.rle ? " RLE" : ""));
 }
+// Arguments: picture, filter, level, RLE, deflater (0 zlib through libpng, 1 libdeflate).
 BENCHMARK(BM_EncodePng)
-    ->ArgsProduct({{0, 1, 2}, {0, 1, 2, 4}, {1, 3}, {0}})
-    ->ArgsProduct({{0, 1, 2}, {0, 1, 2}, {1}, {1}})
-    ->ArgsProduct({{0, 1, 2}, {4}, {5}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2, 4}, {1, 3}, {0}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2}, {1}, {1}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {4}, {5}, {0}, {0}})
+    ->ArgsProduct({{0, 1, 2}, {2}, {1, 2, 3, 4, 6}, {0}, {1}})
     ->Unit(benchmark::kMillisecond);
 
 void BM_ChartToPng(benchmark::State& state) {
@@ -252,3 +260,33 @@ void BM_FirstPicture(benchmark::State& state) {
 BENCHMARK(BM_FirstPicture)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
 
 }  // namespace
+
+// FXAA on the CPU (render/fxaa.hpp) over a whole 1600 x 1200 isometric part picture drawn without antialiasing: what
+// Antialiasing::Fxaa adds to a 3-D view (VTK's shader, Antialiasing::FxaaVtk: compare BM_GridToPng/0/0/3 with /0/0/0).
+void BM_FxaaCpu(benchmark::State& state) {
+  render::PartPicture p = picture(false, render::ViewDirection::Isometric);
+  p.antialiasing = render::Antialiasing::None;
+  const render::Image plain = render::render_part(window(), grid(), nullptr, p).image;
+  for (auto _ : state) {
+    render::Image img = plain;
+    render::fxaa(img, render::PixelRect{0, 0, img.width, img.height});
+    benchmark::DoNotOptimize(img.rgb.data());
+  }
+  state.SetLabel("1600 x 1200 part picture (calling thread's CPU = all of it; includes a 5.8 MB copy)");
+}
+BENCHMARK(BM_FxaaCpu)->Unit(benchmark::kMillisecond);
+
+// A picture's costs that do not grow with the triangles: a 50 x 50-node part (a few thousand triangles) framed to fill
+// the viewport (lit fragments, background, captions, antialiasing, read-back), by antialiasing (0 none, 1 FXAA on
+// the CPU, 3 VTK's FXAA shader).
+void BM_SmallPart(benchmark::State& state) {
+  render::PartPicture p = picture(false, render::ViewDirection::Isometric);
+  p.antialiasing = static_cast<render::Antialiasing>(state.range(0));
+  core::HeightGrid small = grid();
+  small.z_mm = grid().z_mm.topLeftCorner(50, 50);
+  render::render_part(window(), small, nullptr, p);
+  const ProcessCpu cpu;
+  for (auto _ : state) benchmark::DoNotOptimize(render::render_part(window(), small, nullptr, p).image.rgb.data());
+  cpu.report(state);
+}
+BENCHMARK(BM_SmallPart)->Arg(0)->Arg(1)->Arg(3)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -5,6 +5,7 @@
 #include "core/error.hpp"
 #include "render/decimate.hpp"
 #include "render/detail.hpp"
+#include "render/fxaa.hpp"
 
 #include <vtkActor2D.h>
 #include <vtkAxis.h>
@@ -290,6 +291,7 @@ ChartImage render_charts(Window& window, const ChartPicture& pic) {
 
   ChartImage out;
   out.image = detail::finish_picture(window);
+  if (pic.antialiasing == Antialiasing::Fxaa) fxaa(out.image, PixelRect{0, 0, W, H});
   for (const auto& chart : charts) {
     ChartFrame f;
     vtkAxis* xa = chart->GetAxis(vtkAxis::BOTTOM);

@@ -19,7 +19,8 @@ void check_size(int width, int height, const char* what);
 // The window's VTK render window, emptied of any previous picture's renderers and set to width x height.
 vtkRenderWindow* begin_picture(Window& window, int width, int height);
 
-// Sets the window's samples per pixel and the renderer's FXAA pass for `aa` (FXAA smooths that renderer's viewport).
+// Sets the window's samples per pixel and, for FxaaVtk, the renderer's FXAA pass (it smooths that renderer's
+// viewport). Fxaa is the caller's to apply to the picture's pixels (render/fxaa.hpp) after finish_picture.
 void set_antialiasing(vtkRenderWindow* window, vtkRenderer* renderer, Antialiasing aa);
 
 // Renders the window's renderers and reads the colour buffer; then removes the renderers (releasing their GL

@@ -1,11 +1,13 @@
-// PNG files of pictures: encoded with libpng directly (one fixed row filter, chosen per picture in bench/README.md
-// "Pictures' CPU, round 2"), read back through VTK's reader (an independent decoder path for tests and tools).
+// PNG files of pictures: one fixed row filter (chosen per picture in bench/README.md "Pictures' CPU, round 2"), the
+// rows deflated by libdeflate (default; "round 4") or by zlib through libpng; read back through VTK's reader (an
+// independent decoder path for tests and tools).
 #include "render/detail.hpp"
 #include "render/image.hpp"
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 
+#include <libdeflate.h>
 #include <png.h>
 
 #include <vtkImageData.h>
@@ -15,8 +17,11 @@
 #include <fmt/format.h>
 
 #include <csetjmp>
+#include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <new>
+#include <vector>
 #include <zlib.h>
 
 namespace vmsim::render {
@@ -88,7 +93,7 @@ bool encode_rows(const Image& image, const PngEncoding& enc, PngSink& sink) {
   png_set_IHDR(png, info, static_cast<png_uint_32>(image.width), static_cast<png_uint_32>(image.height), 8,
                PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_set_filter(png, PNG_FILTER_TYPE_BASE, libpng_filter(enc.filter));
-  png_set_compression_level(png, enc.zlib_level);
+  png_set_compression_level(png, enc.level);
   png_set_compression_strategy(png, enc.rle ? Z_RLE : Z_DEFAULT_STRATEGY);
   png_write_info(png, info);
   const std::size_t row = static_cast<std::size_t>(image.width) * 3;
@@ -99,14 +104,104 @@ bool encode_rows(const Image& image, const PngEncoding& enc, PngSink& sink) {
   return true;
 }
 
+// ---- libdeflate ----------------------------------------------------------------------------------------------
+// libpng can only hand its rows to zlib, so with libdeflate the file's few chunks are written here (W3C PNG, 2nd
+// edition: signature, IHDR, one IDAT holding the zlib stream of the filtered rows, IEND; each chunk's CRC-32 over
+// its type and data).
+
+void put_be32(std::string& out, std::uint32_t v) {
+  const char b[4] = {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8),
+                     static_cast<char>(v)};
+  out.append(b, 4);
+}
+
+void put_chunk(std::string& out, const char type[4], const std::uint8_t* data, std::size_t n) {
+  put_be32(out, static_cast<std::uint32_t>(n));
+  const std::size_t at = out.size();
+  out.append(type, 4);
+  out.append(reinterpret_cast<const char*>(data), n);
+  put_be32(out, libdeflate_crc32(0, out.data() + at, n + 4));
+}
+
+std::uint8_t paeth(int a, int b, int c) {
+  const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+  return static_cast<std::uint8_t>(pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
+}
+
+// Each row as its filter-type byte and the row's differences from the filter's prediction (PNG section 9).
+std::vector<std::uint8_t> filtered_rows(const Image& image, PngFilter filter) {
+  const std::size_t row = static_cast<std::size_t>(image.width) * 3;
+  std::vector<std::uint8_t> out((row + 1) * static_cast<std::size_t>(image.height));
+  const std::uint8_t type = filter == PngFilter::Sub     ? 1
+                            : filter == PngFilter::Up    ? 2
+                            : filter == PngFilter::Paeth ? 4
+                                                         : 0;
+  for (int y = 0; y < image.height; ++y) {
+    const std::uint8_t* cur = image.rgb.data() + static_cast<std::size_t>(y) * row;
+    const std::uint8_t* up = y > 0 ? cur - row : nullptr;  // the row above; zeros for the first
+    std::uint8_t* o = out.data() + static_cast<std::size_t>(y) * (row + 1);
+    *o++ = type;
+    switch (filter) {
+      case PngFilter::Sub:
+        for (std::size_t i = 0; i < row; ++i) o[i] = static_cast<std::uint8_t>(cur[i] - (i >= 3 ? cur[i - 3] : 0));
+        break;
+      case PngFilter::Up:
+        if (up)
+          for (std::size_t i = 0; i < row; ++i) o[i] = static_cast<std::uint8_t>(cur[i] - up[i]);
+        else
+          std::memcpy(o, cur, row);
+        break;
+      case PngFilter::Paeth:
+        for (std::size_t i = 0; i < row; ++i)
+          o[i] = static_cast<std::uint8_t>(
+              cur[i] - paeth(i >= 3 ? cur[i - 3] : 0, up ? up[i] : 0, up && i >= 3 ? up[i - 3] : 0));
+        break;
+      default:
+        std::memcpy(o, cur, row);
+    }
+  }
+  return out;
+}
+
+std::string encode_libdeflate(const Image& image, const PngEncoding& enc) {
+  if (enc.filter == PngFilter::Adaptive || enc.rle)
+    throw core::Error("libdeflate offers neither libpng's adaptive filtering nor zlib's RLE strategy (use zlib)");
+  const std::vector<std::uint8_t> rows = filtered_rows(image, enc.filter);
+  libdeflate_compressor* c = libdeflate_alloc_compressor(enc.level);
+  if (!c) throw core::Error("cannot allocate libdeflate's compressor");
+  std::vector<std::uint8_t> z(libdeflate_zlib_compress_bound(c, rows.size()));
+  const std::size_t n = libdeflate_zlib_compress(c, rows.data(), rows.size(), z.data(), z.size());
+  libdeflate_free_compressor(c);
+  if (n == 0) throw core::Error("libdeflate could not compress the image");
+  std::string out;
+  out.reserve(n + 64);
+  out.append("\x89PNG\r\n\x1a\n", 8);
+  std::uint8_t ihdr[13] = {0};
+  for (int k = 0; k < 4; ++k) {
+    ihdr[k] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(image.width) >> (24 - 8 * k));
+    ihdr[4 + k] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(image.height) >> (24 - 8 * k));
+  }
+  ihdr[8] = 8;  // bits per channel; then colour type 2 (RGB), deflate, adaptive-filter method 0, no interlace
+  ihdr[9] = 2;
+  put_chunk(out, "IHDR", ihdr, sizeof ihdr);
+  put_chunk(out, "IDAT", z.data(), n);
+  put_chunk(out, "IEND", nullptr, 0);
+  return out;
+}
+
 }  // namespace
 
 std::string encode_png(const Image& image, const PngEncoding& enc) {
-  if (enc.zlib_level < 0 || enc.zlib_level > 9)
-    throw core::Error(fmt::format("PNG compression level {} is not in 0..9", enc.zlib_level));
+  const int max_level = enc.deflater == PngDeflater::Libdeflate ? 12 : 9;
+  if (enc.level < 0 || enc.level > max_level)
+    throw core::Error(fmt::format("PNG compression level {} is not in 0..{} ({})", enc.level, max_level,
+                                  enc.deflater == PngDeflater::Libdeflate ? "libdeflate" : "zlib"));
   if (image.width <= 0 || image.height <= 0 ||
       image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3)
     throw core::Error("not a complete RGB image");
+  if (static_cast<double>(image.rgb.size()) + image.height > 2e9)
+    throw core::Error("the image is too large for one PNG data chunk");
+  if (enc.deflater == PngDeflater::Libdeflate) return encode_libdeflate(image, enc);
   std::string bytes;
   // A picture compresses to a fraction of its raw size; reserving that avoids most regrowth.
   bytes.reserve(image.rgb.size() / 8 + 1024);
@@ -116,9 +211,9 @@ std::string encode_png(const Image& image, const PngEncoding& enc) {
   return bytes;
 }
 
-void write_png(const std::filesystem::path& file, const Image& image, int zlib_level) {
+void write_png(const std::filesystem::path& file, const Image& image, int level) {
   PngEncoding enc;
-  enc.zlib_level = zlib_level;
+  enc.level = level;
   write_png(file, image, enc);
 }
 

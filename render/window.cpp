@@ -342,7 +342,7 @@ vtkRenderWindow* begin_picture(Window& window, int width, int height) {
 
 void set_antialiasing(vtkRenderWindow* window, vtkRenderer* renderer, Antialiasing aa) {
   window->SetMultiSamples(aa == Antialiasing::Msaa4 ? 4 : 0);
-  renderer->SetUseFXAA(aa == Antialiasing::Fxaa);
+  renderer->SetUseFXAA(aa == Antialiasing::FxaaVtk);  // Fxaa is applied to the read-back pixels (render/fxaa.hpp)
 }
 
 Image finish_picture(Window& window) {

@@ -12,12 +12,14 @@
 namespace vmsim::render {
 
 // How edges are smoothed. On Mesa's llvmpipe (no GPU) 4x multisampling costs ~0.2 s of CPU per 1600 x 1200 picture
-// even for an empty one, plus ~0.6 s for a part of 0.6 M triangles; FXAA (VTK's screen-space filter) ~0.2 s
-// (bench/README.md "Pictures' CPU").
+// even for an empty one, plus ~0.6 s for a part of 0.6 M triangles; FXAA as VTK's shader ~0.1-0.2 s, on the CPU
+// a few tens of ms (bench/README.md "Pictures' CPU", "round 4").
 enum class Antialiasing {
-  None,   // every pixel one sample: exact colours, stair-stepped edges
-  Fxaa,   // NVIDIA's FXAA over the finished scene: smooth silhouettes, a slight softening of one-pixel detail
-  Msaa4,  // 4 samples per pixel
+  None,     // every pixel one sample: exact colours, stair-stepped edges
+  Fxaa,     // NVIDIA's FXAA over the finished scene (render/fxaa.hpp, on the CPU): smooth silhouettes, a slight
+            // softening of one-pixel detail
+  Msaa4,    // 4 samples per pixel
+  FxaaVtk,  // the same FXAA run by VTK as a shader (vtkOpenGLFXAAFilter): Fxaa's reference, ~0.1 s more a picture
 };
 
 class Window {

@@ -1,5 +1,6 @@
-// The PNG writer (render/png.cpp, libpng with one fixed row filter): PNG is lossless, so whatever the filter, level
-// or zlib strategy, the file must decode to exactly the pixels given. References: VTK's vtkPNGReader (read_png),
+// The PNG writer (render/png.cpp: one fixed row filter, the rows deflated by libdeflate or by zlib through libpng):
+// PNG is lossless, so whatever the deflater, filter, level or zlib strategy, the file must decode to exactly the
+// pixels given. References: VTK's vtkPNGReader (read_png),
 // Python's PIL (its own PNG parser over zlib; skipped when /usr/bin/python3 or PIL is missing), and the PNG
 // specification itself (W3C PNG, 2nd edition): the signature, the IHDR fields, and one filter-type byte before every
 // scanline of the inflated IDAT stream, which must be the filter asked for.
@@ -90,7 +91,8 @@ TEST(PngWriter, EveryFilterLevelAndStrategyDecodesToThePixelsGiven) {
     for (int level : {0, 1, 3, 9})
       for (bool rle : {false, true}) {
         PngEncoding enc;
-        enc.filter = f, enc.zlib_level = level, enc.rle = rle;
+        enc.deflater = PngDeflater::Zlib;
+        enc.filter = f, enc.level = level, enc.rle = rle;
         const auto file = dir / "p.png";
         write_png(file, img, enc);
         const Image back = read_png(file);
@@ -100,27 +102,54 @@ TEST(PngWriter, EveryFilterLevelAndStrategyDecodesToThePixelsGiven) {
       }
 }
 
+TEST(PngWriter, LibdeflateEveryFilterAndLevelDecodesToThePixelsGiven) {
+  const Image img = pngw_test_image(97, 61);
+  const auto dir = pngw_scratch_dir();
+  for (PngFilter f : {PngFilter::None, PngFilter::Sub, PngFilter::Up, PngFilter::Paeth})
+    for (int level : {0, 1, 4, 12}) {
+      PngEncoding enc;
+      enc.filter = f, enc.level = level;
+      const auto file = dir / "p.png";
+      write_png(file, img, enc);
+      const Image back = read_png(file);
+      ASSERT_EQ(back.width, img.width);
+      ASSERT_EQ(back.height, img.height);
+      EXPECT_EQ(back.rgb, img.rgb) << "filter " << static_cast<int>(f) << " level " << level;
+    }
+  // The filtered rows are the same whichever deflater compresses them: the inflated streams agree byte for byte.
+  for (PngFilter f : {PngFilter::None, PngFilter::Sub, PngFilter::Up, PngFilter::Paeth}) {
+    PngEncoding a, b;
+    a.filter = b.filter = f;
+    b.deflater = PngDeflater::Zlib;
+    std::uint32_t w = 0, h = 0;
+    EXPECT_EQ(pngw_inflated_idat(encode_png(img, a), w, h), pngw_inflated_idat(encode_png(img, b), w, h))
+        << "filter " << static_cast<int>(f);
+  }
+}
+
 TEST(PngWriter, HeaderAndEveryScanlineFollowThePngSpecificationWithTheFilterAsked) {
   const Image img = pngw_test_image(64, 40);
   for (auto [f, byte] : {std::pair{PngFilter::None, 0}, std::pair{PngFilter::Sub, 1}, std::pair{PngFilter::Up, 2},
-                         std::pair{PngFilter::Paeth, 4}}) {
-    PngEncoding enc;
-    enc.filter = f;
-    const std::string png = encode_png(img, enc);
-    ASSERT_GT(png.size(), 33u);
-    EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
-    EXPECT_EQ(png.substr(12, 4), "IHDR");
-    EXPECT_EQ(pngw_be32(png, 16), 64u);  // width
-    EXPECT_EQ(pngw_be32(png, 20), 40u);  // height
-    EXPECT_EQ(png[24], 8);               // bit depth
-    EXPECT_EQ(png[25], 2);               // colour type: RGB
-    EXPECT_EQ(png[28], 0);               // no interlacing
-    EXPECT_EQ(png.substr(png.size() - 8, 4), "IEND");
-    std::uint32_t w = 0, h = 0;
-    const std::string raw = pngw_inflated_idat(png, w, h);
-    ASSERT_EQ(raw.size(), 40u * (1 + 64 * 3));
-    for (std::uint32_t y = 0; y < h; ++y) EXPECT_EQ(raw[y * (1 + 64 * 3)], byte) << "row " << y;
-  }
+                         std::pair{PngFilter::Paeth, 4}})
+    for (PngDeflater d : {PngDeflater::Libdeflate, PngDeflater::Zlib}) {
+      PngEncoding enc;
+      enc.filter = f;
+      enc.deflater = d;
+      const std::string png = encode_png(img, enc);
+      ASSERT_GT(png.size(), 33u);
+      EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+      EXPECT_EQ(png.substr(12, 4), "IHDR");
+      EXPECT_EQ(pngw_be32(png, 16), 64u);  // width
+      EXPECT_EQ(pngw_be32(png, 20), 40u);  // height
+      EXPECT_EQ(png[24], 8);               // bit depth
+      EXPECT_EQ(png[25], 2);               // colour type: RGB
+      EXPECT_EQ(png[28], 0);               // no interlacing
+      EXPECT_EQ(png.substr(png.size() - 8, 4), "IEND");
+      std::uint32_t w = 0, h = 0;
+      const std::string raw = pngw_inflated_idat(png, w, h);
+      ASSERT_EQ(raw.size(), 40u * (1 + 64 * 3));
+      for (std::uint32_t y = 0; y < h; ++y) EXPECT_EQ(raw[y * (1 + 64 * 3)], byte) << "row " << y;
+    }
   // The default (what vmsim's pictures use) is one fixed filter, UP.
   std::uint32_t w = 0, h = 0;
   const std::string raw = pngw_inflated_idat(encode_png(img), w, h);
@@ -149,8 +178,17 @@ TEST(PngWriter, RefusesBadInputAndLeavesNoFileBehind) {
   const auto dir = pngw_scratch_dir();
   const Image img = pngw_test_image(20, 20);
   PngEncoding enc;
-  enc.zlib_level = 10;
+  enc.level = 13;
   EXPECT_THROW(encode_png(img, enc), core::Error);
+  enc.level = 10;
+  enc.deflater = PngDeflater::Zlib;
+  EXPECT_THROW(encode_png(img, enc), core::Error);
+  PngEncoding adaptive;  // libdeflate has no per-row choice of filter, nor zlib's strategies
+  adaptive.filter = PngFilter::Adaptive;
+  EXPECT_THROW(encode_png(img, adaptive), core::Error);
+  PngEncoding rle;
+  rle.rle = true;
+  EXPECT_THROW(encode_png(img, rle), core::Error);
   Image bad = img;
   bad.rgb.pop_back();
   EXPECT_THROW(encode_png(bad), core::Error);
