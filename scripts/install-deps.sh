@@ -22,7 +22,7 @@ packages=(
   libgtest-dev libgmock-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libzip-dev zipcmp zipmerge ziptool libpugixml-dev coinor-libclp-dev libglpk-dev
   libopenmpi-dev openmpi-bin libegl-dev fonts-dejavu-core libbenchmark-dev libfmt-dev python3-imath
-  zlib1g-dev libssl-dev python3 libmatio-dev libpng-dev
+  zlib1g-dev libssl-dev python3 libmatio-dev libpng-dev libdeflate-dev
   # The Python module (python/): pybind11's headers, Python's, and numpy for the arrays it hands over.
   python3-dev pybind11-dev python3-numpy
 )
