@@ -140,8 +140,8 @@ struct CbRows {
   long long* skipped;
 };
 
-// The kernel twice (drives/cascade_batch_kernel.inc): generic, and for AVX2, where a whole-vector test is one
-// vmovmskpd (GCC inlines the intrinsic only into code compiled for AVX, hence the second copy under the pragma).
+// The kernel (drives/cascade_batch_kernel.inc): generic, and for AVX2, where a whole-vector test is one vmovmskpd
+// (GCC inlines the intrinsic only into code compiled for AVX, hence the copy under the pragma); AVX-512VL below.
 namespace cb_generic {
 [[gnu::always_inline]] inline bool cb_any(CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
 #include "drives/cascade_batch_kernel.inc"
