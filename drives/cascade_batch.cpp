@@ -140,8 +140,8 @@ struct CbRows {
   long long* skipped;
 };
 
-// The kernel twice (drives/cascade_batch_kernel.inc): generic, and for AVX2, where a whole-vector test is one
-// vmovmskpd (GCC inlines the intrinsic only into code compiled for AVX, hence the second copy under the pragma).
+// The kernel (drives/cascade_batch_kernel.inc): generic, and for AVX2, where a whole-vector test is one vmovmskpd
+// (GCC inlines the intrinsic only into code compiled for AVX, hence the copy under the pragma); AVX-512VL below.
 namespace cb_generic {
 [[gnu::always_inline]] inline bool cb_any(CbM m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
 #include "drives/cascade_batch_kernel.inc"
@@ -153,17 +153,46 @@ namespace cb_avx2 {
 #include "drives/cascade_batch_kernel.inc"
 }  // namespace cb_avx2
 #pragma GCC pop_options
+// The same text for AVX-512VL processors, still on 256-bit vectors: the EVEX encoding's 32 vector registers hold the
+// current loop's state and temporaries (with AVX2's 16 the compiler spills some and store-to-load forwarding lands
+// on the period's dependency chain). Same operations: AVX-512F brings FMA, and GCC contracts a * b + c into one by
+// default (-ffp-contract=fast), which rounds once where the scalar code rounds twice: contraction is turned off here.
+#pragma GCC push_options
+#pragma GCC target("avx2,avx512f,avx512vl")
+#pragma GCC optimize("fp-contract=off")
+namespace cb_avx512 {
+[[gnu::always_inline]] inline bool cb_any(CbM m) { return _mm256_movemask_pd(reinterpret_cast<__m256d>(m)) != 0; }
+#include "drives/cascade_batch_kernel.inc"
+}  // namespace cb_avx512
+#pragma GCC pop_options
 
-bool cb_use_avx2() {
-  static const bool cpu = __builtin_cpu_supports("avx2");
-  return cpu && !cascade_batch_generic_only();
+// The kernel to run: the widest the processor supports within the tests' limit.
+CascadeBatchKernel cb_kernel() {
+  const CascadeBatchKernel limit = cascade_batch_kernel_limit();
+  for (CascadeBatchKernel k : {CascadeBatchKernel::Avx512, CascadeBatchKernel::Avx2})
+    if (k <= limit && cascade_batch_supports(k)) return k;
+  return CascadeBatchKernel::Generic;
 }
 
 }  // namespace
 
-bool& cascade_batch_generic_only() {
-  static bool generic = false;
-  return generic;
+bool cascade_batch_supports(CascadeBatchKernel kernel) {
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  static const bool avx512 = avx2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl");
+  switch (kernel) {
+    case CascadeBatchKernel::Generic:
+      return true;
+    case CascadeBatchKernel::Avx2:
+      return avx2;
+    case CascadeBatchKernel::Avx512:
+      return avx512;
+  }
+  return false;
+}
+
+CascadeBatchKernel& cascade_batch_kernel_limit() {
+  static CascadeBatchKernel limit = CascadeBatchKernel::Avx512;
+  return limit;
 }
 
 bool CascadeBatch::compatible(const CascadeAxis& a, const CascadeAxis& b) {
@@ -239,10 +268,17 @@ void CascadeBatch::run_rows(CascadeRowLane* rl, long long k0, long long k1, long
                      a.params_.kf};
   }
   CbRows c{pack_.get(), lanes_.data(), rl, nc, lanes(), per_te_, per_velocity_, packed_, &packed_m_, &skipped_};
-  if (cb_use_avx2())
-    cb_avx2::cb_rows(c, k0, k1, base, n_set, rows, te);
-  else
-    cb_generic::cb_rows(c, k0, k1, base, n_set, rows, te);
+  switch (cb_kernel()) {
+    case CascadeBatchKernel::Avx512:
+      cb_avx512::cb_rows(c, k0, k1, base, n_set, rows, te);
+      break;
+    case CascadeBatchKernel::Avx2:
+      cb_avx2::cb_rows(c, k0, k1, base, n_set, rows, te);
+      break;
+    case CascadeBatchKernel::Generic:
+      cb_generic::cb_rows(c, k0, k1, base, n_set, rows, te);
+      break;
+  }
 }
 
 const InnerSample* CascadeBatch::trace(int lane) const {
@@ -318,10 +354,17 @@ void CascadeBatch::advance(const AxisCommand* commands, AxisSample* samples) {
     P.w_cmd[j] = L.w_cmd, P.i_ff[j] = L.i_ff;
   }
   InnerSample* trace = kTrace ? trace_slots_.data() : nullptr;
-  if (cb_use_avx2())
-    cb_avx2::cb_periods<kTrace>(P, m, per_te_, per_velocity_, trace);
-  else
-    cb_generic::cb_periods<kTrace>(P, m, per_te_, per_velocity_, trace);
+  switch (cb_kernel()) {
+    case CascadeBatchKernel::Avx512:
+      cb_avx512::cb_periods<kTrace>(P, m, per_te_, per_velocity_, trace);
+      break;
+    case CascadeBatchKernel::Avx2:
+      cb_avx2::cb_periods<kTrace>(P, m, per_te_, per_velocity_, trace);
+      break;
+    case CascadeBatchKernel::Generic:
+      cb_generic::cb_periods<kTrace>(P, m, per_te_, per_velocity_, trace);
+      break;
+  }
   const int n = per_te_;
   for (int j = 0; j < m; ++j) {
     CascadeLane& L = lanes[active[j]];

@@ -53,8 +53,13 @@ struct CascadeRowLane {
   double prev_acc = 0.0;              // the previous row's acceleration (the jerk's backward difference)
 };
 
-// Tests: step with the generic build's kernel even where the processor has AVX2 (both kernels must give the bits).
-bool& cascade_batch_generic_only();
+// The kernels CascadeBatch is compiled into, widest last; each gives the same bits.
+enum class CascadeBatchKernel { Generic, Avx2, Avx512 };
+// Whether this processor runs `kernel`.
+bool cascade_batch_supports(CascadeBatchKernel kernel);
+// Tests: the widest kernel to use (default: Avx512, i.e. the widest the processor has), so that every kernel the
+// processor runs can be held to the same bits.
+CascadeBatchKernel& cascade_batch_kernel_limit();
 
 class CascadeBatch {
  public:

@@ -3,7 +3,8 @@
 // ones it hands to the general code: lanes sticking and breaking away at different current periods, all lanes stuck
 // at once, one lane stuck (not at a fixed point: its integrators move) for a whole block of rows.
 // Reference: each axis alone through CascadeAxis::step (drives/cascade_axis.cpp), rows and commands as
-// simulate_axes documents them (drives/simulate.hpp), bit for bit, with the generic and the AVX2 kernel.
+// simulate_axes documents them (drives/simulate.hpp), bit for bit, with every kernel the processor runs (generic,
+// AVX2, AVX-512VL).
 #include "drives/cascade_batch.hpp"
 #include "drives/simulate.hpp"
 
@@ -114,11 +115,11 @@ TEST(CascadeBatchPaths, SticksBreaksAndStuckBlocksBitForBit) {
   const AxisResponse ref = test::cascade_reference(sp, m, nullptr, 0.2);
   const CascadeAxis probe(*m.axes[0].drive, 1e-3, m.axes[0].kind);
   cbp_expect_exercised(ref, probe.inner_steps());
-  for (bool generic : {false, true}) {
-    cascade_batch_generic_only() = generic;
+  for (CascadeBatchKernel kernel : test::cascade_batch_kernels()) {
+    cascade_batch_kernel_limit() = kernel;
     for (Eigen::Index block :
          {Eigen::Index{1}, Eigen::Index{7}, Eigen::Index{256}, Eigen::Index{257}, Eigen::Index{1 << 20}}) {
-      const std::string what = "blocks of " + std::to_string(block) + (generic ? ", generic" : ", AVX2 if present");
+      const std::string what = "blocks of " + std::to_string(block) + ", " + test::cascade_batch_kernel_name(kernel);
       BlockSimulation sim(sp, m);
       ASSERT_EQ(sim.rows(), ref.samples());
       while (!sim.done() && !::testing::Test::HasFailure()) {
@@ -130,7 +131,7 @@ TEST(CascadeBatchPaths, SticksBreaksAndStuckBlocksBitForBit) {
     SimulateOptions o;
     o.full_rate_trace = true;
     const AxisResponse r = simulate_axes(sp, m, o);
-    const std::string what = std::string("simulate_axes with trace") + (generic ? ", generic" : "");
+    const std::string what = std::string("simulate_axes with trace, ") + test::cascade_batch_kernel_name(kernel);
     cbp_expect_rows(r, ref, 0, what);
     for (std::size_t a = 0; a < 3; ++a) {
       const FullRateTrace &g = r.trace[a], &w = ref.trace[a];
@@ -144,7 +145,7 @@ TEST(CascadeBatchPaths, SticksBreaksAndStuckBlocksBitForBit) {
           break;
         }
     }
-    cascade_batch_generic_only() = false;
+    cascade_batch_kernel_limit() = CascadeBatchKernel::Avx512;
     if (::testing::Test::HasFailure()) return;
   }
 }

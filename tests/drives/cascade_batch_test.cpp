@@ -3,8 +3,8 @@
 // simulate_axes documents them. Bit for bit on every machine in parts/machines, with friction (Coulomb, Stribeck),
 // gravity (none, constant, tilting with an offset), current and voltage saturation, sticking, gain schedules, axes at
 // rest (the batch's skipped periods), 1 and 2 threads, blocks of 1, 7, 255-257 and all rows, lanes leaving and
-// re-entering a fixed point within CascadeBatch::run_rows, and both kernels (the generic
-// build's and the AVX2 one the batch picks at run time).
+// re-entering a fixed point within CascadeBatch::run_rows, and every kernel the processor runs (the generic build's,
+// AVX2 and AVX-512VL, the batch picking the widest at run time).
 #include "drives/cascade_batch.hpp"
 #include "drives/simulate.hpp"
 
@@ -164,20 +164,21 @@ TEST(CascadeBatch, SimulateAxesBitForBitWithEachAxisAloneOnEveryMachine) {
     cbt_expect_exercised(v, ref);
     SimulateOptions o;
     o.full_rate_trace = true;
-    for (bool generic : {false, true})
+    for (CascadeBatchKernel kernel : test::cascade_batch_kernels())
       for (int threads : {1, 2}) {
         omp_set_num_threads(threads);
-        cascade_batch_generic_only() = generic;
+        cascade_batch_kernel_limit() = kernel;
         const AxisResponse got = simulate_axes(sp, v.machine, o);
-        cascade_batch_generic_only() = false;
-        const std::string what = v.name + ", " + std::to_string(threads) + " thread(s)" + (generic ? ", generic" : "");
+        cascade_batch_kernel_limit() = CascadeBatchKernel::Avx512;
+        const std::string what =
+            v.name + ", " + std::to_string(threads) + " thread(s), " + test::cascade_batch_kernel_name(kernel);
         cbt_expect_rows(got, ref, 0, what);
         cbt_expect_traces(got, ref, what);
         // Without the full-rate trace the batch runs the rows itself (CascadeBatch::run_rows): the same rows.
         SimulateOptions no_trace;
-        cascade_batch_generic_only() = generic;
+        cascade_batch_kernel_limit() = kernel;
         const AxisResponse rows = simulate_axes(sp, v.machine, no_trace);
-        cascade_batch_generic_only() = false;
+        cascade_batch_kernel_limit() = CascadeBatchKernel::Avx512;
         cbt_expect_rows(rows, ref, 0, what + ", rows without trace");
       }
   }
@@ -192,11 +193,11 @@ TEST(CascadeBatch, BlocksOfOneSevenAndAllRowsBitForBit) {
   const core::Setpoints sp = cbt_profile(m, held);
   const AxisResponse ref = test::cascade_reference(sp, m, nullptr, 0.2);
   // 255 / 256 / 257: a block ends just before, on and after the batch's runs of 256 rows (simulate.cpp's kPollRows).
-  for (bool generic : {false, true})
+  for (CascadeBatchKernel kernel : test::cascade_batch_kernels())
     for (Eigen::Index block : {Eigen::Index{1}, Eigen::Index{7}, Eigen::Index{255}, Eigen::Index{256},
                                Eigen::Index{257}, Eigen::Index{1 << 20}}) {
-      const std::string what = "blocks of " + std::to_string(block) + (generic ? ", generic" : "");
-      cascade_batch_generic_only() = generic;
+      const std::string what = "blocks of " + std::to_string(block) + ", " + test::cascade_batch_kernel_name(kernel);
+      cascade_batch_kernel_limit() = kernel;
       BlockSimulation sim(sp, m);
       ASSERT_EQ(sim.rows(), ref.samples());
       while (!sim.done()) {
@@ -205,7 +206,7 @@ TEST(CascadeBatch, BlocksOfOneSevenAndAllRowsBitForBit) {
         cbt_expect_rows(r, ref, row0, what);
         if (::testing::Test::HasFailure()) break;
       }
-      cascade_batch_generic_only() = false;
+      cascade_batch_kernel_limit() = CascadeBatchKernel::Avx512;
       if (::testing::Test::HasFailure()) return;
     }
 }
@@ -227,8 +228,8 @@ TEST(CascadeBatch, RunRowsAcrossFixedPointsLeftAndReentered) {
     out[2] = 0.5 * smooth((t - 0.25) / 0.1);
   });
   const AxisResponse ref = test::cascade_reference(sp, m, nullptr, 0.0);
-  for (bool generic : {false, true}) {
-    const std::string what = generic ? "run_rows, generic" : "run_rows";
+  for (CascadeBatchKernel kernel : test::cascade_batch_kernels()) {
+    const std::string what = std::string("run_rows, ") + test::cascade_batch_kernel_name(kernel);
     std::vector<CascadeAxis> axes;
     for (const auto& ax : m.axes) {
       axes.emplace_back(*ax.drive, 1e-3, ax.kind);
@@ -251,7 +252,7 @@ TEST(CascadeBatch, RunRowsAcrossFixedPointsLeftAndReentered) {
       std::copy(o, o + 8, rl[l].out);
       rl[l].s = axes[static_cast<std::size_t>(l)].sample();
     }
-    cascade_batch_generic_only() = generic;
+    cascade_batch_kernel_limit() = kernel;
     // Runs of 1, 13, 256, 999 ... rows; the skipped periods counted in each phase of X's motion.
     long long skipped_at_3000 = 0;
     const long long runs[] = {1, 13, 256, 999};
@@ -267,7 +268,7 @@ TEST(CascadeBatch, RunRowsAcrossFixedPointsLeftAndReentered) {
       batch.run_rows(rl, k, k1, 0, n_set, n_set, 1e-3);
       k = k1;
     }
-    cascade_batch_generic_only() = false;
+    cascade_batch_kernel_limit() = CascadeBatchKernel::Avx512;
     cbt_expect_rows(got, ref, 0, what);
     // Y, A and C are skipped all along but their first period (2 999 each in the first 3 000 rows). X and Z rest
     // at first (at most 200 and 250 skipped periods), move, and re-enter a fixed point once settled: over 1 000 more.
@@ -301,18 +302,18 @@ TEST(CascadeBatch, GainScheduleBitForBit) {
   SimulateOptions o;
   o.gains = &g;
   o.full_rate_trace = true;
-  for (bool generic : {false, true}) {
-    cascade_batch_generic_only() = generic;
+  for (CascadeBatchKernel kernel : test::cascade_batch_kernels()) {
+    cascade_batch_kernel_limit() = kernel;
     const AxisResponse got = simulate_axes(sp, m, o);
-    cascade_batch_generic_only() = false;
-    cbt_expect_rows(got, ref, 0, generic ? "gain schedule, generic" : "gain schedule");
-    cbt_expect_traces(got, ref, generic ? "gain schedule, generic" : "gain schedule");
+    cascade_batch_kernel_limit() = CascadeBatchKernel::Avx512;
+    cbt_expect_rows(got, ref, 0, std::string("gain schedule, ") + test::cascade_batch_kernel_name(kernel));
+    cbt_expect_traces(got, ref, std::string("gain schedule, ") + test::cascade_batch_kernel_name(kernel));
     SimulateOptions rows_only;  // no trace: CascadeBatch::run_rows
     rows_only.gains = &g;
-    cascade_batch_generic_only() = generic;
+    cascade_batch_kernel_limit() = kernel;
     const AxisResponse rows = simulate_axes(sp, m, rows_only);
-    cascade_batch_generic_only() = false;
-    cbt_expect_rows(rows, ref, 0, generic ? "gain schedule, rows, generic" : "gain schedule, rows");
+    cascade_batch_kernel_limit() = CascadeBatchKernel::Avx512;
+    cbt_expect_rows(rows, ref, 0, std::string("gain schedule, rows, ") + test::cascade_batch_kernel_name(kernel));
   }
 }
 

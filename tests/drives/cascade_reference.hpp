@@ -4,6 +4,7 @@
 #include "core/machine.hpp"
 #include "core/setpoints.hpp"
 #include "drives/cascade_axis.hpp"
+#include "drives/cascade_batch.hpp"
 #include "drives/simulate.hpp"
 
 #include <Eigen/Core>
@@ -13,6 +14,19 @@
 #include <vector>
 
 namespace vmsim::drives::test {
+
+// The batch's kernels this processor runs (the generic one always), for the tests to hold each to the reference.
+inline std::vector<CascadeBatchKernel> cascade_batch_kernels() {
+  std::vector<CascadeBatchKernel> out;
+  for (CascadeBatchKernel k : {CascadeBatchKernel::Avx512, CascadeBatchKernel::Avx2, CascadeBatchKernel::Generic})
+    if (cascade_batch_supports(k)) out.push_back(k);
+  return out;
+}
+
+// The kernel's name for a failure message.
+inline const char* cascade_batch_kernel_name(CascadeBatchKernel k) {
+  return k == CascadeBatchKernel::Generic ? "generic" : k == CascadeBatchKernel::Avx2 ? "AVX2" : "AVX-512VL";
+}
 
 // Reference: simulate_axes' rows from each axis' own CascadeAxis::step (with the full-rate trace), as its header
 // documents them: row 0 at rest at the first setpoint, row k+1 after one Te on setpoint k, the feedforward the
