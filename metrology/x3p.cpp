@@ -853,8 +853,7 @@ void write_x3p(const std::filesystem::path& file, const core::HeightGrid& g, con
   if (invalid > 0) zw.add("bindata/valid.bin", bits, 6);
   if (any_corr) {
     zw.dir("vmsim");
-    // Almost all zeros: small at any level; level 9 cost 60 % of this writer's CPU to save 0.17 % of the file (issue
-    // 21).
+    // Almost all zeros: small at any level (level 9 cost 60 % of this writer's CPU to save 0.17 % of the file).
     zw.add(kVendorEntry, corr, 1);
   }
   zw.add("md5checksum.hex", sum, 6);
