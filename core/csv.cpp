@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -177,6 +178,41 @@ void append_general(std::string& out, double v, int precision) {
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, precision);
   out.append(buf, r.ptr);
+}
+
+void append_shortest(std::string& out, double v) {
+  char buf[40];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::scientific);
+  const char* e = std::find(buf, r.ptr, 'e');
+  if (e == r.ptr) {  // inf, nan
+    out.append(buf, r.ptr);
+    return;
+  }
+  int exp = 0;
+  std::from_chars(e + 1 + (e[1] == '+'), r.ptr, exp);
+  // fmt's rule for its shortest form: fixed notation for decimal exponents -4 .. 15, the exponent form otherwise.
+  if (exp < -4 || exp >= 16) {
+    out.append(buf, r.ptr);
+    return;
+  }
+  const char* d = buf;
+  if (*d == '-') out += '-', ++d;
+  char digits[20];  // the significant digits without the point (at most 17)
+  int n = 0;
+  for (; d < e; ++d)
+    if (*d != '.') digits[n++] = *d;
+  if (exp < 0) {
+    out.append("0.");
+    out.append(static_cast<std::size_t>(-exp - 1), '0');
+    out.append(digits, static_cast<std::size_t>(n));
+  } else if (n <= exp + 1) {
+    out.append(digits, static_cast<std::size_t>(n));
+    out.append(static_cast<std::size_t>(exp + 1 - n), '0');
+  } else {
+    out.append(digits, static_cast<std::size_t>(exp + 1));
+    out += '.';
+    out.append(digits + exp + 1, static_cast<std::size_t>(n - exp - 1));
+  }
 }
 
 void CsvWriter::comment(std::string_view text) {

@@ -100,6 +100,12 @@ class CsvReader {
 // to_chars writes them (inf, -inf, nan, -nan): files that write a token of their own test first.
 void append_general(std::string& out, double v, int precision);
 
+// A number appended with the shortest digits that read back as the same double, through std::to_chars into the row's
+// buffer: the bytes of fmt's "{}" (exponent form below 1e-4 and from 1e16 on, two-digit exponents; "1" for 1.0, "-0"
+// for -0.0), which the height grids were written with before (issue 21: a string per number, half the grid's write).
+// Values that are not finite come out as to_chars writes them: files that write a token of their own test first.
+void append_shortest(std::string& out, double v);
+
 // Writes a CSV file atomically (core/atomic_file): '#' comment lines, a header row, then rows the caller formats
 // (each file has its own number formats, chosen so that reading back gives the same values).
 class CsvWriter {

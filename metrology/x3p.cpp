@@ -14,6 +14,7 @@
 #include <zip.h>
 
 #include <algorithm>
+#include <bit>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -784,12 +785,13 @@ void write_x3p(const std::filesystem::path& file, const core::HeightGrid& g, con
       // What the reader computes (1000 * m, CZ Increment 1 m), and the steps from there to z.
       double back = 1000.0 * m;
       int k = 0;
-      while (std::memcmp(&back, &z[i], 8) != 0 && k < 4 && k > -4) {
+      const auto same = [&] { return std::bit_cast<std::uint64_t>(back) == std::bit_cast<std::uint64_t>(z[i]); };
+      while (!same() && k < 4 && k > -4) {
         const int dir = z[i] > back ? 1 : -1;
         back = std::nextafter(back, dir > 0 ? HUGE_VAL : -HUGE_VAL);
         k += dir;
       }
-      if (std::memcmp(&back, &z[i], 8) != 0) k = 0;  // cannot happen for finite z; the metre value stands
+      if (!same()) k = 0;  // cannot happen for finite z; the metre value stands
       corr[i] = static_cast<char>(static_cast<signed char>(k));
       any_corr = any_corr || k != 0;
     } else {
@@ -851,7 +853,8 @@ void write_x3p(const std::filesystem::path& file, const core::HeightGrid& g, con
   if (invalid > 0) zw.add("bindata/valid.bin", bits, 6);
   if (any_corr) {
     zw.dir("vmsim");
-    zw.add(kVendorEntry, corr, 9);  // almost all zeros: small at any level
+    // Almost all zeros: small at any level (level 9 cost 60 % of this writer's CPU to save 0.17 % of the file).
+    zw.add(kVendorEntry, corr, 1);
   }
   zw.add("md5checksum.hex", sum, 6);
   core::write_file_atomic(file, zw.finish());

@@ -8,6 +8,7 @@
 #include "tests/test_paths.hpp"
 
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <bit>
