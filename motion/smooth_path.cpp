@@ -3,6 +3,7 @@
 
 #include "core/arc.hpp"
 #include "core/error.hpp"
+#include "core/huge_pages.hpp"
 #include "core/units.hpp"
 
 #include <fmt/format.h>
@@ -534,8 +535,8 @@ void merge_tiny_lines(const core::ToolPath& path, double tiny_tip_mm, std::vecto
                       std::vector<double>& shift) {
   std::vector<PathPiece> out;
   std::vector<double> out_shift;
-  out.reserve(base.size());
-  out_shift.reserve(base.size());
+  core::reserve_huge(out, base.size());
+  core::reserve_huge(out_shift, base.size());
   for (std::size_t i = 0; i < base.size(); ++i) {
     PathPiece& p = base[i];
     const bool tiny = p.kind == PathPiece::Kind::Line && p.length * line_gain(path, p) < tiny_tip_mm;
@@ -601,7 +602,7 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   out.start = to_path_space(path.initial_position);
   out.end = out.start;
   std::vector<PathPiece> base;
-  base.reserve(path.moves.size());
+  core::reserve_huge(base, path.moves.size());
   for (std::size_t i = 0; i < path.moves.size(); ++i) pieces_from_move(path, i, options.feed_scale, base);
   std::vector<double> shift(base.size(), 0.0);
   merge_tiny_lines(path, options.tiny_move_share * options.tolerance_mm, base, shift);
@@ -614,7 +615,7 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   for (std::size_t i = 0; i < base.size(); ++i) length0[i] = base[i].length;
 
   std::vector<PathPiece> pieces;
-  pieces.reserve(2 * base.size());
+  core::reserve_huge(pieces, 2 * base.size());
   for (std::size_t i = 0; i < base.size(); ++i) {
     PathPiece& A = base[i];
     if (i + 1 == base.size()) {
@@ -718,7 +719,7 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   }
 
   // Drop what the blends consumed entirely; a stop on a dropped piece moves to its predecessor.
-  out.pieces.reserve(pieces.size());
+  core::reserve_huge(out.pieces, pieces.size());
   double s = 0.0;
   for (PathPiece& p : pieces) {
     if (p.length <= 1e-12) {
