@@ -37,6 +37,45 @@ void append_cell(std::string& line, double v) {
 
 }  // namespace
 
+namespace {
+
+// The smallest and largest of v[0, n) (times f when Scaled) and whether all are finite, two rows per instruction in
+// two interleaved chains (issue 21: the fold in row order, a min, a max and a finiteness sum per value and column,
+// was most of the binner's time). Any order gives the same value for both ends; only the sign of a zero end can
+// depend on it (min(+0, -0) keeps the first), which fold_column settles. A non-finite value makes the sum of v * 0
+// NaN.
+template <bool Scaled>
+inline void packed_range(const double* v, Eigen::Index n, double f, double& lo, double& hi, bool& finite) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  double l = kInf, h = -kInf, z = 0.0;
+  Eigen::Index i = 0;
+#if defined(__SSE2__)
+  {
+    const __m128d vf = _mm_set1_pd(f), zero = _mm_setzero_pd();
+    __m128d l0 = _mm_set1_pd(kInf), l1 = l0, h0 = _mm_set1_pd(-kInf), h1 = h0, z0 = zero, z1 = zero;
+    for (; i + 4 <= n; i += 4) {
+      __m128d x0 = _mm_loadu_pd(v + i), x1 = _mm_loadu_pd(v + i + 2);
+      if constexpr (Scaled) x0 = _mm_mul_pd(x0, vf), x1 = _mm_mul_pd(x1, vf);
+      l0 = _mm_min_pd(l0, x0), l1 = _mm_min_pd(l1, x1);
+      h0 = _mm_max_pd(h0, x0), h1 = _mm_max_pd(h1, x1);
+      z0 = _mm_add_pd(z0, _mm_mul_pd(x0, zero)), z1 = _mm_add_pd(z1, _mm_mul_pd(x1, zero));
+    }
+    double lv[2], hv[2], zv[2];
+    _mm_storeu_pd(lv, _mm_min_pd(l0, l1));
+    _mm_storeu_pd(hv, _mm_max_pd(h0, h1));
+    _mm_storeu_pd(zv, _mm_add_pd(z0, z1));
+    l = std::min(lv[0], lv[1]), h = std::max(hv[0], hv[1]), z = zv[0] + zv[1];
+  }
+#endif
+  for (; i < n; ++i) {
+    const double x = Scaled ? v[i] * f : v[i];
+    l = std::min(l, x), h = std::max(h, x), z += x * 0.0;
+  }
+  lo = l, hi = h, finite = z == 0.0;
+}
+
+}  // namespace
+
 int BinnedSignals::find(const std::string& name) const {
   for (std::size_t k = 0; k < names.size(); ++k)
     if (names[k] == name) return static_cast<int>(k);
@@ -65,9 +104,15 @@ SignalBinner::SignalBinner(const core::Job& job, const core::ToolPath& program, 
   for (std::size_t a = 0; a < machine.axes.size(); ++a) {
     const core::MachineAxis& ax = machine.axes[a];
     const auto ai = static_cast<Eigen::Index>(a);
-    // The column's range in one pass (it is read from memory once, not twice: 3.7 M rows on flower_mold).
+    // The column's range in one pass (it is read from memory once, not twice: 3.7 M rows on flower_mold), packed;
+    // in order when a value is not finite (std::min and std::max then skip NaN after the first value).
     double lo = sp.position(0, ai), hi = lo;
-    for (const double x : sp.position.col(ai)) lo = std::min(lo, x), hi = std::max(hi, x);
+    bool finite = false;
+    packed_range<false>(sp.position.col(ai).data(), ns_, 1.0, lo, hi, finite);
+    if (!finite) {
+      lo = sp.position(0, ai), hi = lo;
+      for (const double x : sp.position.col(ai)) lo = std::min(lo, x), hi = std::max(hi, x);
+    }
     const bool moves = hi - lo > 1e-9;
     if (!moves) {
       out_.held_axes.push_back(ax.name);
@@ -114,45 +159,6 @@ double SignalBinner::tlo(Eigen::Index k) const {
   const int mi = move_of(k);
   return mi >= 0 ? program_->moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
 }
-
-namespace {
-
-// The smallest and largest of v[0, n) (times f when Scaled) and whether all are finite, two rows per instruction in
-// two interleaved chains (issue 21: the fold in row order, a min, a max and a finiteness sum per value and column,
-// was most of the binner's time). Any order gives the same value for both ends; only the sign of a zero end can
-// depend on it (min(+0, -0) keeps the first), which fold_column settles. A non-finite value makes the sum of v * 0
-// NaN.
-template <bool Scaled>
-inline void packed_range(const double* v, Eigen::Index n, double f, double& lo, double& hi, bool& finite) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  double l = kInf, h = -kInf, z = 0.0;
-  Eigen::Index i = 0;
-#if defined(__SSE2__)
-  {
-    const __m128d vf = _mm_set1_pd(f), zero = _mm_setzero_pd();
-    __m128d l0 = _mm_set1_pd(kInf), l1 = l0, h0 = _mm_set1_pd(-kInf), h1 = h0, z0 = zero, z1 = zero;
-    for (; i + 4 <= n; i += 4) {
-      __m128d x0 = _mm_loadu_pd(v + i), x1 = _mm_loadu_pd(v + i + 2);
-      if constexpr (Scaled) x0 = _mm_mul_pd(x0, vf), x1 = _mm_mul_pd(x1, vf);
-      l0 = _mm_min_pd(l0, x0), l1 = _mm_min_pd(l1, x1);
-      h0 = _mm_max_pd(h0, x0), h1 = _mm_max_pd(h1, x1);
-      z0 = _mm_add_pd(z0, _mm_mul_pd(x0, zero)), z1 = _mm_add_pd(z1, _mm_mul_pd(x1, zero));
-    }
-    double lv[2], hv[2], zv[2];
-    _mm_storeu_pd(lv, _mm_min_pd(l0, l1));
-    _mm_storeu_pd(hv, _mm_max_pd(h0, h1));
-    _mm_storeu_pd(zv, _mm_add_pd(z0, z1));
-    l = std::min(lv[0], lv[1]), h = std::max(hv[0], hv[1]), z = zv[0] + zv[1];
-  }
-#endif
-  for (; i < n; ++i) {
-    const double x = Scaled ? v[i] * f : v[i];
-    l = std::min(l, x), h = std::max(h, x), z += x * 0.0;
-  }
-  lo = l, hi = h, finite = z == 0.0;
-}
-
-}  // namespace
 
 // Into their bins in row order whatever the blocks (a bin's first finite value starts it; non-finite values are left
 // out; std::min / std::max keep the first of equal values). Bin by bin, no division per sample. When a bin's values
