@@ -5,6 +5,7 @@
 #include "app/progress.hpp"
 #include "app/report.hpp"
 #include "core/error.hpp"
+#include "core/output_dir.hpp"
 #include "sim/memory_plan.hpp"
 #include "sim/time_plan.hpp"
 
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
+#include <optional>
 
 namespace vmsim::app {
 
@@ -81,6 +83,10 @@ void print_plan(const core::Job& job, const nlohmann::json& plan) {
 
 int run_plan(const core::Job& job, const RunArgs& args) {
   if (mpi_rank() != 0) return 0;  // the plan is one process's arithmetic
+  // With --out, DIR is this command's result like any other's (core/output_dir.hpp): locked and checked before the
+  // motion is computed, plan.json written in staging and swapped into place whole, replacing an earlier result.
+  std::optional<core::OutputDir> out;
+  if (args.out_dir) out.emplace(*args.out_dir, "vmsim run --plan");
   TerminalProgress progress(!args.quiet);
   sim::MemoryPlanOptions options;
   options.feed_scale = args.feed_scale.value_or(1.0);
@@ -91,12 +97,10 @@ int run_plan(const core::Job& job, const RunArgs& args) {
   nlohmann::json plan = sim::plan_memory(job, options, progress, &motions);
   plan["time"] = sim::plan_time(job, motions, progress);  // sim/time_plan.hpp
   print_plan(job, plan);
-  if (args.out_dir) {
-    std::error_code ec;
-    std::filesystem::create_directories(*args.out_dir, ec);
-    if (ec) throw core::Error(args.out_dir->string() + ": cannot create the output directory: " + ec.message());
-    write_report(*args.out_dir / "plan.json", plan);
-    std::printf("wrote %s\n", (*args.out_dir / "plan.json").string().c_str());
+  if (out) {
+    write_report(out->path() / "plan.json", plan);
+    out->commit();
+    std::printf("wrote %s\n", (out->target() / "plan.json").string().c_str());
   }
   return 0;
 }

@@ -610,3 +610,45 @@ TEST(OutDirCli, DISABLED_KilledRank0UnderMpirunLeavesThePreviousResultOrTheNewOn
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_all).count());
   EXPECT_GE(interrupted, 5) << completed << " runs finished before their kill";
 }
+
+// `vmsim run --plan --out DIR` makes DIR a result of its own, as every command does: an earlier run's files are
+// replaced whole (DIR then holds plan.json and the marker only), a directory vmsim did not write is refused before
+// the motion is computed, and so is a directory another process holds. References: the plan printed on stdout
+// (plan.json holds the same sample count) and the lock's holder as this process wrote it.
+TEST(OutDirCli, ThePlanWithOutIsAResultDirectoryOfItsOwn) {
+  TempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const fs::path a = write_job(tmp, "with_reference", true, 0.2);
+  CliRun r = run_vmsim("run " + quoted_arg(a) + " --quiet --no-render --out " + quoted_arg(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run_vmsim("run " + quoted_arg(a) + " --plan --quiet --out " + quoted_arg(out), tmp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::map<std::string, std::uintmax_t> files = files_of(out);
+  std::set<std::string> names;
+  for (const auto& [name, size] : files) names.insert(name);
+  EXPECT_EQ(names, (std::set<std::string>{"plan.json", ".vmsim-output"}));
+  EXPECT_TRUE(leftovers(out).empty());
+  const nlohmann::json plan = read_json(out / "plan.json");
+  const std::string samples =
+      std::to_string(static_cast<long long>(plan.at("motion").at("samples").get<double>())) + " setpoints";
+  EXPECT_NE(r.out.find(samples), std::string::npos) << samples << " not in:\n" << r.out;
+
+  // Not vmsim's: refused, the user's file kept, nothing planned.
+  const fs::path mine = tmp.path() / "mine";
+  fs::create_directory(mine);
+  write_file(mine / "notes.txt", "mine\n");
+  r = run_vmsim("run " + quoted_arg(a) + " --plan --out " + quoted_arg(mine), tmp);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.err.find(mine.string()), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("one process:"), std::string::npos) << r.out;
+  EXPECT_EQ(slurp(mine / "notes.txt"), "mine\n");
+
+  // Held by another process: refused naming it, the plan left as it was.
+  {
+    const vmsim::core::OutputLock held(out, "a test holding the lock");
+    r = run_vmsim("run " + quoted_arg(a) + " --plan --quiet --out " + quoted_arg(out), tmp);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_NE(r.err.find("a test holding the lock (pid " + std::to_string(::getpid())), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(files_of(out), files);
+}
