@@ -41,6 +41,7 @@
 #include "motion/contour.hpp"
 
 #include "core/error.hpp"
+#include "core/huge_pages.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -89,9 +90,9 @@ void check_input(const Eigen::MatrixXd& m, const char* what) {
 DistinctPath merge_repeats(const Eigen::MatrixXd& c) {
   DistinctPath path;
   const Eigen::Index n = c.rows();
-  path.p.reserve(3 * n);
-  path.s.reserve(n);
-  path.last.reserve(n);
+  core::reserve_huge(path.p, static_cast<std::size_t>(3 * n));
+  core::reserve_huge(path.s, static_cast<std::size_t>(n));
+  core::reserve_huge(path.last, static_cast<std::size_t>(n));
   double s = 0.0;
   for (Eigen::Index k = 0; k < n; ++k) {
     const double x = c(k, 0), y = c(k, 1), z = c(k, 2);
@@ -137,6 +138,7 @@ bool turn_at(const DistinctPath& path, Eigen::Index q, Eigen::Vector3d& n) {
 // that never turns gets n = 0, and its contour error is then unsigned (always >= 0).
 void principal_normals(DistinctPath& path) {
   const Eigen::Index q_n = path.size();
+  core::reserve_huge(path.n_from, static_cast<std::size_t>(q_n));
   path.n_from.assign(static_cast<std::size_t>(q_n), -1);
   if (q_n < 3) return;
   double scale = 1.0;
@@ -229,6 +231,8 @@ ContourError contour_error_impl(const Eigen::MatrixXd& command, const Eigen::Mat
   out.window_samples = window;
   out.signed_mm.resize(m);
   out.foot_segment.resize(m);
+  core::advise_huge_pages(out.signed_mm);
+  core::advise_huge_pages(out.foot_segment);
   if (m == 0) return out;
 
   // The distinct point of the command row at the current instant (the rows only increase).

@@ -25,6 +25,7 @@
 #include "motion/interp.hpp"
 
 #include "core/error.hpp"
+#include "core/huge_pages.hpp"
 #include "motion/smooth_path.hpp"
 #include "core/units.hpp"
 
@@ -201,7 +202,7 @@ SpreadNodes spread_speed_limits(const std::vector<double>& s, const std::vector<
     double v;
   };
   std::vector<Event> ev;
-  ev.reserve(2 * n);
+  core::reserve_huge(ev, 2 * n);
   const double s_end = s.back();
   for (std::size_t j = 0; j < n; ++j) {
     if (stop[j] || !std::isfinite(v[j])) continue;
@@ -227,8 +228,8 @@ SpreadNodes spread_speed_limits(const std::vector<double>& s, const std::vector<
     if (at != before || at != after) br.push_back({x, before, after});
   }
   SpreadNodes out;
-  out.s.reserve(n + br.size());
-  out.vlim.reserve(n + br.size());
+  core::reserve_huge(out.s, n + br.size());
+  core::reserve_huge(out.vlim, n + br.size());
   std::size_t b = 0;
   double env_right = kInf;  // envelope value on the right of the last breakpoint passed
   auto push = [&](double x, double value, char st, std::size_t base, char ins) {
@@ -375,7 +376,7 @@ Profile cap_peaks(const std::vector<double>& s, const std::vector<double>& q_in,
     char stop;
   };
   std::vector<Pt> pts;
-  pts.reserve(n + 2 * caps.size());
+  core::reserve_huge(pts, n + 2 * caps.size());
   for (std::size_t k = 0; k < n; ++k) pts.push_back({s[k], q[k], stop[k]});
   for (const Cap& c : caps) {
     pts.push_back({c.s_left, c.qc, 0});
@@ -426,6 +427,7 @@ Sampled sample_and_filter(const std::vector<double>& s, const std::vector<double
   const std::size_t n = s.size();
   const double total = t.back();
   const std::size_t count = static_cast<std::size_t>(std::ceil(total / te - 1e-9)) + 1;
+  core::reserve_huge(out.s_raw, count);
   out.s_raw.resize(count);
   std::size_t j = 0;
   // Interval j's start, speed and acceleration, computed when the samples enter it (the same expressions as per
@@ -456,6 +458,7 @@ Sampled sample_and_filter(const std::vector<double>& s, const std::vector<double
   // 1024 samples so round-off cannot drift; its per-sample noise (~1e-13 mm) is far below what the jerk
   // (a third difference over Te^3) can see.
   const std::size_t total_count = count + static_cast<std::size_t>(m) - 1;
+  core::reserve_huge(out.s, total_count);
   out.s.resize(total_count);
   auto raw = [&](std::ptrdiff_t idx) {
     return idx < 0 ? 0.0 : (static_cast<std::size_t>(idx) < count ? out.s_raw[static_cast<std::size_t>(idx)] : length);
@@ -520,6 +523,10 @@ struct SetpointWriter {
     out.path_length_mm.resize(n);
     out.path_speed_mm_per_s.resize(n);
     out.move_index.resize(n);
+    core::advise_huge_pages(out.position);
+    core::advise_huge_pages(out.path_length_mm);
+    core::advise_huge_pages(out.path_speed_mm_per_s);
+    core::advise_huge_pages(out.move_index);
     // The path-space rows k-3..k as four rows x[0] (row k) .. x[3] (row k-3), rows before the first being the first
     // and rows after the last the last (the axes at rest outside the motion).
     double x[4][6];
@@ -936,16 +943,27 @@ InterpResult interpolate(const core::ToolPath& path, const core::Machine& machin
     const FeedCeiling& c = *lim.ceiling;
     if (c.s_mm.size() > 1) node_spacing = std::clamp((c.s_mm.back() - c.s_mm.front()) / (c.s_mm.size() - 1), 0.01, 0.5);
   }
-  Plan plan;
-  std::vector<NodeGeom> geom;
-  for (std::size_t pi = 0; pi < sp.pieces.size(); ++pi) {
-    const PathPiece& pc = sp.pieces[pi];
+  auto node_intervals = [node_spacing](const PathPiece& pc) {
     int n = 2;
     if (pc.kind == PathPiece::Kind::Quintic) n = 16;
     if (pc.kind == PathPiece::Kind::Arc)
       n = std::max(
           4, static_cast<int>(std::ceil(std::abs(pc.dtheta * (pc.u_end - pc.u_begin)) / (core::units::kPi / 36))));
-    n = std::max(n, static_cast<int>(std::ceil(pc.length / node_spacing)));
+    return std::max(n, static_cast<int>(std::ceil(pc.length / node_spacing)));
+  };
+  Plan plan;
+  std::vector<NodeGeom> geom;
+  {
+    // The nodes' room at once (flower_mold: ~100 MB of node geometry, grown by doubling before).
+    std::size_t nodes = 1;
+    for (const PathPiece& pc : sp.pieces) nodes += static_cast<std::size_t>(node_intervals(pc));
+    core::reserve_huge(geom, nodes);
+    core::reserve_huge(plan.s, nodes);
+    core::reserve_huge(plan.stop, nodes);
+  }
+  for (std::size_t pi = 0; pi < sp.pieces.size(); ++pi) {
+    const PathPiece& pc = sp.pieces[pi];
+    const int n = node_intervals(pc);
     const bool curved = pc.kind != PathPiece::Kind::Line;
     // Nodes evenly spaced in the curve parameter (no arc-length inversion; blends are nearly uniform anyway).
     const double span = pc.u_end - pc.u_begin;

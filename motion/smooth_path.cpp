@@ -3,6 +3,7 @@
 
 #include "core/arc.hpp"
 #include "core/error.hpp"
+#include "core/huge_pages.hpp"
 #include "core/units.hpp"
 
 #include <fmt/format.h>
@@ -43,13 +44,21 @@ double integrate_speed(const PathPiece& piece, double u0, double u1, double* spe
   const double half = 0.5 * (u1 - u0), mid = 0.5 * (u0 + u1);
   double sum = 0.0;
   if (piece.kind == PathPiece::Kind::Quintic) {
-    const double u[5] = {mid - half * kGauss4X[0], mid + half * kGauss4X[0], mid - half * kGauss4X[1],
-                         mid + half * kGauss4X[1], u1};
+    const double a = mid - half * kGauss4X[0], b = mid + half * kGauss4X[0], c = mid - half * kGauss4X[1],
+                 d = mid + half * kGauss4X[1];
     double v[5];
-    quintic_speeds(piece, u, v);
+    if (speed_at_u1) {
+      const double u[5] = {a, b, c, d, u1};
+      quintic_speeds(piece, u, v);
+      *speed_at_u1 = v[4];
+    } else {  // the rule alone (the arc-length tables, s_at): four speeds, not five
+      const double u[4] = {a, b, c, d};
+      double w[4];
+      quintic_speeds(piece, u, w);
+      for (int i = 0; i < 4; ++i) v[i] = w[i];
+    }
     sum += kGauss4W[0] * (v[0] + v[1]);
     sum += kGauss4W[1] * (v[2] + v[3]);
-    if (speed_at_u1) *speed_at_u1 = v[4];
     return sum * half;
   }
   for (int i = 0; i < 2; ++i) {
@@ -352,7 +361,13 @@ BlendTrial make_blend(const PathPiece& A, const PathPiece& B, double la, double 
   // Regular: |p_u| stays well away from zero (no cusp, so arc length is a valid parameter).
   double min_speed = kInf;
   constexpr int kSamples = 32;
-  for (int i = 0; i <= kSamples; ++i) min_speed = std::min(min_speed, q.speed_u(double(i) / kSamples));
+  {
+    // The speeds side by side (quintic_speeds: speed_u's values, bit for bit), then their minimum in the same order.
+    double u[kSamples + 1], v[kSamples + 1];
+    for (int i = 0; i <= kSamples; ++i) u[i] = double(i) / kSamples;
+    quintic_speeds(q, u, v);
+    for (int i = 0; i <= kSamples; ++i) min_speed = std::min(min_speed, v[i]);
+  }
   t.regular = min_speed > 0.05 * lambda;
   if (!t.regular) return t;
 
@@ -534,8 +549,8 @@ void merge_tiny_lines(const core::ToolPath& path, double tiny_tip_mm, std::vecto
                       std::vector<double>& shift) {
   std::vector<PathPiece> out;
   std::vector<double> out_shift;
-  out.reserve(base.size());
-  out_shift.reserve(base.size());
+  core::reserve_huge(out, base.size());
+  core::reserve_huge(out_shift, base.size());
   for (std::size_t i = 0; i < base.size(); ++i) {
     PathPiece& p = base[i];
     const bool tiny = p.kind == PathPiece::Kind::Line && p.length * line_gain(path, p) < tiny_tip_mm;
@@ -601,7 +616,7 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   out.start = to_path_space(path.initial_position);
   out.end = out.start;
   std::vector<PathPiece> base;
-  base.reserve(path.moves.size());
+  core::reserve_huge(base, path.moves.size());
   for (std::size_t i = 0; i < path.moves.size(); ++i) pieces_from_move(path, i, options.feed_scale, base);
   std::vector<double> shift(base.size(), 0.0);
   merge_tiny_lines(path, options.tiny_move_share * options.tolerance_mm, base, shift);
@@ -614,7 +629,7 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   for (std::size_t i = 0; i < base.size(); ++i) length0[i] = base[i].length;
 
   std::vector<PathPiece> pieces;
-  pieces.reserve(2 * base.size());
+  core::reserve_huge(pieces, 2 * base.size());
   for (std::size_t i = 0; i < base.size(); ++i) {
     PathPiece& A = base[i];
     if (i + 1 == base.size()) {
@@ -718,7 +733,7 @@ SmoothPath build_smooth_path(const core::ToolPath& path, const SmoothPathOptions
   }
 
   // Drop what the blends consumed entirely; a stop on a dropped piece moves to its predecessor.
-  out.pieces.reserve(pieces.size());
+  core::reserve_huge(out.pieces, pieces.size());
   double s = 0.0;
   for (PathPiece& p : pieces) {
     if (p.length <= 1e-12) {

@@ -8,6 +8,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace vmsim::sim {
 
 namespace {
@@ -50,6 +54,46 @@ DriveChecks check_drives_before(const core::Machine& machine, const core::Setpoi
   return out;
 }
 
+// The differences are never -0 (|.| clears the sign), so their maximum is the same in any order when none is NaN:
+// two rows per instruction then (issue 21: a pass over every setpoint of every axis); with a NaN, in order.
+void largest_setpoint_differences(const double* px, Eigen::Index n, double& d1_max, double& d2_max) {
+  d1_max = 0, d2_max = 0;
+  if (n >= 2) d1_max = std::max(d1_max, std::abs(px[1] - px[0]));
+  Eigen::Index k = 2;
+  bool ordered = true;
+#if defined(__SSE2__)
+  {
+    const __m128d sign = _mm_set1_pd(-0.0), two = _mm_set1_pd(2.0);
+    __m128d m1 = _mm_setzero_pd(), m2 = m1, nan = m1;
+    for (; k + 2 <= n; k += 2) {
+      const __m128d x0 = _mm_loadu_pd(px + k), x1 = _mm_loadu_pd(px + k - 1), x2 = _mm_loadu_pd(px + k - 2);
+      const __m128d a = _mm_andnot_pd(sign, _mm_sub_pd(x0, x1));
+      const __m128d b = _mm_andnot_pd(sign, _mm_add_pd(_mm_sub_pd(x0, _mm_mul_pd(two, x1)), x2));
+      nan = _mm_or_pd(nan, _mm_or_pd(_mm_cmpunord_pd(a, a), _mm_cmpunord_pd(b, b)));
+      m1 = _mm_max_pd(m1, a), m2 = _mm_max_pd(m2, b);
+    }
+    double v1[2], v2[2];
+    _mm_storeu_pd(v1, m1);
+    _mm_storeu_pd(v2, m2);
+    ordered = _mm_movemask_pd(nan) == 0;
+    d1_max = std::max({d1_max, v1[0], v1[1]}), d2_max = std::max({d2_max, v2[0], v2[1]});
+  }
+#endif
+  if (!ordered) {
+    d1_max = 0, d2_max = 0, k = 1;
+    for (; k < n; ++k) {
+      d1_max = std::max(d1_max, std::abs(px[k] - px[k - 1]));
+      if (k >= 2) d2_max = std::max(d2_max, std::abs(px[k] - 2 * px[k - 1] + px[k - 2]));
+    }
+    return;
+  }
+  for (; k < n; ++k) {
+    d1_max = std::max(d1_max, std::abs(px[k] - px[k - 1]));
+    d2_max = std::max(d2_max, std::abs(px[k] - 2 * px[k - 1] + px[k - 2]));
+  }
+}
+
+
 DriveChecksAfter::DriveChecksAfter(const core::Machine& machine, const core::Setpoints& sp,
                                    const std::vector<bool>& cascade, const drives::GainSchedule* gains)
     : machine_(&machine), te_(sp.period_s), ns_(sp.samples()) {
@@ -72,11 +116,7 @@ DriveChecksAfter::DriveChecksAfter(const core::Machine& machine, const core::Set
     // The setpoints' velocity and acceleration (backward differences, as the feedforward takes them).
     // The largest differences first, divided once: rounding is monotone, so max(|d| / te) is max(|d|) / te exactly.
     double d1_max = 0, d2_max = 0;
-    const double* px = sp.position.col(a).data();
-    for (Eigen::Index k = 1; k < ns; ++k) {
-      d1_max = std::max(d1_max, std::abs(px[k] - px[k - 1]));
-      if (k >= 2) d2_max = std::max(d2_max, std::abs(px[k] - 2 * px[k - 1] + px[k - 2]));
-    }
+    largest_setpoint_differences(sp.position.col(a).data(), ns, d1_max, d2_max);
     const double v_max = d1_max / te, a_max = d2_max / (te * te);
     // The floor covers what the linear model leaves out and a careful drive still shows: Coulomb friction at
     // reversals, gravity, the current loop's voltage limit (a few um on the parts' machines).

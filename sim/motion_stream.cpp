@@ -1,6 +1,7 @@
 #include "sim/motion_stream.hpp"
 
 #include "core/error.hpp"
+#include "core/huge_pages.hpp"
 #include "core/timing.hpp"
 #include "motion/kinematics.hpp"
 #include "sim/axis_following.hpp"
@@ -50,11 +51,14 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
   if (options.figures) {
     out.signals.emplace(job, m.program, sp, rows, options.feed_scale);
     out.command_tip_mm.resize(rows, 3);
+    core::advise_huge_pages(out.command_tip_mm);
   }
   removal::PoseTrack& tr = out.track;
   tr.period_s = sp.period_s;
   tr.tip_mm.resize(rows, 3);
   tr.tip_velocity_mm_per_s.resize(rows, 3);
+  core::advise_huge_pages(tr.tip_mm);
+  core::advise_huge_pages(tr.tip_velocity_mm_per_s);
   TrackAxes axes;
   const Eigen::RowVectorXd first = sp.position.row(0);
   const auto tlo = [&](Eigen::Index k) { return tlo_at(m, k); };
@@ -112,6 +116,7 @@ MotionStream stream_actual_motion(const Chain& chain, Motion& m, const StreamOpt
     tr.axis = axes.axis;
   } else {
     tr.axis_per_sample.resize(rows, 3);
+    core::advise_huge_pages(tr.axis_per_sample);
     for (const auto& [k0, a] : axes.constant_blocks) {
       const Eigen::Index end = std::min(rows, k0 + options.block_rows);
       for (Eigen::Index k = k0; k < end; ++k) tr.axis_per_sample.row(k) = a.transpose();

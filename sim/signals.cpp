@@ -22,12 +22,56 @@ namespace {
 
 using core::units::kNaN;
 
+// An axis' columns after its setpoint's (SignalBinner::AxisColumns::first): the setpoint, tracking error and the
+// setpoint's three differences; the drive's position, velocity, acceleration, jerk, mean and peak current.
+constexpr int kSetpointColumn[5] = {0, 2, 3, 5, 7};
+constexpr int kDriveColumn[6] = {1, 4, 6, 8, 9, 10};
+
 // A cell: 7 significant digits, "nan" where undefined (core::append_general: the bytes fmt's "{:.7g}" wrote).
 void append_cell(std::string& line, double v) {
   if (std::isfinite(v))
     core::append_general(line, v, 7);
   else
     line += "nan";
+}
+
+}  // namespace
+
+namespace {
+
+// The smallest and largest of v[0, n) (times f when Scaled) and whether all are finite, two rows per instruction in
+// two interleaved chains (issue 21: the fold in row order, a min, a max and a finiteness sum per value and column,
+// was most of the binner's time). Any order gives the same value for both ends; only the sign of a zero end can
+// depend on it (min(+0, -0) keeps the first), which fold_column settles. A non-finite value makes the sum of v * 0
+// NaN.
+template <bool Scaled>
+inline void packed_range(const double* v, Eigen::Index n, double f, double& lo, double& hi, bool& finite) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  double l = kInf, h = -kInf, z = 0.0;
+  Eigen::Index i = 0;
+#if defined(__SSE2__)
+  {
+    const __m128d vf = _mm_set1_pd(f), zero = _mm_setzero_pd();
+    __m128d l0 = _mm_set1_pd(kInf), l1 = l0, h0 = _mm_set1_pd(-kInf), h1 = h0, z0 = zero, z1 = zero;
+    for (; i + 4 <= n; i += 4) {
+      __m128d x0 = _mm_loadu_pd(v + i), x1 = _mm_loadu_pd(v + i + 2);
+      if constexpr (Scaled) x0 = _mm_mul_pd(x0, vf), x1 = _mm_mul_pd(x1, vf);
+      l0 = _mm_min_pd(l0, x0), l1 = _mm_min_pd(l1, x1);
+      h0 = _mm_max_pd(h0, x0), h1 = _mm_max_pd(h1, x1);
+      z0 = _mm_add_pd(z0, _mm_mul_pd(x0, zero)), z1 = _mm_add_pd(z1, _mm_mul_pd(x1, zero));
+    }
+    double lv[2], hv[2], zv[2];
+    _mm_storeu_pd(lv, _mm_min_pd(l0, l1));
+    _mm_storeu_pd(hv, _mm_max_pd(h0, h1));
+    _mm_storeu_pd(zv, _mm_add_pd(z0, z1));
+    l = std::min(lv[0], lv[1]), h = std::max(hv[0], hv[1]), z = zv[0] + zv[1];
+  }
+#endif
+  for (; i < n; ++i) {
+    const double x = Scaled ? v[i] * f : v[i];
+    l = std::min(l, x), h = std::max(h, x), z += x * 0.0;
+  }
+  lo = l, hi = h, finite = z == 0.0;
 }
 
 }  // namespace
@@ -60,9 +104,15 @@ SignalBinner::SignalBinner(const core::Job& job, const core::ToolPath& program, 
   for (std::size_t a = 0; a < machine.axes.size(); ++a) {
     const core::MachineAxis& ax = machine.axes[a];
     const auto ai = static_cast<Eigen::Index>(a);
-    // The column's range in one pass (it is read from memory once, not twice: 3.7 M rows on flower_mold).
+    // The column's range in one pass (it is read from memory once, not twice: 3.7 M rows on flower_mold), packed;
+    // in order when a value is not finite (std::min and std::max then skip NaN after the first value).
     double lo = sp.position(0, ai), hi = lo;
-    for (const double x : sp.position.col(ai)) lo = std::min(lo, x), hi = std::max(hi, x);
+    bool finite = false;
+    packed_range<false>(sp.position.col(ai).data(), ns_, 1.0, lo, hi, finite);
+    if (!finite) {
+      lo = sp.position(0, ai), hi = lo;
+      for (const double x : sp.position.col(ai)) lo = std::min(lo, x), hi = std::max(hi, x);
+    }
     const bool moves = hi - lo > 1e-9;
     if (!moves) {
       out_.held_axes.push_back(ax.name);
@@ -110,58 +160,48 @@ double SignalBinner::tlo(Eigen::Index k) const {
   return mi >= 0 ? program_->moves[static_cast<std::size_t>(mi)].tool_length_offset_mm : 0.0;
 }
 
-// Columns cols' values of rows [r0, r1) of a block starting at row k0 into their bins, in row order whatever the
-// blocks (a bin's first finite value starts it; non-finite values are left out). Bin by bin, with no division per
-// sample, and the columns side by side (their min/max chains overlap). An empty bin runs from +inf to -inf here:
-// min(+inf, v) and max(-inf, v) are v, as a first value, and a non-finite value enters as the neutral infinity.
-template <std::size_t N, class Values>
-void SignalBinner::fold_columns(const std::array<int, N>& cols, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1,
-                                const Values& values) {
+// Into their bins in row order whatever the blocks (a bin's first finite value starts it; non-finite values are left
+// out; std::min / std::max keep the first of equal values). Bin by bin, no division per sample. When a bin's values
+// are all finite its packed range decides it: the fold in row order keeps the bin's earlier value when it is not
+// beyond the range's end (equal included), and otherwise the first value equal to that end, which has the end's bits
+// unless the end is zero (+0 and -0 are equal): then it is the first zero of the bin's values. A bin with a
+// non-finite value is folded again in row order with the finiteness test. An empty bin runs from +inf to -inf here.
+template <bool Scaled>
+void SignalBinner::fold_column(int c, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1, const double* v, double f) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
+  Column& col = columns_[static_cast<std::size_t>(c)];
   Eigen::Index r = r0;
   while (r < r1) {
     const Eigen::Index b = (k0 + r) / bs_;
     const Eigen::Index end = std::min(r1, (b + 1) * bs_ - k0);
-    double lo[N], hi[N], v[N];
-    for (std::size_t i = 0; i < N; ++i) {
-      const Column& col = columns_[static_cast<std::size_t>(cols[i])];
-      const bool empty = std::isnan(col.lo[b]);
-      lo[i] = empty ? kInf : col.lo[b];
-      hi[i] = empty ? -kInf : col.hi[b];
-    }
-    // Most bins hold finite values only (the drives' signals always): folded without the finiteness test per value,
-    // with a sum of v * 0 that turns NaN when one is not finite; such a bin is folded again from its start with the
-    // test (values() is a function of the row alone).
-    double lo0[N], hi0[N], nonfinite[N];
-    const Eigen::Index bin_start = r;
-    for (std::size_t i = 0; i < N; ++i) lo0[i] = lo[i], hi0[i] = hi[i], nonfinite[i] = 0.0;
-    for (; r < end; ++r) {
-      values(r, v);
-      for (std::size_t i = 0; i < N; ++i) {
-        lo[i] = std::min(lo[i], v[i]);
-        hi[i] = std::max(hi[i], v[i]);
-        nonfinite[i] += v[i] * 0.0;
+    const double* p = v + (r - r0);
+    const Eigen::Index len = end - r;
+    auto value = [&](Eigen::Index i) { return Scaled ? p[i] * f : p[i]; };
+    const bool empty = std::isnan(col.lo[b]);
+    double lo = empty ? kInf : col.lo[b], hi = empty ? -kInf : col.hi[b];
+    double blo = 0.0, bhi = 0.0;
+    bool finite = false;
+    packed_range<Scaled>(p, len, f, blo, bhi, finite);
+    if (finite) {
+      auto first_zero = [&] {
+        Eigen::Index i = 0;
+        while (value(i) != 0.0) ++i;  // the range's end is zero: some value is
+        return value(i);
+      };
+      if (!(lo <= blo)) lo = blo == 0.0 ? first_zero() : blo;
+      if (!(hi >= bhi)) hi = bhi == 0.0 ? first_zero() : bhi;
+    } else {
+      for (Eigen::Index i = 0; i < len; ++i) {
+        const double x = value(i);
+        const bool fin = std::isfinite(x);
+        lo = std::min(lo, fin ? x : kInf);
+        hi = std::max(hi, fin ? x : -kInf);
       }
     }
-    bool all_finite = true;
-    for (std::size_t i = 0; i < N; ++i) all_finite = all_finite && nonfinite[i] == 0.0;
-    if (!all_finite) {
-      for (std::size_t i = 0; i < N; ++i) lo[i] = lo0[i], hi[i] = hi0[i];
-      for (r = bin_start; r < end; ++r) {
-        values(r, v);
-        for (std::size_t i = 0; i < N; ++i) {
-          const bool finite = std::isfinite(v[i]);
-          lo[i] = std::min(lo[i], finite ? v[i] : kInf);
-          hi[i] = std::max(hi[i], finite ? v[i] : -kInf);
-        }
-      }
-    }
-    for (std::size_t i = 0; i < N; ++i) {
-      Column& col = columns_[static_cast<std::size_t>(cols[i])];
-      const bool empty = lo[i] == kInf;  // only finite values enter
-      col.lo[b] = empty ? kNaN : lo[i];
-      col.hi[b] = empty ? kNaN : hi[i];
-    }
+    const bool none = lo == kInf;  // only finite values enter
+    col.lo[b] = none ? kNaN : lo;
+    col.hi[b] = none ? kNaN : hi;
+    r = end;
   }
 }
 
@@ -210,8 +250,10 @@ void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, E
                             const Eigen::Ref<const Eigen::MatrixXd>& cmd) {
   const core::Setpoints& sp = *sp_;
   const double te = te_;
-  fold_columns(std::array<int, 1>{0}, k0, r0, r1,
-               [&](Eigen::Index r, double* v) { v[0] = static_cast<double>(k0 + r) * te; });
+  const Eigen::Index m = r1 - r0;
+  ts_.resize(static_cast<std::size_t>(m));
+  for (Eigen::Index i = 0; i < m; ++i) ts_[static_cast<std::size_t>(i)] = static_cast<double>(k0 + r0 + i) * te;
+  fold_column<false>(0, k0, r0, r1, ts_.data());
   for (const AxisColumns& ac : axes_) {
     const Eigen::Index ai = ac.axis;
     const double f = ac.scale;
@@ -223,7 +265,6 @@ void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, E
     // The setpoint, its differences and the tracking error, computed for all the rows first (the setpoints k-3..k
     // of the rows in one array, so that the loop of divisions runs without a clamp per value and vectorises; each
     // value by the same expression as per row before), then folded; then the drive's own signals.
-    const Eigen::Index m = r1 - r0;
     xs_.resize(static_cast<std::size_t>(m + 3));
     for (Eigen::Index i = 0; i < m + 3; ++i) xs_[static_cast<std::size_t>(i)] = x(k0 + r0 - 3 + i);
     for (auto& col : sv_) col.resize(static_cast<std::size_t>(m));
@@ -262,23 +303,16 @@ void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, E
         v4[i] = (xk - 3 * x1 + 3 * x2 - x3) / (te * te * te) * f;
       }
     }
-    fold_columns(std::array<int, 5>{c, c + 2, c + 3, c + 5, c + 7}, k0, r0, r1, [&](Eigen::Index r, double* v) {
-      const auto i = static_cast<std::size_t>(r - r0);
-      v[0] = sv_[0][i];
-      v[1] = sv_[1][i];
-      v[2] = sv_[2][i];
-      v[3] = sv_[3][i];
-      v[4] = sv_[4][i];
-    });
-    fold_columns(std::array<int, 6>{c + 1, c + 4, c + 6, c + 8, c + 9, c + 10}, k0, r0, r1,
-                 [&](Eigen::Index r, double* v) {
-                   v[0] = pos[r] * f;
-                   v[1] = vel[r] * f;
-                   v[2] = acc[r] * f;
-                   v[3] = jerk[r] * f;
-                   v[4] = cur[r];
-                   v[5] = peak[r];
-                 });
+    for (int i = 0; i < 5; ++i) fold_column<false>(c + kSetpointColumn[i], k0, r0, r1, sv_[i].data());
+    // The drive's own signals, in axis units (x * 1 is x, bit for bit: linear axes skip the product).
+    const double* drive[6] = {pos.data(), vel.data(), acc.data(), jerk.data(), cur.data(), peak.data()};
+    for (int i = 0; i < 6; ++i) {
+      const double* d = drive[i] + r0;
+      if (i < 4 && f != 1.0)
+        fold_column<true>(c + kDriveColumn[i], k0, r0, r1, d, f);
+      else
+        fold_column<false>(c + kDriveColumn[i], k0, r0, r1, d);
+    }
   }
   const auto rows = static_cast<std::size_t>(r1 - r0);
   for (auto* v : {&feed_, &speed_, &speed_actual_, &path_, &cutting_}) v->resize(rows);
@@ -302,22 +336,24 @@ void SignalBinner::add_rows(Eigen::Index k0, const drives::AxisResponse& resp, E
     path_[i] = cutting_path_;
     cutting_[i] = cut ? 1.0 : 0.0;
   }
-  fold_columns(std::array<int, 5>{c_feed_, c_speed_, c_speed_actual_, c_path_, c_cutting_}, k0, r0, r1,
-               [&](Eigen::Index r, double* v) {
-                 const auto i = static_cast<std::size_t>(r - r0);
-                 v[0] = feed_[i];
-                 v[1] = speed_[i];
-                 v[2] = speed_actual_[i];
-                 v[3] = path_[i];
-                 v[4] = cutting_[i];
-               });
+  fold_column<false>(c_feed_, k0, r0, r1, feed_.data());
+  fold_column<false>(c_speed_, k0, r0, r1, speed_.data());
+  fold_column<false>(c_speed_actual_, k0, r0, r1, speed_actual_.data());
+  fold_column<false>(c_path_, k0, r0, r1, path_.data());
+  fold_column<false>(c_cutting_, k0, r0, r1, cutting_.data());
 }
 
 void SignalBinner::add_contour(const motion::ContourError& ce) {
   if (ce.signed_mm.size() != n_)
     throw core::Error(fmt::format("signals: {} contour-error samples for {} drive samples", ce.signed_mm.size(), n_));
-  fold_columns(std::array<int, 1>{c_contour_}, 0, 0, n_,
-               [&](Eigen::Index k, double* v) { v[0] = cutting(k) ? ce.signed_mm[k] : kNaN; });
+  // A chunk of rows at a time (rapids' rows NaN: their bins fold in row order, the others packed).
+  constexpr Eigen::Index kChunk = 65536;
+  for (Eigen::Index r0 = 0; r0 < n_; r0 += kChunk) {
+    const Eigen::Index r1 = std::min(n_, r0 + kChunk);
+    ts_.resize(static_cast<std::size_t>(r1 - r0));
+    for (Eigen::Index k = r0; k < r1; ++k) ts_[static_cast<std::size_t>(k - r0)] = cutting(k) ? ce.signed_mm[k] : kNaN;
+    fold_column<false>(c_contour_, 0, r0, r1, ts_.data());
+  }
 }
 
 BinnedSignals SignalBinner::finish() {

@@ -105,9 +105,10 @@ class SignalBinner {
   };
   int column(const std::string& name);
   void check_block(Eigen::Index k0, Eigen::Index rows) const;  // k0 follows the last block, the rows fit
-  template <std::size_t N, class Values>
-  void fold_columns(const std::array<int, N>& cols, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1,
-                    const Values& values);
+  // Column col's values v[0, r1 - r0) of rows [r0, r1) of a block starting at row k0 (times f when Scaled) into its
+  // bins, with the bits a fold in row order gives (signals.cpp says how).
+  template <bool Scaled>
+  void fold_column(int col, Eigen::Index k0, Eigen::Index r0, Eigen::Index r1, const double* v, double f = 1.0);
   void add_rows(Eigen::Index k0, const drives::AxisResponse& block, Eigen::Index r0, Eigen::Index r1,
                 const Eigen::Ref<const Eigen::MatrixXd>& actual_tip_mm,
                 const Eigen::Ref<const Eigen::MatrixXd>& command_tip_mm);
@@ -129,6 +130,7 @@ class SignalBinner {
   double cutting_path_ = 0;
   std::vector<double> feed_, speed_, speed_actual_, path_, cutting_;  // add_rows' per-row values
   std::vector<double> xs_;                                            // add_rows: an axis' setpoints k-3..k
+  std::vector<double> ts_;  // add_rows: the rows' times; add_contour: a chunk of the contour error's values
   std::array<std::vector<double>, 5> sv_;  // add_rows: an axis' setpoint, tracking error and differences per row
 };
 
