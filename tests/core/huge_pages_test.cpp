@@ -49,7 +49,9 @@ TEST(HugePages, LargeArraysAreAdvisedOnTheirWhole2MbPagesOnly) {
   EXPECT_TRUE(huge_pages_advised(reinterpret_cast<const void*>(first))) << huge_pages_vm_flags(big.data());
   EXPECT_TRUE(huge_pages_advised(reinterpret_cast<const void*>(first + 5 * page + 12345)));
   // The bytes before the first whole page (malloc's header page) are not advised.
-  if (first != base) EXPECT_FALSE(huge_pages_advised(big.data())) << huge_pages_vm_flags(big.data());
+  if (first != base) {
+    EXPECT_FALSE(huge_pages_advised(big.data())) << huge_pages_vm_flags(big.data());
+  }
   // The values written are the values read.
   for (std::size_t k = 0; k < (std::size_t{3} << 20); ++k) big.push_back(static_cast<double>(k) * 0.5);
   for (std::size_t k = 0; k < big.size(); k += 4099) ASSERT_EQ(big[k], static_cast<double>(k) * 0.5);

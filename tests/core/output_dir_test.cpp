@@ -259,7 +259,9 @@ TEST(OutputDir, SigtermWhileAStagingDirectoryIsMadeLeavesNone) {
         },
         ::testing::ExitedWithCode(128 + SIGTERM), "")
         << "signal " << k;
-    if (!s.child) EXPECT_EQ(s.staging_left(), "") << "signal " << k;
+    if (!s.child) {
+      EXPECT_EQ(s.staging_left(), "") << "signal " << k;
+    }
   }
 }
 

@@ -190,29 +190,14 @@ std::vector<SweptTool> cut10_finishing(unsigned seed) {
 TEST(Cut10Cut, FinishingPassesEqualTheReferenceThreadsAndBuildsBitForBit) {
   const std::vector<SweptTool> sweeps = cut10_finishing(23);
   const Box stock{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(12, 10, 8)};
-  const int threads = omp_get_max_threads();
   for (const double h : {0.05, 0.031}) {
-    auto zmap = [&] {
+    const auto zmap = [&] {
       DexelGrid z = make_zmap(stock, h);
       fill_box(z, stock);
       return z;
     };
-    DexelGrid ref = zmap(), one = zmap(), two = zmap(), generic = zmap();
-    cut_reference(ref, sweeps);
-    omp_set_num_threads(1);
-    const CutStats s1 = cut(one, sweeps);
-    omp_set_num_threads(2);
-    cut(two, sweeps);
-    detail::generic_kernels_only() = true;
-    const CutStats sg = cut(generic, sweeps);
-    detail::generic_kernels_only() = false;
-    omp_set_num_threads(threads);
-    std::string where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(ref, one, where))
-        << "h " << h << ", cut_reference vs cut: " << where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, two, where)) << "h " << h << ", 1 vs 2 threads: " << where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, generic, where))
-        << "h " << h << ", AVX2 vs generic: " << where;
+    const auto [s1, sg] =
+        vmsim::removal::test::expect_cut_equals_reference(zmap, sweeps, "h " + std::to_string(h));
     EXPECT_EQ(s1.bound_skipped, sg.bound_skipped);
     EXPECT_GT(s1.order_free_blocks, 0u) << "no block took the order-free kernel";
     EXPECT_GT(s1.bound_skipped, s1.ray_tests / 20) << "the ray bound settled too little to test it";

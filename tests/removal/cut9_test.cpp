@@ -209,22 +209,9 @@ TEST(Cut9HermiteBow, SweepsEqualTheReferenceInBothBuilds) {
 
 TEST(Cut9Cut, RandomSweepsEqualTheReferenceThreadsAndBuildsBitForBit) {
   const std::vector<SweptTool> sweeps = cut9_sweeps(17, 3000);
-  const int threads = omp_get_max_threads();
   for (const double h : {0.05, 0.037}) {
-    DexelGrid ref = cut9_zmap(h), one = cut9_zmap(h), two = cut9_zmap(h), generic = cut9_zmap(h);
-    cut_reference(ref, sweeps);
-    omp_set_num_threads(1);
-    const CutStats s1 = cut(one, sweeps);
-    omp_set_num_threads(2);
-    cut(two, sweeps);
-    detail::generic_kernels_only() = true;
-    const CutStats sg = cut(generic, sweeps);
-    detail::generic_kernels_only() = false;
-    omp_set_num_threads(threads);
-    std::string where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(ref, one, where)) << "h " << h << ", cut_reference vs cut: " << where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, two, where)) << "h " << h << ", 1 vs 2 threads: " << where;
-    EXPECT_TRUE(vmsim::removal::test::same_grid_bits(one, generic, where)) << "h " << h << ", AVX2 vs generic: " << where;
+    const auto [s1, sg] = vmsim::removal::test::expect_cut_equals_reference([&] { return cut9_zmap(h); }, sweeps,
+                                                                            "h " + std::to_string(h));
     EXPECT_EQ(s1.ray_tests, sg.ray_tests);
     EXPECT_GT(s1.cuts, 10000u) << "too few cuts to test anything";
   }

@@ -11,6 +11,7 @@
 #include "sim/chain.hpp"
 #include "sim/pipeline.hpp"
 #include "sim/signals.hpp"
+#include "tests/sim/bin_fold_reference.hpp"
 
 #include <gtest/gtest.h>
 
@@ -24,27 +25,6 @@
 using namespace vmsim;
 
 namespace {
-
-bool sigcol_same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
-
-// One column's bins from its per-row values, in row order.
-struct SigColRef {
-  Eigen::ArrayXd lo, hi;
-};
-template <class Value>
-SigColRef sigcol_fold(Eigen::Index rows, Eigen::Index bin_samples, const Value& value) {
-  const Eigen::Index bins = (rows + bin_samples - 1) / bin_samples;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  SigColRef c{Eigen::ArrayXd::Constant(bins, nan), Eigen::ArrayXd::Constant(bins, nan)};
-  for (Eigen::Index k = 0; k < rows; ++k) {
-    const double v = value(k);
-    if (!std::isfinite(v)) continue;
-    const Eigen::Index b = k / bin_samples;
-    c.lo[b] = std::isnan(c.lo[b]) ? v : std::min(c.lo[b], v);
-    c.hi[b] = std::isnan(c.hi[b]) ? v : std::max(c.hi[b], v);
-  }
-  return c;
-}
 
 drives::AxisResponse sigcol_rows(const drives::AxisResponse& r, Eigen::Index k0, Eigen::Index n) {
   drives::AxisResponse b;
@@ -103,11 +83,11 @@ TEST(SignalColumns, AxisColumnsEqualTheirDefinitionInBlocksOf1And7AndAll) {
       for (const auto& [col, value] : defs) {
         const int c = s.find(col);
         ASSERT_GE(c, 0) << col;
-        const SigColRef ref = sigcol_fold(n, s.bin_samples, value);
+        const vmsim_test::BinRange ref = vmsim_test::fold_bins_in_row_order(n, s.bin_samples, value);
         ASSERT_EQ(ref.lo.size(), s.bins());
         for (Eigen::Index b = 0; b < s.bins(); ++b) {
-          ASSERT_TRUE(sigcol_same_bits(ref.lo[b], s.min(b, c))) << col << " bin " << b;
-          ASSERT_TRUE(sigcol_same_bits(ref.hi[b], s.max(b, c))) << col << " bin " << b;
+          ASSERT_TRUE(vmsim_test::same_double_bits(ref.lo[b], s.min(b, c))) << col << " bin " << b;
+          ASSERT_TRUE(vmsim_test::same_double_bits(ref.hi[b], s.max(b, c))) << col << " bin " << b;
         }
         ++checked;
       }

@@ -12,6 +12,7 @@
 #include "sim/chain.hpp"
 #include "sim/pipeline.hpp"
 #include "sim/signals.hpp"
+#include "tests/sim/bin_fold_reference.hpp"
 
 #include <gtest/gtest.h>
 
@@ -26,26 +27,6 @@
 using namespace vmsim;
 
 namespace {
-
-bool sigfold_same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
-
-struct SigFoldRef {
-  Eigen::ArrayXd lo, hi;
-};
-template <class Value>
-SigFoldRef sigfold_reference(Eigen::Index rows, Eigen::Index bin_samples, const Value& value) {
-  const Eigen::Index bins = (rows + bin_samples - 1) / bin_samples;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  SigFoldRef c{Eigen::ArrayXd::Constant(bins, nan), Eigen::ArrayXd::Constant(bins, nan)};
-  for (Eigen::Index k = 0; k < rows; ++k) {
-    const double v = value(k);
-    if (!std::isfinite(v)) continue;
-    const Eigen::Index b = k / bin_samples;
-    c.lo[b] = std::isnan(c.lo[b]) ? v : std::min(c.lo[b], v);
-    c.hi[b] = std::isnan(c.hi[b]) ? v : std::max(c.hi[b], v);
-  }
-  return c;
-}
 
 // Values whose order matters to a fold: stretches of zeros of both signs, of one repeated value, of ordinary
 // numbers, with NaN and infinities now and then.
@@ -179,12 +160,12 @@ TEST(SignalFold, RandomSignalsWithSignedZerosAndNonFiniteValuesEqualTheRowOrderF
       for (const auto& [col, value] : defs) {
         const int c = s.find(col);
         ASSERT_GE(c, 0) << col;
-        const SigFoldRef ref = sigfold_reference(n, s.bin_samples, value);
+        const vmsim_test::BinRange ref = vmsim_test::fold_bins_in_row_order(n, s.bin_samples, value);
         ASSERT_EQ(ref.lo.size(), s.bins());
         for (Eigen::Index b = 0; b < s.bins(); ++b) {
-          ASSERT_TRUE(sigfold_same_bits(ref.lo[b], s.min(b, c)))
+          ASSERT_TRUE(vmsim_test::same_double_bits(ref.lo[b], s.min(b, c)))
               << col << " bin " << b << ": " << ref.lo[b] << " vs " << s.min(b, c);
-          ASSERT_TRUE(sigfold_same_bits(ref.hi[b], s.max(b, c)))
+          ASSERT_TRUE(vmsim_test::same_double_bits(ref.hi[b], s.max(b, c)))
               << col << " bin " << b << ": " << ref.hi[b] << " vs " << s.max(b, c);
           zero_ends += (ref.lo[b] == 0.0) + (ref.hi[b] == 0.0);
           nan_bins += std::isnan(ref.lo[b]);
@@ -192,7 +173,9 @@ TEST(SignalFold, RandomSignalsWithSignedZerosAndNonFiniteValuesEqualTheRowOrderF
       }
       // The draw reaches what the fold must get right: zero ends (of both signs) and empty bins.
       EXPECT_GT(zero_ends, bin == 64 ? 20 : 100);
-      if (bin == 1) EXPECT_GT(nan_bins, 10);
+      if (bin == 1) {
+        EXPECT_GT(nan_bins, 10);
+      }
     }
   }
 }
