@@ -11,7 +11,7 @@
 #include "sim/chain.hpp"
 #include "sim/pipeline.hpp"
 #include "sim/signals.hpp"
-#include "tests/sim/bin_fold_reference.hpp"
+#include "tests/sim/signal_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -26,19 +26,6 @@ using namespace vmsim;
 
 namespace {
 
-drives::AxisResponse sigcol_rows(const drives::AxisResponse& r, Eigen::Index k0, Eigen::Index n) {
-  drives::AxisResponse b;
-  b.period_s = r.period_s;
-  b.axis_names = r.axis_names;
-  b.position = r.position.middleRows(k0, n);
-  b.velocity = r.velocity.middleRows(k0, n);
-  b.acceleration = r.acceleration.middleRows(k0, n);
-  b.jerk = r.jerk.middleRows(k0, n);
-  b.current_mean_A = r.current_mean_A.middleRows(k0, n);
-  b.current_peak_A = r.current_peak_A.middleRows(k0, n);
-  return b;
-}
-
 TEST(SignalColumns, AxisColumnsEqualTheirDefinitionInBlocksOf1And7AndAll) {
   const core::Job job = core::load_job(std::string(VMSIM_SOURCE_DIR) + "/parts/plane_cylinder/job_fast.toml");
   sim::Motion m = sim::simulate_motion(sim::Chain(job), core::RemovalSpec::Motion::Actual, core::no_progress());
@@ -52,7 +39,8 @@ TEST(SignalColumns, AxisColumnsEqualTheirDefinitionInBlocksOf1And7AndAll) {
   for (const Eigen::Index block : {Eigen::Index{1}, Eigen::Index{7}, n}) {
     SCOPED_TRACE("blocks of " + std::to_string(block));
     sim::SignalBinner binner(job, m.program, sp, n);
-    for (Eigen::Index k0 = 0; k0 < n; k0 += block) binner.add(k0, sigcol_rows(resp, k0, std::min(block, n - k0)));
+    for (Eigen::Index k0 = 0; k0 < n; k0 += block)
+      binner.add(k0, vmsim_test::response_rows(resp, k0, std::min(block, n - k0)));
     binner.add_contour(*m.contour);
     const sim::BinnedSignals s = binner.finish();
     ASSERT_FALSE(s.axes.empty());
