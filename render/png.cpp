@@ -21,6 +21,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <new>
+#include <memory>
 #include <vector>
 #include <zlib.h>
 
@@ -167,24 +168,32 @@ std::string encode_libdeflate(const Image& image, const PngEncoding& enc) {
   if (enc.filter == PngFilter::Adaptive || enc.rle)
     throw core::Error("libdeflate offers neither libpng's adaptive filtering nor zlib's RLE strategy (use zlib)");
   const std::vector<std::uint8_t> rows = filtered_rows(image, enc.filter);
-  libdeflate_compressor* c = libdeflate_alloc_compressor(enc.level);
+  const std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> c(
+      libdeflate_alloc_compressor(enc.level), libdeflate_free_compressor);
   if (!c) throw core::Error("cannot allocate libdeflate's compressor");
-  std::vector<std::uint8_t> z(libdeflate_zlib_compress_bound(c, rows.size()));
-  const std::size_t n = libdeflate_zlib_compress(c, rows.data(), rows.size(), z.data(), z.size());
-  libdeflate_free_compressor(c);
-  if (n == 0) throw core::Error("libdeflate could not compress the image");
   std::string out;
-  out.reserve(n + 64);
   out.append("\x89PNG\r\n\x1a\n", 8);
-  std::uint8_t ihdr[13] = {0};
-  for (int k = 0; k < 4; ++k) {
-    ihdr[k] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(image.width) >> (24 - 8 * k));
-    ihdr[4 + k] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(image.height) >> (24 - 8 * k));
-  }
-  ihdr[8] = 8;  // bits per channel; then colour type 2 (RGB), deflate, adaptive-filter method 0, no interlace
-  ihdr[9] = 2;
-  put_chunk(out, "IHDR", ihdr, sizeof ihdr);
-  put_chunk(out, "IDAT", z.data(), n);
+  std::string ihdr;
+  put_be32(ihdr, static_cast<std::uint32_t>(image.width));
+  put_be32(ihdr, static_cast<std::uint32_t>(image.height));
+  // 8 bits per channel, colour type 2 (RGB), deflate, adaptive-filter method 0, no interlace.
+  ihdr.append({'\x08', '\x02', '\0', '\0', '\0'});
+  put_chunk(out, "IHDR", reinterpret_cast<const std::uint8_t*>(ihdr.data()), ihdr.size());
+  // The IDAT chunk's data compressed in place in the file's buffer (no second copy of the stream), its length and
+  // CRC written around it.
+  const std::size_t length_at = out.size();
+  put_be32(out, 0);
+  out.append("IDAT", 4);
+  const std::size_t data_at = out.size();
+  out.resize(data_at + libdeflate_zlib_compress_bound(c.get(), rows.size()));
+  const std::size_t n =
+      libdeflate_zlib_compress(c.get(), rows.data(), rows.size(), out.data() + data_at, out.size() - data_at);
+  if (n == 0) throw core::Error("libdeflate could not compress the image");
+  out.resize(data_at + n);
+  std::string length;
+  put_be32(length, static_cast<std::uint32_t>(n));
+  out.replace(length_at, 4, length);
+  put_be32(out, libdeflate_crc32(0, out.data() + data_at - 4, n + 4));
   put_chunk(out, "IEND", nullptr, 0);
   return out;
 }

@@ -79,20 +79,12 @@ void largest_setpoint_differences(const double* px, Eigen::Index n, double& d1_m
     d1_max = std::max({d1_max, v1[0], v1[1]}), d2_max = std::max({d2_max, v2[0], v2[1]});
   }
 #endif
-  if (!ordered) {
-    d1_max = 0, d2_max = 0, k = 1;
-    for (; k < n; ++k) {
-      d1_max = std::max(d1_max, std::abs(px[k] - px[k - 1]));
-      if (k >= 2) d2_max = std::max(d2_max, std::abs(px[k] - 2 * px[k - 1] + px[k - 2]));
-    }
-    return;
-  }
-  for (; k < n; ++k) {
+  if (!ordered) d1_max = 0, d2_max = 0, k = 1;  // a NaN seen: the whole fold again, in order
+  for (; k < n; ++k) {  // the rows the vectors left, or every row
     d1_max = std::max(d1_max, std::abs(px[k] - px[k - 1]));
-    d2_max = std::max(d2_max, std::abs(px[k] - 2 * px[k - 1] + px[k - 2]));
+    if (k >= 2) d2_max = std::max(d2_max, std::abs(px[k] - 2 * px[k - 1] + px[k - 2]));
   }
 }
-
 
 DriveChecksAfter::DriveChecksAfter(const core::Machine& machine, const core::Setpoints& sp,
                                    const std::vector<bool>& cascade, const drives::GainSchedule* gains)

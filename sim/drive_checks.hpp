@@ -40,13 +40,13 @@ void check_drives_after(const core::Machine& machine, const core::Setpoints& set
                         const drives::AxisResponse& response, const std::vector<bool>& cascade,
                         const drives::GainSchedule* gains, DriveChecks& checks);
 
-// The same checks after the run, fed the response in blocks of rows (issue 21: a long program's response is not held
-// whole). The setpoints' positions must stay alive until the last add(). add(0, whole response) then finish() is
-// check_drives_after.
 // The largest |x_k - x_k-1| (k >= 1) and |x_k - 2 x_k-1 + x_k-2| (k >= 2) of x[0, n), bit for bit as std::max folds
 // them in order from 0 (a NaN difference is skipped): the setpoints' largest velocity and acceleration steps.
 void largest_setpoint_differences(const double* x, Eigen::Index n, double& d1_max, double& d2_max);
 
+// The same checks after the run, fed the response in blocks of rows (issue 21: a long program's response is not held
+// whole). The setpoints' positions must stay alive until the last add(). add(0, whole response) then finish() is
+// check_drives_after.
 class DriveChecksAfter {
  public:
   DriveChecksAfter(const core::Machine& machine, const core::Setpoints& setpoints, const std::vector<bool>& cascade,
